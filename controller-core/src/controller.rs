@@ -1,0 +1,162 @@
+//! One entry point for every law: settings apart from state, validated once.
+//!
+//! `Controller::step(mode, nav, reference, dt)` runs the chosen law, allocates the thrust
+//! with the saturation priority of [`crate::alloc`], tells the law what was achieved
+//! (anti-windup), and returns everything a caller logs or sends. It has no error path: the
+//! vehicle and gains were validated when they were set, and a non-finite force is mapped to
+//! zero thrust by the allocation.
+
+use crate::alloc::{allocate, Allocation, PwmMap, ThrusterLimits};
+use crate::error::Error;
+use crate::law::paper_xy::{self, PaperXyGains};
+use crate::law::paper_xz::{self, PaperXzGains};
+use crate::law::tracking::{self, TrackingGains, TrackingState};
+use crate::law::LawOutput;
+use crate::params::Vehicle;
+use crate::reference::RefSample;
+use crate::state::{BodyForces, NavState, TrackingErrors};
+use serde::{Deserialize, Serialize};
+
+/// Which law runs, in which plane.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ControlMode {
+    /// The paper's vertical-plane law (surge force and heave force).
+    PaperXz,
+    /// The paper's horizontal-plane law (surge force and yaw moment).
+    PaperXy,
+    /// Tracking law, vertical plane.
+    TrackingXz,
+    /// Tracking law, horizontal plane.
+    TrackingXy,
+    /// Tracking law in 3-D: horizontal law plus depth.
+    Tracking3d,
+}
+
+/// All gains, each set validated as a whole.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Gains {
+    /// Paper XZ law.
+    pub paper_xz: PaperXzGains,
+    /// Paper XY law.
+    pub paper_xy: PaperXyGains,
+    /// Tracking laws.
+    pub tracking: TrackingGains,
+}
+
+impl Gains {
+    /// Validate every set.
+    pub fn validate(&self) -> Result<(), Error> {
+        self.paper_xz.validate()?;
+        self.paper_xy.validate()?;
+        self.tracking.validate()
+    }
+}
+
+/// Everything one control step produces.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ControlOutput {
+    /// Forces the law asked for.
+    pub requested: BodyForces,
+    /// Thrusts after allocation and saturation, and the forces they make.
+    pub allocation: Allocation,
+    /// ESC pulse widths for `[F1x, F2x, F3z]`.
+    pub pulse_us: [f32; 3],
+    /// Tracking errors.
+    pub errors: TrackingErrors,
+}
+
+/// The controller: a validated vehicle model and gains, plus the tracking laws' state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Controller {
+    vehicle: Vehicle,
+    gains: Gains,
+    limits: ThrusterLimits,
+    pwm: PwmMap,
+    state: TrackingState,
+}
+
+impl Controller {
+    /// Build from a validated vehicle and gains (checked here).
+    pub fn new(vehicle: Vehicle, gains: Gains) -> Result<Self, Error> {
+        gains.validate()?;
+        Ok(Self {
+            vehicle,
+            gains,
+            limits: ThrusterLimits::of(&vehicle),
+            pwm: PwmMap::for_vehicle(&vehicle),
+            state: TrackingState::default(),
+        })
+    }
+
+    /// The vehicle model.
+    pub fn vehicle(&self) -> &Vehicle {
+        &self.vehicle
+    }
+
+    /// The gains in force.
+    pub fn gains(&self) -> &Gains {
+        &self.gains
+    }
+
+    /// The thrust <-> pulse map.
+    pub fn pwm_map(&self) -> &PwmMap {
+        &self.pwm
+    }
+
+    /// Thruster limits.
+    pub fn limits(&self) -> &ThrusterLimits {
+        &self.limits
+    }
+
+    /// Replace the gains; on error nothing changes.
+    pub fn set_gains(&mut self, gains: Gains) -> Result<(), Error> {
+        gains.validate()?;
+        self.gains = gains;
+        Ok(())
+    }
+
+    /// Clear integrators and filters (on arming or a mode change).
+    pub fn reset(&mut self) {
+        self.state = TrackingState::default();
+    }
+
+    /// Run one control step of `dt_s` seconds.
+    pub fn step(
+        &mut self,
+        mode: ControlMode,
+        nav: &NavState,
+        reference: &RefSample,
+        dt_s: f32,
+    ) -> ControlOutput {
+        let v = &self.vehicle;
+        let g = &self.gains;
+        let out: LawOutput = match mode {
+            ControlMode::PaperXz => paper_xz::step(v, &g.paper_xz, &nav.xz(), reference),
+            ControlMode::PaperXy => paper_xy::step(v, &g.paper_xy, &nav.xy(), reference),
+            ControlMode::TrackingXz => {
+                tracking::step_xz(v, &g.tracking, &mut self.state, nav, reference, dt_s)
+            }
+            ControlMode::TrackingXy => {
+                tracking::step_xy(v, &g.tracking, &mut self.state, nav, reference, dt_s)
+            }
+            ControlMode::Tracking3d => {
+                tracking::step_3d(v, &g.tracking, &mut self.state, nav, reference, dt_s)
+            }
+        };
+        let allocation = allocate(&out.forces, &self.limits);
+        self.state.on_allocation(&out.forces, &allocation.achieved);
+        let pulse_us = [
+            self.pwm.pulse_us(allocation.thrust_n[0]),
+            self.pwm.pulse_us(allocation.thrust_n[1]),
+            self.pwm.pulse_us(allocation.thrust_n[2]),
+        ];
+        ControlOutput {
+            requested: out.forces,
+            allocation,
+            pulse_us,
+            errors: out.errors,
+        }
+    }
+}

@@ -1,0 +1,183 @@
+//! All floating-point maths of the core, in `f32`, in one place.
+//!
+//! On a Cortex-M4F the FPU does single precision only. `libm`'s `sinf`/`cosf` evaluate their
+//! kernels in `f64`, which the M4F runs in software (about 1,250 instructions a call under
+//! QEMU), so this module carries its own single-precision sine and cosine: a Cody-Waite
+//! reduction by pi/2 in three parts followed by the Cephes minimax polynomials on
+//! [-pi/4, pi/4]. Absolute error is below 1e-6 for |x| <= 1e4 rad (checked in the tests
+//! against `f64`). `atan2f` and `sqrtf` come from `libm`, whose single-precision versions are
+//! pure `f32`. Nothing here touches `f64`, so no `__aeabi_d*` helper is linked into the
+//! control path.
+
+use core::f32::consts::{FRAC_2_PI, PI, TAU};
+
+// pi/2 split into three parts so that k * PIO2_1 is exact for |k| < 2^16.
+const PIO2_1: f32 = 1.570_312_5;
+const PIO2_2: f32 = 4.837_513e-4;
+const PIO2_3: f32 = 7.549_79e-8;
+
+#[inline(always)]
+fn sin_poly(r: f32, z: f32) -> f32 {
+    ((-1.951_529_6e-4 * z + 8.332_161e-3) * z - 1.666_665_5e-1) * z * r + r
+}
+
+#[inline(always)]
+fn cos_poly(z: f32) -> f32 {
+    ((2.443_315_7e-5 * z - 1.388_731_6e-3) * z + 4.166_664_6e-2) * z * z - 0.5 * z + 1.0
+}
+
+/// Sine and cosine of `x` (radians), computed together with one range reduction.
+///
+/// Error below 1e-6 for |x| <= 1e4. Non-finite input gives NaN.
+#[inline]
+pub fn sin_cos(x: f32) -> (f32, f32) {
+    let kf = x * FRAC_2_PI;
+    // Round to nearest; `as` saturates and maps NaN to 0 (NaN then propagates through r).
+    let k = (kf + 0.5f32.copysign(kf)) as i32;
+    let kf = k as f32;
+    let r = ((x - kf * PIO2_1) - kf * PIO2_2) - kf * PIO2_3;
+    let z = r * r;
+    let s = sin_poly(r, z);
+    let c = cos_poly(z);
+    match k & 3 {
+        0 => (s, c),
+        1 => (c, -s),
+        2 => (-s, -c),
+        _ => (-c, s),
+    }
+}
+
+/// Sine of `x` (radians). See [`sin_cos`].
+#[inline]
+pub fn sin(x: f32) -> f32 {
+    sin_cos(x).0
+}
+
+/// Cosine of `x` (radians). See [`sin_cos`].
+#[inline]
+pub fn cos(x: f32) -> f32 {
+    sin_cos(x).1
+}
+
+/// Four-quadrant arctangent of `y / x` (single precision `libm`, pure `f32`).
+#[inline]
+pub fn atan2(y: f32, x: f32) -> f32 {
+    libm::atan2f(y, x)
+}
+
+/// Square root (single precision `libm`).
+#[inline]
+pub fn sqrt(x: f32) -> f32 {
+    libm::sqrtf(x)
+}
+
+/// Arcsine through `atan2(x, sqrt(1 - x^2))`; the argument is clamped to [-1, 1] first.
+///
+/// (`libm::asinf` takes a square root in `f64` for |x| >= 0.5.)
+#[inline]
+pub fn asin(x: f32) -> f32 {
+    let x = x.clamp(-1.0, 1.0);
+    atan2(x, sqrt((1.0 - x) * (1.0 + x)))
+}
+
+/// Hyperbolic tangent (single precision `libm`, pure `f32`).
+#[inline]
+pub fn tanh(x: f32) -> f32 {
+    libm::tanhf(x)
+}
+
+/// Wrap an angle to (-pi, pi].
+#[inline]
+pub fn wrap_angle(a: f32) -> f32 {
+    if (-PI..=PI).contains(&a) {
+        if a == -PI {
+            return PI;
+        }
+        return a;
+    }
+    let turns = a / TAU;
+    let k = (turns + 0.5f32.copysign(turns)) as i32 as f32;
+    // Subtract 2*pi*k in two parts for accuracy.
+    let mut w = (a - k * 6.283_185_5) + k * 1.748_455_6e-7;
+    if w <= -PI {
+        w += TAU;
+    } else if w > PI {
+        w -= TAU;
+    }
+    w
+}
+
+/// `x * |x|`: the signed square used by quadratic drag.
+#[inline(always)]
+pub fn sq_signed(x: f32) -> f32 {
+    x * x.abs()
+}
+
+/// Clamp `x` into `[lo, hi]`, mapping NaN to `lo`... never used on the hot path with NaN,
+/// but a NaN must never reach a thruster.
+#[inline]
+pub fn clamp_nan_safe(x: f32, lo: f32, hi: f32) -> f32 {
+    if x.is_nan() {
+        0.0f32.clamp(lo, hi)
+    } else {
+        x.clamp(lo, hi)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sin_cos_accuracy_over_wide_range() {
+        let mut worst = 0.0f64;
+        let n = 400_000;
+        for i in 0..=n {
+            let x = -1.0e4f32 + 2.0e4 * (i as f32) / (n as f32);
+            let (s, c) = sin_cos(x);
+            let xd = x as f64;
+            worst = worst.max((s as f64 - xd.sin()).abs());
+            worst = worst.max((c as f64 - xd.cos()).abs());
+        }
+        assert!(worst < 1.0e-6, "worst abs error {worst:e}");
+    }
+
+    #[test]
+    fn sin_cos_accuracy_near_zero_dense() {
+        let mut worst = 0.0f64;
+        for i in -200_000..=200_000 {
+            let x = i as f32 * 5.0e-5; // [-10, 10] rad
+            let (s, c) = sin_cos(x);
+            worst = worst.max((s as f64 - (x as f64).sin()).abs());
+            worst = worst.max((c as f64 - (x as f64).cos()).abs());
+        }
+        assert!(worst < 2.0e-7, "worst abs error {worst:e}");
+    }
+
+    #[test]
+    fn non_finite_gives_nan() {
+        assert!(sin(f32::NAN).is_nan());
+        assert!(cos(f32::INFINITY).is_nan());
+    }
+
+    #[test]
+    fn wrap_angle_range_and_identity() {
+        for i in -10_000..10_000 {
+            let a = i as f32 * 3.7e-3 * 7.0;
+            let w = wrap_angle(a);
+            assert!(w > -PI && w <= PI, "{a} -> {w}");
+            let d = (a as f64 - w as f64) / core::f64::consts::TAU;
+            assert!((d - d.round()).abs() < 1e-5, "{a} -> {w}");
+        }
+        assert_eq!(wrap_angle(-PI), PI);
+    }
+
+    #[test]
+    fn asin_matches_f64() {
+        for i in -1000..=1000 {
+            let x = i as f32 / 1000.0;
+            assert!((asin(x) as f64 - (x as f64).asin()).abs() < 1e-6);
+        }
+        assert!((asin(2.0) - core::f32::consts::FRAC_PI_2).abs() < 1e-6);
+    }
+}

@@ -1,0 +1,215 @@
+//! Reference trajectories for the body origin, with analytic derivatives.
+//!
+//! Every reference kind produces a [`RefSample`]: the inertial position of the body origin and
+//! its first three time derivatives. The laws derive the consistent orientation and body
+//! velocities for their plane from it.
+
+use crate::error::{positive, Error};
+use serde::{Deserialize, Serialize};
+
+/// Position and derivatives of the reference point at one instant (inertial, z down).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct RefSample {
+    /// Time of the sample.
+    pub t_s: f32,
+    /// Position `[x, y, z]`.
+    pub pos_m: [f32; 3],
+    /// Velocity.
+    pub vel_m_s: [f32; 3],
+    /// Acceleration.
+    pub acc_m_s2: [f32; 3],
+    /// Jerk.
+    pub jerk_m_s3: [f32; 3],
+}
+
+/// Scalar value with its first three derivatives.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Deriv3 {
+    /// Value.
+    pub p: f32,
+    /// First derivative.
+    pub dp: f32,
+    /// Second derivative.
+    pub ddp: f32,
+    /// Third derivative.
+    pub dddp: f32,
+}
+
+/// The paper's reference (Section IV): `h_r t^5 / (t^5 + (t_f - t)^5)`, used for
+/// `x_r = y_r = z_r`. `t` is clamped to `[0, t_f]`, so the reference rests at 0 before the
+/// start and at `h_r` after `t_f` (derivatives zero there). `t_f` is not given in the paper;
+/// the default is 100 s (`MODEL_NOTES` section 2).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PaperPolynomial {
+    /// Final value `h_r`.
+    pub h_r_m: f32,
+    /// Final time `t_f`.
+    pub t_f_s: f32,
+}
+
+impl PaperPolynomial {
+    /// The paper's values: `h_r = 10 m`, `t_f = 100 s` (assumed).
+    pub const PAPER: Self = Self {
+        h_r_m: 10.0,
+        t_f_s: 100.0,
+    };
+
+    /// Refuse non-finite values and a non-positive `t_f`.
+    pub fn validate(&self) -> Result<(), Error> {
+        crate::error::finite("h_r_m", self.h_r_m)?;
+        positive("t_f_s", self.t_f_s)?;
+        Ok(())
+    }
+
+    /// Value and three derivatives at time `t_s`.
+    ///
+    /// With `s = t / t_f`, `f(s) = s^5 / (s^5 + (1 - s)^5) = N / D`. Derivatives by the
+    /// quotient rule on the polynomials `N` and `D`, then scaled by `h_r / t_f^k`.
+    pub fn eval(&self, t_s: f32) -> Deriv3 {
+        let tf = self.t_f_s;
+        if t_s <= 0.0 {
+            return Deriv3::default();
+        }
+        if t_s >= tf {
+            return Deriv3 {
+                p: self.h_r_m,
+                ..Deriv3::default()
+            };
+        }
+        let s = t_s / tf;
+        let c = 1.0 - s;
+        // N = s^5 and derivatives in s.
+        let s2 = s * s;
+        let s3 = s2 * s;
+        let s4 = s3 * s;
+        let n0 = s4 * s;
+        let n1 = 5.0 * s4;
+        let n2 = 20.0 * s3;
+        let n3 = 60.0 * s2;
+        // C = (1 - s)^5 and derivatives in s.
+        let c2 = c * c;
+        let c3 = c2 * c;
+        let c4 = c3 * c;
+        let c0 = c4 * c;
+        let cc1 = -5.0 * c4;
+        let cc2 = 20.0 * c3;
+        let cc3 = -60.0 * c2;
+        // D = N + C.
+        let d0 = n0 + c0;
+        let d1 = n1 + cc1;
+        let d2 = n2 + cc2;
+        let d3 = n3 + cc3;
+        // f = N / D  =>  f D = N; differentiate: f' D + f D' = N', etc.
+        let f0 = n0 / d0;
+        let f1 = (n1 - f0 * d1) / d0;
+        let f2 = (n2 - 2.0 * f1 * d1 - f0 * d2) / d0;
+        let f3 = (n3 - 3.0 * f2 * d1 - 3.0 * f1 * d2 - f0 * d3) / d0;
+        let h = self.h_r_m;
+        Deriv3 {
+            p: h * f0,
+            dp: h * f1 / tf,
+            ddp: h * f2 / (tf * tf),
+            dddp: h * f3 / (tf * tf * tf),
+        }
+    }
+
+    /// The paper's reference point: `x_r = y_r = z_r` all following the polynomial.
+    pub fn sample(&self, t_s: f32) -> RefSample {
+        let d = self.eval(t_s);
+        RefSample {
+            t_s,
+            pos_m: [d.p; 3],
+            vel_m_s: [d.dp; 3],
+            acc_m_s2: [d.ddp; 3],
+            jerk_m_s3: [d.dddp; 3],
+        }
+    }
+}
+
+/// Every reference the vehicle can be asked to follow.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum Reference {
+    /// The paper's polynomial on all three axes.
+    Paper(PaperPolynomial),
+    /// Hold a fixed point.
+    Hold {
+        /// The point `[x, y, z]`.
+        pos_m: [f32; 3],
+    },
+}
+
+impl Reference {
+    /// Refuse non-finite or non-physical settings.
+    pub fn validate(&self) -> Result<(), Error> {
+        match self {
+            Reference::Paper(p) => p.validate(),
+            Reference::Hold { pos_m } => {
+                for v in pos_m {
+                    crate::error::finite("pos_m", *v)?;
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// Sample the reference at `t_s` (seconds since the reference started).
+    pub fn sample(&self, t_s: f32) -> RefSample {
+        match self {
+            Reference::Paper(p) => p.sample(t_s),
+            Reference::Hold { pos_m } => RefSample {
+                t_s,
+                pos_m: *pos_m,
+                ..RefSample::default()
+            },
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fd_check(r: &PaperPolynomial, t: f32) {
+        let h = 1e-3f64;
+        // f64 finite differences of the f32 evaluation at scaled times keep round-off small.
+        let e = |t: f64| r.eval(t as f32);
+        let t = t as f64;
+        let d = e(t);
+        let dp = (e(t + h).p as f64 - e(t - h).p as f64) / (2.0 * h);
+        let ddp = (e(t + h).dp as f64 - e(t - h).dp as f64) / (2.0 * h);
+        let dddp = (e(t + h).ddp as f64 - e(t - h).ddp as f64) / (2.0 * h);
+        assert!(
+            (dp - d.dp as f64).abs() < 2e-3 * (1.0 + d.dp.abs() as f64),
+            "dp at {t}"
+        );
+        assert!(
+            (ddp - d.ddp as f64).abs() < 2e-4 + 2e-3 * d.ddp.abs() as f64,
+            "ddp at {t}"
+        );
+        assert!(
+            (dddp - d.dddp as f64).abs() < 2e-5 + 5e-3 * d.dddp.abs() as f64,
+            "dddp at {t}"
+        );
+    }
+
+    #[test]
+    fn derivatives_match_finite_differences() {
+        let r = PaperPolynomial::PAPER;
+        for i in 1..100 {
+            fd_check(&r, i as f32 + 0.37);
+        }
+    }
+
+    #[test]
+    fn clamped_outside_range() {
+        let r = PaperPolynomial::PAPER;
+        assert_eq!(r.eval(-5.0), Deriv3::default());
+        let d = r.eval(150.0);
+        assert_eq!(d.p, 10.0);
+        assert_eq!(d.dp, 0.0);
+        assert!((r.eval(50.0).p - 5.0).abs() < 1e-5);
+    }
+}

@@ -1,0 +1,2 @@
+//! host-sim (being written).
+fn main() {}
