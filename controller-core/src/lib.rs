@@ -7,7 +7,7 @@
 //!
 //! - [`params`]: Table I of the paper plus the documented assumptions, validated once;
 //!   derived coefficients of eqs. (2), (3), (34), (36).
-//! - `model` (being written): the vertical-plane model in physical and transformed coordinates (eqs. (1)-(3),
+//! - [`model`]: the vertical-plane model in physical and transformed coordinates (eqs. (1)-(3),
 //!   corrected) and the horizontal-plane model (eq. (34), reduced).
 //! - [`reference`]: reference trajectories with analytic derivatives.
 //! - [`law`]: the paper's laws and the tracking laws.
@@ -23,6 +23,7 @@ pub mod controller;
 pub mod error;
 pub mod law;
 pub mod math;
+pub mod model;
 pub mod params;
 pub mod reference;
 pub mod state;

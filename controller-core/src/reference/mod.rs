@@ -139,6 +139,51 @@ pub enum Reference {
         /// The point `[x, y, z]`.
         pos_m: [f32; 3],
     },
+    /// Straight line from `start_m` along the horizontal heading `heading_rad` at `speed_m_s`.
+    Line {
+        /// Start point `[x, y, z]`.
+        start_m: [f32; 3],
+        /// Direction of travel (yaw of the path).
+        heading_rad: f32,
+        /// Cruise speed.
+        speed_m_s: f32,
+    },
+    /// Horizontal circle around `center_m` (at its depth).
+    Circle {
+        /// Centre `[x, y, z]`.
+        center_m: [f32; 3],
+        /// Radius.
+        radius_m: f32,
+        /// Speed along the circle.
+        speed_m_s: f32,
+    },
+    /// Lawnmower survey: `legs` parallel legs of `leg_length_m`, `spacing_m` apart, joined by
+    /// smooth turns, starting at `start_m` along `heading_rad`.
+    Lawnmower {
+        /// Start point `[x, y, z]`.
+        start_m: [f32; 3],
+        /// Heading of the first leg.
+        heading_rad: f32,
+        /// Length of each leg.
+        leg_length_m: f32,
+        /// Distance between legs.
+        spacing_m: f32,
+        /// Number of legs.
+        legs: u16,
+        /// Speed along the path.
+        speed_m_s: f32,
+    },
+    /// Helix: a circle around `center_m` descending at `depth_rate_m_s`.
+    Helix {
+        /// Centre `[x, y, z]` at the start.
+        center_m: [f32; 3],
+        /// Radius.
+        radius_m: f32,
+        /// Horizontal speed along the circle.
+        speed_m_s: f32,
+        /// Depth rate (positive = descending).
+        depth_rate_m_s: f32,
+    },
 }
 
 impl Reference {
@@ -152,6 +197,8 @@ impl Reference {
                 }
                 Ok(())
             }
+            // PLACEHOLDER: path references are being written (issue 3).
+            _ => Err(Error::OutOfRange("reference kind not implemented yet")),
         }
     }
 
@@ -164,6 +211,8 @@ impl Reference {
                 pos_m: *pos_m,
                 ..RefSample::default()
             },
+            // PLACEHOLDER: path references are being written (issue 3).
+            _ => RefSample::default(),
         }
     }
 }

@@ -22,3 +22,12 @@ pub trait Plant: Send {
     /// The thrust the thrusters really deliver now (after lag and limits).
     fn thrust_n(&self) -> [f64; 3];
 }
+
+pub mod six_dof;
+
+/// The water around the vehicle (inertial frame).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Environment {
+    /// Constant ocean current `[cx, cy, cz]`, inertial, m/s.
+    pub current_m_s: [f64; 3],
+}
