@@ -1,2 +1,250 @@
-//! host-sim (being written).
-fn main() {}
+//! `host-sim`: run scenarios, list them, Monte Carlo.
+//!
+//! ```text
+//! host-sim                                   # every built-in scenario -> out/<scenario>/
+//! host-sim all [--out DIR]                   # the same, into DIR
+//! host-sim run <name-or-path.toml> [--controller paper|tracking] [--out DIR]
+//! host-sim list
+//! host-sim monte-carlo <scenario> --runs N [--seed S] [--perturb FRACTION] [--out DIR]
+//! ```
+//! New subcommands (e.g. `hil`, `link`) are one more variant in [`Command`] and one more arm
+//! in `main`'s `match`.
+
+use anyhow::{bail, Result};
+use clap::{Parser, Subcommand};
+use host_sim::monte_carlo::{run_batch, write_batch, McConfig};
+use host_sim::output::write_run;
+use host_sim::plots::compare_plot;
+use host_sim::runner::{run, RunOptions, RunOutput};
+use host_sim::scenario::{ControllerKind, Scenario, BUILT_IN};
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "host-sim",
+    version,
+    about = "ROV Observer desktop simulator: scenarios, paper figures, Monte Carlo"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Run every built-in scenario (what `host-sim` with no arguments does).
+    All {
+        /// Output folder; each scenario goes to DIR/<scenario>/.
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+    },
+    /// Run one scenario: a built-in name or a path to a .toml file.
+    Run {
+        /// Built-in name (see `list`) or path to a scenario file.
+        scenario: String,
+        /// Override the scenario's controller: "paper" or "tracking".
+        #[arg(long)]
+        controller: Option<String>,
+        /// Output folder (default out/<scenario>[-<controller>]).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// List the built-in scenarios.
+    List,
+    /// Many runs of one scenario with perturbed plant parameters and random current direction.
+    MonteCarlo {
+        /// Built-in name or path to a scenario file.
+        scenario: String,
+        /// Number of runs.
+        #[arg(long)]
+        runs: usize,
+        /// Master seed (the batch is reproducible for a seed).
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Largest relative parameter perturbation (0.2 = +-20 %).
+        #[arg(long, default_value_t = 0.2)]
+        perturb: f64,
+        /// Output folder (default out/monte-carlo-<scenario>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+}
+
+fn print_table(rows: &[&RunOutput]) {
+    println!(
+        "{:<34} {:>6} {:>9} {:>10} {:>10} {:>10} {:>10} {:>10} {:>9} {:>7} {:>6}",
+        "scenario",
+        "plane",
+        "law",
+        "final m",
+        "max m",
+        "max>10s m",
+        "rms m",
+        "tail rms m",
+        "max |F| N",
+        "sat %",
+        "status"
+    );
+    for o in rows {
+        let s = &o.summary;
+        let status = if s.nan_detected {
+            "NaN"
+        } else if s.diverged {
+            "DIVERG"
+        } else {
+            "ok"
+        };
+        println!(
+            "{:<34} {:>6} {:>9} {:>10.4} {:>10.4} {:>10.4} {:>10.4} {:>10.4} {:>9.2} {:>7.1} {:>6}",
+            s.scenario,
+            s.plane,
+            s.controller,
+            s.final_position_error_m,
+            s.max_position_error_m,
+            s.max_position_error_after_10s_m,
+            s.rms_position_error_m,
+            s.rms_position_error_tail_m,
+            s.max_abs_thruster_force_n,
+            100.0 * s.saturated_fraction,
+            status
+        );
+    }
+}
+
+fn run_one(sc: &Scenario, dir: &Path) -> Result<RunOutput> {
+    let out = run(
+        sc,
+        &RunOptions {
+            record: true,
+            ..RunOptions::default()
+        },
+    )?;
+    write_run(dir, &out)?;
+    Ok(out)
+}
+
+fn run_all(out_dir: &Path) -> Result<()> {
+    // Every built-in, plus the tracking law on the paper's saturated scenarios for the
+    // side-by-side figures.
+    let mut jobs: Vec<(String, Result<Scenario>)> = BUILT_IN
+        .iter()
+        .map(|b| (b.name.to_string(), Scenario::load(b.name)))
+        .collect();
+    for p in ["xz", "xy"] {
+        let name = format!("paper-{p}-saturated");
+        let sc = Scenario::load(&name).map(|mut s| {
+            s.controller = ControllerKind::Tracking;
+            s.name = format!("{name}-tracking");
+            s
+        });
+        jobs.push((format!("{name}-tracking"), sc));
+    }
+    let results: Vec<(String, Result<RunOutput>)> = jobs
+        .into_par_iter()
+        .map(|(name, sc)| {
+            let r = sc.and_then(|sc| run_one(&sc, &out_dir.join(&sc.name)));
+            (name, r)
+        })
+        .collect();
+    let mut ok = Vec::new();
+    let mut failed = 0;
+    for (name, r) in &results {
+        match r {
+            Ok(o) => ok.push(o),
+            Err(e) => {
+                failed += 1;
+                eprintln!("{name}: error: {e:#}");
+            }
+        }
+    }
+    for p in ["xz", "xy"] {
+        let find = |n: &str| ok.iter().find(|o| o.summary.scenario == n).copied();
+        if let (Some(a), Some(b)) = (
+            find(&format!("paper-{p}-saturated")),
+            find(&format!("paper-{p}-saturated-tracking")),
+        ) {
+            let path = out_dir.join(format!("compare-{p}.png"));
+            compare_plot(&path, a, b)?;
+            println!("wrote {}", path.display());
+        }
+    }
+    print_table(&ok);
+    println!("outputs in {}/<scenario>/", out_dir.display());
+    if failed > 0 {
+        bail!("{failed} scenario(s) failed");
+    }
+    Ok(())
+}
+
+fn main() -> Result<()> {
+    let cli = Cli::parse();
+    match cli.command {
+        None => run_all(Path::new("out")),
+        Some(Command::All { out }) => run_all(&out),
+        Some(Command::List) => {
+            for b in BUILT_IN {
+                match Scenario::load(b.name) {
+                    Ok(s) => println!(
+                        "{:<22} {:<3} {:<9} {:>7.0} s  {}",
+                        b.name,
+                        s.plane.as_str(),
+                        s.controller.as_str(),
+                        s.duration_s,
+                        s.description
+                    ),
+                    Err(e) => println!("{:<22} (invalid: {e:#})", b.name),
+                }
+            }
+            Ok(())
+        }
+        Some(Command::Run {
+            scenario,
+            controller,
+            out,
+        }) => {
+            let mut sc = Scenario::load(&scenario)?;
+            if let Some(c) = controller {
+                let kind = ControllerKind::parse(&c)?;
+                if kind != sc.controller {
+                    sc.controller = kind;
+                    sc.name = format!("{}-{}", sc.name, kind.as_str());
+                }
+                sc.validate()?;
+            }
+            let dir = out.unwrap_or_else(|| PathBuf::from("out").join(&sc.name));
+            let o = run_one(&sc, &dir)?;
+            print_table(&[&o]);
+            println!("outputs in {}", dir.display());
+            Ok(())
+        }
+        Some(Command::MonteCarlo {
+            scenario,
+            runs,
+            seed,
+            perturb,
+            out,
+        }) => {
+            if runs == 0 {
+                bail!("--runs must be >= 1");
+            }
+            if !(0.0..1.0).contains(&perturb) {
+                bail!("--perturb must be in [0, 1) (got {perturb})");
+            }
+            let sc = Scenario::load(&scenario)?;
+            let cfg = McConfig {
+                runs,
+                seed,
+                perturb,
+                progress: true,
+            };
+            let (summary, rs) = run_batch(&sc, &cfg)?;
+            let dir = out
+                .unwrap_or_else(|| PathBuf::from("out").join(format!("monte-carlo-{}", sc.name)));
+            write_batch(&dir, &summary, &rs)?;
+            println!("{}", serde_json::to_string_pretty(&summary)?);
+            println!("outputs in {}", dir.display());
+            Ok(())
+        }
+    }
+}

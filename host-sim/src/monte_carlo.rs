@@ -1,0 +1,299 @@
+//! Monte Carlo: the same scenario over many perturbed plants.
+//!
+//! Run `i` of a batch draws from its own ChaCha8 stream (`seed`, stream `i`), so a batch is
+//! reproducible for a seed whatever the thread scheduling. Each run:
+//! - multiplies every hydrodynamic and inertial parameter of the **plant** (mass, added
+//!   masses and inertias, linear and quadratic drags, inertias, `z_g`) by `1 + U(-p, p)`; the
+//!   controller keeps the nominal model;
+//! - draws a random current direction at the scenario's current magnitude: in the plane for
+//!   `xz` / `xy`, a random horizontal direction for `3d`;
+//! - draws its own measurement-noise seed.
+//!
+//! Runs go in parallel with rayon, with an indicatif progress bar.
+
+use crate::runner::{run, RunOptions};
+use crate::scenario::{Plane, Scenario};
+use anyhow::{Context, Result};
+use controller_core::params::VehicleParams;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::path::Path;
+use std::time::Instant;
+
+/// Batch settings.
+#[derive(Debug, Clone, Copy)]
+pub struct McConfig {
+    /// Number of runs.
+    pub runs: usize,
+    /// Master seed.
+    pub seed: u64,
+    /// Largest relative perturbation `p` (0.2 = +-20 %).
+    pub perturb: f64,
+    /// Show a progress bar.
+    pub progress: bool,
+}
+
+/// One run of a batch.
+#[derive(Debug, Clone, Serialize)]
+pub struct McRun {
+    /// Index in the batch.
+    pub index: usize,
+    /// Current used (inertial, m/s).
+    pub current_m_s: [f64; 3],
+    /// RMS position error over the run.
+    pub rms_position_error_m: f64,
+    /// RMS position error over the last 80 %.
+    pub rms_position_error_last80_m: f64,
+    /// Final position error.
+    pub final_position_error_m: f64,
+    /// Largest thruster command.
+    pub max_abs_thruster_force_n: f64,
+    /// Share of saturated control ticks.
+    pub saturated_fraction: f64,
+    /// Diverged.
+    pub diverged: bool,
+    /// NaN seen.
+    pub nan_detected: bool,
+}
+
+/// Percentiles of a batch figure.
+#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+pub struct Percentiles {
+    /// Median.
+    pub p50: f64,
+    /// 95th percentile.
+    pub p95: f64,
+    /// Largest.
+    pub max: f64,
+}
+
+/// `DIR/summary.json` of a batch.
+#[derive(Debug, Clone, Serialize)]
+pub struct McSummary {
+    /// Scenario name.
+    pub scenario: String,
+    /// Runs.
+    pub runs: usize,
+    /// Master seed.
+    pub seed: u64,
+    /// Relative perturbation bound.
+    pub perturb: f64,
+    /// Current magnitude used in every run (m/s).
+    pub current_magnitude_m_s: f64,
+    /// Runs that produced a NaN.
+    pub nan_runs: usize,
+    /// Runs that diverged.
+    pub diverged_runs: usize,
+    /// RMS position error over each run.
+    pub rms_position_error_m: Percentiles,
+    /// RMS position error over the last 80 % of each run.
+    pub rms_position_error_last80_m: Percentiles,
+    /// Final position error.
+    pub final_position_error_m: Percentiles,
+    /// Largest thruster command over all runs (N).
+    pub max_abs_thruster_force_n: f64,
+    /// Every thruster command stayed within the real limits.
+    pub thrust_within_limits: bool,
+    /// Wall-clock time of the batch (s).
+    pub wall_time_s: f64,
+}
+
+/// Multiply every hydrodynamic and inertial parameter by `1 + U(-p, p)`.
+pub fn perturb_params(base: &VehicleParams, p: f64, rng: &mut ChaCha8Rng) -> VehicleParams {
+    let mut v = *base;
+    let mut f = |x: &mut f32| {
+        let k = if p > 0.0 {
+            rng.random_range(-p..=p)
+        } else {
+            0.0
+        };
+        *x = (f64::from(*x) * (1.0 + k)) as f32;
+    };
+    f(&mut v.mass_kg);
+    f(&mut v.x_udot_kg);
+    f(&mut v.y_vdot_kg);
+    f(&mut v.z_wdot_kg);
+    f(&mut v.m_qdot_kg_m2);
+    f(&mut v.n_rdot_kg_m2);
+    f(&mut v.x_u);
+    f(&mut v.y_v);
+    f(&mut v.z_w);
+    f(&mut v.m_q);
+    f(&mut v.n_r);
+    f(&mut v.x_uu);
+    f(&mut v.y_vv);
+    f(&mut v.z_ww);
+    f(&mut v.m_qq);
+    f(&mut v.n_rr);
+    f(&mut v.i_x_kg_m2);
+    f(&mut v.i_y_kg_m2);
+    f(&mut v.i_z_kg_m2);
+    f(&mut v.z_g_m);
+    v
+}
+
+/// A random current of magnitude `mag` for the plane.
+pub fn random_current(plane: Plane, mag: f64, rng: &mut ChaCha8Rng) -> [f64; 3] {
+    let a: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+    let (s, c) = a.sin_cos();
+    match plane {
+        Plane::Xz => [mag * c, 0.0, mag * s],
+        Plane::Xy | Plane::ThreeD => [mag * c, mag * s, 0.0],
+    }
+}
+
+fn percentiles(values: &[f64]) -> Percentiles {
+    let mut v: Vec<f64> = values
+        .iter()
+        .map(|x| if x.is_nan() { f64::INFINITY } else { *x })
+        .collect();
+    v.sort_by(f64::total_cmp);
+    if v.is_empty() {
+        return Percentiles {
+            p50: f64::NAN,
+            p95: f64::NAN,
+            max: f64::NAN,
+        };
+    }
+    let at = |q: f64| {
+        let i = ((q * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1;
+        v[i]
+    };
+    Percentiles {
+        p50: at(0.5),
+        p95: at(0.95),
+        max: v[v.len() - 1],
+    }
+}
+
+/// Run a batch.
+pub fn run_batch(sc: &Scenario, cfg: &McConfig) -> Result<(McSummary, Vec<McRun>)> {
+    sc.validate()?;
+    let wall = Instant::now();
+    let mag = sc.current_magnitude_m_s();
+    let base = crate::runner::nominal_plant_params(sc);
+    let pb = if cfg.progress {
+        ProgressBar::new(cfg.runs as u64)
+    } else {
+        ProgressBar::with_draw_target(Some(cfg.runs as u64), ProgressDrawTarget::hidden())
+    };
+    pb.set_style(
+        ProgressStyle::with_template(
+            "{msg} [{elapsed_precise}] {wide_bar} {pos}/{len} (eta {eta})",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    pb.set_message(format!("monte-carlo {}", sc.name));
+    let results: Vec<Result<McRun>> = (0..cfg.runs)
+        .into_par_iter()
+        .map(|i| {
+            let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
+            rng.set_stream(i as u64);
+            let params = perturb_params(&base, cfg.perturb, &mut rng);
+            let current = random_current(sc.plane, mag, &mut rng);
+            let noise_seed: u64 = rng.random();
+            let out = run(
+                sc,
+                &RunOptions {
+                    record: false,
+                    plant_params: Some(params),
+                    current_m_s: Some(current),
+                    noise_seed: Some(noise_seed),
+                },
+            )
+            .with_context(|| format!("monte-carlo run {i}"))?;
+            pb.inc(1);
+            let s = out.summary;
+            Ok(McRun {
+                index: i,
+                current_m_s: current,
+                rms_position_error_m: s.rms_position_error_m,
+                rms_position_error_last80_m: s.rms_position_error_last80_m,
+                final_position_error_m: s.final_position_error_m,
+                max_abs_thruster_force_n: s.max_abs_thruster_force_n,
+                saturated_fraction: s.saturated_fraction,
+                diverged: s.diverged,
+                nan_detected: s.nan_detected,
+            })
+        })
+        .collect();
+    pb.finish_and_clear();
+    let runs: Vec<McRun> = results.into_iter().collect::<Result<_>>()?;
+    let col = |f: fn(&McRun) -> f64| runs.iter().map(f).collect::<Vec<f64>>();
+    let max_thrust = runs
+        .iter()
+        .map(|r| r.max_abs_thruster_force_n)
+        .fold(0.0, f64::max);
+    let nominal = VehicleParams::OBSERVER;
+    let within = !sc.thrusters.saturate
+        || runs.iter().all(|r| {
+            r.max_abs_thruster_force_n
+                <= f64::from(
+                    nominal
+                        .thrust_max_forward_n
+                        .max(nominal.thrust_max_reverse_n),
+                ) + 1e-6
+        });
+    let summary = McSummary {
+        scenario: sc.name.clone(),
+        runs: runs.len(),
+        seed: cfg.seed,
+        perturb: cfg.perturb,
+        current_magnitude_m_s: mag,
+        nan_runs: runs.iter().filter(|r| r.nan_detected).count(),
+        diverged_runs: runs.iter().filter(|r| r.diverged).count(),
+        rms_position_error_m: percentiles(&col(|r| r.rms_position_error_m)),
+        rms_position_error_last80_m: percentiles(&col(|r| r.rms_position_error_last80_m)),
+        final_position_error_m: percentiles(&col(|r| r.final_position_error_m)),
+        max_abs_thruster_force_n: max_thrust,
+        thrust_within_limits: within && sc.thrusters.saturate,
+        wall_time_s: wall.elapsed().as_secs_f64(),
+    };
+    Ok((summary, runs))
+}
+
+/// Write `summary.json`, `runs.csv` and `histogram.png` into `dir`.
+pub fn write_batch(dir: &Path, summary: &McSummary, runs: &[McRun]) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    std::fs::write(
+        dir.join("summary.json"),
+        serde_json::to_string_pretty(summary)? + "\n",
+    )?;
+    let mut csv = String::from(
+        "index,cx_m_s,cy_m_s,cz_m_s,rms_position_error_m,rms_position_error_last80_m,final_position_error_m,max_abs_thruster_force_n,saturated_fraction,diverged,nan_detected\n",
+    );
+    for r in runs {
+        csv.push_str(&format!(
+            "{},{},{},{},{},{},{},{},{},{},{}\n",
+            r.index,
+            r.current_m_s[0],
+            r.current_m_s[1],
+            r.current_m_s[2],
+            r.rms_position_error_m,
+            r.rms_position_error_last80_m,
+            r.final_position_error_m,
+            r.max_abs_thruster_force_n,
+            r.saturated_fraction,
+            r.diverged,
+            r.nan_detected
+        ));
+    }
+    std::fs::write(dir.join("runs.csv"), csv)?;
+    let v: Vec<f64> = runs.iter().map(|r| r.rms_position_error_m).collect();
+    crate::plots::histogram(
+        &dir.join("histogram.png"),
+        &format!(
+            "{}: RMS position error over {} runs (+-{:.0} % parameters, {:.2} m/s current)",
+            summary.scenario,
+            summary.runs,
+            100.0 * summary.perturb,
+            summary.current_magnitude_m_s
+        ),
+        "RMS position error (m)",
+        &v,
+        30,
+    )
+}

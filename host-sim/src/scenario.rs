@@ -1,0 +1,689 @@
+//! Scenarios: TOML files describing one closed-loop run (see `docs/scenarios.md`).
+//!
+//! Parsing is strict: unknown keys are rejected (`deny_unknown_fields`) and every number is
+//! checked by [`Scenario::validate`] before a run starts, with an error that names the key.
+
+use anyhow::{anyhow, bail, Context, Result};
+use controller_core::controller::ControlMode;
+use controller_core::reference::{PaperPolynomial, Reference};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Which plant and which set of laws.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Plane {
+    /// Vertical plane: `x, z, pitch`.
+    Xz,
+    /// Horizontal plane: `x, y, yaw`.
+    Xy,
+    /// 3-D, on the 6-DOF plant.
+    #[serde(rename = "3d")]
+    ThreeD,
+}
+
+impl Plane {
+    /// The name used in the TOML and the summaries.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Plane::Xz => "xz",
+            Plane::Xy => "xy",
+            Plane::ThreeD => "3d",
+        }
+    }
+
+    /// Which inertial axes the position error is measured on.
+    pub fn axes(&self) -> [bool; 3] {
+        match self {
+            Plane::Xz => [true, false, true],
+            Plane::Xy => [true, true, false],
+            Plane::ThreeD => [true, true, true],
+        }
+    }
+}
+
+/// Which family of control laws.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ControllerKind {
+    /// The paper's backstepping laws (XZ and XY only).
+    Paper,
+    /// The tracking laws (XZ, XY, 3-D).
+    Tracking,
+}
+
+impl ControllerKind {
+    /// The name used in the TOML and the summaries.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            ControllerKind::Paper => "paper",
+            ControllerKind::Tracking => "tracking",
+        }
+    }
+
+    /// Parse a `--controller` value.
+    pub fn parse(s: &str) -> Result<Self> {
+        match s {
+            "paper" => Ok(Self::Paper),
+            "tracking" => Ok(Self::Tracking),
+            other => bail!("unknown controller {other:?}: expected \"paper\" or \"tracking\""),
+        }
+    }
+}
+
+fn d_ctrl() -> f64 {
+    0.01
+}
+fn d_plant() -> f64 {
+    0.001
+}
+fn d_hr() -> f64 {
+    10.0
+}
+fn d_tf() -> f64 {
+    100.0
+}
+fn d_speed() -> f64 {
+    0.25
+}
+fn d_radius() -> f64 {
+    5.0
+}
+fn d_leg() -> f64 {
+    20.0
+}
+fn d_spacing() -> f64 {
+    5.0
+}
+fn d_legs() -> u16 {
+    4
+}
+fn d_depth_rate() -> f64 {
+    0.05
+}
+fn d_true() -> bool {
+    true
+}
+fn d_seed() -> u64 {
+    1
+}
+fn d_pos_std() -> f64 {
+    0.01
+}
+fn d_angle_std() -> f64 {
+    0.002
+}
+fn d_vel_std() -> f64 {
+    0.005
+}
+fn d_rate_std() -> f64 {
+    0.002
+}
+
+/// The `[reference]` table. `kind` selects the variant; the other keys are its fields.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
+pub enum ReferenceSpec {
+    /// The paper's polynomial `h_r t^5 / (t^5 + (t_f - t)^5)` on x, y and z.
+    Paper {
+        /// Final value (m).
+        #[serde(default = "d_hr")]
+        h_r_m: f64,
+        /// Final time (s).
+        #[serde(default = "d_tf")]
+        t_f_s: f64,
+    },
+    /// Hold a fixed point.
+    Hold {
+        /// The point `[x, y, z]` (m).
+        #[serde(default)]
+        pos_m: [f64; 3],
+    },
+    /// Straight line.
+    Line {
+        /// Start point.
+        #[serde(default)]
+        start_m: [f64; 3],
+        /// Direction of travel (rad).
+        #[serde(default)]
+        heading_rad: f64,
+        /// Speed (m/s).
+        #[serde(default = "d_speed")]
+        speed_m_s: f64,
+    },
+    /// Horizontal circle.
+    Circle {
+        /// Centre.
+        #[serde(default)]
+        center_m: [f64; 3],
+        /// Radius (m).
+        #[serde(default = "d_radius")]
+        radius_m: f64,
+        /// Speed along the circle (m/s).
+        #[serde(default = "d_speed")]
+        speed_m_s: f64,
+    },
+    /// Lawnmower survey.
+    Lawnmower {
+        /// Start point.
+        #[serde(default)]
+        start_m: [f64; 3],
+        /// Heading of the first leg (rad).
+        #[serde(default)]
+        heading_rad: f64,
+        /// Leg length (m).
+        #[serde(default = "d_leg")]
+        leg_length_m: f64,
+        /// Distance between legs (m).
+        #[serde(default = "d_spacing")]
+        spacing_m: f64,
+        /// Number of legs.
+        #[serde(default = "d_legs")]
+        legs: u16,
+        /// Speed (m/s).
+        #[serde(default = "d_speed")]
+        speed_m_s: f64,
+    },
+    /// Descending helix.
+    Helix {
+        /// Centre at the start.
+        #[serde(default)]
+        center_m: [f64; 3],
+        /// Radius (m).
+        #[serde(default = "d_radius")]
+        radius_m: f64,
+        /// Horizontal speed (m/s).
+        #[serde(default = "d_speed")]
+        speed_m_s: f64,
+        /// Depth rate, positive descending (m/s).
+        #[serde(default = "d_depth_rate")]
+        depth_rate_m_s: f64,
+    },
+}
+
+impl ReferenceSpec {
+    /// The name of the kind.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            ReferenceSpec::Paper { .. } => "paper",
+            ReferenceSpec::Hold { .. } => "hold",
+            ReferenceSpec::Line { .. } => "line",
+            ReferenceSpec::Circle { .. } => "circle",
+            ReferenceSpec::Lawnmower { .. } => "lawnmower",
+            ReferenceSpec::Helix { .. } => "helix",
+        }
+    }
+
+    /// The core's reference (f32).
+    pub fn to_core(&self) -> Reference {
+        let v3 = |a: [f64; 3]| [a[0] as f32, a[1] as f32, a[2] as f32];
+        match *self {
+            ReferenceSpec::Paper { h_r_m, t_f_s } => Reference::Paper(PaperPolynomial {
+                h_r_m: h_r_m as f32,
+                t_f_s: t_f_s as f32,
+            }),
+            ReferenceSpec::Hold { pos_m } => Reference::Hold { pos_m: v3(pos_m) },
+            ReferenceSpec::Line {
+                start_m,
+                heading_rad,
+                speed_m_s,
+            } => Reference::Line {
+                start_m: v3(start_m),
+                heading_rad: heading_rad as f32,
+                speed_m_s: speed_m_s as f32,
+            },
+            ReferenceSpec::Circle {
+                center_m,
+                radius_m,
+                speed_m_s,
+            } => Reference::Circle {
+                center_m: v3(center_m),
+                radius_m: radius_m as f32,
+                speed_m_s: speed_m_s as f32,
+            },
+            ReferenceSpec::Lawnmower {
+                start_m,
+                heading_rad,
+                leg_length_m,
+                spacing_m,
+                legs,
+                speed_m_s,
+            } => Reference::Lawnmower {
+                start_m: v3(start_m),
+                heading_rad: heading_rad as f32,
+                leg_length_m: leg_length_m as f32,
+                spacing_m: spacing_m as f32,
+                legs,
+                speed_m_s: speed_m_s as f32,
+            },
+            ReferenceSpec::Helix {
+                center_m,
+                radius_m,
+                speed_m_s,
+                depth_rate_m_s,
+            } => Reference::Helix {
+                center_m: v3(center_m),
+                radius_m: radius_m as f32,
+                speed_m_s: speed_m_s as f32,
+                depth_rate_m_s: depth_rate_m_s as f32,
+            },
+        }
+    }
+}
+
+/// The `[initial]` table: the plant's initial state (absent = 0).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct InitialSpec {
+    /// Inertial x (m).
+    pub x_m: f64,
+    /// Inertial y (m).
+    pub y_m: f64,
+    /// Depth (m, down).
+    pub z_m: f64,
+    /// Pitch (rad).
+    pub pitch_rad: f64,
+    /// Yaw (rad).
+    pub yaw_rad: f64,
+    /// Surge (m/s).
+    pub u_m_s: f64,
+    /// Sway (m/s).
+    pub v_m_s: f64,
+    /// Heave (m/s).
+    pub w_m_s: f64,
+    /// Pitch rate (rad/s).
+    pub q_rad_s: f64,
+    /// Yaw rate (rad/s).
+    pub r_rad_s: f64,
+}
+
+impl InitialSpec {
+    /// As a plant state.
+    pub fn to_plant(&self) -> crate::plant::PlantState {
+        crate::plant::PlantState {
+            eta: [
+                self.x_m,
+                self.y_m,
+                self.z_m,
+                0.0,
+                self.pitch_rad,
+                self.yaw_rad,
+            ],
+            nu: [
+                self.u_m_s,
+                self.v_m_s,
+                self.w_m_s,
+                0.0,
+                self.q_rad_s,
+                self.r_rad_s,
+            ],
+        }
+    }
+
+    fn values(&self) -> [(&'static str, f64); 10] {
+        [
+            ("x_m", self.x_m),
+            ("y_m", self.y_m),
+            ("z_m", self.z_m),
+            ("pitch_rad", self.pitch_rad),
+            ("yaw_rad", self.yaw_rad),
+            ("u_m_s", self.u_m_s),
+            ("v_m_s", self.v_m_s),
+            ("w_m_s", self.w_m_s),
+            ("q_rad_s", self.q_rad_s),
+            ("r_rad_s", self.r_rad_s),
+        ]
+    }
+}
+
+/// The `[thrusters]` table.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ThrustersSpec {
+    /// Apply the per-thruster limits (default true). With `false` the controller's allocation
+    /// and the plant are unlimited, as in the paper's simulations.
+    #[serde(default = "d_true")]
+    pub saturate: bool,
+}
+
+impl Default for ThrustersSpec {
+    fn default() -> Self {
+        Self { saturate: true }
+    }
+}
+
+/// Standard deviations of the Gaussian measurement noise.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoiseStd {
+    /// Position (m), each axis.
+    #[serde(default = "d_pos_std")]
+    pub position_m: f64,
+    /// Angles (rad).
+    #[serde(default = "d_angle_std")]
+    pub angle_rad: f64,
+    /// Linear velocities (m/s).
+    #[serde(default = "d_vel_std")]
+    pub velocity_m_s: f64,
+    /// Angular rates (rad/s).
+    #[serde(default = "d_rate_std")]
+    pub rate_rad_s: f64,
+}
+
+impl Default for NoiseStd {
+    fn default() -> Self {
+        Self {
+            position_m: d_pos_std(),
+            angle_rad: d_angle_std(),
+            velocity_m_s: d_vel_std(),
+            rate_rad_s: d_rate_std(),
+        }
+    }
+}
+
+/// The `[disturbance]` table.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DisturbanceSpec {
+    /// Constant ocean current `[cx, cy, cz]`, inertial (m/s).
+    #[serde(default)]
+    pub current_m_s: [f64; 3],
+    /// Net buoyancy `B - W` of the plant (N, positive floats up); the controller is not told.
+    #[serde(default)]
+    pub buoyancy_offset_n: f64,
+    /// Gaussian measurement noise on/off.
+    #[serde(default)]
+    pub noise: bool,
+    /// Noise standard deviations (used when `noise = true`).
+    #[serde(default)]
+    pub noise_std: NoiseStd,
+    /// Seed of the noise generator.
+    #[serde(default = "d_seed")]
+    pub noise_seed: u64,
+    /// Measurement delay (s).
+    #[serde(default)]
+    pub delay_s: f64,
+}
+
+impl Default for DisturbanceSpec {
+    fn default() -> Self {
+        Self {
+            current_m_s: [0.0; 3],
+            buoyancy_offset_n: 0.0,
+            noise: false,
+            noise_std: NoiseStd::default(),
+            noise_seed: d_seed(),
+            delay_s: 0.0,
+        }
+    }
+}
+
+/// One scenario, as written in its TOML file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// Name (used for the output folder).
+    pub name: String,
+    /// Free text.
+    #[serde(default)]
+    pub description: String,
+    /// `"xz"`, `"xy"` or `"3d"`.
+    pub plane: Plane,
+    /// `"paper"` or `"tracking"`.
+    pub controller: ControllerKind,
+    /// Simulated time (s).
+    pub duration_s: f64,
+    /// Controller period (s), default 0.01.
+    #[serde(default = "d_ctrl")]
+    pub control_period_s: f64,
+    /// Plant RK4 step (s), default 0.001.
+    #[serde(default = "d_plant")]
+    pub plant_dt_s: f64,
+    /// The reference.
+    pub reference: ReferenceSpec,
+    /// Initial state.
+    #[serde(default)]
+    pub initial: InitialSpec,
+    /// Thruster limits.
+    #[serde(default)]
+    pub thrusters: ThrustersSpec,
+    /// Disturbances.
+    #[serde(default)]
+    pub disturbance: DisturbanceSpec,
+}
+
+/// A built-in scenario: its name and TOML text, embedded in the binary.
+#[derive(Debug, Clone, Copy)]
+pub struct BuiltIn {
+    /// Name (the file stem).
+    pub name: &'static str,
+    /// TOML text.
+    pub toml: &'static str,
+}
+
+macro_rules! builtin {
+    ($name:literal) => {
+        BuiltIn {
+            name: $name,
+            toml: include_str!(concat!("../../scenarios/", $name, ".toml")),
+        }
+    };
+}
+
+/// Every built-in scenario, in the order the no-argument run uses.
+pub const BUILT_IN: &[BuiltIn] = &[
+    builtin!("paper-xz"),
+    builtin!("paper-xy"),
+    builtin!("paper-xz-saturated"),
+    builtin!("paper-xy-saturated"),
+    builtin!("tracking-xz"),
+    builtin!("tracking-xy"),
+    builtin!("circle-3d"),
+    builtin!("lawnmower-3d"),
+    builtin!("helix-3d"),
+    builtin!("current-3d"),
+];
+
+impl Scenario {
+    /// Parse and validate TOML text. `origin` names the source in error messages.
+    pub fn from_toml(text: &str, origin: &str) -> Result<Self> {
+        let s: Scenario = toml::from_str(text)
+            .map_err(|e| anyhow!("scenario {origin}: {}", e.to_string().trim_end()))?;
+        s.validate().with_context(|| format!("scenario {origin}"))?;
+        Ok(s)
+    }
+
+    /// A built-in by name, or a `.toml` file by path.
+    pub fn load(name_or_path: &str) -> Result<Self> {
+        if let Some(b) = BUILT_IN.iter().find(|b| b.name == name_or_path) {
+            return Self::from_toml(b.toml, &format!("built-in {:?}", b.name));
+        }
+        let path = Path::new(name_or_path);
+        if path.exists() || name_or_path.ends_with(".toml") {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("cannot read scenario file {}", path.display()))?;
+            return Self::from_toml(&text, &path.display().to_string());
+        }
+        let names: Vec<&str> = BUILT_IN.iter().map(|b| b.name).collect();
+        bail!(
+            "no built-in scenario or file named {name_or_path:?}; built-ins: {}",
+            names.join(", ")
+        )
+    }
+
+    /// The core control mode for this plane and controller.
+    pub fn control_mode(&self) -> Result<ControlMode> {
+        Ok(match (self.plane, self.controller) {
+            (Plane::Xz, ControllerKind::Paper) => ControlMode::PaperXz,
+            (Plane::Xy, ControllerKind::Paper) => ControlMode::PaperXy,
+            (Plane::Xz, ControllerKind::Tracking) => ControlMode::TrackingXz,
+            (Plane::Xy, ControllerKind::Tracking) => ControlMode::TrackingXy,
+            (Plane::ThreeD, ControllerKind::Tracking) => ControlMode::Tracking3d,
+            (Plane::ThreeD, ControllerKind::Paper) => {
+                bail!("controller \"paper\" has no 3-D mode: use plane = \"xz\" or \"xy\", or controller = \"tracking\"")
+            }
+        })
+    }
+
+    /// Number of plant steps per control period.
+    pub fn plant_steps_per_control(&self) -> usize {
+        (self.control_period_s / self.plant_dt_s).round() as usize
+    }
+
+    /// Check every value; the error names the key.
+    pub fn validate(&self) -> Result<()> {
+        if self.name.trim().is_empty() {
+            bail!("name must not be empty");
+        }
+        if !self
+            .name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_' || c == '.')
+        {
+            bail!("name {:?} may contain only letters, digits, '-', '_' and '.' (it names the output folder)", self.name);
+        }
+        pos("duration_s", self.duration_s)?;
+        pos("control_period_s", self.control_period_s)?;
+        pos("plant_dt_s", self.plant_dt_s)?;
+        if self.plant_dt_s > self.control_period_s {
+            bail!(
+                "plant_dt_s ({}) must not exceed control_period_s ({})",
+                self.plant_dt_s,
+                self.control_period_s
+            );
+        }
+        let ratio = self.control_period_s / self.plant_dt_s;
+        if (ratio - ratio.round()).abs() > 1e-6 * ratio {
+            bail!(
+                "control_period_s ({}) must be a whole multiple of plant_dt_s ({})",
+                self.control_period_s,
+                self.plant_dt_s
+            );
+        }
+        if self.duration_s / self.plant_dt_s > 1e9 {
+            bail!("duration_s / plant_dt_s is over 1e9 steps; shorten the run or enlarge the step");
+        }
+        self.control_mode()?;
+        for (k, v) in self.initial.values() {
+            fin(&format!("initial.{k}"), v)?;
+        }
+        match self.reference {
+            ReferenceSpec::Paper { h_r_m, t_f_s } => {
+                fin("reference.h_r_m", h_r_m)?;
+                pos("reference.t_f_s", t_f_s)?;
+            }
+            ReferenceSpec::Hold { pos_m } => vec3("reference.pos_m", pos_m)?,
+            ReferenceSpec::Line {
+                start_m,
+                heading_rad,
+                speed_m_s,
+            } => {
+                vec3("reference.start_m", start_m)?;
+                fin("reference.heading_rad", heading_rad)?;
+                nonneg("reference.speed_m_s", speed_m_s)?;
+            }
+            ReferenceSpec::Circle {
+                center_m,
+                radius_m,
+                speed_m_s,
+            } => {
+                vec3("reference.center_m", center_m)?;
+                pos("reference.radius_m", radius_m)?;
+                pos("reference.speed_m_s", speed_m_s)?;
+            }
+            ReferenceSpec::Lawnmower {
+                start_m,
+                heading_rad,
+                leg_length_m,
+                spacing_m,
+                legs,
+                speed_m_s,
+            } => {
+                vec3("reference.start_m", start_m)?;
+                fin("reference.heading_rad", heading_rad)?;
+                pos("reference.leg_length_m", leg_length_m)?;
+                pos("reference.spacing_m", spacing_m)?;
+                if legs == 0 {
+                    bail!("reference.legs must be >= 1");
+                }
+                pos("reference.speed_m_s", speed_m_s)?;
+            }
+            ReferenceSpec::Helix {
+                center_m,
+                radius_m,
+                speed_m_s,
+                depth_rate_m_s,
+            } => {
+                vec3("reference.center_m", center_m)?;
+                pos("reference.radius_m", radius_m)?;
+                pos("reference.speed_m_s", speed_m_s)?;
+                fin("reference.depth_rate_m_s", depth_rate_m_s)?;
+            }
+        }
+        self.reference.to_core().validate().map_err(|e| {
+            anyhow!(
+                "reference (kind = {:?}) refused by the core: {e}",
+                self.reference.kind()
+            )
+        })?;
+        let d = &self.disturbance;
+        vec3("disturbance.current_m_s", d.current_m_s)?;
+        fin("disturbance.buoyancy_offset_n", d.buoyancy_offset_n)?;
+        let weight = 10.84 * 9.81;
+        if d.buoyancy_offset_n.abs() > 0.5 * weight {
+            bail!(
+                "disturbance.buoyancy_offset_n = {} N is beyond half the vehicle's weight ({:.1} N)",
+                d.buoyancy_offset_n,
+                0.5 * weight
+            );
+        }
+        nonneg("disturbance.delay_s", d.delay_s)?;
+        if d.delay_s > self.duration_s {
+            bail!("disturbance.delay_s ({}) is longer than the run", d.delay_s);
+        }
+        nonneg("disturbance.noise_std.position_m", d.noise_std.position_m)?;
+        nonneg("disturbance.noise_std.angle_rad", d.noise_std.angle_rad)?;
+        nonneg(
+            "disturbance.noise_std.velocity_m_s",
+            d.noise_std.velocity_m_s,
+        )?;
+        nonneg("disturbance.noise_std.rate_rad_s", d.noise_std.rate_rad_s)?;
+        Ok(())
+    }
+
+    /// Magnitude of the scenario's current.
+    pub fn current_magnitude_m_s(&self) -> f64 {
+        let c = self.disturbance.current_m_s;
+        (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()
+    }
+}
+
+fn fin(key: &str, v: f64) -> Result<()> {
+    if !v.is_finite() {
+        bail!("{key} must be a finite number (got {v})");
+    }
+    Ok(())
+}
+
+fn pos(key: &str, v: f64) -> Result<()> {
+    fin(key, v)?;
+    if v <= 0.0 {
+        bail!("{key} must be > 0 (got {v})");
+    }
+    Ok(())
+}
+
+fn nonneg(key: &str, v: f64) -> Result<()> {
+    fin(key, v)?;
+    if v < 0.0 {
+        bail!("{key} must be >= 0 (got {v})");
+    }
+    Ok(())
+}
+
+fn vec3(key: &str, v: [f64; 3]) -> Result<()> {
+    for (i, x) in v.iter().enumerate() {
+        fin(&format!("{key}[{i}]"), *x)?;
+    }
+    Ok(())
+}
