@@ -1,0 +1,372 @@
+//! The measurements, independent of where they run.
+//!
+//! Every item is timed call by call: read the counter, call an `#[inline(never)]` function on
+//! an input that changes every call, read the counter again, subtract the cost of reading the
+//! counter (calibrated at start). Inputs are made between two timed calls, outside the timed
+//! region. On the emulated MCU the counter is TIM2 under `-icount shift=0`, i.e. exactly one
+//! tick per guest instruction; on the host it is nanoseconds (a smoke run only).
+//!
+//! Output lines start with `BENCH` (one per item) so `scripts/mcu-cost.sh` can pick them out:
+//! `BENCH <name> calls=<n> mean=<x.y> min=<n> max=<n> stack=<bytes>`.
+
+use controller_core::alloc::{allocate, PwmMap, ThrusterLimits};
+use controller_core::controller::{ControlMode, Controller, Gains};
+use controller_core::math;
+use controller_core::params::Vehicle;
+use controller_core::reference::{PaperPolynomial, RefSample, Reference};
+use controller_core::state::{BodyForces, NavState};
+use core::fmt;
+use core::hint::black_box;
+use core::sync::atomic::{compiler_fence, Ordering};
+
+/// Calls per item (each with a different input).
+pub const CALLS: u32 = 512;
+
+/// Control period used for the tracking laws' integrators (50 Hz).
+const DT_S: f32 = 0.02;
+
+/// What the bench needs from where it runs.
+pub trait Platform {
+    /// Free-running counter (instructions on the MCU).
+    fn now(&self) -> u32;
+    /// Print one line.
+    fn print(&self, args: fmt::Arguments<'_>);
+    /// Fill the free stack below the caller with a pattern.
+    fn paint_stack(&self);
+    /// Bytes of stack touched below the point of the last [`Platform::paint_stack`], if known.
+    fn stack_used_since_paint(&self) -> Option<u32>;
+    /// Bytes of stack touched since reset (from the top of RAM), if known.
+    fn stack_high_water(&self) -> Option<u32>;
+}
+
+/// Running statistics of one item.
+#[derive(Clone, Copy)]
+struct Stats {
+    calls: u32,
+    sum: u64,
+    min: u32,
+    max: u32,
+}
+
+impl Stats {
+    const fn new() -> Self {
+        Self {
+            calls: 0,
+            sum: 0,
+            min: u32::MAX,
+            max: 0,
+        }
+    }
+
+    fn add(&mut self, ticks: u32) {
+        self.calls += 1;
+        self.sum += u64::from(ticks);
+        self.min = self.min.min(ticks);
+        self.max = self.max.max(ticks);
+    }
+
+    /// Mean in tenths of a tick (integer maths: no float formatting on the target).
+    fn mean_tenths(&self) -> u64 {
+        if self.calls == 0 {
+            0
+        } else {
+            (self.sum * 10 + u64::from(self.calls) / 2) / u64::from(self.calls)
+        }
+    }
+}
+
+/// Small deterministic generator for varying inputs (no float maths beyond a conversion).
+struct Lcg(u32);
+
+impl Lcg {
+    /// Uniform in [-1, 1).
+    fn next_sym(&mut self) -> f32 {
+        self.0 = self.0.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        ((self.0 >> 8) as f32) * (1.0 / 8_388_608.0) - 1.0
+    }
+}
+
+/// The timing harness: counter, counter cost, printing.
+pub struct Bench<'a, P: Platform> {
+    p: &'a P,
+    overhead: u32,
+}
+
+impl<'a, P: Platform> Bench<'a, P> {
+    /// Calibrate the cost of two back-to-back counter reads.
+    pub fn new(p: &'a P) -> Self {
+        let mut overhead = u32::MAX;
+        for _ in 0..16 {
+            compiler_fence(Ordering::SeqCst);
+            let t0 = p.now();
+            compiler_fence(Ordering::SeqCst);
+            let t1 = p.now();
+            compiler_fence(Ordering::SeqCst);
+            overhead = overhead.min(t1.wrapping_sub(t0));
+        }
+        Self { p, overhead }
+    }
+
+    /// Time `f(input)`, inputs from `make(i)` for `i in 0..calls`, and print one line.
+    pub fn run<I, O>(
+        &self,
+        name: &str,
+        calls: u32,
+        mut make: impl FnMut(u32) -> I,
+        mut f: impl FnMut(I) -> O,
+    ) -> u64 {
+        let mut st = Stats::new();
+        self.p.paint_stack();
+        for i in 0..calls {
+            let input = make(i);
+            compiler_fence(Ordering::SeqCst);
+            let t0 = self.p.now();
+            compiler_fence(Ordering::SeqCst);
+            let out = f(black_box(input));
+            let _ = black_box(out);
+            compiler_fence(Ordering::SeqCst);
+            let t1 = self.p.now();
+            compiler_fence(Ordering::SeqCst);
+            st.add(t1.wrapping_sub(t0).saturating_sub(self.overhead));
+        }
+        let stack = self.p.stack_used_since_paint();
+        let mean = st.mean_tenths();
+        match stack {
+            Some(s) => self.p.print(format_args!(
+                "BENCH {name} calls={} mean={}.{} min={} max={} stack={s}",
+                st.calls,
+                mean / 10,
+                mean % 10,
+                st.min,
+                st.max
+            )),
+            None => self.p.print(format_args!(
+                "BENCH {name} calls={} mean={}.{} min={} max={} stack=n/a",
+                st.calls,
+                mean / 10,
+                mean % 10,
+                st.min,
+                st.max
+            )),
+        }
+        mean
+    }
+}
+
+/// Angles spread over [-10, 10] rad.
+fn angle(i: u32, g: &mut Lcg) -> f32 {
+    let _ = i;
+    10.0 * g.next_sym()
+}
+
+#[inline(never)]
+fn own_sin_cos(x: f32) -> (f32, f32) {
+    math::sin_cos(x)
+}
+
+#[cfg(feature = "libm-compare")]
+#[inline(never)]
+fn libm_sinf(x: f32) -> f32 {
+    libm::sinf(x)
+}
+
+#[inline(never)]
+fn own_atan2(a: (f32, f32)) -> f32 {
+    math::atan2(a.0, a.1)
+}
+
+#[inline(never)]
+fn own_sqrt(x: f32) -> f32 {
+    math::sqrt(x)
+}
+
+#[inline(never)]
+fn ref_sample(a: (&Reference, f32)) -> RefSample {
+    a.0.sample(a.1)
+}
+
+#[inline(never)]
+fn alloc_pwm(a: (&BodyForces, &ThrusterLimits, &PwmMap)) -> [f32; 3] {
+    let al = allocate(a.0, a.1);
+    [
+        a.2.pulse_us(al.thrust_n[0]),
+        a.2.pulse_us(al.thrust_n[1]),
+        a.2.pulse_us(al.thrust_n[2]),
+    ]
+}
+
+#[inline(never)]
+fn control_step(c: &mut Controller, mode: ControlMode, nav: &NavState, r: &RefSample) -> [f32; 3] {
+    c.step(mode, nav, r, DT_S).pulse_us
+}
+
+/// A navigation state near the reference at `t`: within about half a metre, 0.3 rad and
+/// 0.2 m/s of it, so the laws run in their working regime, sometimes saturating.
+fn nav_near(r: &RefSample, g: &mut Lcg) -> NavState {
+    let [x, y, z] = r.pos_m;
+    let [vx, vy, vz] = r.vel_m_s;
+    NavState {
+        x_m: x + 0.5 * g.next_sym(),
+        y_m: y + 0.5 * g.next_sym(),
+        z_m: z + 0.5 * g.next_sym(),
+        roll_rad: 0.05 * g.next_sym(),
+        pitch_rad: 0.3 * g.next_sym(),
+        yaw_rad: math::atan2(vy, vx) + 0.3 * g.next_sym(),
+        u_m_s: vx + 0.2 * g.next_sym(),
+        v_m_s: 0.1 * g.next_sym(),
+        w_m_s: vz + 0.1 * g.next_sym(),
+        p_rad_s: 0.05 * g.next_sym(),
+        q_rad_s: 0.1 * g.next_sym(),
+        r_rad_s: 0.1 * g.next_sym(),
+    }
+}
+
+/// The references the loop can follow, one of each kind.
+pub fn references() -> [(&'static str, Reference); 4] {
+    [
+        ("paper", Reference::Paper(PaperPolynomial::PAPER)),
+        (
+            "circle",
+            Reference::Circle {
+                center_m: [0.0, 0.0, 2.0],
+                radius_m: 5.0,
+                speed_m_s: 0.5,
+            },
+        ),
+        (
+            "lawnmower",
+            Reference::Lawnmower {
+                start_m: [0.0, 0.0, 2.0],
+                heading_rad: 0.0,
+                leg_length_m: 20.0,
+                spacing_m: 4.0,
+                legs: 6,
+                speed_m_s: 0.5,
+            },
+        ),
+        (
+            "helix",
+            Reference::Helix {
+                center_m: [0.0, 0.0, 1.0],
+                radius_m: 5.0,
+                speed_m_s: 0.5,
+                depth_rate_m_s: 0.05,
+            },
+        ),
+    ]
+}
+
+/// All modes of the controller, with their names.
+pub const MODES: [(&str, ControlMode); 5] = [
+    ("paper_xz", ControlMode::PaperXz),
+    ("paper_xy", ControlMode::PaperXy),
+    ("tracking_xz", ControlMode::TrackingXz),
+    ("tracking_xy", ControlMode::TrackingXy),
+    ("tracking_3d", ControlMode::Tracking3d),
+];
+
+/// Run every measurement. Returns false if the controller could not be built.
+pub fn run_all<P: Platform>(p: &P) -> bool {
+    let b = Bench::new(p);
+    p.print(format_args!(
+        "mcu-bench: {CALLS} calls per item, counter overhead {} ticks subtracted",
+        b.overhead
+    ));
+
+    // Maths.
+    let mut g = Lcg(1);
+    b.run("math.sin_cos", CALLS, |i| angle(i, &mut g), own_sin_cos);
+    #[cfg(feature = "libm-compare")]
+    {
+        let mut g = Lcg(1);
+        b.run("libm.sinf", CALLS, |i| angle(i, &mut g), libm_sinf);
+    }
+    let mut g = Lcg(2);
+    b.run(
+        "math.atan2",
+        CALLS,
+        |_| (5.0 * g.next_sym(), 5.0 * g.next_sym()),
+        own_atan2,
+    );
+    let mut g = Lcg(3);
+    b.run(
+        "math.sqrt",
+        CALLS,
+        |_| 50.0 * (g.next_sym() + 1.0),
+        own_sqrt,
+    );
+
+    // References (t over 0..100 s).
+    for (name, r) in references().iter() {
+        let mut buf = [0u8; 40];
+        let label = join(&mut buf, "reference.", name);
+        b.run(
+            label,
+            CALLS,
+            |i| (r, i as f32 * (100.0 / CALLS as f32)),
+            ref_sample,
+        );
+    }
+
+    let vehicle = Vehicle::observer();
+    let Ok(mut ctl) = Controller::new(vehicle, Gains::default()) else {
+        p.print(format_args!("mcu-bench: Controller::new failed"));
+        return false;
+    };
+
+    // Allocation + PWM map alone.
+    let limits = *ctl.limits();
+    let pwm = *ctl.pwm_map();
+    let mut g = Lcg(4);
+    b.run(
+        "alloc+pwm",
+        CALLS,
+        |_| BodyForces {
+            surge_n: 60.0 * g.next_sym(),
+            yaw_n_m: 10.0 * g.next_sym(),
+            heave_n: 40.0 * g.next_sym(),
+        },
+        |f| alloc_pwm((&f, &limits, &pwm)),
+    );
+
+    // Control step (law + allocation + PWM) for every mode, following the paper reference
+    // (XZ modes) or the circle (XY and 3-D modes).
+    let paper = Reference::Paper(PaperPolynomial::PAPER);
+    let circle = Reference::Circle {
+        center_m: [0.0, 0.0, 2.0],
+        radius_m: 5.0,
+        speed_m_s: 0.5,
+    };
+    for (name, mode) in MODES.iter() {
+        let r = match mode {
+            ControlMode::PaperXz | ControlMode::TrackingXz | ControlMode::PaperXy => paper,
+            ControlMode::TrackingXy | ControlMode::Tracking3d => circle,
+        };
+        ctl.reset();
+        let mut g = Lcg(5);
+        let mut buf = [0u8; 40];
+        let label = join(&mut buf, "control_step.", name);
+        b.run(
+            label,
+            CALLS,
+            |i| {
+                let rs = r.sample(i as f32 * (100.0 / CALLS as f32));
+                (nav_near(&rs, &mut g), rs)
+            },
+            |(nav, rs)| control_step(&mut ctl, *mode, &nav, &rs),
+        );
+    }
+    true
+}
+
+/// `a` followed by `b` in `buf` (truncated to fit); names are ASCII.
+fn join<'b>(buf: &'b mut [u8], a: &str, b: &str) -> &'b str {
+    let mut n = 0;
+    for (dst, src) in buf.iter_mut().zip(a.bytes().chain(b.bytes())) {
+        *dst = src;
+        n += 1;
+    }
+    buf.get(..n)
+        .and_then(|s| core::str::from_utf8(s).ok())
+        .unwrap_or("?")
+}
