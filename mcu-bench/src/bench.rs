@@ -356,6 +356,12 @@ pub fn run_all<P: Platform>(p: &P) -> bool {
             |(nav, rs)| control_step(&mut ctl, *mode, &nav, &rs),
         );
     }
+
+    if let Some(hw) = p.stack_high_water() {
+        p.print(format_args!(
+            "STACK high_water={hw} (from the top of RAM, whole bench program incl. its own frames)"
+        ));
+    }
     true
 }
 

@@ -124,12 +124,6 @@ fn main() -> ! {
     // Paint once from reset depth, so the absolute high-water covers the whole program.
     q.paint_stack();
     let ok = bench::run_all(&q);
-    if let Some(hw) = q.stack_high_water() {
-        hprintln!(
-            "STACK high_water={} (from the top of RAM, whole bench program incl. its own frames)",
-            hw
-        );
-    }
     debug::exit(if ok {
         debug::EXIT_SUCCESS
     } else {

@@ -1,0 +1,175 @@
+#!/usr/bin/env bash
+# Cost of the control path on the MCU, measured on an emulated Cortex-M4F (issue 5, section 4).
+#
+#   scripts/mcu-cost.sh
+#
+# 1. Builds `mcu-bench` for thumbv7em-none-eabihf and runs it in QEMU `netduinoplus2` (an
+#    STM32F405) with `-icount shift=0,align=off,sleep=off`, where TIM2 advances exactly one
+#    tick per guest instruction: the figures are repeatable instruction counts per call
+#    (averaged over 512 calls with varying inputs; min and max too) and the stack each item
+#    touched (stack painting). Instruction counts, not M4 cycles: see shared QEMU notes.
+# 2. Checks with `nm` that the default bench image (control path + loop, nothing else) links
+#    no soft-f64 helper (`__aeabi_d*`, `__*df*`); fails if it does and names the callers.
+# 3. Builds the bench again with `--features libm-compare` and times `libm::sinf` for
+#    comparison (that image does contain soft f64, by design).
+# 4. Prints flash and static RAM of the STM32F4 firmware image (`llvm-size`), if it builds.
+# 5. Compares with the targets of issue 5: control step <= 1,000 instructions, loop iteration
+#    <= 5,000, flash <= 48 KiB, RAM incl. stack <= 8 KiB. Over-budget figures are reported
+#    as OVER; with MCU_COST_STRICT=1 they also make the script fail.
+#
+# Honors CARGO_TARGET_DIR. Needs qemu-system-arm (Debian package) and, for nm/size, the
+# rustup component llvm-tools (named in rust-toolchain.toml) or binutils.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+TARGET=thumbv7em-none-eabihf
+TDIR=${CARGO_TARGET_DIR:-target}
+OUT=$TDIR/mcu-cost
+mkdir -p "$OUT"
+STRICT=${MCU_COST_STRICT:-0}
+
+# ---- tools ------------------------------------------------------------------------------
+llvm_bin() {
+  local sysroot host
+  sysroot=$(rustc --print sysroot)
+  host=$(rustc -vV | sed -n 's/^host: //p')
+  echo "$sysroot/lib/rustlib/$host/bin"
+}
+LLVM=$(llvm_bin)
+if [ ! -x "$LLVM/llvm-nm" ]; then
+  rustup component add llvm-tools >/dev/null 2>&1 || true
+fi
+if [ -x "$LLVM/llvm-nm" ]; then
+  NM="$LLVM/llvm-nm"; SIZE="$LLVM/llvm-size"; OBJDUMP="$LLVM/llvm-objdump"
+else
+  NM=nm; SIZE=size; OBJDUMP=""
+  echo "note: llvm-tools not found, using binutils nm/size"
+fi
+if ! command -v qemu-system-arm >/dev/null 2>&1; then
+  echo "error: qemu-system-arm not found (apt-get install -y qemu-system-arm)" >&2
+  exit 1
+fi
+
+run_qemu() { # ELF LOG
+  local rc=0
+  timeout 120 qemu-system-arm -M netduinoplus2 -nographic -monitor none \
+    -semihosting-config enable=on,target=native \
+    -icount shift=0,align=off,sleep=off \
+    -kernel "$1" </dev/null >"$2" 2>&1 || rc=$?
+  if [ "$rc" -ne 0 ] || ! grep -q '^BENCH ' "$2"; then
+    cat "$2" >&2
+    echo "error: the bench in QEMU failed (exit $rc)" >&2
+    exit 1
+  fi
+}
+
+# Soft-f64 helpers of compiler-builtins (ARM EABI names and the generic ones).
+SOFT_F64='(__aeabi_d[a-z0-9]*|__aeabi_[a-z0-9]*2d|__aeabi_[a-z0-9]*2d[a-z]*|__[a-z]+df[23]|__[a-z]+dfsf2|__[a-z]+sfdf2|__[a-z]+dfsi|__[a-z]+dfdi|__[a-z]+si?df|__[a-z]+didf)$'
+
+soft_f64_symbols() { # ELF
+  "$NM" "$1" | awk '{print $NF}' | grep -E "^$SOFT_F64" | sort -u || true
+}
+
+# Functions whose code calls a soft-f64 helper (needs llvm-objdump).
+soft_f64_callers() { # ELF
+  [ -n "$OBJDUMP" ] || return 0
+  "$OBJDUMP" -d --no-show-raw-insn --demangle "$1" | awk -v re="$SOFT_F64" '
+    /^[0-9a-f]+ <.*>:$/ { fn = $0; sub(/^[0-9a-f]+ </, "", fn); sub(/>:$/, "", fn); next }
+    /\tbl?(\.w)?\t/ {
+      if (match($0, /<[^>]*>/)) {
+        callee = substr($0, RSTART + 1, RLENGTH - 2); sub(/\+0x[0-9a-f]+$/, "", callee)
+        if (callee ~ re && fn !~ re) print "    " fn "  ->  " callee
+      }
+    }' | sort -u
+}
+
+# ---- 1. the bench, default image ------------------------------------------------------------
+echo "== build: cargo build -p mcu-bench --release --target $TARGET"
+cargo build -q -p mcu-bench --release --target "$TARGET"
+ELF=$OUT/mcu-bench.elf
+cp "$TDIR/$TARGET/release/mcu-bench" "$ELF"
+echo "== run: qemu-system-arm -M netduinoplus2 -icount shift=0,align=off,sleep=off (instructions per call)"
+run_qemu "$ELF" "$OUT/bench.log"
+cat "$OUT/bench.log"
+
+# ---- 2. soft f64 ---------------------------------------------------------------------------------
+echo
+echo "== nm: soft-f64 helpers in the control-path image ($ELF)"
+F64=$(soft_f64_symbols "$ELF")
+NM_OK=1
+if [ -z "$F64" ]; then
+  echo "nm: no __aeabi_d* / __*df* symbol: the control path and the loop use no f64"
+else
+  NM_OK=0
+  echo "nm: SOFT F64 FOUND:"; echo "$F64" | sed 's/^/    /'
+  echo "  called from:"; soft_f64_callers "$ELF"
+fi
+
+# ---- 3. libm::sinf comparison ------------------------------------------------------------
+echo
+echo "== libm comparison: cargo build -p mcu-bench --release --target $TARGET --features libm-compare"
+cargo build -q -p mcu-bench --release --target "$TARGET" --features libm-compare
+cp "$TDIR/$TARGET/release/mcu-bench" "$OUT/mcu-bench-libm.elf"
+run_qemu "$OUT/mcu-bench-libm.elf" "$OUT/bench-libm.log"
+grep -E '^BENCH (libm|math)\.' "$OUT/bench-libm.log"
+echo "   (that image links $(soft_f64_symbols "$OUT/mcu-bench-libm.elf" | wc -l) soft-f64 helpers, through libm::sinf only)"
+
+# ---- 4. the STM32F4 firmware image --------------------------------------------------------
+echo
+echo "== firmware image: cargo build -p firmware --release --target $TARGET"
+FW_FLASH=""; FW_RAM=""
+if cargo build -q -p firmware --release --target "$TARGET" 2>"$OUT/firmware-build.log"; then
+  FW=""
+  for cand in stm32f4 firmware; do
+    if [ -f "$TDIR/$TARGET/release/$cand" ]; then FW="$TDIR/$TARGET/release/$cand"; break; fi
+  done
+  if [ -n "$FW" ]; then
+    "$SIZE" -A "$FW" | grep -E '^(section|\.vector_table|\.text|\.rodata|\.data|\.bss|\.uninit|\.gnu\.sgstubs|Total)' || true
+    # Berkeley format: text (incl. rodata, vectors) + data go to flash; data + bss live in RAM.
+    read -r text data bss _ < <("$SIZE" -B "$FW" | awk 'NR==2 {print $1, $2, $3}')
+    FW_FLASH=$((text + data)); FW_RAM=$((data + bss))
+    echo "firmware $FW: flash $FW_FLASH B ($((FW_FLASH / 1024)).$(((FW_FLASH % 1024) * 10 / 1024)) KiB), static RAM $FW_RAM B"
+    FWF64=$(soft_f64_symbols "$FW")
+    if [ -z "$FWF64" ]; then echo "firmware nm: no soft-f64 symbol"; else
+      echo "firmware nm: soft f64 present:"; echo "$FWF64" | sed 's/^/    /'
+      echo "  called from:"; soft_f64_callers "$FW"
+    fi
+  else
+    echo "firmware built, but no stm32f4 binary found in $TDIR/$TARGET/release (not there yet?)"
+  fi
+else
+  echo "firmware image does not build yet (see $OUT/firmware-build.log); flash/RAM not measured"
+fi
+
+# ---- 5. against the targets ----------------------------------------------------------------
+echo
+echo "== against the targets of issue 5"
+over=0
+check() { # LABEL VALUE LIMIT UNIT
+  local v=${2%.*}
+  if [ "$v" -le "$3" ]; then echo "  ok    $1: $2 $4 (<= $3)"; else echo "  OVER  $1: $2 $4 (> $3)"; over=1; fi
+}
+field() { sed -n "s/.* $1=\([0-9.]*\).*/\1/p"; }
+while read -r line; do
+  name=$(echo "$line" | awk '{print $2}')
+  check "$name (mean)" "$(echo "$line" | field mean)" 1000 instructions
+  check "$name (max)" "$(echo "$line" | field max)" 1000 instructions
+done < <(grep '^BENCH control_step\.' "$OUT/bench.log")
+LOOP_STACK=""
+while read -r line; do
+  name=$(echo "$line" | awk '{print $2}')
+  check "$name (mean)" "$(echo "$line" | field mean)" 5000 instructions
+  check "$name (max)" "$(echo "$line" | field max)" 5000 instructions
+  LOOP_STACK=$(echo "$line" | field stack)
+done < <(grep '^BENCH loop\.' "$OUT/bench.log")
+HW=$(sed -n 's/^STACK high_water=\([0-9]*\).*/\1/p' "$OUT/bench.log")
+echo "  stack: whole bench program high-water $HW B${LOOP_STACK:+, loop iteration $LOOP_STACK B below its caller}"
+if [ -n "$FW_FLASH" ]; then
+  check "firmware flash" "$FW_FLASH" $((48 * 1024)) B
+  check "firmware RAM (static $FW_RAM + bench stack high-water $HW)" "$((FW_RAM + HW))" $((8 * 1024)) B
+fi
+[ "$NM_OK" = 1 ] && echo "  ok    no soft f64 in the control path" || echo "  FAIL  soft f64 in the control path"
+
+if [ "$NM_OK" != 1 ]; then exit 1; fi
+if [ "$over" = 1 ] && [ "$STRICT" = 1 ]; then exit 1; fi
+exit 0
