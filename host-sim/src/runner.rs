@@ -22,7 +22,7 @@ use crate::plant::six_dof_factory;
 use crate::plant::xy::XyPlant;
 use crate::plant::xz::XzPlant;
 use crate::plant::{Environment, Plant, PlantState};
-use crate::scenario::{Plane, Scenario};
+use crate::scenario::{NoiseStd, Plane, Scenario};
 use anyhow::{anyhow, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::controller::{Controller, Gains};
@@ -178,7 +178,67 @@ pub fn body_to_inertial(eta: &[f64; 6], v: [f64; 3]) -> [f64; 3] {
     ]
 }
 
-fn to_nav(s: &PlantState) -> NavState {
+/// The measurement path: a ring buffer of plant states (one per plant step) for the delay,
+/// conversion to the core's `f32` [`NavState`], and Gaussian noise.
+#[derive(Debug, Clone)]
+pub struct Sensor {
+    history: VecDeque<PlantState>,
+    noise: Option<NoiseStd>,
+    rng: ChaCha8Rng,
+}
+
+impl Sensor {
+    /// A sensor that reports the state `delay_steps` plant steps old (the initial state until
+    /// enough steps have passed), with noise of `noise` standard deviations if given.
+    pub fn new(
+        initial: PlantState,
+        delay_steps: usize,
+        noise: Option<NoiseStd>,
+        seed: u64,
+    ) -> Self {
+        let mut history = VecDeque::with_capacity(delay_steps + 1);
+        for _ in 0..=delay_steps {
+            history.push_back(initial);
+        }
+        Self {
+            history,
+            noise,
+            rng: ChaCha8Rng::seed_from_u64(seed),
+        }
+    }
+
+    /// Record the plant state after one plant step.
+    pub fn push(&mut self, s: PlantState) {
+        self.history.pop_front();
+        self.history.push_back(s);
+    }
+
+    /// The measurement now.
+    pub fn measure(&mut self) -> NavState {
+        let st = self.history.front().copied().unwrap_or_default();
+        let mut nav = to_nav(&st);
+        if let Some(ns) = self.noise {
+            let rng = &mut self.rng;
+            let mut g = |sd: f64| (sd * gauss(rng)) as f32;
+            nav.x_m += g(ns.position_m);
+            nav.y_m += g(ns.position_m);
+            nav.z_m += g(ns.position_m);
+            nav.roll_rad += g(ns.angle_rad);
+            nav.pitch_rad += g(ns.angle_rad);
+            nav.yaw_rad += g(ns.angle_rad);
+            nav.u_m_s += g(ns.velocity_m_s);
+            nav.v_m_s += g(ns.velocity_m_s);
+            nav.w_m_s += g(ns.velocity_m_s);
+            nav.p_rad_s += g(ns.rate_rad_s);
+            nav.q_rad_s += g(ns.rate_rad_s);
+            nav.r_rad_s += g(ns.rate_rad_s);
+        }
+        nav
+    }
+}
+
+/// The plant state as the core's `f32` navigation state.
+pub fn to_nav(s: &PlantState) -> NavState {
     NavState {
         x_m: s.eta[0] as f32,
         y_m: s.eta[1] as f32,
@@ -260,13 +320,12 @@ pub fn run(sc: &Scenario, opts: &RunOptions) -> Result<RunOutput> {
 
     // Measurement path.
     let dist = &sc.disturbance;
-    let delay_steps = (dist.delay_s / dt).round() as usize;
-    let mut history: VecDeque<PlantState> = VecDeque::with_capacity(delay_steps + 1);
-    for _ in 0..=delay_steps {
-        history.push_back(initial);
-    }
-    let mut rng = ChaCha8Rng::seed_from_u64(opts.noise_seed.unwrap_or(dist.noise_seed));
-    let ns = dist.noise_std;
+    let mut sensor = Sensor::new(
+        initial,
+        (dist.delay_s / dt).round() as usize,
+        dist.noise.then_some(dist.noise_std),
+        opts.noise_seed.unwrap_or(dist.noise_seed),
+    );
 
     let mut log = Vec::with_capacity(if opts.record { n_ctrl as usize + 1 } else { 0 });
     let mut sum_sq = 0.0;
@@ -294,23 +353,7 @@ pub fn run(sc: &Scenario, opts: &RunOptions) -> Result<RunOutput> {
         let t = k as f64 * tc;
         let truth = plant.state();
         // Measurement: delayed, noisy.
-        let meas_state = *history.front().unwrap_or(&truth);
-        let mut nav = to_nav(&meas_state);
-        if dist.noise {
-            let mut g = |sd: f64| (sd * gauss(&mut rng)) as f32;
-            nav.x_m += g(ns.position_m);
-            nav.y_m += g(ns.position_m);
-            nav.z_m += g(ns.position_m);
-            nav.roll_rad += g(ns.angle_rad);
-            nav.pitch_rad += g(ns.angle_rad);
-            nav.yaw_rad += g(ns.angle_rad);
-            nav.u_m_s += g(ns.velocity_m_s);
-            nav.v_m_s += g(ns.velocity_m_s);
-            nav.w_m_s += g(ns.velocity_m_s);
-            nav.p_rad_s += g(ns.rate_rad_s);
-            nav.q_rad_s += g(ns.rate_rad_s);
-            nav.r_rad_s += g(ns.rate_rad_s);
-        }
+        let nav = sensor.measure();
         let r: RefSample = reference.sample(t as f32);
         let out = controller.step(mode, &nav, &r, tc as f32);
 
@@ -439,12 +482,7 @@ pub fn run(sc: &Scenario, opts: &RunOptions) -> Result<RunOutput> {
         for _ in 0..n_sub {
             plant.step(cmd, dt);
             s.sim_steps += 1;
-            if delay_steps > 0 {
-                history.pop_front();
-                history.push_back(plant.state());
-            } else if let Some(h) = history.front_mut() {
-                *h = plant.state();
-            }
+            sensor.push(plant.state());
         }
     }
 

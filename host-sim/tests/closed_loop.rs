@@ -1,0 +1,133 @@
+//! Closed loop through the f32 core on the built-in paper scenarios, and the runner's
+//! mechanics (step counts, measurement delay and noise, divergence stop).
+//!
+//! The bounds on the paper laws are the numbers measured with `cargo run -p host-sim
+//! --release` (see the report in `docs/` / README), with a margin.
+
+use host_sim::plant::PlantState;
+use host_sim::runner::{run, RunOptions, Sensor, Summary};
+use host_sim::scenario::{NoiseStd, Scenario};
+
+fn run_builtin(name: &str) -> Summary {
+    let sc = Scenario::load(name).unwrap();
+    run(&sc, &RunOptions::default()).unwrap().summary
+}
+
+#[test]
+fn paper_xy_law_tracks_the_paper_reference_below_1_cm() {
+    let s = run_builtin("paper-xy");
+    assert!(!s.diverged && !s.nan_detected, "{s:?}");
+    assert!(
+        s.final_position_error_m < 0.01,
+        "final {}",
+        s.final_position_error_m
+    );
+    assert!(
+        s.max_position_error_m < 0.01,
+        "max {}",
+        s.max_position_error_m
+    );
+    // ... but only with thrusters no real vehicle has: the initial yaw request is far beyond
+    // the pair's 4.2 N m.
+    assert!(
+        s.max_abs_requested_force[1] > 10.0,
+        "{:?}",
+        s.max_abs_requested_force
+    );
+}
+
+#[test]
+fn paper_xz_law_does_not_track_x() {
+    // Measured verdict (MODEL_NOTES section 5 predicted it): with unlimited thrusters the
+    // paper's XZ law diverges, with the real limits it wanders metres off the reference.
+    let s = run_builtin("paper-xz");
+    assert!(s.diverged || s.final_position_error_m > 1.0, "{s:?}");
+    let s = run_builtin("paper-xz-saturated");
+    assert!(!s.nan_detected);
+    assert!(s.diverged || s.rms_position_error_tail_m > 1.0, "{s:?}");
+}
+
+#[test]
+fn runner_counts_steps_and_holds_the_command() {
+    let sc = Scenario::from_toml(
+        "name = \"n\"\nplane = \"xy\"\ncontroller = \"paper\"\nduration_s = 2.0\ncontrol_period_s = 0.02\nplant_dt_s = 0.002\n[reference]\nkind = \"hold\"\n",
+        "n",
+    )
+    .unwrap();
+    let out = run(
+        &sc,
+        &RunOptions {
+            record: true,
+            ..RunOptions::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(out.summary.sim_steps, 1000);
+    assert_eq!(out.summary.control_steps, 101);
+    assert_eq!(out.log.len(), 101);
+    assert!((out.log[100].t_s - 2.0).abs() < 1e-12);
+    assert_eq!(out.summary.stop_reason, "completed");
+}
+
+#[test]
+fn runner_stops_on_divergence() {
+    let sc = Scenario::from_toml(
+        "name = \"d\"\nplane = \"xz\"\ncontroller = \"paper\"\nduration_s = 10.0\n[reference]\nkind = \"hold\"\n[initial]\nu_m_s = 500.0\n",
+        "d",
+    )
+    .unwrap();
+    let s = run(&sc, &RunOptions::default()).unwrap().summary;
+    assert!(s.diverged, "{s:?}");
+    assert!(s.stop_reason.contains("velocity"), "{}", s.stop_reason);
+    assert!(s.sim_steps < 100);
+}
+
+#[test]
+fn sensor_delays_by_whole_plant_steps() {
+    let at = |x: f64| PlantState {
+        eta: [x, 0.0, 0.0, 0.0, 0.0, 0.0],
+        ..PlantState::default()
+    };
+    let mut s = Sensor::new(at(-1.0), 10, None, 1);
+    for k in 0..10 {
+        s.push(at(k as f64));
+        assert_eq!(
+            s.measure().x_m,
+            -1.0,
+            "initial state until the delay has passed"
+        );
+    }
+    for k in 10..30 {
+        s.push(at(k as f64));
+        assert_eq!(s.measure().x_m, (k - 10) as f32);
+    }
+    let mut s0 = Sensor::new(at(0.0), 0, None, 1);
+    s0.push(at(5.0));
+    assert_eq!(s0.measure().x_m, 5.0);
+}
+
+#[test]
+fn sensor_noise_has_the_configured_spread_and_is_seeded() {
+    let std = NoiseStd {
+        position_m: 0.1,
+        angle_rad: 0.01,
+        velocity_m_s: 0.05,
+        rate_rad_s: 0.02,
+    };
+    let mut a = Sensor::new(PlantState::default(), 0, Some(std), 9);
+    let mut b = Sensor::new(PlantState::default(), 0, Some(std), 9);
+    let n = 20_000;
+    let (mut sx, mut sxx, mut sr) = (0.0f64, 0.0f64, 0.0f64);
+    for _ in 0..n {
+        let m = a.measure();
+        assert_eq!(m, b.measure(), "same seed, same noise");
+        sx += f64::from(m.x_m);
+        sxx += f64::from(m.x_m).powi(2);
+        sr += f64::from(m.r_rad_s).powi(2);
+    }
+    let mean = sx / n as f64;
+    let sd = (sxx / n as f64 - mean * mean).sqrt();
+    assert!(mean.abs() < 0.005, "mean {mean}");
+    assert!((sd - 0.1).abs() < 0.005, "sd {sd}");
+    assert!(((sr / n as f64).sqrt() - 0.02).abs() < 0.001);
+}
