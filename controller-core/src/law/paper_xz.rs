@@ -81,7 +81,12 @@ pub struct PaperXzGains {
 }
 
 impl PaperXzGains {
-    /// The paper's gains (Section IV) plus the chosen `c_1`, `c_2`.
+    /// The paper's gains (Section IV: `k = 0.1`, `c_1w = c_2w = 10`, `c_1q = c_2q = 1`,
+    /// `c_q = 10`) plus `c_1 = c_2 = 1`, which the paper does not give. Its Young-inequality
+    /// argument only asks `c_1` to be "large" next to a sum of unspecified `epsilon_i`; 1 keeps
+    /// the `nu_u1^2 nu_w` damping of (24) on the scale of `c_1q`. The choice does not change
+    /// the verdict: on the paper's reference the law diverges for `c_1 = c_2` in
+    /// {0.1, 1, 10, 100} (`tests/paper_closed_loop.rs`).
     pub const PAPER: Self = Self {
         k: 0.1,
         c1w: 10.0,
