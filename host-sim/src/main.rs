@@ -110,6 +110,9 @@ fn print_table(rows: &[&RunOutput]) {
             status
         );
     }
+    for o in rows {
+        println!("  {:<32} {}", o.summary.scenario, o.summary.verdict);
+    }
 }
 
 fn run_one(sc: &Scenario, dir: &Path) -> Result<RunOutput> {

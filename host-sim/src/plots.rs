@@ -238,12 +238,10 @@ pub fn run_plots(dir: &Path, out: &RunOutput) -> Result<()> {
     let log = &out.log;
     let s = &out.summary;
     let head = format!("{} ({} law, {})", s.scenario, s.controller, s.plane);
-    let verdict = if s.nan_detected {
-        " - NaN".to_string()
-    } else if s.diverged {
-        " - DIVERGED".to_string()
+    let verdict = if s.nan_detected || s.diverged {
+        format!(" - {}", s.stop_reason)
     } else {
-        format!(" - final error {:.3} m", s.final_position_error_m)
+        format!(" - final error {:.4} m", s.final_position_error_m)
     };
     let big = (1200, 800);
     match s.plane.as_str() {

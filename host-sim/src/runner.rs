@@ -132,6 +132,9 @@ pub struct Summary {
     pub nan_detected: bool,
     /// Why the run stopped.
     pub stop_reason: String,
+    /// One-line verdict: "tracks" (final and last-20 % RMS error under 1 cm), "tracks
+    /// roughly" (under 10 cm), or "does not track" with the reason.
+    pub verdict: String,
     /// Plant RK4 steps done.
     pub sim_steps: u64,
     /// Control steps done.
@@ -271,6 +274,35 @@ pub fn nominal_plant_params(sc: &Scenario) -> VehicleParams {
     let mut p = VehicleParams::OBSERVER;
     p.buoyancy_offset_n = sc.disturbance.buoyancy_offset_n as f32;
     p
+}
+
+/// The one-line verdict of a summary.
+pub fn verdict(s: &Summary) -> String {
+    if s.nan_detected {
+        return format!("does not track: {}", s.stop_reason);
+    }
+    if s.diverged {
+        return format!("does not track: {}", s.stop_reason);
+    }
+    let worst = s.final_position_error_m.max(s.rms_position_error_tail_m);
+    if worst < 0.01 {
+        format!(
+            "tracks: final error {:.3} mm, last-20 % RMS {:.3} mm",
+            1e3 * s.final_position_error_m,
+            1e3 * s.rms_position_error_tail_m
+        )
+    } else if worst < 0.1 {
+        format!(
+            "tracks roughly: final error {:.1} cm, last-20 % RMS {:.1} cm",
+            1e2 * s.final_position_error_m,
+            1e2 * s.rms_position_error_tail_m
+        )
+    } else {
+        format!(
+            "does not track: final error {:.2} m, last-20 % RMS {:.2} m",
+            s.final_position_error_m, s.rms_position_error_tail_m
+        )
+    }
 }
 
 /// Run one scenario.
@@ -513,6 +545,7 @@ pub fn run(sc: &Scenario, opts: &RunOptions) -> Result<RunOutput> {
             s.rms_position_error_last80_m = f64::INFINITY;
         }
     }
+    s.verdict = verdict(&s);
     let fs = last.state;
     s.final_state = fs.eta.iter().chain(fs.nu.iter()).copied().collect();
     s.wall_time_s = wall.elapsed().as_secs_f64();
