@@ -400,11 +400,24 @@ pub fn run_plots(dir: &Path, out: &RunOutput) -> Result<()> {
             )?;
             figure(
                 &dir.join("fig_xz.png"),
-                (1200, 600),
+                (1200, 900),
                 &format!("{head}{verdict}"),
+                2,
                 1,
-                1,
-                vec![proj("XZ", 2, true)],
+                vec![
+                    proj("XZ", 2, true),
+                    (
+                        "Depth against time".to_string(),
+                        "t (s)".to_string(),
+                        "z (m, down)".to_string(),
+                        vec![
+                            Series::new("z", ts(log, |s| s.state.eta[2])),
+                            Series::new("z_r", ts(log, |s| s.ref_pos_m[2])).dashed(),
+                        ],
+                        false,
+                        true,
+                    ),
+                ],
             )?;
             figure(
                 &dir.join("fig_errors.png"),

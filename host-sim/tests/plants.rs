@@ -85,6 +85,19 @@ proptest! {
 }
 
 #[test]
+fn xz_drifting_with_the_current_is_an_equilibrium() {
+    let p = params();
+    for (cx, cz) in [(0.2, 0.0), (-0.1, 0.05), (0.0, -0.2)] {
+        let st = [0.0, 0.0, 0.0, cx, cz, 0.0];
+        let d = pxz::derivatives(&p, &st, [0.0; 3], [cx, 0.0, cz]);
+        assert!((d[0] - cx).abs() < 1e-12 && (d[1] - cz).abs() < 1e-12);
+        for (i, di) in d.iter().enumerate().skip(2) {
+            assert!(di.abs() < 1e-12, "d[{i}] = {di}");
+        }
+    }
+}
+
+#[test]
 fn xz_rest_is_an_equilibrium_when_neutral() {
     let mut plant = XzPlant::new(
         &VehicleParams::OBSERVER,
