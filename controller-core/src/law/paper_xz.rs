@@ -12,9 +12,11 @@
 //! `u_1r = u_r + alpha q_r = x_r_dot`; the transformed point of the reference pose is
 //! `x_1r = x_r + alpha sin(theta_r) = x_r`, `z_1r = z_r + alpha cos(theta_r) = z_r + alpha`.
 //! Feed-forward derivatives: `u_1r_dot = x_r_ddot`, `w_r_dot = z_r_ddot`, `q_r_dot = 0`.
-//! This reference is kinematically exact; it is not exactly an equilibrium of the dynamics
-//! (the Munk moment needs a small pitch, about -0.01 rad at the paper's peak speed), which the
-//! law treats like the rest of its disturbance `xi`.
+//! This reference is kinematically exact; it is not an equilibrium of the dynamics: with
+//! `q = 0` and `theta = 0` the transformed point decelerates at `a7 w u1` (the Munk moment,
+//! -0.54 m/s^2 at the paper's peak speed `u = w = 0.5 m/s`), which only a pitch of about
+//! `asin(-(Z_wdot - X_udot) u w / (z_g W)) = -0.055 rad` cancels. The law counts that in its
+//! disturbance `xi`.
 //!
 //! # The law
 //! Errors `x1e, z1e, theta_e = wrap(theta - theta_r), u1e, w_e, q_e`;
