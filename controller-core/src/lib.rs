@@ -9,7 +9,7 @@
 //!   derived coefficients of eqs. (2), (3), (34), (36).
 //! - [`model`]: the vertical-plane model in physical and transformed coordinates (eqs. (1)-(3),
 //!   corrected) and the horizontal-plane model (eq. (34), reduced).
-//! - [`reference`]: reference trajectories with analytic derivatives.
+//! - [`reference`](mod@reference): reference trajectories with analytic derivatives.
 //! - [`law`]: the paper's laws and the tracking laws.
 //! - [`alloc`]: thrust allocation, saturation and the PWM map.
 //! - [`controller`]: one validated entry point over all of them.

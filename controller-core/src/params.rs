@@ -6,7 +6,7 @@
 //! magnitudes (the force is `-(X_u + X_uu |u|) u`). Added-mass derivatives keep the paper's sign
 //! (negative). Table I misprints `Z_wdot` as "-0.3 .848"; it is `-0.3848`.
 //!
-//! Values the paper needs but does not give are marked *assumed* below and in `docs/model.md`.
+//! Values the paper needs but does not give are marked *assumed* below and in `docs/derivation.md`.
 //! Everything the laws use is derived here from the raw set, never typed in twice.
 
 use crate::error::{finite, non_negative, positive, Error};

@@ -77,7 +77,26 @@ impl PaperPolynomial {
                 ..Deriv3::default()
             };
         }
+        // f(s) = 1 - f(1 - s): evaluate on the half nearer to its start, where the quotient
+        // rule below has no cancellation (near s = 1, N' and f D' are both ~5 and their
+        // difference is lost in f32), then mirror: the first and third derivatives are
+        // symmetric about s = 1/2, the second antisymmetric.
         let s = t_s / tf;
+        let mirrored = s > 0.5;
+        let (f0, f1, f2, f3) = Self::shape(if mirrored { 1.0 - s } else { s });
+        let (f0, f2) = if mirrored { (1.0 - f0, -f2) } else { (f0, f2) };
+        let h = self.h_r_m;
+        Deriv3 {
+            p: h * f0,
+            dp: h * f1 / tf,
+            ddp: h * f2 / (tf * tf),
+            dddp: h * f3 / (tf * tf * tf),
+        }
+    }
+
+    /// `f(s) = s^5 / (s^5 + (1 - s)^5)` and its first three derivatives in `s`, for
+    /// `s` in [0, 1/2].
+    fn shape(s: f32) -> (f32, f32, f32, f32) {
         let c = 1.0 - s;
         // N = s^5 and derivatives in s.
         let s2 = s * s;
@@ -87,31 +106,22 @@ impl PaperPolynomial {
         let n1 = 5.0 * s4;
         let n2 = 20.0 * s3;
         let n3 = 60.0 * s2;
-        // C = (1 - s)^5 and derivatives in s.
+        // C = (1 - s)^5.
         let c2 = c * c;
         let c3 = c2 * c;
         let c4 = c3 * c;
         let c0 = c4 * c;
-        let cc1 = -5.0 * c4;
-        let cc2 = 20.0 * c3;
-        let cc3 = -60.0 * c2;
-        // D = N + C.
+        // D = N + C and derivatives.
         let d0 = n0 + c0;
-        let d1 = n1 + cc1;
-        let d2 = n2 + cc2;
-        let d3 = n3 + cc3;
+        let d1 = n1 - 5.0 * c4;
+        let d2 = n2 + 20.0 * c3;
+        let d3 = n3 - 60.0 * c2;
         // f = N / D  =>  f D = N; differentiate: f' D + f D' = N', etc.
         let f0 = n0 / d0;
         let f1 = (n1 - f0 * d1) / d0;
         let f2 = (n2 - 2.0 * f1 * d1 - f0 * d2) / d0;
         let f3 = (n3 - 3.0 * f2 * d1 - 3.0 * f1 * d2 - f0 * d3) / d0;
-        let h = self.h_r_m;
-        Deriv3 {
-            p: h * f0,
-            dp: h * f1 / tf,
-            ddp: h * f2 / (tf * tf),
-            dddp: h * f3 / (tf * tf * tf),
-        }
+        (f0, f1, f2, f3)
     }
 
     /// The paper's reference point: `x_r = y_r = z_r` all following the polynomial.
@@ -249,6 +259,20 @@ mod tests {
         let r = PaperPolynomial::PAPER;
         for i in 1..100 {
             fd_check(&r, i as f32 + 0.37);
+        }
+    }
+
+    #[test]
+    fn velocity_accurate_near_the_end() {
+        // f'(s) = 5 s^4 (1 - s)^4 / D^2 in closed form, evaluated in f64.
+        let r = PaperPolynomial::PAPER;
+        for i in 0..=2000 {
+            let t = i as f64 * 0.05;
+            let s = t / 100.0;
+            let d = s.powi(5) + (1.0 - s).powi(5);
+            let v = 10.0 * 5.0 * s.powi(4) * (1.0 - s).powi(4) / (d * d) / 100.0;
+            let got = r.eval(t as f32).dp as f64;
+            assert!((got - v).abs() < 1e-6 + 1e-4 * v, "t = {t}: {got} vs {v}");
         }
     }
 
