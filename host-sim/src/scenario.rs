@@ -482,6 +482,7 @@ pub const BUILT_IN: &[BuiltIn] = &[
     builtin!("lawnmower-3d"),
     builtin!("helix-3d"),
     builtin!("current-3d"),
+    builtin!("mc-circle-3d"),
 ];
 
 impl Scenario {
