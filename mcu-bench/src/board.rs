@@ -99,6 +99,26 @@ impl Platform for Qemu {
         let low = lowest_touched()?;
         Some(stack_top().saturating_sub(low) as u32)
     }
+
+    #[inline(never)]
+    fn hw_sqrt(&self, x: f32) -> Option<f32> {
+        let mut bits = x.to_bits();
+        // SAFETY: FPU instructions on s0, which is saved and restored around them (the
+        // `sreg` operand class needs a target feature that is unstable to name on ARM); the FPU
+        // is enabled by cortex-m-rt for the eabihf target. Touches only the 4 bytes it pushes.
+        unsafe {
+            core::arch::asm!(
+                "vpush {{s0}}",
+                "vmov s0, {b}",
+                "vsqrt.f32 s0, s0",
+                "vmov {b}, s0",
+                "vpop {{s0}}",
+                b = inout(reg) bits,
+            );
+        }
+        let r = f32::from_bits(bits);
+        Some(r)
+    }
 }
 
 /// Lowest stack address that no longer holds the paint pattern.

@@ -1,0 +1,146 @@
+#!/usr/bin/env python3
+"""Where the instructions of one mcu-bench item go (a profiler for the emulated Cortex-M4).
+
+    scripts/mcu-profile.py control_step.paper_xy [--wrapper control_step] [--top 25]
+
+Builds mcu-bench with MCU_BENCH_ONLY=<item> (only that item runs), runs it in QEMU
+netduinoplus2 with one instruction per translation block and an execution trace
+(`-singlestep -d exec,nochain`), keeps only the instructions executed inside the bench's
+`#[inline(never)]` wrapper of the item (from its entry until control is back in the caller),
+and attributes each to its function (ELF symbol) and to its innermost source line
+(`llvm-objdump -d -l`, release builds carry debug info). Prints instructions per call.
+Honors CARGO_TARGET_DIR.
+"""
+import argparse
+import collections
+import glob
+import os
+import re
+import subprocess
+import sys
+import tempfile
+
+TARGET = "thumbv7em-none-eabihf"
+WRAPPERS = {
+    "control_step": "control_step",
+    "alloc+pwm": "alloc_pwm",
+    "math.sin_cos": "own_sin_cos",
+    "math.atan2": "own_atan2",
+    "math.sqrt": "own_sqrt",
+    "reference": "ref_sample",
+    "loop": "loop_iteration",
+}
+
+
+def llvm(tool):
+    sysroot = subprocess.check_output(["rustc", "--print", "sysroot"], text=True).strip()
+    hits = glob.glob(os.path.join(sysroot, "lib/rustlib/*/bin", tool))
+    if not hits:
+        sys.exit(f"{tool} not found: rustup component add llvm-tools")
+    return hits[0]
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("item")
+    ap.add_argument("--wrapper", help="bench wrapper function (default from the item name)")
+    ap.add_argument("--top", type=int, default=25)
+    a = ap.parse_args()
+    wrapper = a.wrapper or next(
+        (w for k, w in WRAPPERS.items() if a.item.startswith(k)), None)
+    if wrapper is None:
+        sys.exit("give --wrapper")
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    tdir = os.environ.get("CARGO_TARGET_DIR", os.path.join(root, "target"))
+    env = dict(os.environ, MCU_BENCH_ONLY=a.item)
+    subprocess.check_call(["cargo", "build", "-q", "-p", "mcu-bench", "--release",
+                           "--target", TARGET], cwd=root, env=env)
+    elf = os.path.join(tdir, TARGET, "release", "mcu-bench")
+
+    # Address -> innermost source line, from the disassembly with line info.
+    dis = subprocess.check_output([llvm("llvm-objdump"), "-d", "-l", "--no-show-raw-insn",
+                                   elf], text=True)
+    line_of = {}
+    cur = "?"
+    for ln in dis.splitlines():
+        m = re.match(r"^; (/\S+:\d+)", ln)
+        if m:
+            cur = m.group(1)
+            for pre in (root + "/", os.path.expanduser("~/.cargo/registry/src/")):
+                cur = cur.replace(pre, "")
+            cur = re.sub(r"^index\.crates\.io-[0-9a-f]+/", "", cur)
+            cur = re.sub(r"^/rustc/[0-9a-f]+/library/", "std:", cur)
+            continue
+        m = re.match(r"^([0-9a-f]+) <", ln)
+        if m:
+            cur = "?"
+            continue
+        m = re.match(r"^\s*([0-9a-f]+):\s", ln)
+        if m:
+            line_of[int(m.group(1), 16)] = cur
+
+    with tempfile.TemporaryDirectory() as td:
+        log = os.path.join(td, "trace.log")
+        subprocess.run(["timeout", "300", "qemu-system-arm", "-M", "netduinoplus2", "-nographic",
+                        "-monitor", "none", "-semihosting-config", "enable=on,target=native",
+                        "-singlestep", "-d", "exec,nochain", "-D", log, "-kernel", elf],
+                       stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, check=True)
+        by_fn = collections.Counter()
+        by_line = collections.Counter()
+        calls = 0
+        inside = False
+        caller = None
+        pat = re.compile(r"\[[0-9a-f]+/([0-9a-f]+)/[0-9a-f]+/[0-9a-f]+\] (\S+)")
+        wrap_re = re.compile(r"mcu_bench\d*bench\d*" + re.escape(wrapper) + r"\d*h|"
+                             r"bench::" + re.escape(wrapper) + "::|"
+                             r"\d" + re.escape(wrapper) + r"17h")
+        prev_sym = None
+        with open(log, errors="replace") as f:
+            for ln in f:
+                m = pat.search(ln)
+                if not m:
+                    continue
+                pc, sym = int(m.group(1), 16), m.group(2)
+                if not inside and wrap_re.search(sym) and prev_sym != sym:
+                    inside, caller, calls = True, prev_sym, calls + 1
+                elif inside and sym == caller:
+                    inside = False
+                if inside:
+                    by_fn[demangle(sym)] += 1
+                    by_line[line_of.get(pc, "?")] += 1
+                prev_sym = sym
+    if calls == 0:
+        sys.exit(f"no call of the wrapper `{wrapper}` seen")
+    total = sum(by_fn.values())
+    print(f"{a.item}: {calls} calls, {total / calls:.1f} instructions per call "
+          f"(trace, incl. call/return of the wrapper)")
+    print("\nby function (instructions per call, inlined code counts in its caller):")
+    for k, v in by_fn.most_common(a.top):
+        print(f"  {v / calls:8.1f}  {k}")
+    print("\nby innermost source line (instructions per call):")
+    for k, v in by_line.most_common(a.top):
+        print(f"  {v / calls:8.1f}  {k}")
+
+
+def demangle(sym):
+    try:
+        return subprocess.check_output(["rustfilt"], input=sym, text=True).strip()
+    except OSError:
+        s = re.sub(r"17h[0-9a-f]{16}E$", "", sym)
+        s = re.sub(r"^_ZN", "", s)
+        parts = []
+        while s:
+            m = re.match(r"(\d+)", s)
+            if not m:
+                break
+            n = int(m.group(1))
+            s = s[len(m.group(1)):]
+            parts.append(s[:n])
+            s = s[n:]
+        out = "::".join(parts) if parts else sym
+        return out.replace("$LT$", "<").replace("$GT$", ">").replace("$u20$", " ") \
+            .replace("..", "::").replace("$C$", ",")
+
+
+if __name__ == "__main__":
+    main()
