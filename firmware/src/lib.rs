@@ -1,2 +1,23 @@
-//! ROV firmware library (being written).
+//! ROV firmware library: the tether protocol, the vehicle state machine with its failsafes,
+//! and the application loop generic over `embedded-hal` / `embedded-io` traits.
+//!
+//! Everything here builds and is tested on the host; the only hardware code is [`board`]
+//! (compiled for `target_os = "none"` only), used by the two thin binaries `stm32f4` (the
+//! real board) and `qemu` (the emulated `netduinoplus2`).
+//!
+//! - [`protocol`]: messages, framing (postcard + CRC-32 + COBS) and the streaming decoder;
+//! - [`autopilot`]: arming, modes, failsafes and the control step, no I/O;
+//! - [`app`]: the loop: serial in, control, PWM out, telemetry.
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
+
+pub mod app;
+pub mod autopilot;
+mod crc32;
+pub mod ring;
+pub mod protocol;
+
+#[cfg(target_os = "none")]
+pub mod board;
+
+pub use app::{App, Config, ConfigError, Monotonic, Timing};
+pub use autopilot::{Autopilot, Failsafe, StepOutput};

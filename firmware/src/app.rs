@@ -1,0 +1,490 @@
+//! The application: the [`Autopilot`] behind three PWM outputs, a serial port and a clock.
+//!
+//! Generic over `embedded_hal::pwm::SetDutyCycle` (the ESCs), `embedded_io` `Read + ReadReady
+//! + Write` (the tether) and [`Monotonic`] (time), so the same code runs on the STM32F4, on
+//! QEMU and in the host tests with fakes.
+//!
+//! Two timings ([`Timing`]):
+//! - **fixed-rate**: call [`App::tick`] often; it reads every waiting byte, runs the control
+//!   step every `control_period_us` of the board's clock and sends telemetry every
+//!   `telemetry_period_us`;
+//! - **lock-step** (hardware in the loop): the firmware's clock is the host's time, i.e. the
+//!   latest `t_us` received in a `Heartbeat` or `NavState`; each `NavState` runs one control
+//!   step at once and is answered by a `Telemetry` that carries the thruster commands. The
+//!   failsafes then run in simulated time, deterministically.
+
+use crate::autopilot::{Autopilot, Failsafe, StepOutput};
+use crate::protocol::{
+    encode, fault, Board, Command, Decoded, DropReason, FrameDecoder, LinkStats, NackReason,
+    Reply, Telemetry, MAX_FRAME_LEN,
+};
+use controller_core::controller::Controller;
+use embedded_hal::pwm::SetDutyCycle;
+use embedded_io::{Read, ReadReady, Write};
+
+/// A monotonic clock.
+pub trait Monotonic {
+    /// Microseconds since an arbitrary origin; never decreases.
+    fn now_us(&mut self) -> u64;
+    /// A free-running counter for loop timing (wraps). Default: microseconds.
+    fn ticks(&mut self) -> u32 {
+        self.now_us() as u32
+    }
+}
+
+/// When the control step runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Timing {
+    /// On the board's clock.
+    FixedRate {
+        /// Control period, microseconds.
+        control_period_us: u32,
+        /// Telemetry period, microseconds (0 = no periodic telemetry).
+        telemetry_period_us: u32,
+    },
+    /// On each `NavState`, in the host's time.
+    LockStep,
+}
+
+/// Application settings.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Config {
+    /// Timing.
+    pub timing: Timing,
+    /// PWM frequency, 50 to 400 Hz.
+    pub pwm_hz: u16,
+    /// Failsafe timeouts.
+    pub failsafe: Failsafe,
+    /// Which board (reported in `Hello`).
+    pub board: Board,
+    /// Most bytes read from the serial port per `tick` (bounds the loop time).
+    pub max_rx_bytes_per_tick: usize,
+}
+
+impl Config {
+    /// 50 Hz control, 10 Hz telemetry, 50 Hz PWM, the specified failsafes.
+    pub const fn fixed_rate(board: Board) -> Self {
+        Self {
+            timing: Timing::FixedRate {
+                control_period_us: 20_000,
+                telemetry_period_us: 100_000,
+            },
+            pwm_hz: 50,
+            failsafe: Failsafe::DEFAULT,
+            board,
+            max_rx_bytes_per_tick: 512,
+        }
+    }
+
+    /// Lock-step (HIL), 50 Hz PWM, the specified failsafes.
+    pub const fn lockstep(board: Board) -> Self {
+        Self {
+            timing: Timing::LockStep,
+            pwm_hz: 50,
+            failsafe: Failsafe::DEFAULT,
+            board,
+            max_rx_bytes_per_tick: 512,
+        }
+    }
+
+    /// PWM period, microseconds.
+    pub fn pwm_period_us(&self) -> u32 {
+        1_000_000 / u32::from(self.pwm_hz.max(1))
+    }
+}
+
+/// Why the application could not start.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum ConfigError {
+    /// PWM frequency outside 50-400 Hz.
+    PwmFrequency,
+    /// A PWM output has a zero maximum duty.
+    PwmResolution,
+    /// A zero control period.
+    ControlPeriod,
+}
+
+impl core::fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            ConfigError::PwmFrequency => write!(f, "PWM frequency must be 50-400 Hz"),
+            ConfigError::PwmResolution => write!(f, "PWM output with zero max duty"),
+            ConfigError::ControlPeriod => write!(f, "control period must be > 0"),
+        }
+    }
+}
+
+impl core::error::Error for ConfigError {}
+
+/// Duty for a pulse width: `pulse_us / period_us * max_duty`, rounded, with the pulse clamped
+/// to `[min_us, max_us]` first (NaN -> `neutral_us`).
+pub fn duty_for_pulse(
+    pulse_us: f32,
+    min_us: f32,
+    neutral_us: f32,
+    max_us: f32,
+    period_us: u32,
+    max_duty: u16,
+) -> u16 {
+    let p = if pulse_us.is_nan() {
+        neutral_us
+    } else {
+        pulse_us.clamp(min_us, max_us)
+    };
+    // `as` saturates; p is within [min_us, max_us] here.
+    let p = (p + 0.5) as u32;
+    let period = period_us.max(1);
+    let d = (u64::from(p) * u64::from(max_duty) + u64::from(period / 2)) / u64::from(period);
+    d.min(u64::from(max_duty)) as u16
+}
+
+/// Pulse width a duty gives, microseconds (what the ESC sees), rounded.
+pub fn pulse_for_duty(duty: u16, period_us: u32, max_duty: u16) -> u16 {
+    let m = u64::from(max_duty.max(1));
+    let p = (u64::from(duty) * u64::from(period_us) + m / 2) / m;
+    p.min(u64::from(u16::MAX)) as u16
+}
+
+/// The application.
+pub struct App<P1, P2, P3, S, C> {
+    pwm: (P1, P2, P3),
+    serial: S,
+    clock: C,
+    config: Config,
+    autopilot: Autopilot,
+    decoder: FrameDecoder<Command>,
+    tx_seq: u16,
+    link: LinkStats,
+    host_time_us: u64,
+    next_control_us: Option<u64>,
+    next_telemetry_us: u64,
+    last: StepOutput,
+    duty: [u16; 3],
+    io_faults: u16,
+    loop_ticks: u32,
+    loop_ticks_max: u32,
+    overruns: u32,
+}
+
+impl<P1, P2, P3, S, C> App<P1, P2, P3, S, C>
+where
+    P1: SetDutyCycle,
+    P2: SetDutyCycle,
+    P3: SetDutyCycle,
+    S: Read + ReadReady + Write,
+    C: Monotonic,
+{
+    /// Check the settings, set the three outputs to neutral, boot disarmed.
+    pub fn new(
+        pwm: (P1, P2, P3),
+        serial: S,
+        clock: C,
+        controller: Controller,
+        config: Config,
+    ) -> Result<Self, ConfigError> {
+        if !(50..=400).contains(&config.pwm_hz) {
+            return Err(ConfigError::PwmFrequency);
+        }
+        if pwm.0.max_duty_cycle() == 0
+            || pwm.1.max_duty_cycle() == 0
+            || pwm.2.max_duty_cycle() == 0
+        {
+            return Err(ConfigError::PwmResolution);
+        }
+        if let Timing::FixedRate {
+            control_period_us: 0,
+            ..
+        } = config.timing
+        {
+            return Err(ConfigError::ControlPeriod);
+        }
+        let autopilot = Autopilot::new(controller, config.failsafe);
+        let mut app = Self {
+            pwm,
+            serial,
+            clock,
+            config,
+            autopilot,
+            decoder: FrameDecoder::new(),
+            tx_seq: 0,
+            link: LinkStats::default(),
+            host_time_us: 0,
+            next_control_us: None,
+            next_telemetry_us: 0,
+            last: StepOutput::default(),
+            duty: [0; 3],
+            io_faults: 0,
+            loop_ticks: 0,
+            loop_ticks_max: 0,
+            overruns: 0,
+        };
+        let neutral = app.neutral_output();
+        app.write_pwm(&neutral);
+        app.last = neutral;
+        Ok(app)
+    }
+
+    /// Send the `Hello` frame (call once at boot, after the serial port is up).
+    pub fn hello(&mut self) {
+        let (lockstep, period) = match self.config.timing {
+            Timing::LockStep => (true, 0),
+            Timing::FixedRate {
+                control_period_us, ..
+            } => (false, control_period_us),
+        };
+        self.send(&Reply::Hello {
+            protocol: crate::protocol::PROTOCOL_VERSION,
+            board: self.config.board,
+            lockstep,
+            control_period_us: period,
+            pwm_hz: self.config.pwm_hz,
+        });
+    }
+
+    /// The state machine (read-only).
+    pub fn autopilot(&self) -> &Autopilot {
+        &self.autopilot
+    }
+
+    /// Duties last written to the three outputs.
+    pub fn duties(&self) -> [u16; 3] {
+        self.duty
+    }
+
+    /// The output of the latest step.
+    pub fn last_output(&self) -> &StepOutput {
+        &self.last
+    }
+
+    /// Link counters.
+    pub fn link_stats(&self) -> LinkStats {
+        let mut l = self.link;
+        l.rx_frames = self.decoder.frames;
+        l.dropped = self.decoder.dropped;
+        l
+    }
+
+    /// The PWM outputs, serial port and clock (for tests and the board).
+    pub fn parts_mut(&mut self) -> (&mut (P1, P2, P3), &mut S, &mut C) {
+        (&mut self.pwm, &mut self.serial, &mut self.clock)
+    }
+
+    /// Firmware time: the board's clock (fixed-rate) or the host's time (lock-step).
+    pub fn now_us(&mut self) -> u64 {
+        match self.config.timing {
+            Timing::FixedRate { .. } => self.clock.now_us(),
+            Timing::LockStep => self.host_time_us,
+        }
+    }
+
+    /// One pass of the main loop: read and handle every waiting frame (at most
+    /// `max_rx_bytes_per_tick` bytes), then, in fixed-rate mode, run the control step and
+    /// the telemetry when they are due.
+    pub fn tick(&mut self) {
+        let mut budget = self.config.max_rx_bytes_per_tick;
+        while budget > 0 {
+            match self.serial.read_ready() {
+                Ok(true) => {}
+                Ok(false) => break,
+                Err(_) => {
+                    self.io_faults |= fault::SERIAL_ERROR;
+                    break;
+                }
+            }
+            let mut buf = [0u8; 64];
+            let want = budget.min(buf.len());
+            let n = match self.serial.read(buf.get_mut(..want).unwrap_or(&mut [])) {
+                Ok(n) => n,
+                Err(_) => {
+                    self.io_faults |= fault::SERIAL_ERROR;
+                    break;
+                }
+            };
+            if n == 0 {
+                break;
+            }
+            budget = budget.saturating_sub(n);
+            for &b in buf.get(..n).unwrap_or(&[]) {
+                self.on_byte(b);
+            }
+        }
+        if let Timing::FixedRate {
+            control_period_us,
+            telemetry_period_us,
+        } = self.config.timing
+        {
+            let now = self.clock.now_us();
+            let period = u64::from(control_period_us);
+            let due = *self.next_control_us.get_or_insert(now);
+            if now >= due {
+                let late = now - due;
+                if late >= period {
+                    self.overruns = self.overruns.wrapping_add(1);
+                    self.next_control_us = Some(now + period);
+                } else {
+                    self.next_control_us = Some(due + period);
+                }
+                self.control(now);
+            }
+            if telemetry_period_us > 0 && now >= self.next_telemetry_us {
+                self.next_telemetry_us = now + u64::from(telemetry_period_us);
+                self.send_telemetry(now);
+            }
+        }
+    }
+
+    /// Feed one received byte to the decoder and act on a completed frame.
+    pub fn on_byte(&mut self, byte: u8) {
+        match self.decoder.push(byte) {
+            None => {}
+            Some(Decoded::Frame { seq, msg }) => self.on_command(seq, &msg),
+            Some(Decoded::Dropped { reason, seq }) => {
+                if let Some(seq) = seq {
+                    let reason = match reason {
+                        DropReason::Version => NackReason::UnsupportedVersion,
+                        _ => NackReason::Malformed,
+                    };
+                    self.nack(seq, reason);
+                }
+            }
+        }
+    }
+
+    fn on_command(&mut self, seq: u16, cmd: &Command) {
+        let lockstep = self.config.timing == Timing::LockStep;
+        if lockstep {
+            // The host's clock: the latest time stamp received (never goes back).
+            let t = match cmd {
+                Command::Heartbeat { t_us } => Some(*t_us),
+                Command::Nav(n) if n.state.is_finite() => Some(n.t_us),
+                _ => None,
+            };
+            if let Some(t) = t {
+                self.host_time_us = self.host_time_us.max(t);
+            }
+        }
+        let now = self.now_us();
+        match self.autopilot.handle(now, seq, cmd) {
+            Err(reason) => self.nack(seq, reason),
+            Ok(()) => match cmd {
+                Command::Heartbeat { .. } | Command::ManualThrust(_) => {}
+                Command::Nav(_) => {
+                    if lockstep {
+                        self.control(now);
+                        self.send_telemetry(now);
+                    }
+                }
+                Command::Disarm => {
+                    // Neutral at once, not at the next step.
+                    let n = self.neutral_output();
+                    self.write_pwm(&n);
+                    self.last = n;
+                    self.send(&Reply::Ack { seq });
+                }
+                _ => self.send(&Reply::Ack { seq }),
+            },
+        }
+    }
+
+    fn neutral_output(&self) -> StepOutput {
+        let n = self.autopilot.controller().pwm_map().neutral_us;
+        StepOutput {
+            pulse_us: [n; 3],
+            ..StepOutput::default()
+        }
+    }
+
+    /// Run the control step at `now` and write the outputs.
+    fn control(&mut self, now: u64) {
+        let t0 = self.clock.ticks();
+        let out = self.autopilot.step(now);
+        self.write_pwm(&out);
+        self.last = out;
+        let dt = self.clock.ticks().wrapping_sub(t0);
+        self.loop_ticks = dt;
+        self.loop_ticks_max = self.loop_ticks_max.max(dt);
+    }
+
+    fn write_pwm(&mut self, out: &StepOutput) {
+        let map = *self.autopilot.controller().pwm_map();
+        let period = self.config.pwm_period_us();
+        let [p1, p2, p3] = out.pulse_us;
+        let d = |p: f32, max: u16| {
+            duty_for_pulse(p, map.min_us, map.neutral_us, map.max_us, period, max)
+        };
+        let d1 = d(p1, self.pwm.0.max_duty_cycle());
+        let d2 = d(p2, self.pwm.1.max_duty_cycle());
+        let d3 = d(p3, self.pwm.2.max_duty_cycle());
+        let ok = self.pwm.0.set_duty_cycle(d1).is_ok()
+            & self.pwm.1.set_duty_cycle(d2).is_ok()
+            & self.pwm.2.set_duty_cycle(d3).is_ok();
+        if !ok {
+            self.io_faults |= fault::PWM_ERROR;
+        }
+        self.duty = [d1, d2, d3];
+    }
+
+    /// Telemetry as it would be sent now.
+    pub fn telemetry(&mut self, now: u64) -> Telemetry {
+        let period = self.config.pwm_period_us();
+        let [d1, d2, d3] = self.duty;
+        let pulse_us = [
+            pulse_for_duty(d1, period, self.pwm.0.max_duty_cycle()),
+            pulse_for_duty(d2, period, self.pwm.1.max_duty_cycle()),
+            pulse_for_duty(d3, period, self.pwm.2.max_duty_cycle()),
+        ];
+        let (nav_seq, nav_t_us) = self.autopilot.latest_nav().unwrap_or((0, 0));
+        let overrun = if self.overruns > 0 { fault::OVERRUN } else { 0 };
+        Telemetry {
+            t_us: now,
+            mode: self.autopilot.mode(),
+            armed: self.autopilot.armed(),
+            nav_seq,
+            nav_t_us,
+            errors: self.last.errors,
+            requested: self.last.requested,
+            achieved: self.last.allocation.achieved,
+            thrust_n: self.last.allocation.thrust_n,
+            pulse_us,
+            faults: self.last.faults | self.io_faults | overrun,
+            link: self.link_stats(),
+            steps: self.autopilot.steps,
+            loop_ticks: self.loop_ticks,
+            loop_ticks_max: self.loop_ticks_max,
+            overruns: self.overruns,
+        }
+    }
+
+    fn send_telemetry(&mut self, now: u64) {
+        let t = self.telemetry(now);
+        self.send(&Reply::Telemetry(t));
+    }
+
+    fn nack(&mut self, seq: u16, reason: NackReason) {
+        self.link.nacks = self.link.nacks.wrapping_add(1);
+        self.send(&Reply::Nack { seq, reason });
+    }
+
+    fn send(&mut self, reply: &Reply) {
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let seq = self.tx_seq;
+        self.tx_seq = self.tx_seq.wrapping_add(1);
+        let Ok(frame) = encode(seq, reply, &mut buf) else {
+            // Every reply fits (tested); never reached.
+            self.io_faults |= fault::SERIAL_ERROR;
+            return;
+        };
+        let mut rest = frame;
+        while !rest.is_empty() {
+            match self.serial.write(rest) {
+                Ok(n) if n > 0 => rest = rest.get(n..).unwrap_or(&[]),
+                _ => {
+                    self.io_faults |= fault::SERIAL_ERROR;
+                    return;
+                }
+            }
+        }
+        self.link.tx_frames = self.link.tx_frames.wrapping_add(1);
+    }
+}

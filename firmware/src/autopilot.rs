@@ -1,0 +1,432 @@
+//! The vehicle's state machine: arming, modes, failsafes and the control step, with no I/O.
+//!
+//! [`Autopilot::handle`] applies one command (validated first; on a refusal nothing changes)
+//! and [`Autopilot::step`] computes the thruster commands at time `now_us`. Time is passed
+//! in, so the same code runs on the board's clock (fixed-rate) or on the host's time
+//! (lock-step), and the tests drive it exactly.
+//!
+//! Failsafes (the table in `docs/firmware.md`), evaluated at every step:
+//!
+//! | condition | action |
+//! | --- | --- |
+//! | disarmed, or mode `Idle` | neutral pulses |
+//! | no heartbeat for `heartbeat_neutral_us` (0.5 s) | neutral, `HEARTBEAT_LOST` |
+//! | no heartbeat for `heartbeat_disarm_us` (1 s) | disarm, `LINK_DISARMED` until re-armed |
+//! | tracking / hold and `NavState` older than `nav_stale_us` (0.2 s) | neutral, `NAV_STALE` |
+//! | manual and `ManualThrust` older than `manual_stale_us` (0.5 s) | neutral, `MANUAL_STALE` |
+
+use crate::protocol::{fault, Command, Law, ManualThrust, Mode, NackReason, NavSample, Plane};
+use controller_core::alloc::{allocate, Allocation};
+use controller_core::controller::{ControlMode, Controller};
+use controller_core::reference::Reference;
+use controller_core::state::{BodyForces, NavState, TrackingErrors};
+
+/// Failsafe timeouts, microseconds of the firmware's clock.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Failsafe {
+    /// Heartbeat age at which thrust goes neutral.
+    pub heartbeat_neutral_us: u64,
+    /// Heartbeat age at which the vehicle disarms.
+    pub heartbeat_disarm_us: u64,
+    /// `NavState` age at which tracking stops (neutral) and arming is refused.
+    pub nav_stale_us: u64,
+    /// `ManualThrust` age at which manual thrust goes neutral.
+    pub manual_stale_us: u64,
+}
+
+impl Failsafe {
+    /// The specified timeouts: 0.5 s, 1 s, 0.2 s, 0.5 s.
+    pub const DEFAULT: Self = Self {
+        heartbeat_neutral_us: 500_000,
+        heartbeat_disarm_us: 1_000_000,
+        nav_stale_us: 200_000,
+        manual_stale_us: 500_000,
+    };
+}
+
+impl Default for Failsafe {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// Largest magnitudes accepted in a `NavState` (anything beyond is a broken estimator).
+pub mod nav_limits {
+    /// Position, metres from the origin.
+    pub const POSITION_M: f32 = 1.0e5;
+    /// Angle (yaw may be unwrapped), radians.
+    pub const ANGLE_RAD: f32 = 1.0e3;
+    /// Linear speed, m/s.
+    pub const SPEED_M_S: f32 = 20.0;
+    /// Angular rate, rad/s.
+    pub const RATE_RAD_S: f32 = 50.0;
+}
+
+/// Check a navigation state: every field finite and within [`nav_limits`].
+pub fn check_nav(s: &NavState) -> Result<(), NackReason> {
+    use nav_limits::*;
+    if !s.is_finite() {
+        return Err(NackReason::NonFinite);
+    }
+    let groups: [(&[f32], f32); 4] = [
+        (&[s.x_m, s.y_m, s.z_m], POSITION_M),
+        (&[s.roll_rad, s.pitch_rad, s.yaw_rad], ANGLE_RAD),
+        (&[s.u_m_s, s.v_m_s, s.w_m_s], SPEED_M_S),
+        (&[s.p_rad_s, s.q_rad_s, s.r_rad_s], RATE_RAD_S),
+    ];
+    for (vals, lim) in groups {
+        if vals.iter().any(|v| v.abs() > lim) {
+            return Err(NackReason::OutOfRange);
+        }
+    }
+    Ok(())
+}
+
+/// What one step commands.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct StepOutput {
+    /// Forces asked for (law or manual); zero when neutral.
+    pub requested: BodyForces,
+    /// Thrusts `[F1x, F2x, F3z]` (within the limits) and the forces they make.
+    pub allocation: Allocation,
+    /// Pulse widths for the three ESCs, microseconds.
+    pub pulse_us: [f32; 3],
+    /// Tracking errors (zero when no law ran).
+    pub errors: TrackingErrors,
+    /// Fault flags of this step ([`fault`]).
+    pub faults: u16,
+    /// True when a control law ran.
+    pub law_ran: bool,
+}
+
+/// The latest navigation state and when it arrived.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct NavRx {
+    rx_us: u64,
+    seq: u16,
+    sample: NavSample,
+}
+
+/// Arming, modes, references, failsafes and the controller.
+#[derive(Debug, Clone)]
+pub struct Autopilot {
+    controller: Controller,
+    failsafe: Failsafe,
+    armed: bool,
+    mode: Mode,
+    reference: Option<(Reference, u64)>,
+    hold: Option<(Reference, u64)>,
+    last_heartbeat_us: Option<u64>,
+    nav: Option<NavRx>,
+    manual: Option<(u64, ManualThrust)>,
+    sticky: u16,
+    last_step_us: Option<u64>,
+    /// Control steps run.
+    pub steps: u32,
+}
+
+impl Autopilot {
+    /// Boots disarmed, `Idle`, no reference.
+    pub fn new(controller: Controller, failsafe: Failsafe) -> Self {
+        Self {
+            controller,
+            failsafe,
+            armed: false,
+            mode: Mode::Idle,
+            reference: None,
+            hold: None,
+            last_heartbeat_us: None,
+            nav: None,
+            manual: None,
+            sticky: 0,
+            last_step_us: None,
+            steps: 0,
+        }
+    }
+
+    /// Armed?
+    pub fn armed(&self) -> bool {
+        self.armed
+    }
+
+    /// Current mode.
+    pub fn mode(&self) -> Mode {
+        self.mode
+    }
+
+    /// The controller (gains, limits, PWM map).
+    pub fn controller(&self) -> &Controller {
+        &self.controller
+    }
+
+    /// Failsafe timeouts.
+    pub fn failsafe(&self) -> &Failsafe {
+        &self.failsafe
+    }
+
+    /// Sequence number and time stamp of the latest accepted `NavState`.
+    pub fn latest_nav(&self) -> Option<(u16, u64)> {
+        self.nav.map(|n| (n.seq, n.sample.t_us))
+    }
+
+    /// Sticky fault flags (cleared by arming).
+    pub fn sticky_faults(&self) -> u16 {
+        self.sticky
+    }
+
+    fn age(now_us: u64, then: Option<u64>) -> u64 {
+        then.map_or(u64::MAX, |t| now_us.saturating_sub(t))
+    }
+
+    fn nav_fresh(&self, now_us: u64) -> bool {
+        Self::age(now_us, self.nav.map(|n| n.rx_us)) <= self.failsafe.nav_stale_us
+    }
+
+    /// Disarm now (neutral from the next step).
+    pub fn disarm(&mut self) {
+        self.armed = false;
+        self.controller.reset();
+    }
+
+    /// Apply one command received at `now_us` with sequence number `seq`. On `Err` nothing
+    /// changed.
+    #[cfg_attr(feature = "no-panic", no_panic::no_panic)]
+    pub fn handle(&mut self, now_us: u64, seq: u16, cmd: &Command) -> Result<(), NackReason> {
+        match cmd {
+            Command::Heartbeat { .. } => {
+                self.last_heartbeat_us = Some(now_us);
+                Ok(())
+            }
+            Command::Arm => {
+                if Self::age(now_us, self.last_heartbeat_us) >= self.failsafe.heartbeat_neutral_us
+                {
+                    return Err(NackReason::NoHeartbeat);
+                }
+                if !self.nav_fresh(now_us) {
+                    return Err(NackReason::NavStale);
+                }
+                if !self.armed {
+                    self.controller.reset();
+                }
+                self.armed = true;
+                self.sticky = 0;
+                Ok(())
+            }
+            Command::Disarm => {
+                self.disarm();
+                Ok(())
+            }
+            Command::SetMode(mode) => self.set_mode(now_us, *mode),
+            Command::SetReference {
+                reference,
+                start_us,
+            } => {
+                reference.validate().map_err(NackReason::from)?;
+                self.reference = Some((*reference, start_us.unwrap_or(now_us)));
+                Ok(())
+            }
+            Command::SetGains(g) => self.controller.set_gains(*g).map_err(NackReason::from),
+            Command::Nav(sample) => {
+                check_nav(&sample.state)?;
+                if let Some(prev) = self.nav {
+                    if sample.t_us < prev.sample.t_us {
+                        return Err(NackReason::OutOfRange);
+                    }
+                }
+                self.nav = Some(NavRx {
+                    rx_us: now_us,
+                    seq,
+                    sample: *sample,
+                });
+                Ok(())
+            }
+            Command::ManualThrust(m) => {
+                if !m.is_valid() {
+                    return Err(if [m.surge, m.yaw, m.heave].iter().all(|v| v.is_finite()) {
+                        NackReason::OutOfRange
+                    } else {
+                        NackReason::NonFinite
+                    });
+                }
+                self.manual = Some((now_us, *m));
+                Ok(())
+            }
+        }
+    }
+
+    fn set_mode(&mut self, now_us: u64, mode: Mode) -> Result<(), NackReason> {
+        match mode {
+            Mode::Idle | Mode::Manual => {}
+            Mode::Track { plane, law } => {
+                control_mode(plane, law).ok_or(NackReason::Unsupported)?;
+                if self.reference.is_none() {
+                    return Err(NackReason::NoReference);
+                }
+            }
+            Mode::Hold => {
+                let nav = match self.nav {
+                    Some(n) if self.nav_fresh(now_us) => n,
+                    _ => return Err(NackReason::NavStale),
+                };
+                let s = nav.sample.state;
+                self.hold = Some((
+                    Reference::Hold {
+                        pos_m: [s.x_m, s.y_m, s.z_m],
+                    },
+                    now_us,
+                ));
+            }
+        }
+        if mode != self.mode {
+            self.controller.reset();
+        }
+        self.mode = mode;
+        if mode == Mode::Manual {
+            // A manual command from before the mode change must not start the thrusters.
+            self.manual = None;
+        }
+        Ok(())
+    }
+
+    /// Neutral output with the given faults.
+    fn neutral(&self, faults: u16) -> StepOutput {
+        let n = self.controller.pwm_map().neutral_us;
+        StepOutput {
+            pulse_us: [n; 3],
+            faults,
+            ..StepOutput::default()
+        }
+    }
+
+    /// Compute the thruster commands at `now_us`, applying every failsafe. Never panics.
+    #[cfg_attr(feature = "no-panic", no_panic::no_panic)]
+    pub fn step(&mut self, now_us: u64) -> StepOutput {
+        let fs = self.failsafe;
+        let dt_s = match self.last_step_us {
+            Some(t) => (now_us.saturating_sub(t) as f32 * 1e-6).clamp(1e-4, 0.2),
+            None => 0.02,
+        };
+        self.last_step_us = Some(now_us);
+        self.steps = self.steps.wrapping_add(1);
+
+        let hb_age = Self::age(now_us, self.last_heartbeat_us);
+        let mut faults = 0u16;
+        if self.armed && hb_age >= fs.heartbeat_disarm_us {
+            self.disarm();
+            self.sticky |= fault::LINK_DISARMED;
+        }
+        if hb_age >= fs.heartbeat_neutral_us {
+            faults |= fault::HEARTBEAT_LOST;
+        }
+        faults |= self.sticky;
+        if !self.armed || faults & fault::HEARTBEAT_LOST != 0 {
+            return self.neutral(faults);
+        }
+        match self.mode {
+            Mode::Idle => self.neutral(faults),
+            Mode::Manual => match self.manual {
+                Some((t, m)) if now_us.saturating_sub(t) < fs.manual_stale_us => {
+                    self.manual_output(&m, faults)
+                }
+                _ => self.neutral(faults | fault::MANUAL_STALE),
+            },
+            Mode::Track { plane, law } => {
+                let (Some(cm), Some((r, start))) = (control_mode(plane, law), self.reference)
+                else {
+                    return self.neutral(faults);
+                };
+                self.track(now_us, cm, &r, start, dt_s, faults)
+            }
+            Mode::Hold => match self.hold {
+                Some((r, start)) => {
+                    self.track(now_us, ControlMode::Tracking3d, &r, start, dt_s, faults)
+                }
+                None => self.neutral(faults),
+            },
+        }
+    }
+
+    fn track(
+        &mut self,
+        now_us: u64,
+        cm: ControlMode,
+        r: &Reference,
+        start_us: u64,
+        dt_s: f32,
+        faults: u16,
+    ) -> StepOutput {
+        let nav = match self.nav {
+            Some(n) if self.nav_fresh(now_us) => n,
+            _ => return self.neutral(faults | fault::NAV_STALE),
+        };
+        let t_s = now_us.saturating_sub(start_us) as f32 * 1e-6;
+        let sample = r.sample(t_s);
+        let out = self.controller.step(cm, &nav.sample.state, &sample, dt_s);
+        let sat = if out.allocation.saturated {
+            fault::SATURATED
+        } else {
+            0
+        };
+        StepOutput {
+            requested: out.requested,
+            allocation: out.allocation,
+            pulse_us: out.pulse_us,
+            errors: out.errors,
+            faults: faults | sat,
+            law_ran: true,
+        }
+    }
+
+    fn manual_output(&self, m: &ManualThrust, faults: u16) -> StepOutput {
+        let lim = self.controller.limits();
+        // Largest forces in each direction; asymmetric thrusters, so scale by sign.
+        let surge_max = if m.surge >= 0.0 {
+            2.0 * lim.max_forward_n
+        } else {
+            2.0 * lim.max_reverse_n
+        };
+        let yaw_max = lim.lever_arm_m * (lim.max_forward_n + lim.max_reverse_n);
+        let heave_max = if m.heave >= 0.0 {
+            lim.max_forward_n
+        } else {
+            lim.max_reverse_n
+        };
+        let requested = BodyForces {
+            surge_n: m.surge * surge_max,
+            yaw_n_m: m.yaw * yaw_max,
+            heave_n: m.heave * heave_max,
+        };
+        let allocation = allocate(&requested, lim);
+        let map = self.controller.pwm_map();
+        let pulse_us = [
+            map.pulse_us(allocation.thrust_n[0]),
+            map.pulse_us(allocation.thrust_n[1]),
+            map.pulse_us(allocation.thrust_n[2]),
+        ];
+        let sat = if allocation.saturated {
+            fault::SATURATED
+        } else {
+            0
+        };
+        StepOutput {
+            requested,
+            allocation,
+            pulse_us,
+            errors: TrackingErrors::default(),
+            faults: faults | sat,
+            law_ran: false,
+        }
+    }
+}
+
+/// The core's law for a tracking mode, `None` for the paper law in 3-D.
+pub fn control_mode(plane: Plane, law: Law) -> Option<ControlMode> {
+    match (law, plane) {
+        (Law::Paper, Plane::Xz) => Some(ControlMode::PaperXz),
+        (Law::Paper, Plane::Xy) => Some(ControlMode::PaperXy),
+        (Law::Paper, Plane::ThreeD) => None,
+        (Law::Tracking, Plane::Xz) => Some(ControlMode::TrackingXz),
+        (Law::Tracking, Plane::Xy) => Some(ControlMode::TrackingXy),
+        (Law::Tracking, Plane::ThreeD) => Some(ControlMode::Tracking3d),
+    }
+}

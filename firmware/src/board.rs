@@ -1,0 +1,317 @@
+//! The STM32F405 boards: the only module that names the HAL (`stm32f4xx-hal` 0.23).
+//!
+//! Two variants of one chip:
+//! - [`Variant::Stm32f4`]: the real board. HSE 8 MHz + PLL to 168 MHz, TIM2 as a 1 MHz
+//!   clock, fixed-rate control at 50 Hz, telemetry at 10 Hz, IWDG at 250 ms.
+//! - [`Variant::Qemu`]: QEMU `netduinoplus2`. Default clocks (QEMU 7.2 does not model the
+//!   RCC: a PLL request hangs), TIM2 at prescaler 0 (one tick per instruction under
+//!   `-icount shift=0`), lock-step on the host's time.
+//!
+//! Pins (both): TIM3 CH1/CH2/CH3 on PA6/PA7/PB0 drive the three ESCs (`F1x`, `F2x`, `F3z`);
+//! USART1 on PA9 (TX) / PA10 (RX) at 115 200 Bd is the tether (QEMU `-serial` 0). Receive is
+//! interrupt-driven into a 1 KiB ring buffer; transmit blocks per byte.
+#![allow(unsafe_code)]
+
+use crate::app::{App, Config, Monotonic, Timing};
+use crate::protocol::Board;
+use crate::ring::Ring;
+use controller_core::controller::{Controller, Gains};
+use controller_core::params::Vehicle;
+use core::cell::RefCell;
+use cortex_m::interrupt::Mutex;
+use stm32f4xx_hal::{
+    pac::{self, interrupt, TIM2, USART1},
+    prelude::*,
+    rcc::Config as RccConfig,
+    serial::{Rx, Tx},
+    timer::Counter,
+    watchdog::IndependentWatchdog,
+};
+
+/// Which board.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Variant {
+    /// STM32F405 hardware.
+    Stm32f4,
+    /// QEMU `netduinoplus2`.
+    Qemu,
+}
+
+/// External crystal of the real board.
+pub const HSE_HZ: u32 = 8_000_000;
+/// System clock of the real board.
+pub const SYSCLK_HZ: u32 = 168_000_000;
+/// Tether baud rate.
+pub const BAUD: u32 = 115_200;
+/// ESC PWM frequency (50-400 Hz).
+pub const PWM_HZ: u16 = 50;
+/// Watchdog timeout, milliseconds.
+pub const WATCHDOG_MS: u32 = 250;
+
+/// Bytes received by the USART1 interrupt, waiting for the main loop.
+static RX_RING: Mutex<RefCell<Ring<1024>>> = Mutex::new(RefCell::new(Ring::new()));
+/// The receiver, owned by the interrupt once started.
+static RX: Mutex<RefCell<Option<Rx<USART1>>>> = Mutex::new(RefCell::new(None));
+
+#[interrupt]
+fn USART1() {
+    cortex_m::interrupt::free(|cs| {
+        let mut rx = RX.borrow(cs).borrow_mut();
+        let mut ring = RX_RING.borrow(cs).borrow_mut();
+        if let Some(rx) = rx.as_mut() {
+            // Drain; an error (overrun, framing) is cleared by the read and the frame it hit
+            // is dropped by the CRC.
+            loop {
+                match rx.read() {
+                    Ok(b) => ring.push(b),
+                    Err(nb::Error::WouldBlock) => break,
+                    Err(nb::Error::Other(_)) => ring.overruns = ring.overruns.wrapping_add(1),
+                }
+            }
+        }
+    });
+}
+
+/// The tether: interrupt-fed receive ring, blocking transmit.
+pub struct Tether {
+    tx: Tx<USART1>,
+}
+
+/// Serial error (never produced: transmit blocks, receive errors are dropped by the CRC).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TetherError;
+
+impl embedded_io::Error for TetherError {
+    fn kind(&self) -> embedded_io::ErrorKind {
+        embedded_io::ErrorKind::Other
+    }
+}
+
+impl embedded_io::ErrorType for Tether {
+    type Error = TetherError;
+}
+
+impl embedded_io::ReadReady for Tether {
+    fn read_ready(&mut self) -> Result<bool, TetherError> {
+        Ok(cortex_m::interrupt::free(|cs| {
+            !RX_RING.borrow(cs).borrow().is_empty()
+        }))
+    }
+}
+
+impl embedded_io::Read for Tether {
+    fn read(&mut self, buf: &mut [u8]) -> Result<usize, TetherError> {
+        Ok(cortex_m::interrupt::free(|cs| {
+            RX_RING.borrow(cs).borrow_mut().pop_into(buf)
+        }))
+    }
+}
+
+impl embedded_io::Write for Tether {
+    fn write(&mut self, buf: &[u8]) -> Result<usize, TetherError> {
+        for &b in buf {
+            // Blocks until the data register is free; errors cannot occur on transmit.
+            if nb::block!(embedded_hal_nb::serial::Write::write(&mut self.tx, b)).is_err() {
+                return Err(TetherError);
+            }
+        }
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> Result<(), TetherError> {
+        Ok(())
+    }
+}
+
+/// TIM2 as a free-running 32-bit counter at `FREQ` Hz, extended to 64 bits.
+pub struct Tim2Clock<const FREQ: u32> {
+    counter: Counter<TIM2, FREQ>,
+    last: u32,
+    total: u64,
+}
+
+impl<const FREQ: u32> Tim2Clock<FREQ> {
+    /// Auto-reload: the counter counts 0..=ARR.
+    const ARR: u32 = u32::MAX - 1;
+
+    fn raw(&self) -> u32 {
+        self.counter.now().ticks()
+    }
+
+    fn update(&mut self) -> u64 {
+        let now = self.raw();
+        let d = if now >= self.last {
+            now - self.last
+        } else {
+            (Self::ARR - self.last) + now + 1
+        };
+        self.last = now;
+        self.total += u64::from(d);
+        self.total
+    }
+}
+
+impl<const FREQ: u32> Monotonic for Tim2Clock<FREQ> {
+    fn now_us(&mut self) -> u64 {
+        let t = self.update();
+        t / (u64::from(FREQ) / 1_000_000).max(1)
+    }
+
+    fn ticks(&mut self) -> u32 {
+        self.raw()
+    }
+}
+
+fn halt() -> ! {
+    cortex_m::peripheral::SCB::sys_reset()
+}
+
+/// Bring the board up and run the application forever.
+pub fn run(variant: Variant) -> ! {
+    let Some(dp) = pac::Peripherals::take() else {
+        halt()
+    };
+    let mut rcc = match variant {
+        Variant::Stm32f4 => dp.RCC.freeze(
+            RccConfig::hse(HSE_HZ.Hz())
+                .sysclk(SYSCLK_HZ.Hz())
+                .pclk1(42.MHz()),
+        ),
+        // No PLL: QEMU does not model the RCC.
+        Variant::Qemu => dp.RCC.constrain(),
+    };
+    defmt::info!(
+        "boot {} sysclk {} Hz",
+        match variant {
+            Variant::Stm32f4 => "stm32f4",
+            Variant::Qemu => "qemu-netduinoplus2",
+        },
+        rcc.clocks.sysclk().raw()
+    );
+
+    // Watchdog first: everything below must finish within its window.
+    let mut watchdog = IndependentWatchdog::new(dp.IWDG);
+    watchdog.start(WATCHDOG_MS.millis());
+
+    let gpioa = dp.GPIOA.split(&mut rcc);
+    let gpiob = dp.GPIOB.split(&mut rcc);
+
+    // ESC PWM on TIM3, 1 us resolution.
+    let (_pwm, (ch1, ch2, ch3, _)) = dp
+        .TIM3
+        .pwm_us((1_000_000 / u32::from(PWM_HZ)).micros(), &mut rcc);
+    let mut ch1 = ch1.with(gpioa.pa6);
+    let mut ch2 = ch2.with(gpioa.pa7);
+    let mut ch3 = ch3.with(gpiob.pb0);
+    ch1.enable();
+    ch2.enable();
+    ch3.enable();
+
+    // Tether on USART1.
+    let serial = match dp
+        .USART1
+        .serial::<u8>((gpioa.pa9, gpioa.pa10), BAUD.bps(), &mut rcc)
+    {
+        Ok(s) => s,
+        Err(_) => halt(),
+    };
+    let (tx, mut rx) = serial.split();
+    rx.listen();
+    cortex_m::interrupt::free(|cs| RX.borrow(cs).replace(Some(rx)));
+    // SAFETY: the handler above only touches `RX` and `RX_RING` inside critical sections,
+    // both initialized; unmasking cannot break a critical section in progress (there is none).
+    unsafe { cortex_m::peripheral::NVIC::unmask(pac::Interrupt::USART1) };
+    let tether = Tether { tx };
+
+    let controller = match Controller::new(Vehicle::observer(), Gains::default()) {
+        Ok(c) => c,
+        Err(_) => halt(),
+    };
+
+    match variant {
+        Variant::Stm32f4 => {
+            let mut counter = dp.TIM2.counter::<1_000_000>(&mut rcc);
+            if counter.start(u32::MAX.micros()).is_err() {
+                halt()
+            }
+            let clock = Tim2Clock {
+                counter,
+                last: 0,
+                total: 0,
+            };
+            let mut config = Config::fixed_rate(Board::Stm32f4);
+            config.pwm_hz = PWM_HZ;
+            main_loop((ch1, ch2, ch3), tether, clock, controller, config, watchdog)
+        }
+        Variant::Qemu => {
+            // Default clocks: the timer clock is 16 MHz, so the prescaler is 0.
+            let mut counter = dp.TIM2.counter::<16_000_000>(&mut rcc);
+            if counter
+                .start(fugit::TimerDurationU32::<16_000_000>::from_ticks(u32::MAX))
+                .is_err()
+            {
+                halt()
+            }
+            let clock = Tim2Clock {
+                counter,
+                last: 0,
+                total: 0,
+            };
+            let mut config = Config::lockstep(Board::QemuNetduinoPlus2);
+            config.pwm_hz = PWM_HZ;
+            main_loop((ch1, ch2, ch3), tether, clock, controller, config, watchdog)
+        }
+    }
+}
+
+fn main_loop<P1, P2, P3, C>(
+    pwm: (P1, P2, P3),
+    tether: Tether,
+    clock: C,
+    controller: Controller,
+    config: Config,
+    mut watchdog: IndependentWatchdog,
+) -> !
+where
+    P1: embedded_hal::pwm::SetDutyCycle,
+    P2: embedded_hal::pwm::SetDutyCycle,
+    P3: embedded_hal::pwm::SetDutyCycle,
+    C: Monotonic,
+{
+    let mut app = match App::new(pwm, tether, clock, controller, config) {
+        Ok(a) => a,
+        Err(_) => halt(),
+    };
+    app.hello();
+    defmt::info!(
+        "ready: {}, PWM {} Hz, duties {}",
+        if config.timing == Timing::LockStep {
+            "lock-step"
+        } else {
+            "fixed-rate"
+        },
+        config.pwm_hz,
+        app.duties()
+    );
+    let mut armed = false;
+    let mut faults = 0u16;
+    loop {
+        app.tick();
+        watchdog.feed();
+        let a = app.autopilot().armed();
+        let f = app.last_output().faults & !crate::protocol::fault::SATURATED;
+        if a != armed || f != faults {
+            let l = app.link_stats();
+            defmt::info!(
+                "armed {} faults {=u16:#x} rx {} dropped {} duties {}",
+                a,
+                f,
+                l.rx_frames,
+                l.dropped.total(),
+                app.duties()
+            );
+            armed = a;
+            faults = f;
+        }
+    }
+}

@@ -1,0 +1,678 @@
+//! The tether protocol: message types, framing and a streaming decoder.
+//!
+//! A frame on the wire is
+//!
+//! ```text
+//! COBS( postcard(Envelope { version: u8, seq: u16, msg }) ++ CRC-32/ISO-HDLC(le) ) ++ 0x00
+//! ```
+//!
+//! - `postcard` gives a compact, stable serde encoding (varints, `f32` as 4 bytes LE,
+//!   enums by variant index);
+//! - the CRC-32 covers the whole postcard payload (the version and sequence number too) and is
+//!   appended little-endian;
+//! - COBS removes every zero byte so `0x00` only ever ends a frame: a receiver that loses
+//!   bytes or joins mid-stream resynchronizes on the next zero.
+//!
+//! A payload is at most [`MAX_PAYLOAD_LEN`] bytes, so a frame is at most [`MAX_FRAME_LEN`]
+//! bytes including its delimiter; both are compile-time constants and every message type is
+//! tested to fit. The decoder ([`FrameDecoder`]) drops anything else and counts why
+//! ([`DropCounters`]). Every message carries a sequence number so `Ack` / `Nack` (and the
+//! lock-step `Telemetry`) can name the command they answer.
+//!
+//! `docs/protocol.md` has the message table and how the emulated board is driven.
+
+use crate::crc32;
+use controller_core::controller::Gains;
+use controller_core::reference::Reference;
+use controller_core::state::{BodyForces, NavState, TrackingErrors};
+use serde::{de::DeserializeOwned, Deserialize, Serialize};
+
+/// Protocol version. Bump it on any change of a message layout; a frame with another
+/// version is dropped (counted as [`DropReason::Version`]) and answered with
+/// `Nack { reason: UnsupportedVersion }` when its sequence number can be read.
+pub const PROTOCOL_VERSION: u8 = 1;
+
+/// Largest postcard payload (envelope) in bytes, CRC not included.
+pub const MAX_PAYLOAD_LEN: usize = 248;
+/// Length of the CRC trailer.
+pub const CRC_LEN: usize = 4;
+/// Largest COBS-encoded frame, without the delimiter.
+pub const MAX_ENCODED_LEN: usize = cobs_max_len(MAX_PAYLOAD_LEN + CRC_LEN);
+/// Largest frame on the wire, delimiter included. Receive buffers of this size never overflow
+/// on a valid frame.
+pub const MAX_FRAME_LEN: usize = MAX_ENCODED_LEN + 1;
+
+/// Worst-case COBS length of `n` bytes: one overhead byte per started 254-byte block.
+pub const fn cobs_max_len(n: usize) -> usize {
+    n + n / 254 + 1
+}
+
+/// Plane of a tracking mode.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Plane {
+    /// Vertical plane (surge and heave; x and depth).
+    Xz,
+    /// Horizontal plane (surge and yaw; x and y).
+    Xy,
+    /// 3-D: horizontal plane plus depth.
+    ThreeD,
+}
+
+/// Which control law tracks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Law {
+    /// The paper's backstepping laws (XZ and XY only).
+    Paper,
+    /// The tracking laws.
+    Tracking,
+}
+
+/// Operating mode of the vehicle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum Mode {
+    /// No thrust (neutral pulses), armed or not.
+    #[default]
+    Idle,
+    /// Open-loop thrust from [`Command::ManualThrust`].
+    Manual,
+    /// Follow the reference set by [`Command::SetReference`].
+    Track {
+        /// Plane.
+        plane: Plane,
+        /// Law.
+        law: Law,
+    },
+    /// Hold the position of the latest `NavState` when the mode was entered
+    /// (3-D tracking law on a fixed point).
+    Hold,
+}
+
+/// A time-stamped navigation state (the state estimate sent by the topside or the plant).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct NavSample {
+    /// Time of the estimate on the sender's clock, microseconds. In lock-step mode this is
+    /// the firmware's clock.
+    pub t_us: u64,
+    /// The state.
+    pub state: NavState,
+}
+
+/// Open-loop thrust, each component normalized to `[-1, 1]` of what the vehicle can make.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct ManualThrust {
+    /// Surge force, fraction of the largest surge force.
+    pub surge: f32,
+    /// Yaw moment, fraction of the largest yaw moment.
+    pub yaw: f32,
+    /// Heave force, fraction of the largest heave force (positive down).
+    pub heave: f32,
+}
+
+impl ManualThrust {
+    /// True when every component is finite and within `[-1, 1]`.
+    pub fn is_valid(&self) -> bool {
+        [self.surge, self.yaw, self.heave]
+            .iter()
+            .all(|v| v.is_finite() && (-1.0..=1.0).contains(v))
+    }
+}
+
+/// Topside -> ROV messages.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum Command {
+    /// Keep-alive. `t_us` is the sender's clock (used as the firmware's clock in lock-step).
+    Heartbeat {
+        /// Sender's time, microseconds.
+        t_us: u64,
+    },
+    /// Arm the thrusters (needs a fresh heartbeat and a fresh `NavState`).
+    Arm,
+    /// Disarm: neutral pulses at once.
+    Disarm,
+    /// Change the mode (resets the laws' integrators).
+    SetMode(Mode),
+    /// Set the reference to track.
+    SetReference {
+        /// The reference (validated by the core).
+        reference: Reference,
+        /// Firmware time at which the reference's `t = 0` is, microseconds; `None` = now.
+        start_us: Option<u64>,
+    },
+    /// Replace all gains (validated; unchanged on error).
+    SetGains(Gains),
+    /// A navigation state. In lock-step mode it runs one control step and is answered by
+    /// `Telemetry`.
+    Nav(NavSample),
+    /// Open-loop thrust for `Mode::Manual`.
+    ManualThrust(ManualThrust),
+}
+
+/// Why a command was refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[non_exhaustive]
+pub enum NackReason {
+    /// The frame's protocol version is not [`PROTOCOL_VERSION`].
+    UnsupportedVersion,
+    /// CRC was right but the payload did not decode as a command.
+    Malformed,
+    /// A number was NaN or infinite.
+    NonFinite,
+    /// A number was outside its range.
+    OutOfRange,
+    /// A value that must be positive was not.
+    NotPositive,
+    /// A value that must not be negative was.
+    Negative,
+    /// Parameters that describe no physical vehicle.
+    NonPhysical,
+    /// Arming refused: no heartbeat within the arming window.
+    NoHeartbeat,
+    /// Arming or hold refused: no fresh `NavState`.
+    NavStale,
+    /// A tracking mode without a reference.
+    NoReference,
+    /// A combination the firmware does not offer (e.g. the paper law in 3-D).
+    Unsupported,
+}
+
+impl From<controller_core::Error> for NackReason {
+    fn from(e: controller_core::Error) -> Self {
+        use controller_core::Error as E;
+        match e {
+            E::NonFinite(_) => NackReason::NonFinite,
+            E::NotPositive(_) => NackReason::NotPositive,
+            E::Negative(_) => NackReason::Negative,
+            E::NonPhysical(_) => NackReason::NonPhysical,
+            _ => NackReason::OutOfRange,
+        }
+    }
+}
+
+/// Fault flags in [`Telemetry::faults`] (a bit set).
+pub mod fault {
+    /// No heartbeat for the neutral timeout: thrust is neutral.
+    pub const HEARTBEAT_LOST: u16 = 1 << 0;
+    /// No heartbeat for the disarm timeout: the vehicle disarmed itself (sticky until armed).
+    pub const LINK_DISARMED: u16 = 1 << 1;
+    /// `NavState` too old while tracking or holding: thrust is neutral.
+    pub const NAV_STALE: u16 = 1 << 2;
+    /// Manual command too old: thrust is neutral.
+    pub const MANUAL_STALE: u16 = 1 << 3;
+    /// A PWM output reported an error.
+    pub const PWM_ERROR: u16 = 1 << 4;
+    /// The serial port reported an error.
+    pub const SERIAL_ERROR: u16 = 1 << 5;
+    /// The allocation saturated at least one thruster in the latest step.
+    pub const SATURATED: u16 = 1 << 6;
+    /// A control period was missed (fixed-rate mode).
+    pub const OVERRUN: u16 = 1 << 7;
+}
+
+/// Link statistics, as counted by the firmware.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct LinkStats {
+    /// Frames accepted (CRC and decoding good).
+    pub rx_frames: u32,
+    /// Frames dropped, by reason.
+    pub dropped: DropCounters,
+    /// Frames sent.
+    pub tx_frames: u32,
+    /// Nacks sent.
+    pub nacks: u32,
+}
+
+/// Everything the ROV reports, periodically (fixed-rate mode) or as the answer to each
+/// `NavState` (lock-step mode).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Telemetry {
+    /// Firmware time, microseconds.
+    pub t_us: u64,
+    /// Mode.
+    pub mode: Mode,
+    /// Armed.
+    pub armed: bool,
+    /// Sequence number of the latest `NavState` used (lock-step: the one this answers).
+    pub nav_seq: u16,
+    /// Time stamp of that `NavState`.
+    pub nav_t_us: u64,
+    /// Tracking errors of the latest control step.
+    pub errors: TrackingErrors,
+    /// Generalized forces the law (or the manual command) asked for.
+    pub requested: BodyForces,
+    /// Generalized forces the commanded thrusts make.
+    pub achieved: BodyForces,
+    /// Thruster forces `[F1x, F2x, F3z]` commanded (zero when neutral).
+    pub thrust_n: [f32; 3],
+    /// Pulse widths actually written to the three PWM outputs, microseconds (read back from
+    /// the duty cycles: what the ESCs see).
+    pub pulse_us: [u16; 3],
+    /// Fault flags ([`fault`]).
+    pub faults: u16,
+    /// Link counters.
+    pub link: LinkStats,
+    /// Control steps run since boot.
+    pub steps: u32,
+    /// Duration of the latest control iteration in clock ticks (microseconds on the
+    /// STM32F4 board; instructions on the emulated board under `-icount shift=0`).
+    pub loop_ticks: u32,
+    /// Largest `loop_ticks` since boot.
+    pub loop_ticks_max: u32,
+    /// Control periods missed (fixed-rate mode).
+    pub overruns: u32,
+}
+
+/// Which board sent a [`Reply::Hello`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Board {
+    /// STM32F405 hardware.
+    Stm32f4,
+    /// QEMU `netduinoplus2`.
+    QemuNetduinoPlus2,
+    /// Host-side test double.
+    Host,
+}
+
+/// ROV -> topside messages.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum Reply {
+    /// Sent once at boot: the host waits for it before sending (the emulated USART drops
+    /// bytes that arrive before it is enabled).
+    Hello {
+        /// [`PROTOCOL_VERSION`] (also in the envelope).
+        protocol: u8,
+        /// Which board.
+        board: Board,
+        /// True when the control step runs on each `NavState` (lock-step).
+        lockstep: bool,
+        /// Control period (fixed-rate) in microseconds; 0 in lock-step.
+        control_period_us: u32,
+        /// PWM frequency, hertz.
+        pwm_hz: u16,
+    },
+    /// Telemetry.
+    Telemetry(Telemetry),
+    /// A command was accepted.
+    Ack {
+        /// Sequence number of the command.
+        seq: u16,
+    },
+    /// A command was refused; nothing changed.
+    Nack {
+        /// Sequence number of the command.
+        seq: u16,
+        /// Why.
+        reason: NackReason,
+    },
+}
+
+/// What every frame carries.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Envelope<M> {
+    /// [`PROTOCOL_VERSION`].
+    pub version: u8,
+    /// Sender's sequence number (wraps).
+    pub seq: u16,
+    /// The message.
+    pub msg: M,
+}
+
+/// The first two fields of an [`Envelope`], readable whatever the message.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Header {
+    /// Version.
+    pub version: u8,
+    /// Sequence number.
+    pub seq: u16,
+}
+
+/// Why a frame could not be encoded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum EncodeError {
+    /// The payload is longer than [`MAX_PAYLOAD_LEN`].
+    TooLong,
+}
+
+impl core::fmt::Display for EncodeError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            EncodeError::TooLong => write!(f, "payload longer than {MAX_PAYLOAD_LEN} bytes"),
+        }
+    }
+}
+
+impl core::error::Error for EncodeError {}
+
+/// Encode `msg` with sequence number `seq` into `out`; returns the frame (delimiter included).
+pub fn encode<'a, M: Serialize>(
+    seq: u16,
+    msg: &M,
+    out: &'a mut [u8; MAX_FRAME_LEN],
+) -> Result<&'a [u8], EncodeError> {
+    let env = Envelope {
+        version: PROTOCOL_VERSION,
+        seq,
+        msg,
+    };
+    let mut raw = [0u8; MAX_PAYLOAD_LEN + CRC_LEN];
+    let n = {
+        let (payload, _) = raw.split_at_mut(MAX_PAYLOAD_LEN);
+        postcard::to_slice(&env, payload)
+            .map_err(|_| EncodeError::TooLong)?
+            .len()
+    };
+    let crc = crc32::checksum(raw.get(..n).unwrap_or(&[]));
+    if let Some(t) = raw.get_mut(n..n + CRC_LEN) {
+        t.copy_from_slice(&crc.to_le_bytes());
+    }
+    let body = raw.get(..n + CRC_LEN).unwrap_or(&[]);
+    let len = cobs_encode(body, out);
+    // `len < MAX_FRAME_LEN` because body <= MAX_PAYLOAD_LEN + CRC_LEN.
+    if let Some(d) = out.get_mut(len) {
+        *d = 0;
+    }
+    Ok(out.get(..len + 1).unwrap_or(&[]))
+}
+
+/// COBS-encode `src` into `dst` (no delimiter); returns the length written. `dst` must hold
+/// `cobs_max_len(src.len())` bytes; bytes that do not fit are dropped (never the case for
+/// the frames built here).
+fn cobs_encode(src: &[u8], dst: &mut [u8]) -> usize {
+    let mut code_idx = 0usize;
+    let mut out = 1usize;
+    let mut code: u8 = 1;
+    for &b in src {
+        if b == 0 {
+            if let Some(c) = dst.get_mut(code_idx) {
+                *c = code;
+            }
+            code_idx = out;
+            out += 1;
+            code = 1;
+        } else {
+            if let Some(d) = dst.get_mut(out) {
+                *d = b;
+            }
+            out += 1;
+            code += 1;
+            if code == 0xFF {
+                if let Some(c) = dst.get_mut(code_idx) {
+                    *c = code;
+                }
+                code_idx = out;
+                out += 1;
+                code = 1;
+            }
+        }
+    }
+    if let Some(c) = dst.get_mut(code_idx) {
+        *c = code;
+    }
+    out.min(dst.len())
+}
+
+/// Decode COBS in place; returns the decoded length, or `None` if the data is not valid COBS
+/// (a zero byte, or a code that runs past the end).
+fn cobs_decode_in_place(buf: &mut [u8]) -> Option<usize> {
+    let n = buf.len();
+    let mut read = 0usize;
+    let mut write = 0usize;
+    while read < n {
+        let code = *buf.get(read)? as usize;
+        if code == 0 {
+            return None;
+        }
+        read += 1;
+        for _ in 1..code {
+            let b = *buf.get(read)?;
+            if b == 0 {
+                return None;
+            }
+            *buf.get_mut(write)? = b;
+            read += 1;
+            write += 1;
+        }
+        if code != 0xFF && read < n {
+            *buf.get_mut(write)? = 0;
+            write += 1;
+        }
+    }
+    Some(write)
+}
+
+/// Why a frame was dropped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum DropReason {
+    /// More than [`MAX_ENCODED_LEN`] bytes before a delimiter.
+    Overflow,
+    /// Not valid COBS.
+    Cobs,
+    /// Shorter than a header and a CRC.
+    TooShort,
+    /// CRC mismatch.
+    Crc,
+    /// Protocol version differs.
+    Version,
+    /// CRC good, but the payload is not a valid message.
+    Malformed,
+}
+
+/// Dropped frames, by reason.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct DropCounters {
+    /// [`DropReason::Overflow`].
+    pub overflow: u32,
+    /// [`DropReason::Cobs`].
+    pub cobs: u32,
+    /// [`DropReason::TooShort`].
+    pub too_short: u32,
+    /// [`DropReason::Crc`].
+    pub crc: u32,
+    /// [`DropReason::Version`].
+    pub version: u32,
+    /// [`DropReason::Malformed`].
+    pub malformed: u32,
+}
+
+impl DropCounters {
+    /// Count one drop.
+    pub fn count(&mut self, r: DropReason) {
+        let c = match r {
+            DropReason::Overflow => &mut self.overflow,
+            DropReason::Cobs => &mut self.cobs,
+            DropReason::TooShort => &mut self.too_short,
+            DropReason::Crc => &mut self.crc,
+            DropReason::Version => &mut self.version,
+            DropReason::Malformed => &mut self.malformed,
+        };
+        *c = c.wrapping_add(1);
+    }
+
+    /// All drops.
+    pub fn total(&self) -> u32 {
+        self.overflow
+            .wrapping_add(self.cobs)
+            .wrapping_add(self.too_short)
+            .wrapping_add(self.crc)
+            .wrapping_add(self.version)
+            .wrapping_add(self.malformed)
+    }
+}
+
+/// What the decoder made of a delimiter.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Decoded<M> {
+    /// A good frame.
+    Frame {
+        /// Sender's sequence number.
+        seq: u16,
+        /// The message.
+        msg: M,
+    },
+    /// A dropped frame; `seq` is known when the CRC was good (version or malformed), so
+    /// the receiver can `Nack` it.
+    Dropped {
+        /// Why.
+        reason: DropReason,
+        /// Sequence number when readable.
+        seq: Option<u16>,
+    },
+}
+
+/// Streaming frame decoder: feed it bytes, it yields messages of type `M` at each delimiter.
+///
+/// Resynchronizes on the next `0x00` after garbage, an overlong frame or a bad CRC; empty
+/// frames (two delimiters in a row) are ignored silently so a sender may start each frame
+/// with a delimiter to flush garbage. Never allocates, never panics.
+#[derive(Debug, Clone)]
+pub struct FrameDecoder<M> {
+    buf: [u8; MAX_ENCODED_LEN],
+    len: usize,
+    overflowed: bool,
+    /// Frames accepted.
+    pub frames: u32,
+    /// Frames dropped, by reason.
+    pub dropped: DropCounters,
+    _m: core::marker::PhantomData<M>,
+}
+
+impl<M> Default for FrameDecoder<M> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<M> FrameDecoder<M> {
+    /// An empty decoder.
+    pub const fn new() -> Self {
+        Self {
+            buf: [0; MAX_ENCODED_LEN],
+            len: 0,
+            overflowed: false,
+            frames: 0,
+            dropped: DropCounters {
+                overflow: 0,
+                cobs: 0,
+                too_short: 0,
+                crc: 0,
+                version: 0,
+                malformed: 0,
+            },
+            _m: core::marker::PhantomData,
+        }
+    }
+}
+
+impl<M: DeserializeOwned> FrameDecoder<M> {
+    /// Feed one byte. Returns `Some` at a delimiter that ended a non-empty frame.
+    #[cfg_attr(feature = "no-panic", no_panic::no_panic)]
+    pub fn push(&mut self, byte: u8) -> Option<Decoded<M>> {
+        if byte != 0 {
+            match self.buf.get_mut(self.len) {
+                Some(slot) if !self.overflowed => {
+                    *slot = byte;
+                    self.len += 1;
+                }
+                _ => self.overflowed = true,
+            }
+            return None;
+        }
+        let len = core::mem::replace(&mut self.len, 0);
+        if core::mem::replace(&mut self.overflowed, false) {
+            return Some(self.drop_frame(DropReason::Overflow, None));
+        }
+        if len == 0 {
+            return None;
+        }
+        let Some(frame) = self.buf.get_mut(..len) else {
+            return Some(self.drop_frame(DropReason::Overflow, None));
+        };
+        let Some(n) = cobs_decode_in_place(frame) else {
+            return Some(self.drop_frame(DropReason::Cobs, None));
+        };
+        // Header (>= 2 bytes) + CRC.
+        if n < 2 + CRC_LEN {
+            return Some(self.drop_frame(DropReason::TooShort, None));
+        }
+        let (payload, crc_bytes) = match frame.get(..n) {
+            Some(f) => f.split_at(n - CRC_LEN),
+            None => return Some(self.drop_frame(DropReason::Cobs, None)),
+        };
+        let mut crc = [0u8; CRC_LEN];
+        crc.copy_from_slice(crc_bytes);
+        if crc32::checksum(payload) != u32::from_le_bytes(crc) {
+            return Some(self.drop_frame(DropReason::Crc, None));
+        }
+        let header = postcard::take_from_bytes::<Header>(payload)
+            .ok()
+            .map(|(h, _)| h);
+        let Some(header) = header else {
+            return Some(self.drop_frame(DropReason::Malformed, None));
+        };
+        if header.version != PROTOCOL_VERSION {
+            return Some(self.drop_frame(DropReason::Version, Some(header.seq)));
+        }
+        match postcard::from_bytes::<Envelope<M>>(payload) {
+            Ok(env) => {
+                self.frames = self.frames.wrapping_add(1);
+                Some(Decoded::Frame {
+                    seq: env.seq,
+                    msg: env.msg,
+                })
+            }
+            Err(_) => Some(self.drop_frame(DropReason::Malformed, Some(header.seq))),
+        }
+    }
+
+    fn drop_frame(&mut self, reason: DropReason, seq: Option<u16>) -> Decoded<M> {
+        self.dropped.count(reason);
+        Decoded::Dropped { reason, seq }
+    }
+}
+
+/// Decode one complete frame (with or without its trailing delimiter) in one call.
+pub fn decode_frame<M: DeserializeOwned>(frame: &[u8]) -> Option<Decoded<M>> {
+    let mut d = FrameDecoder::<M>::new();
+    let mut last = None;
+    for &b in frame.iter().chain(core::iter::once(&0u8)) {
+        if let Some(x) = d.push(b) {
+            last = Some(x);
+            break;
+        }
+    }
+    last
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cobs_round_trip_edge_cases() {
+        for len in [0usize, 1, 253, 254, 255, 256, 300] {
+            for fill in [0u8, 1, 0xFF] {
+                let src: [u8; 300] = core::array::from_fn(|i| if i % 7 == 0 { fill } else { i as u8 | 1 });
+                let src = &src[..len];
+                let mut dst = [0u8; 400];
+                let n = cobs_encode(src, &mut dst);
+                assert!(n <= cobs_max_len(len));
+                assert!(!dst[..n].contains(&0));
+                let mut buf = dst[..n].to_vec();
+                let m = cobs_decode_in_place(&mut buf).unwrap();
+                assert_eq!(&buf[..m], src);
+            }
+        }
+    }
+
+    #[test]
+    fn round_trip_and_sizes() {
+        let mut out = [0u8; MAX_FRAME_LEN];
+        let f = encode(7, &Command::Arm, &mut out).unwrap().to_vec();
+        assert_eq!(*f.last().unwrap(), 0);
+        match decode_frame::<Command>(&f) {
+            Some(Decoded::Frame { seq: 7, msg }) => assert_eq!(msg, Command::Arm),
+            other => panic!("{other:?}"),
+        }
+        const _: () = assert!(MAX_FRAME_LEN <= 256);
+    }
+}
