@@ -3,7 +3,7 @@
 //! A frame on the wire is
 //!
 //! ```text
-//! COBS( postcard(Envelope { version: u8, seq: u16, msg }) ++ CRC-32/ISO-HDLC(le) ) ++ 0x00
+//! 0x00 ++ COBS( postcard(Envelope { version: u8, seq: u16, msg }) ++ CRC-32/ISO-HDLC(le) ) ++ 0x00
 //! ```
 //!
 //! - `postcard` gives a compact, stable serde encoding (varints, `f32` as 4 bytes LE,
@@ -11,7 +11,9 @@
 //! - the CRC-32 covers the whole postcard payload (the version and sequence number too) and is
 //!   appended little-endian;
 //! - COBS removes every zero byte so `0x00` only ever ends a frame: a receiver that loses
-//!   bytes or joins mid-stream resynchronizes on the next zero.
+//!   bytes or joins mid-stream resynchronizes on the next zero. Frames start with a zero
+//!   too, so a frame that follows garbage or a truncated frame is never glued to it (the
+//!   decoder ignores the empty frame between two zeros).
 //!
 //! A payload is at most [`MAX_PAYLOAD_LEN`] bytes, so a frame is at most [`MAX_FRAME_LEN`]
 //! bytes including its delimiter; both are compile-time constants and every message type is
@@ -38,9 +40,8 @@ pub const MAX_PAYLOAD_LEN: usize = 248;
 pub const CRC_LEN: usize = 4;
 /// Largest COBS-encoded frame, without the delimiter.
 pub const MAX_ENCODED_LEN: usize = cobs_max_len(MAX_PAYLOAD_LEN + CRC_LEN);
-/// Largest frame on the wire, delimiter included. Receive buffers of this size never overflow
-/// on a valid frame.
-pub const MAX_FRAME_LEN: usize = MAX_ENCODED_LEN + 1;
+/// Largest frame on the wire, both delimiters included.
+pub const MAX_FRAME_LEN: usize = MAX_ENCODED_LEN + 2;
 
 /// Worst-case COBS length of `n` bytes: one overhead byte per started 254-byte block.
 pub const fn cobs_max_len(n: usize) -> usize {
@@ -48,6 +49,7 @@ pub const fn cobs_max_len(n: usize) -> usize {
 }
 
 /// Plane of a tracking mode.
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Plane {
     /// Vertical plane (surge and heave; x and depth).
@@ -59,6 +61,7 @@ pub enum Plane {
 }
 
 /// Which control law tracks.
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Law {
     /// The paper's backstepping laws (XZ and XY only).
@@ -68,6 +71,7 @@ pub enum Law {
 }
 
 /// Operating mode of the vehicle.
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub enum Mode {
     /// No thrust (neutral pulses), armed or not.
@@ -148,6 +152,7 @@ pub enum Command {
 }
 
 /// Why a command was refused.
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[non_exhaustive]
 pub enum NackReason {
@@ -262,6 +267,7 @@ pub struct Telemetry {
 }
 
 /// Which board sent a [`Reply::Hello`].
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Board {
     /// STM32F405 hardware.
@@ -343,17 +349,24 @@ impl core::fmt::Display for EncodeError {
 
 impl core::error::Error for EncodeError {}
 
-/// Encode `msg` with sequence number `seq` into `out`; returns the frame (delimiter included).
+/// Encode `msg` with sequence number `seq` into `out`; returns the frame (both delimiters
+/// included).
 pub fn encode<'a, M: Serialize>(
     seq: u16,
     msg: &M,
     out: &'a mut [u8; MAX_FRAME_LEN],
 ) -> Result<&'a [u8], EncodeError> {
-    let env = Envelope {
-        version: PROTOCOL_VERSION,
-        seq,
-        msg,
-    };
+    encode_with_version(PROTOCOL_VERSION, seq, msg, out)
+}
+
+/// [`encode`] with another protocol version (for tests of version handling).
+pub fn encode_with_version<'a, M: Serialize>(
+    version: u8,
+    seq: u16,
+    msg: &M,
+    out: &'a mut [u8; MAX_FRAME_LEN],
+) -> Result<&'a [u8], EncodeError> {
+    let env = Envelope { version, seq, msg };
     let mut raw = [0u8; MAX_PAYLOAD_LEN + CRC_LEN];
     let n = {
         let (payload, _) = raw.split_at_mut(MAX_PAYLOAD_LEN);
@@ -366,12 +379,14 @@ pub fn encode<'a, M: Serialize>(
         t.copy_from_slice(&crc.to_le_bytes());
     }
     let body = raw.get(..n + CRC_LEN).unwrap_or(&[]);
-    let len = cobs_encode(body, out);
-    // `len < MAX_FRAME_LEN` because body <= MAX_PAYLOAD_LEN + CRC_LEN.
-    if let Some(d) = out.get_mut(len) {
+    let (lead, rest) = out.split_at_mut(1);
+    lead.fill(0);
+    let len = cobs_encode(body, rest);
+    // `len <= MAX_ENCODED_LEN` because body <= MAX_PAYLOAD_LEN + CRC_LEN.
+    if let Some(d) = rest.get_mut(len) {
         *d = 0;
     }
-    Ok(out.get(..len + 1).unwrap_or(&[]))
+    Ok(out.get(..len + 2).unwrap_or(&[]))
 }
 
 /// COBS-encode `src` into `dst` (no delimiter); returns the length written. `dst` must hold
@@ -669,6 +684,7 @@ mod tests {
         let mut out = [0u8; MAX_FRAME_LEN];
         let f = encode(7, &Command::Arm, &mut out).unwrap().to_vec();
         assert_eq!(*f.last().unwrap(), 0);
+        assert_eq!(f[0], 0);
         match decode_frame::<Command>(&f) {
             Some(Decoded::Frame { seq: 7, msg }) => assert_eq!(msg, Command::Arm),
             other => panic!("{other:?}"),

@@ -1,1 +1,268 @@
-//! Shared helpers for the cross-crate tests.
+//! Shared helpers for the cross-crate tests: fake PWM outputs, serial port and clock that
+//! record every call, a topside link that frames commands and parses replies, and a small
+//! horizontal-plane plant driven by the recorded PWM duties.
+
+// Test helpers: a broken fixture should stop the test.
+#![allow(clippy::expect_used, clippy::panic)]
+
+use controller_core::alloc::PwmMap;
+use controller_core::controller::{Controller, Gains};
+use controller_core::model::{rk4_step, xy};
+use controller_core::params::Vehicle;
+use controller_core::state::{BodyForces, NavState, XyState};
+use firmware::protocol::{encode, Command, Decoded, FrameDecoder, Reply, MAX_FRAME_LEN};
+use firmware::{App, Config, Monotonic};
+use std::cell::RefCell;
+use std::collections::VecDeque;
+use std::convert::Infallible;
+use std::rc::Rc;
+
+/// A PWM output that records every duty written.
+#[derive(Debug, Clone)]
+pub struct FakePwm {
+    /// Largest duty.
+    pub max: u16,
+    /// Every duty written, in order.
+    pub writes: Vec<u16>,
+}
+
+impl FakePwm {
+    /// An output with `max` duty steps.
+    pub fn new(max: u16) -> Self {
+        Self {
+            max,
+            writes: Vec::new(),
+        }
+    }
+
+    /// The latest duty written.
+    pub fn duty(&self) -> Option<u16> {
+        self.writes.last().copied()
+    }
+}
+
+impl embedded_hal::pwm::ErrorType for FakePwm {
+    type Error = Infallible;
+}
+
+impl embedded_hal::pwm::SetDutyCycle for FakePwm {
+    fn max_duty_cycle(&self) -> u16 {
+        self.max
+    }
+
+    fn set_duty_cycle(&mut self, duty: u16) -> Result<(), Infallible> {
+        assert!(duty <= self.max, "duty {duty} above max {}", self.max);
+        self.writes.push(duty);
+        Ok(())
+    }
+}
+
+/// A serial port: bytes queued by the test are read by the firmware; bytes written by the
+/// firmware are kept.
+#[derive(Debug, Default, Clone)]
+pub struct FakeSerial {
+    /// Waiting to be read by the firmware.
+    pub rx: VecDeque<u8>,
+    /// Written by the firmware.
+    pub tx: Vec<u8>,
+}
+
+impl embedded_io::ErrorType for FakeSerial {
+    type Error = Infallible;
+}
+
+impl embedded_io::Read for FakeSerial {
+    fn read(&mut self, buf: &mut [u8]) -> Result<usize, Infallible> {
+        let n = buf.len().min(self.rx.len());
+        for (b, x) in buf.iter_mut().zip(self.rx.drain(..n)) {
+            *b = x;
+        }
+        Ok(n)
+    }
+}
+
+impl embedded_io::ReadReady for FakeSerial {
+    fn read_ready(&mut self) -> Result<bool, Infallible> {
+        Ok(!self.rx.is_empty())
+    }
+}
+
+impl embedded_io::Write for FakeSerial {
+    fn write(&mut self, buf: &[u8]) -> Result<usize, Infallible> {
+        self.tx.extend_from_slice(buf);
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> Result<(), Infallible> {
+        Ok(())
+    }
+}
+
+/// A clock the test sets; shared so the test can move it while the app owns a copy.
+#[derive(Debug, Default, Clone)]
+pub struct FakeClock(pub Rc<RefCell<u64>>);
+
+impl FakeClock {
+    /// Set the time, microseconds.
+    pub fn set_us(&self, t: u64) {
+        *self.0.borrow_mut() = t;
+    }
+
+    /// Advance by `dt` microseconds.
+    pub fn advance_us(&self, dt: u64) {
+        *self.0.borrow_mut() += dt;
+    }
+
+    /// Current time.
+    pub fn get_us(&self) -> u64 {
+        *self.0.borrow()
+    }
+}
+
+impl Monotonic for FakeClock {
+    fn now_us(&mut self) -> u64 {
+        *self.0.borrow()
+    }
+}
+
+/// The application under test.
+pub type TestApp = App<FakePwm, FakePwm, FakePwm, FakeSerial, FakeClock>;
+
+/// 50 Hz PWM with 1 us per duty step (like the board's TIM3).
+pub const PWM_MAX_DUTY: u16 = 20_000;
+
+/// The Observer's default controller.
+pub fn controller() -> Controller {
+    Controller::new(Vehicle::observer(), Gains::default()).expect("valid default gains")
+}
+
+/// An app with fakes and the given config; returns the clock handle too.
+pub fn app(config: Config) -> (TestApp, FakeClock) {
+    let clock = FakeClock::default();
+    let pwm = (
+        FakePwm::new(PWM_MAX_DUTY),
+        FakePwm::new(PWM_MAX_DUTY),
+        FakePwm::new(PWM_MAX_DUTY),
+    );
+    let app = App::new(
+        pwm,
+        FakeSerial::default(),
+        clock.clone(),
+        controller(),
+        config,
+    )
+    .expect("valid config");
+    (app, clock)
+}
+
+/// Topside side of the link: frames commands with sequence numbers, parses replies.
+#[derive(Debug, Default)]
+pub struct Topside {
+    /// Next sequence number.
+    pub seq: u16,
+    /// Reply decoder.
+    pub decoder: FrameDecoder<Reply>,
+}
+
+impl Topside {
+    /// Frame a command; returns (its sequence number, the bytes).
+    pub fn frame(&mut self, cmd: &Command) -> (u16, Vec<u8>) {
+        let seq = self.seq;
+        self.seq = self.seq.wrapping_add(1);
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let f = encode(seq, cmd, &mut buf).expect("fits").to_vec();
+        (seq, f)
+    }
+
+    /// Queue a command to the app and let it read it (one `tick`); returns the replies.
+    pub fn send(&mut self, app: &mut TestApp, cmd: &Command) -> (u16, Vec<Reply>) {
+        let (seq, f) = self.frame(cmd);
+        app.parts_mut().1.rx.extend(f);
+        app.tick();
+        (seq, self.replies(app))
+    }
+
+    /// Feed a command byte by byte to the app's receive path, without a `tick` (no control
+    /// step runs); returns the replies.
+    pub fn deliver(&mut self, app: &mut TestApp, cmd: &Command) -> (u16, Vec<Reply>) {
+        let (seq, f) = self.frame(cmd);
+        for b in f {
+            app.on_byte(b);
+        }
+        (seq, self.replies(app))
+    }
+
+    /// Take and parse everything the app wrote. Panics on a dropped reply frame.
+    pub fn replies(&mut self, app: &mut TestApp) -> Vec<Reply> {
+        let bytes = std::mem::take(&mut app.parts_mut().1.tx);
+        let mut out = Vec::new();
+        for b in bytes {
+            match self.decoder.push(b) {
+                Some(Decoded::Frame { msg, .. }) => out.push(msg),
+                Some(Decoded::Dropped { reason, .. }) => panic!("reply dropped: {reason:?}"),
+                None => {}
+            }
+        }
+        out
+    }
+}
+
+/// Pulse widths (us) the app's PWM outputs are set to, from the recorded duties.
+pub fn pulses_us(app: &mut TestApp) -> [f32; 3] {
+    let (pwm, _, _) = app.parts_mut();
+    let period = 20_000.0f32;
+    let p = |o: &FakePwm| f32::from(o.duty().unwrap_or(0)) * period / f32::from(o.max);
+    [p(&pwm.0), p(&pwm.1), p(&pwm.2)]
+}
+
+/// Horizontal-plane plant (the core's f32 model, RK4) driven by ESC pulse widths.
+#[derive(Debug, Clone)]
+pub struct XyPlant {
+    /// Vehicle.
+    pub vehicle: Vehicle,
+    /// State.
+    pub state: XyState,
+    /// ESC model.
+    pub pwm: PwmMap,
+}
+
+impl Default for XyPlant {
+    fn default() -> Self {
+        let vehicle = Vehicle::observer();
+        Self {
+            pwm: PwmMap::for_vehicle(&vehicle),
+            vehicle,
+            state: XyState::default(),
+        }
+    }
+}
+
+impl XyPlant {
+    /// Advance `dt_s` with the thrust the three pulse widths make.
+    pub fn step(&mut self, pulses_us: [f32; 3], dt_s: f32) {
+        let f1 = self.pwm.thrust_n(pulses_us[0]);
+        let f2 = self.pwm.thrust_n(pulses_us[1]);
+        let l = self.vehicle.params().thruster_lever_arm_m;
+        let forces = BodyForces {
+            surge_n: f1 + f2,
+            yaw_n_m: l * (f1 - f2),
+            heave_n: 0.0,
+        };
+        let v = self.vehicle;
+        self.state = rk4_step(|s| xy::derivative(&v, s, &forces), &self.state, dt_s);
+    }
+
+    /// The navigation state the estimator would report.
+    pub fn nav(&self) -> NavState {
+        let s = &self.state;
+        NavState {
+            x_m: s.x_m,
+            y_m: s.y_m,
+            yaw_rad: s.yaw_rad,
+            u_m_s: s.u_m_s,
+            v_m_s: s.v_m_s,
+            r_rad_s: s.r_rad_s,
+            ..NavState::default()
+        }
+    }
+}

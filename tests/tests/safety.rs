@@ -1,0 +1,495 @@
+//! Every safety requirement of the firmware, on the host with fake PWM, serial and clock.
+
+use controller_core::controller::Gains;
+use controller_core::reference::{PaperPolynomial, Reference};
+use controller_core::state::NavState;
+use firmware::protocol::{
+    encode_with_version, fault, Board, Command, Law, ManualThrust, Mode, NackReason, NavSample,
+    Plane, Reply, Telemetry, MAX_FRAME_LEN,
+};
+use firmware::{Config, Timing};
+use proptest::prelude::*;
+use rov_tests::{app, pulses_us, FakeClock, TestApp, Topside, PWM_MAX_DUTY};
+
+const NEUTRAL_DUTY: u16 = 1500; // 1500 us of a 20 000 us period at 1 us per step
+
+fn fixed() -> (TestApp, FakeClock, Topside) {
+    let (a, c) = app(Config::fixed_rate(Board::Host));
+    (a, c, Topside::default())
+}
+
+fn nav(t_us: u64) -> Command {
+    Command::Nav(NavSample {
+        t_us,
+        state: NavState::default(),
+    })
+}
+
+fn acked(replies: &[Reply], seq: u16) -> bool {
+    replies.iter().any(|r| *r == Reply::Ack { seq })
+}
+
+fn nacked(replies: &[Reply], seq: u16) -> Option<NackReason> {
+    replies.iter().find_map(|r| match r {
+        Reply::Nack { seq: s, reason } if *s == seq => Some(*reason),
+        _ => None,
+    })
+}
+
+fn duties(a: &mut TestApp) -> [u16; 3] {
+    let (p, _, _) = a.parts_mut();
+    [
+        p.0.duty().unwrap_or(0),
+        p.1.duty().unwrap_or(0),
+        p.2.duty().unwrap_or(0),
+    ]
+}
+
+/// Heartbeat and a fresh nav at the clock's time, then arm; asserts the Ack.
+fn arm(a: &mut TestApp, c: &FakeClock, t: &mut Topside) {
+    t.send(a, &Command::Heartbeat { t_us: c.get_us() });
+    t.send(a, &nav(c.get_us()));
+    let (seq, r) = t.send(a, &Command::Arm);
+    assert!(acked(&r, seq), "arm refused: {r:?}");
+    assert!(a.autopilot().armed());
+}
+
+fn last_telemetry(r: &[Reply]) -> Option<Telemetry> {
+    r.iter().rev().find_map(|r| match r {
+        Reply::Telemetry(t) => Some(*t),
+        _ => None,
+    })
+}
+
+#[test]
+fn boots_disarmed_with_neutral_outputs_and_says_hello() {
+    let (mut a, c, mut t) = fixed();
+    // Written once by `new`, before anything else.
+    {
+        let (p, _, _) = a.parts_mut();
+        assert_eq!(p.0.writes, vec![NEUTRAL_DUTY]);
+        assert_eq!(p.1.writes, vec![NEUTRAL_DUTY]);
+        assert_eq!(p.2.writes, vec![NEUTRAL_DUTY]);
+    }
+    a.hello();
+    let r = t.replies(&mut a);
+    assert!(matches!(
+        r.as_slice(),
+        [Reply::Hello {
+            protocol: 1,
+            board: Board::Host,
+            lockstep: false,
+            control_period_us: 20_000,
+            pwm_hz: 50
+        }]
+    ));
+    for _ in 0..100 {
+        c.advance_us(10_000);
+        a.tick();
+    }
+    assert!(!a.autopilot().armed());
+    assert_eq!(a.autopilot().mode(), Mode::Idle);
+    let (p, _, _) = a.parts_mut();
+    for o in [&p.0, &p.1, &p.2] {
+        assert!(o.writes.iter().all(|d| *d == NEUTRAL_DUTY));
+    }
+    let tel = last_telemetry(&t.replies(&mut a)).expect("periodic telemetry");
+    assert!(!tel.armed);
+    assert_eq!(tel.pulse_us, [1500; 3]);
+    assert_ne!(tel.faults & fault::HEARTBEAT_LOST, 0);
+}
+
+#[test]
+fn pwm_duty_follows_the_period() {
+    let mut cfg = Config::fixed_rate(Board::Host);
+    cfg.pwm_hz = 400;
+    let (mut a, _c) = app(cfg);
+    // 1500 us of a 2500 us period.
+    assert_eq!(duties(&mut a), [12_000; 3]);
+    for hz in [49u16, 401, 0] {
+        let mut cfg = Config::fixed_rate(Board::Host);
+        cfg.pwm_hz = hz;
+        let r = firmware::App::new(
+            (
+                rov_tests::FakePwm::new(PWM_MAX_DUTY),
+                rov_tests::FakePwm::new(PWM_MAX_DUTY),
+                rov_tests::FakePwm::new(PWM_MAX_DUTY),
+            ),
+            rov_tests::FakeSerial::default(),
+            FakeClock::default(),
+            rov_tests::controller(),
+            cfg,
+        );
+        assert!(matches!(r, Err(firmware::ConfigError::PwmFrequency)));
+    }
+}
+
+#[test]
+fn arming_needs_a_fresh_heartbeat_and_nav() {
+    let (mut a, c, mut t) = fixed();
+    c.set_us(1_000_000);
+    let (s, r) = t.send(&mut a, &Command::Arm);
+    assert_eq!(nacked(&r, s), Some(NackReason::NoHeartbeat));
+    t.send(&mut a, &Command::Heartbeat { t_us: 0 });
+    let (s, r) = t.send(&mut a, &Command::Arm);
+    assert_eq!(nacked(&r, s), Some(NackReason::NavStale));
+    t.send(&mut a, &nav(1_000_000));
+    c.advance_us(250_000); // nav now 0.25 s old
+    t.send(&mut a, &Command::Heartbeat { t_us: 0 });
+    let (s, r) = t.send(&mut a, &Command::Arm);
+    assert_eq!(nacked(&r, s), Some(NackReason::NavStale));
+    assert!(!a.autopilot().armed());
+    t.send(&mut a, &nav(1_250_000));
+    c.advance_us(600_000); // heartbeat now 0.6 s old, nav fresh after this:
+    t.send(&mut a, &nav(1_850_000));
+    let (s, r) = t.send(&mut a, &Command::Arm);
+    assert_eq!(nacked(&r, s), Some(NackReason::NoHeartbeat));
+    t.send(&mut a, &Command::Heartbeat { t_us: 0 });
+    let (s, r) = t.send(&mut a, &Command::Arm);
+    assert!(acked(&r, s));
+    assert!(a.autopilot().armed());
+}
+
+/// Manual thrust, heartbeats stop while manual commands keep coming: neutral from 0.5 s,
+/// disarmed from 1 s, and heartbeats alone do not re-arm.
+#[test]
+fn heartbeat_loss_neutral_then_disarm_then_explicit_rearm() {
+    let (mut a, c, mut t) = fixed();
+    arm(&mut a, &c, &mut t);
+    let (s, r) = t.send(&mut a, &Command::SetMode(Mode::Manual));
+    assert!(acked(&r, s));
+    let hb_at = c.get_us();
+    let push = ManualThrust {
+        surge: 0.5,
+        yaw: 0.0,
+        heave: -0.3,
+    };
+    let mut neutral_at = None;
+    let mut disarmed_at = None;
+    for _ in 0..80 {
+        c.advance_us(20_000);
+        t.send(&mut a, &Command::ManualThrust(push));
+        let age = c.get_us() - hb_at;
+        let p = pulses_us(&mut a);
+        let neutral = p == [1500.0; 3];
+        if age < 500_000 {
+            assert!(!neutral, "thrust expected at {age} us: {p:?}");
+            assert!(p[0] > 1500.0 && p[1] > 1500.0 && p[2] < 1500.0);
+        } else {
+            assert!(neutral, "neutral expected at {age} us");
+            neutral_at.get_or_insert(age);
+            assert_ne!(a.last_output().faults & fault::HEARTBEAT_LOST, 0);
+        }
+        if age >= 1_000_000 {
+            assert!(!a.autopilot().armed());
+            assert_ne!(a.last_output().faults & fault::LINK_DISARMED, 0);
+            disarmed_at.get_or_insert(age);
+        } else {
+            assert!(a.autopilot().armed(), "still armed at {age} us");
+        }
+    }
+    assert_eq!(neutral_at, Some(500_000));
+    assert_eq!(disarmed_at, Some(1_000_000));
+    // Link back: still disarmed, neutral, until an explicit Arm.
+    for _ in 0..10 {
+        c.advance_us(20_000);
+        t.send(&mut a, &Command::Heartbeat { t_us: 0 });
+        t.send(&mut a, &Command::ManualThrust(push));
+        assert!(!a.autopilot().armed());
+        assert_eq!(pulses_us(&mut a), [1500.0; 3]);
+    }
+    t.send(&mut a, &nav(c.get_us()));
+    let (s, r) = t.send(&mut a, &Command::Arm);
+    assert!(acked(&r, s));
+    c.advance_us(20_000);
+    t.send(&mut a, &Command::ManualThrust(push));
+    assert!(pulses_us(&mut a)[0] > 1500.0);
+    assert_eq!(a.last_output().faults & fault::LINK_DISARMED, 0);
+}
+
+#[test]
+fn stale_nav_while_tracking_goes_neutral_with_a_fault() {
+    let (mut a, c, mut t) = fixed();
+    let (s, r) = t.send(
+        &mut a,
+        &Command::SetReference {
+            reference: Reference::Hold {
+                pos_m: [5.0, 5.0, 0.0],
+            },
+            start_us: None,
+        },
+    );
+    assert!(acked(&r, s));
+    arm(&mut a, &c, &mut t);
+    let (s, r) = t.send(
+        &mut a,
+        &Command::SetMode(Mode::Track {
+            plane: Plane::Xy,
+            law: Law::Tracking,
+        }),
+    );
+    assert!(acked(&r, s), "{r:?}");
+    let last_nav = c.get_us();
+    for _ in 0..20 {
+        c.advance_us(20_000);
+        t.send(&mut a, &Command::Heartbeat { t_us: 0 });
+        let age = c.get_us() - last_nav;
+        let stale = a.last_output().faults & fault::NAV_STALE != 0;
+        assert_eq!(stale, age > 200_000, "age {age}");
+        if stale {
+            assert_eq!(pulses_us(&mut a), [1500.0; 3]);
+            assert!(!a.last_output().law_ran);
+        } else {
+            assert!(a.last_output().law_ran);
+        }
+    }
+    // Fresh nav: tracking resumes, the flag clears.
+    t.send(&mut a, &nav(c.get_us()));
+    c.advance_us(20_000);
+    t.send(&mut a, &Command::Heartbeat { t_us: 0 });
+    assert_eq!(a.last_output().faults & fault::NAV_STALE, 0);
+    assert!(a.last_output().law_ran);
+    assert!(a.autopilot().armed());
+}
+
+#[test]
+fn disarm_is_immediate() {
+    let (mut a, c, mut t) = fixed();
+    arm(&mut a, &c, &mut t);
+    t.send(&mut a, &Command::SetMode(Mode::Manual));
+    t.send(
+        &mut a,
+        &Command::ManualThrust(ManualThrust {
+            surge: 1.0,
+            yaw: 1.0,
+            heave: 1.0,
+        }),
+    );
+    c.advance_us(20_000);
+    a.tick();
+    assert_ne!(pulses_us(&mut a), [1500.0; 3]);
+    let (s, r) = t.send(&mut a, &Command::Disarm);
+    assert!(acked(&r, s));
+    assert_eq!(pulses_us(&mut a), [1500.0; 3]);
+}
+
+fn snapshot(a: &TestApp) -> String {
+    format!("{:?}", a.autopilot())
+}
+
+/// Every refused command is Nacked with its reason and changes nothing.
+#[test]
+fn invalid_values_are_nacked_and_change_nothing() {
+    let (mut a, c, mut t) = fixed();
+    t.send(
+        &mut a,
+        &Command::SetReference {
+            reference: Reference::Paper(PaperPolynomial::PAPER),
+            start_us: None,
+        },
+    );
+    arm(&mut a, &c, &mut t);
+    let bad_nav = |f: &dyn Fn(&mut NavState)| {
+        let mut s = NavState::default();
+        f(&mut s);
+        Command::Nav(NavSample { t_us: 0, state: s })
+    };
+    let mut g_nan = Gains::default();
+    g_nan.tracking.position_rad_s = f32::NAN;
+    let mut g_neg = Gains::default();
+    g_neg.paper_xy.k = -1.0;
+    let cases: Vec<(Command, NackReason)> = vec![
+        (bad_nav(&|s| s.x_m = f32::NAN), NackReason::NonFinite),
+        (bad_nav(&|s| s.yaw_rad = f32::INFINITY), NackReason::NonFinite),
+        (bad_nav(&|s| s.r_rad_s = f32::NEG_INFINITY), NackReason::NonFinite),
+        (bad_nav(&|s| s.u_m_s = 1e3), NackReason::OutOfRange),
+        (bad_nav(&|s| s.z_m = -1e9), NackReason::OutOfRange),
+        (Command::SetGains(g_nan), NackReason::NonFinite),
+        (Command::SetGains(g_neg), NackReason::NotPositive),
+        (
+            Command::SetReference {
+                reference: Reference::Paper(PaperPolynomial {
+                    h_r_m: f32::NAN,
+                    t_f_s: 100.0,
+                }),
+                start_us: None,
+            },
+            NackReason::NonFinite,
+        ),
+        (
+            Command::SetReference {
+                reference: Reference::Paper(PaperPolynomial {
+                    h_r_m: 1.0,
+                    t_f_s: 0.0,
+                }),
+                start_us: None,
+            },
+            NackReason::NotPositive,
+        ),
+        (
+            Command::SetReference {
+                reference: Reference::Hold {
+                    pos_m: [0.0, f32::INFINITY, 0.0],
+                },
+                start_us: Some(5),
+            },
+            NackReason::NonFinite,
+        ),
+        (
+            Command::ManualThrust(ManualThrust {
+                surge: 1.5,
+                yaw: 0.0,
+                heave: 0.0,
+            }),
+            NackReason::OutOfRange,
+        ),
+        (
+            Command::ManualThrust(ManualThrust {
+                surge: 0.0,
+                yaw: f32::NAN,
+                heave: 0.0,
+            }),
+            NackReason::NonFinite,
+        ),
+        (
+            Command::SetMode(Mode::Track {
+                plane: Plane::ThreeD,
+                law: Law::Paper,
+            }),
+            NackReason::Unsupported,
+        ),
+    ];
+    for (cmd, want) in cases {
+        let before = snapshot(&a);
+        let (s, r) = t.deliver(&mut a, &cmd);
+        assert_eq!(nacked(&r, s), Some(want), "{cmd:?} -> {r:?}");
+        assert_eq!(snapshot(&a), before, "{cmd:?} changed the state");
+    }
+    // Nav going back in time.
+    t.send(&mut a, &nav(c.get_us() + 10));
+    let before = snapshot(&a);
+    let (s, r) = t.deliver(&mut a, &nav(c.get_us()));
+    assert_eq!(nacked(&r, s), Some(NackReason::OutOfRange));
+    assert_eq!(snapshot(&a), before);
+    // Tracking without a reference (fresh app).
+    let (mut b, _c2, mut t2) = fixed();
+    let before = snapshot(&b);
+    let (s, r) = t2.deliver(
+        &mut b,
+        &Command::SetMode(Mode::Track {
+            plane: Plane::Xy,
+            law: Law::Tracking,
+        }),
+    );
+    assert_eq!(nacked(&r, s), Some(NackReason::NoReference));
+    assert_eq!(snapshot(&b), before);
+    // Hold without a nav.
+    let (s, r) = t2.deliver(&mut b, &Command::SetMode(Mode::Hold));
+    assert_eq!(nacked(&r, s), Some(NackReason::NavStale));
+    assert_eq!(snapshot(&b), before);
+}
+
+#[test]
+fn other_protocol_version_is_nacked() {
+    let (mut a, _c, mut t) = fixed();
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let f = encode_with_version(9, 1234, &Command::Arm, &mut buf).unwrap();
+    a.parts_mut().1.rx.extend(f.iter().copied());
+    a.tick();
+    let r: Vec<Reply> = t
+        .replies(&mut a)
+        .into_iter()
+        .filter(|r| !matches!(r, Reply::Telemetry(_)))
+        .collect();
+    assert_eq!(
+        r,
+        vec![Reply::Nack {
+            seq: 1234,
+            reason: NackReason::UnsupportedVersion
+        }]
+    );
+    assert_eq!(a.link_stats().dropped.version, 1);
+    assert!(!a.autopilot().armed());
+}
+
+/// Lock-step: the firmware's clock is the host's time stamps; each nav is answered by a
+/// telemetry frame naming it; the failsafes run in host time whatever the board clock does.
+#[test]
+fn lockstep_runs_on_host_time() {
+    let (mut a, c) = app(Config::lockstep(Board::Host));
+    let mut t = Topside::default();
+    let mut t_us = 10_000_000u64;
+    t.send(&mut a, &Command::Heartbeat { t_us });
+    t.send(&mut a, &nav(t_us));
+    let (s, r) = t.send(&mut a, &Command::Arm);
+    assert!(acked(&r, s));
+    t.send(&mut a, &Command::SetMode(Mode::Manual));
+    let hb_at = t_us;
+    for i in 0..60u64 {
+        t_us += 20_000;
+        c.set_us(i * 1_000_000_000); // wild board clock: must not matter
+        t.send(
+            &mut a,
+            &Command::ManualThrust(ManualThrust {
+                surge: 0.2,
+                yaw: 0.1,
+                heave: 0.0,
+            }),
+        );
+        let (s, r) = t.send(&mut a, &nav(t_us));
+        let tel = last_telemetry(&r).expect("telemetry answers nav");
+        assert_eq!(r.len(), 1);
+        assert_eq!(tel.nav_seq, s);
+        assert_eq!(tel.t_us, t_us);
+        let age = t_us - hb_at;
+        assert_eq!(tel.armed, age < 1_000_000, "age {age}");
+        assert_eq!(tel.pulse_us == [1500; 3], age >= 500_000, "age {age}");
+    }
+    assert!(!a.autopilot().armed());
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+    /// Whatever the manual command or navigation state, the thrusts stay within the limits
+    /// and the pulses within 1100-1900 us.
+    #[test]
+    fn thrust_and_pulses_always_within_limits(
+        surge in -1.0f32..=1.0, yaw in -1.0f32..=1.0, heave in -1.0f32..=1.0,
+        x in -1e4f32..1e4, y in -1e4f32..1e4, psi in -10.0f32..10.0,
+        u in -19.0f32..19.0, r in -49.0f32..49.0,
+    ) {
+        let (mut a, c, mut t) = fixed();
+        t.send(&mut a, &Command::SetReference {
+            reference: Reference::Paper(PaperPolynomial::PAPER), start_us: None });
+        arm(&mut a, &c, &mut t);
+        let lim = *a.autopilot().controller().limits();
+        let state = NavState { x_m: x, y_m: y, yaw_rad: psi, u_m_s: u, r_rad_s: r, ..NavState::default() };
+        for mode in [Mode::Manual, Mode::Track { plane: Plane::Xy, law: Law::Paper },
+                     Mode::Track { plane: Plane::Xz, law: Law::Paper },
+                     Mode::Track { plane: Plane::ThreeD, law: Law::Tracking }, Mode::Hold] {
+            t.send(&mut a, &Command::SetMode(mode));
+            t.send(&mut a, &Command::ManualThrust(ManualThrust { surge, yaw, heave }));
+            for _ in 0..3 {
+                c.advance_us(20_000);
+                t.send(&mut a, &Command::Heartbeat { t_us: 0 });
+                t.send(&mut a, &Command::Nav(NavSample { t_us: c.get_us(), state }));
+                let out = *a.last_output();
+                for f in out.allocation.thrust_n {
+                    prop_assert!(f <= lim.max_forward_n && f >= -lim.max_reverse_n);
+                }
+                for p in pulses_us(&mut a) {
+                    prop_assert!((1100.0..=1900.0).contains(&p), "pulse {}", p);
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn timing_enum_is_reported() {
+    let (mut a, _c) = app(Config::lockstep(Board::Host));
+    a.hello();
+    let r = Topside::default().replies(&mut a);
+    assert!(matches!(r[0], Reply::Hello { lockstep: true, control_period_us: 0, .. }));
+    assert_eq!(Config::lockstep(Board::Host).timing, Timing::LockStep);
+}
