@@ -131,3 +131,63 @@ fn sensor_noise_has_the_configured_spread_and_is_seeded() {
     assert!((sd - 0.1).abs() < 0.005, "sd {sd}");
     assert!(((sr / n as f64).sqrt() - 0.02).abs() < 0.001);
 }
+
+#[test]
+fn a_run_writes_summary_csv_and_figures() {
+    let sc = Scenario::from_toml(
+        "name = \"w\"\nplane = \"xz\"\ncontroller = \"paper\"\nduration_s = 3.0\n[reference]\nkind = \"paper\"\nt_f_s = 10.0\n",
+        "w",
+    )
+    .unwrap();
+    let out = run(
+        &sc,
+        &RunOptions {
+            record: true,
+            ..RunOptions::default()
+        },
+    )
+    .unwrap();
+    let dir = std::env::temp_dir().join(format!("host-sim-test-{}", std::process::id()));
+    host_sim::output::write_run(&dir, &out).unwrap();
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    for key in [
+        "scenario",
+        "plane",
+        "controller",
+        "final_position_error_m",
+        "max_position_error_m",
+        "rms_position_error_m",
+        "rms_position_error_tail_m",
+        "final_angle_error_rad",
+        "max_abs_thruster_force_n",
+        "saturated_fraction",
+        "diverged",
+        "nan_detected",
+        "sim_steps",
+        "wall_time_s",
+        "verdict",
+    ] {
+        assert!(json.get(key).is_some(), "summary.json lacks {key}");
+    }
+    let csv = std::fs::read_to_string(dir.join("timeseries.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header = lines.next().unwrap();
+    assert_eq!(
+        header.split(',').count(),
+        host_sim::output::CSV_COLUMNS.len()
+    );
+    assert_eq!(lines.count(), out.log.len());
+    for fig in [
+        "fig_errors.png",
+        "fig_velocity_errors.png",
+        "fig_trajectory.png",
+        "fig_positions.png",
+        "fig_thrusters.png",
+    ] {
+        let bytes = std::fs::read(dir.join(fig)).unwrap();
+        assert_eq!(&bytes[1..4], b"PNG", "{fig}");
+        assert!(bytes.len() > 10_000, "{fig} looks empty");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
