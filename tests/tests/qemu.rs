@@ -1,0 +1,204 @@
+//! The emulated board: boots the `qemu` firmware image in `qemu-system-arm -M netduinoplus2`,
+//! waits for its Hello frame on a loopback TCP socket and drives it in lock-step: arm,
+//! manual thrust, nav -> telemetry, then heartbeat loss in emulated (host) time.
+//!
+//! Needs the image (`cargo build -p firmware --release --target thumbv7em-none-eabihf`, which
+//! CI runs before the tests) and `qemu-system-arm`; without either it says so and passes.
+//! `ROV_QEMU_ELF` overrides the image path.
+
+use firmware::protocol::{
+    encode, Board, Command, Decoded, FrameDecoder, ManualThrust, Mode, NavSample, Reply,
+    Telemetry, MAX_FRAME_LEN,
+};
+use std::io::{Read, Write};
+use std::net::{TcpListener, TcpStream};
+use std::path::PathBuf;
+use std::process::{Child, Command as Proc, Stdio};
+use std::time::{Duration, Instant};
+
+fn image() -> Option<PathBuf> {
+    if let Some(p) = std::env::var_os("ROV_QEMU_ELF") {
+        return Some(PathBuf::from(p));
+    }
+    // target/<profile>/deps/qemu-<hash> -> target/thumbv7em-none-eabihf/release/qemu
+    let exe = std::env::current_exe().ok()?;
+    let target = exe.parent()?.parent()?.parent()?;
+    let p = target.join("thumbv7em-none-eabihf/release/qemu");
+    p.exists().then_some(p)
+}
+
+/// Kills QEMU when the test ends, also on a panic.
+struct Qemu(Child);
+
+impl Drop for Qemu {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+struct Link {
+    stream: TcpStream,
+    decoder: FrameDecoder<Reply>,
+    seq: u16,
+}
+
+impl Link {
+    fn send(&mut self, cmd: &Command) -> u16 {
+        let seq = self.seq;
+        self.seq = self.seq.wrapping_add(1);
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let f = encode(seq, cmd, &mut buf).unwrap();
+        self.stream.write_all(f).unwrap();
+        seq
+    }
+
+    fn recv(&mut self) -> Reply {
+        let deadline = Instant::now() + Duration::from_secs(10);
+        let mut b = [0u8; 1];
+        loop {
+            assert!(Instant::now() < deadline, "no reply from the emulated board");
+            match self.stream.read(&mut b) {
+                Ok(0) => panic!("QEMU closed the serial link"),
+                Ok(_) => match self.decoder.push(b[0]) {
+                    Some(Decoded::Frame { msg, .. }) => return msg,
+                    Some(Decoded::Dropped { reason, .. }) => panic!("bad reply frame {reason:?}"),
+                    None => {}
+                },
+                Err(e) => panic!("serial read: {e}"),
+            }
+        }
+    }
+
+    fn expect_ack(&mut self, cmd: &Command) {
+        let seq = self.send(cmd);
+        assert_eq!(self.recv(), Reply::Ack { seq }, "{cmd:?}");
+    }
+
+    fn nav(&mut self, t_us: u64) -> (u16, Telemetry) {
+        let seq = self.send(&Command::Nav(NavSample {
+            t_us,
+            state: Default::default(),
+        }));
+        match self.recv() {
+            Reply::Telemetry(t) => (seq, t),
+            other => panic!("expected telemetry, got {other:?}"),
+        }
+    }
+}
+
+#[test]
+fn emulated_board_boots_and_answers_in_lockstep() {
+    let Some(elf) = image() else {
+        println!("skipped: no qemu firmware image (build firmware for thumbv7em-none-eabihf)");
+        return;
+    };
+    if Proc::new("qemu-system-arm").arg("--version").output().is_err() {
+        println!("skipped: qemu-system-arm not installed");
+        return;
+    }
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    let log = std::env::temp_dir().join(format!("rov-qemu-{port}.defmt"));
+    // QEMU is spawned directly (not under `timeout`: killing a wrapper would orphan QEMU)
+    // and killed by `Qemu::drop`, also when the test panics.
+    let child = Proc::new("qemu-system-arm")
+        .args(["-M", "netduinoplus2", "-nographic"])
+        .args(["-monitor", "none", "-semihosting-config", "enable=on,target=native"])
+        .args(["-icount", "shift=0,align=off,sleep=off"])
+        .arg("-serial")
+        .arg(format!("tcp:127.0.0.1:{port},nodelay=on"))
+        .arg("-kernel")
+        .arg(&elf)
+        .stdin(Stdio::null())
+        .stdout(std::fs::File::create(&log).unwrap())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let _qemu = Qemu(child);
+    listener.set_nonblocking(true).unwrap();
+    let deadline = Instant::now() + Duration::from_secs(20);
+    let stream = loop {
+        match listener.accept() {
+            Ok((s, _)) => break s,
+            Err(_) if Instant::now() < deadline => std::thread::sleep(Duration::from_millis(20)),
+            Err(e) => panic!("QEMU did not connect: {e}"),
+        }
+    };
+    stream.set_nonblocking(false).unwrap();
+    stream.set_nodelay(true).unwrap();
+    stream.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    let mut link = Link {
+        stream,
+        decoder: FrameDecoder::new(),
+        seq: 0,
+    };
+    let t0 = Instant::now();
+    match link.recv() {
+        Reply::Hello {
+            protocol,
+            board,
+            lockstep,
+            pwm_hz,
+            ..
+        } => {
+            assert_eq!(protocol, firmware::protocol::PROTOCOL_VERSION);
+            assert_eq!(board, Board::QemuNetduinoPlus2);
+            assert!(lockstep);
+            assert_eq!(pwm_hz, 50);
+        }
+        other => panic!("expected Hello, got {other:?}"),
+    }
+    println!("hello after {:?}", t0.elapsed());
+
+    // Boots disarmed and neutral.
+    let mut t_us = 1_000_000u64;
+    link.send(&Command::Heartbeat { t_us });
+    let (seq, tel) = link.nav(t_us);
+    assert_eq!(tel.nav_seq, seq);
+    assert!(!tel.armed);
+    assert_eq!(tel.pulse_us, [1500; 3]);
+
+    link.expect_ack(&Command::Arm);
+    link.expect_ack(&Command::SetMode(Mode::Manual));
+    let push = ManualThrust {
+        surge: 0.5,
+        yaw: 0.2,
+        heave: -0.4,
+    };
+    let hb_at = t_us;
+    let mut frames = 0u32;
+    let t1 = Instant::now();
+    for _ in 0..75 {
+        t_us += 20_000;
+        link.send(&Command::ManualThrust(push));
+        let (seq, tel) = link.nav(t_us);
+        frames += 1;
+        assert_eq!(tel.nav_seq, seq);
+        assert_eq!(tel.t_us, t_us);
+        let age = t_us - hb_at;
+        assert_eq!(tel.armed, age < 1_000_000, "age {age}: {tel:?}");
+        if age < 500_000 {
+            assert!(tel.pulse_us[0] > 1500 && tel.pulse_us[1] > 1500 && tel.pulse_us[2] < 1500);
+        } else {
+            assert_eq!(tel.pulse_us, [1500; 3], "age {age}");
+        }
+    }
+    // Noise on the link: two broken frames, then a good one still answers.
+    link.stream.write_all(&[1, 2, 3, 0, 0xFF, 0x55, 0x13, 0]).unwrap();
+    let (seq, tel) = link.nav(t_us + 20_000);
+    assert_eq!(tel.nav_seq, seq);
+    assert_eq!(tel.link.dropped.total(), 2, "{:?}", tel.link);
+    assert!(!tel.armed);
+    println!(
+        "{frames} lock-step exchanges in {:?}; link {:?}",
+        t1.elapsed(),
+        link.recv_stats()
+    );
+}
+
+impl Link {
+    fn recv_stats(&mut self) -> (u32, u32) {
+        (self.decoder.frames, self.decoder.dropped.total())
+    }
+}
