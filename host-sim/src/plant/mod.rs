@@ -173,10 +173,12 @@ pub fn rk4<const N: usize>(
 
 /// Build the 6-DOF plant behind the [`Plant`] trait (used by the runner for `plane = "3d"`).
 pub fn six_dof_factory(
-    _params: &controller_core::params::VehicleParams,
-    _env: Environment,
-    _saturate: bool,
-    _initial: PlantState,
+    params: &controller_core::params::VehicleParams,
+    env: Environment,
+    saturate: bool,
+    initial: PlantState,
 ) -> anyhow::Result<Box<dyn Plant>> {
-    anyhow::bail!("plane = \"3d\" needs the 6-DOF plant (plant::six_dof::SixDof), which is not available in this build yet")
+    Ok(Box::new(six_dof::SixDof::new(
+        params, env, saturate, initial,
+    )))
 }
