@@ -630,7 +630,8 @@ impl Scenario {
         let d = &self.disturbance;
         vec3("disturbance.current_m_s", d.current_m_s)?;
         fin("disturbance.buoyancy_offset_n", d.buoyancy_offset_n)?;
-        let weight = 10.84 * 9.81;
+        let nominal = controller_core::params::VehicleParams::OBSERVER;
+        let weight = f64::from(nominal.mass_kg) * f64::from(nominal.gravity_m_s2);
         if d.buoyancy_offset_n.abs() > 0.5 * weight {
             bail!(
                 "disturbance.buoyancy_offset_n = {} N is beyond half the vehicle's weight ({:.1} N)",
