@@ -222,7 +222,19 @@ pub fn run_batch(sc: &Scenario, cfg: &McConfig) -> Result<(McSummary, Vec<McRun>
         .collect();
     pb.finish_and_clear();
     let runs: Vec<McRun> = results.into_iter().collect::<Result<_>>()?;
-    let col = |f: fn(&McRun) -> f64| runs.iter().map(f).collect::<Vec<f64>>();
+    // A run that diverged or produced a NaN counts as an infinite error in the percentiles
+    // (its partial-run figures would flatter it); runs.csv keeps the raw numbers.
+    let col = |f: fn(&McRun) -> f64| {
+        runs.iter()
+            .map(|r| {
+                if r.diverged || r.nan_detected {
+                    f64::INFINITY
+                } else {
+                    f(r)
+                }
+            })
+            .collect::<Vec<f64>>()
+    };
     let max_thrust = runs
         .iter()
         .map(|r| r.max_abs_thruster_force_n)
