@@ -15,8 +15,8 @@
 
 use crate::autopilot::{Autopilot, Failsafe, StepOutput};
 use crate::protocol::{
-    encode, fault, Board, Command, Decoded, DropReason, FrameDecoder, LinkStats, NackReason,
-    Reply, Telemetry, MAX_FRAME_LEN,
+    encode, fault, Board, Command, Decoded, DropReason, FrameDecoder, LinkStats, NackReason, Reply,
+    Telemetry, MAX_FRAME_LEN,
 };
 use controller_core::controller::Controller;
 use embedded_hal::pwm::SetDutyCycle;
@@ -186,9 +186,7 @@ where
         if !(50..=400).contains(&config.pwm_hz) {
             return Err(ConfigError::PwmFrequency);
         }
-        if pwm.0.max_duty_cycle() == 0
-            || pwm.1.max_duty_cycle() == 0
-            || pwm.2.max_duty_cycle() == 0
+        if pwm.0.max_duty_cycle() == 0 || pwm.1.max_duty_cycle() == 0 || pwm.2.max_duty_cycle() == 0
         {
             return Err(ConfigError::PwmResolution);
         }

@@ -198,8 +198,7 @@ impl Autopilot {
                 Ok(())
             }
             Command::Arm => {
-                if Self::age(now_us, self.last_heartbeat_us) >= self.failsafe.heartbeat_neutral_us
-                {
+                if Self::age(now_us, self.last_heartbeat_us) >= self.failsafe.heartbeat_neutral_us {
                     return Err(NackReason::NoHeartbeat);
                 }
                 if !self.nav_fresh(now_us) {
@@ -298,8 +297,10 @@ impl Autopilot {
         }
     }
 
-    /// Compute the thruster commands at `now_us`, applying every failsafe. Never panics.
-    #[cfg_attr(feature = "no-panic", no_panic::no_panic)]
+    /// Compute the thruster commands at `now_us`, applying every failsafe. Has no panic path
+    /// of its own (unwrap/expect/indexing/panic are denied); the link-time proof waits on
+    /// controller-core (feature `no-panic-step`, docs/firmware.md).
+    #[cfg_attr(feature = "no-panic-step", no_panic::no_panic)]
     pub fn step(&mut self, now_us: u64) -> StepOutput {
         let fs = self.failsafe;
         let dt_s = match self.last_step_us {

@@ -13,8 +13,8 @@
 pub mod app;
 pub mod autopilot;
 mod crc32;
-pub mod ring;
 pub mod protocol;
+pub mod ring;
 
 #[cfg(target_os = "none")]
 pub mod board;

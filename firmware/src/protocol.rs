@@ -666,7 +666,8 @@ mod tests {
     fn cobs_round_trip_edge_cases() {
         for len in [0usize, 1, 253, 254, 255, 256, 300] {
             for fill in [0u8, 1, 0xFF] {
-                let src: [u8; 300] = core::array::from_fn(|i| if i % 7 == 0 { fill } else { i as u8 | 1 });
+                let src: [u8; 300] =
+                    core::array::from_fn(|i| if i % 7 == 0 { fill } else { i as u8 | 1 });
                 let src = &src[..len];
                 let mut dst = [0u8; 400];
                 let n = cobs_encode(src, &mut dst);

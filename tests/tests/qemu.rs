@@ -7,8 +7,8 @@
 //! `ROV_QEMU_ELF` overrides the image path.
 
 use firmware::protocol::{
-    encode, Board, Command, Decoded, FrameDecoder, ManualThrust, Mode, NavSample, Reply,
-    Telemetry, MAX_FRAME_LEN,
+    encode, Board, Command, Decoded, FrameDecoder, ManualThrust, Mode, NavSample, Reply, Telemetry,
+    MAX_FRAME_LEN,
 };
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
@@ -57,7 +57,10 @@ impl Link {
         let deadline = Instant::now() + Duration::from_secs(10);
         let mut b = [0u8; 1];
         loop {
-            assert!(Instant::now() < deadline, "no reply from the emulated board");
+            assert!(
+                Instant::now() < deadline,
+                "no reply from the emulated board"
+            );
             match self.stream.read(&mut b) {
                 Ok(0) => panic!("QEMU closed the serial link"),
                 Ok(_) => match self.decoder.push(b[0]) {
@@ -93,7 +96,11 @@ fn emulated_board_boots_and_answers_in_lockstep() {
         println!("skipped: no qemu firmware image (build firmware for thumbv7em-none-eabihf)");
         return;
     };
-    if Proc::new("qemu-system-arm").arg("--version").output().is_err() {
+    if Proc::new("qemu-system-arm")
+        .arg("--version")
+        .output()
+        .is_err()
+    {
         println!("skipped: qemu-system-arm not installed");
         return;
     }
@@ -104,7 +111,12 @@ fn emulated_board_boots_and_answers_in_lockstep() {
     // and killed by `Qemu::drop`, also when the test panics.
     let child = Proc::new("qemu-system-arm")
         .args(["-M", "netduinoplus2", "-nographic"])
-        .args(["-monitor", "none", "-semihosting-config", "enable=on,target=native"])
+        .args([
+            "-monitor",
+            "none",
+            "-semihosting-config",
+            "enable=on,target=native",
+        ])
         .args(["-icount", "shift=0,align=off,sleep=off"])
         .arg("-serial")
         .arg(format!("tcp:127.0.0.1:{port},nodelay=on"))
@@ -127,7 +139,9 @@ fn emulated_board_boots_and_answers_in_lockstep() {
     };
     stream.set_nonblocking(false).unwrap();
     stream.set_nodelay(true).unwrap();
-    stream.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    stream
+        .set_read_timeout(Some(Duration::from_secs(10)))
+        .unwrap();
     let mut link = Link {
         stream,
         decoder: FrameDecoder::new(),
@@ -185,7 +199,9 @@ fn emulated_board_boots_and_answers_in_lockstep() {
         }
     }
     // Noise on the link: two broken frames, then a good one still answers.
-    link.stream.write_all(&[1, 2, 3, 0, 0xFF, 0x55, 0x13, 0]).unwrap();
+    link.stream
+        .write_all(&[1, 2, 3, 0, 0xFF, 0x55, 0x13, 0])
+        .unwrap();
     let (seq, tel) = link.nav(t_us + 20_000);
     assert_eq!(tel.nav_seq, seq);
     assert_eq!(tel.link.dropped.total(), 2, "{:?}", tel.link);

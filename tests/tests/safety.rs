@@ -295,13 +295,19 @@ fn invalid_values_are_nacked_and_change_nothing() {
         Command::Nav(NavSample { t_us: 0, state: s })
     };
     let mut g_nan = Gains::default();
-    g_nan.tracking.position_rad_s = f32::NAN;
+    g_nan.paper_xz.k = f32::NAN;
     let mut g_neg = Gains::default();
     g_neg.paper_xy.k = -1.0;
     let cases: Vec<(Command, NackReason)> = vec![
         (bad_nav(&|s| s.x_m = f32::NAN), NackReason::NonFinite),
-        (bad_nav(&|s| s.yaw_rad = f32::INFINITY), NackReason::NonFinite),
-        (bad_nav(&|s| s.r_rad_s = f32::NEG_INFINITY), NackReason::NonFinite),
+        (
+            bad_nav(&|s| s.yaw_rad = f32::INFINITY),
+            NackReason::NonFinite,
+        ),
+        (
+            bad_nav(&|s| s.r_rad_s = f32::NEG_INFINITY),
+            NackReason::NonFinite,
+        ),
         (bad_nav(&|s| s.u_m_s = 1e3), NackReason::OutOfRange),
         (bad_nav(&|s| s.z_m = -1e9), NackReason::OutOfRange),
         (Command::SetGains(g_nan), NackReason::NonFinite),
@@ -490,6 +496,13 @@ fn timing_enum_is_reported() {
     let (mut a, _c) = app(Config::lockstep(Board::Host));
     a.hello();
     let r = Topside::default().replies(&mut a);
-    assert!(matches!(r[0], Reply::Hello { lockstep: true, control_period_us: 0, .. }));
+    assert!(matches!(
+        r[0],
+        Reply::Hello {
+            lockstep: true,
+            control_period_us: 0,
+            ..
+        }
+    ));
     assert_eq!(Config::lockstep(Board::Host).timing, Timing::LockStep);
 }

@@ -179,9 +179,15 @@ fn arm_track_lose_link_recover() {
     }
     let final_err = s.error_m(&[4.0, 4.0, 0.0]);
     let last = *s.telemetry.last().unwrap();
-    println!("after recovery: error {final_err:.4} m, link {:?}", last.link);
+    println!(
+        "after recovery: error {final_err:.4} m, link {:?}",
+        last.link
+    );
     assert!(last.armed);
-    assert_eq!(last.faults & (fault::LINK_DISARMED | fault::HEARTBEAT_LOST), 0);
+    assert_eq!(
+        last.faults & (fault::LINK_DISARMED | fault::HEARTBEAT_LOST),
+        0
+    );
     assert!(final_err < 0.25);
     assert_eq!(s.nacks, 0);
 }
