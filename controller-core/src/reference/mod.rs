@@ -4,8 +4,11 @@
 //! its first three time derivatives. The laws derive the consistent orientation and body
 //! velocities for their plane from it.
 
-use crate::error::{positive, Error};
+use crate::error::{finite, positive, Error};
 use serde::{Deserialize, Serialize};
+
+pub mod feasible;
+pub mod path;
 
 /// Position and derivatives of the reference point at one instant (inertial, z down).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -207,8 +210,64 @@ impl Reference {
                 }
                 Ok(())
             }
-            // PLACEHOLDER: path references are being written (issue 3).
-            _ => Err(Error::OutOfRange("reference kind not implemented yet")),
+            Reference::Line {
+                start_m,
+                heading_rad,
+                speed_m_s,
+            } => {
+                for v in start_m {
+                    finite("start_m", *v)?;
+                }
+                finite("heading_rad", *heading_rad)?;
+                positive("speed_m_s", *speed_m_s)?;
+                Ok(())
+            }
+            Reference::Circle {
+                center_m,
+                radius_m,
+                speed_m_s,
+            } => {
+                for v in center_m {
+                    finite("center_m", *v)?;
+                }
+                positive("radius_m", *radius_m)?;
+                positive("speed_m_s", *speed_m_s)?;
+                Ok(())
+            }
+            Reference::Lawnmower {
+                start_m,
+                heading_rad,
+                leg_length_m,
+                spacing_m,
+                legs,
+                speed_m_s,
+            } => {
+                for v in start_m {
+                    finite("start_m", *v)?;
+                }
+                finite("heading_rad", *heading_rad)?;
+                positive("leg_length_m", *leg_length_m)?;
+                positive("spacing_m", *spacing_m)?;
+                positive("speed_m_s", *speed_m_s)?;
+                if *legs == 0 {
+                    return Err(Error::NotPositive("legs"));
+                }
+                Ok(())
+            }
+            Reference::Helix {
+                center_m,
+                radius_m,
+                speed_m_s,
+                depth_rate_m_s,
+            } => {
+                for v in center_m {
+                    finite("center_m", *v)?;
+                }
+                positive("radius_m", *radius_m)?;
+                positive("speed_m_s", *speed_m_s)?;
+                finite("depth_rate_m_s", *depth_rate_m_s)?;
+                Ok(())
+            }
         }
     }
 
@@ -221,8 +280,54 @@ impl Reference {
                 pos_m: *pos_m,
                 ..RefSample::default()
             },
-            // PLACEHOLDER: path references are being written (issue 3).
-            _ => RefSample::default(),
+            Reference::Line {
+                start_m,
+                heading_rad,
+                speed_m_s,
+            } => {
+                let w = path::ramp(t_s);
+                let g = path::line_geo(*start_m, *heading_rad, *speed_m_s, w.s0);
+                path::compose(t_s, &g, &w)
+            }
+            Reference::Circle {
+                center_m,
+                radius_m,
+                speed_m_s,
+            } => {
+                let w = path::ramp(t_s);
+                let g = path::circle_geo(*center_m, *radius_m, *speed_m_s, 0.0, w.s0);
+                path::compose(t_s, &g, &w)
+            }
+            Reference::Helix {
+                center_m,
+                radius_m,
+                speed_m_s,
+                depth_rate_m_s,
+            } => {
+                let w = path::ramp(t_s);
+                let g = path::circle_geo(*center_m, *radius_m, *speed_m_s, *depth_rate_m_s, w.s0);
+                path::compose(t_s, &g, &w)
+            }
+            Reference::Lawnmower {
+                start_m,
+                heading_rad,
+                leg_length_m,
+                spacing_m,
+                legs,
+                speed_m_s,
+            } => {
+                let l = path::Lawnmower::new(
+                    *start_m,
+                    *heading_rad,
+                    *leg_length_m,
+                    *spacing_m,
+                    *legs,
+                    *speed_m_s,
+                );
+                let w = path::ramp_finite(t_s, l.total_time());
+                let g = l.geo(w.s0);
+                path::compose(t_s, &g, &w)
+            }
         }
     }
 }

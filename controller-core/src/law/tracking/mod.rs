@@ -1,77 +1,334 @@
-//! Laws that really track (issue 3). PLACEHOLDER: being written.
+//! Laws that really track (issue 3), in the vertical plane, the horizontal plane and 3-D.
+//!
+//! - [`step_xz`]: a cascade on the transformed point `x1 = x + alpha sin(theta)` of
+//!   `MODEL_NOTES` section 3, whose acceleration is set by the pitch (`u1_dot = F_q / a_uq`,
+//!   independent of `tau_1`): x1 error -> desired x1 acceleration (PID) -> pitch demand
+//!   `theta_d` (exact inverse of the dominant term `-g sin(theta) cos(theta)`, smoothly limited
+//!   to `pitch_max_rad`) with analytic first and second derivatives -> pitch-rate loop ->
+//!   `tau_1` through the coupled mass matrix (`q_dot = q_dot_0 - (a_uq / delta) tau_1`).
+//!   Depth by the heave force ([`depth`]); yaw held at 0 on the 6-DOF plant.
+//! - [`step_xy`]: the "hand position" `h = p + eps (cos psi, sin psi)`, fully actuated for
+//!   `eps > 0`, is feedback-linearized (`tau_1`, `tau_2` give any hand acceleration); the
+//!   hand reference is the origin reference shifted by `eps` along the *feasible* heading
+//!   (course minus the sideslip the sway dynamics need, [`crate::reference::feasible`]), so
+//!   when the hand tracks, the internal yaw dynamics (stable when moving forward with
+//!   `Y_v eps > (m11 - m22) U`) bring the origin onto its reference. The integral acts on the
+//!   *origin* error, so a current or a model error that leaves the heading off the computed
+//!   feasible heading is still removed at the origin.
+//! - [`step_3d`]: the XY law plus the depth law; pitch and roll are left to their restoring
+//!   moments.
+//!
+//! Saturation awareness: position errors entering the PD terms are limited
+//! (`error_limit_m`), the pitch demand is limited, every integrator is clamped and frozen while
+//! its actuator is saturated (from [`TrackingState::on_allocation`]; integration that shrinks
+//! the integrator is still allowed), so nothing winds up and recovery is smooth.
+//!
+//! Design notes, equations and measured numbers: `docs/tracking.md`.
+
+mod depth;
+mod xy;
+mod xz;
 
 use super::LawOutput;
 use crate::error::{positive, Error};
 use crate::params::Vehicle;
 use crate::reference::RefSample;
-use crate::state::{BodyForces, NavState};
+use crate::state::{BodyForces, NavState, TrackingErrors};
 use serde::{Deserialize, Serialize};
 
-/// Gains of the tracking laws.
+pub use depth::depth;
+
+/// Gains of the tracking laws. Every value must be finite and positive.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct TrackingGains {
-    /// Position loop bandwidth.
-    pub position_rad_s: f32,
+    /// XY: distance `eps` of the hand point ahead of the origin (m). The yaw dynamics are
+    /// stable for `eps > (m11 - m22) U / Y_v` (0.28 U for the Observer).
+    pub hand_m: f32,
+    /// XY: hand position gain (1/s^2).
+    pub xy_kp: f32,
+    /// XY: hand velocity gain (1/s).
+    pub xy_kd: f32,
+    /// XY: integral gain on the origin error (1/s^3).
+    pub xy_ki: f32,
+    /// XZ: position gain of the x1 loop (1/s^2).
+    pub xz_kp: f32,
+    /// XZ: velocity gain of the x1 loop (1/s).
+    pub xz_kd: f32,
+    /// XZ: integral gain of the x1 loop (1/s^3).
+    pub xz_ki: f32,
+    /// XZ: pitch gain (1/s^2).
+    pub pitch_kp: f32,
+    /// XZ: pitch-rate gain (1/s).
+    pub pitch_kd: f32,
+    /// XZ: largest pitch demand (rad, < 0.7).
+    pub pitch_max_rad: f32,
+    /// Depth: position gain (1/s^2).
+    pub depth_kp: f32,
+    /// Depth: velocity gain (1/s).
+    pub depth_kd: f32,
+    /// Depth: integral gain (1/s^3).
+    pub depth_ki: f32,
+    /// XZ on the 6-DOF plant: yaw-hold gain (1/s^2).
+    pub yaw_kp: f32,
+    /// XZ on the 6-DOF plant: yaw-rate gain (1/s).
+    pub yaw_kd: f32,
+    /// Largest position error fed to the PD terms (m); bounds the virtual controls.
+    pub error_limit_m: f32,
+    /// Largest acceleration an integrator may contribute (m/s^2).
+    pub integral_limit_m_s2: f32,
 }
 
 impl TrackingGains {
-    /// Refuse non-finite or non-positive gains.
+    /// The documented defaults (`docs/tracking.md`).
+    pub const DEFAULT: Self = Self {
+        hand_m: 0.5,
+        xy_kp: 1.0,
+        xy_kd: 2.0,
+        xy_ki: 0.15,
+        xz_kp: 1.08,
+        xz_kd: 1.8,
+        xz_ki: 0.216,
+        pitch_kp: 9.0,
+        pitch_kd: 6.0,
+        pitch_max_rad: 0.35,
+        depth_kp: 1.92,
+        depth_kd: 2.4,
+        depth_ki: 0.512,
+        yaw_kp: 4.0,
+        yaw_kd: 4.0,
+        error_limit_m: 0.5,
+        integral_limit_m_s2: 1.0,
+    };
+
+    /// Refuse non-finite or non-positive gains, and a pitch limit at or beyond 0.7 rad (the
+    /// inverse of `sin(2 theta)` needs `|theta| < pi / 4`).
     pub fn validate(&self) -> Result<(), Error> {
-        positive("position_rad_s", self.position_rad_s)?;
+        for (n, v) in [
+            ("hand_m", self.hand_m),
+            ("xy_kp", self.xy_kp),
+            ("xy_kd", self.xy_kd),
+            ("xy_ki", self.xy_ki),
+            ("xz_kp", self.xz_kp),
+            ("xz_kd", self.xz_kd),
+            ("xz_ki", self.xz_ki),
+            ("pitch_kp", self.pitch_kp),
+            ("pitch_kd", self.pitch_kd),
+            ("pitch_max_rad", self.pitch_max_rad),
+            ("depth_kp", self.depth_kp),
+            ("depth_kd", self.depth_kd),
+            ("depth_ki", self.depth_ki),
+            ("yaw_kp", self.yaw_kp),
+            ("yaw_kd", self.yaw_kd),
+            ("error_limit_m", self.error_limit_m),
+            ("integral_limit_m_s2", self.integral_limit_m_s2),
+        ] {
+            positive(n, v)?;
+        }
+        if self.pitch_max_rad >= 0.7 {
+            return Err(Error::OutOfRange("pitch_max_rad"));
+        }
         Ok(())
     }
 }
 
 impl Default for TrackingGains {
     fn default() -> Self {
-        Self {
-            position_rad_s: 0.5,
-        }
+        Self::DEFAULT
     }
 }
 
-/// Internal state of the tracking laws (integrators, filters).
+/// The feasible-heading generator of the XY law (course minus sideslip, with filtered
+/// derivatives of the sideslip).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct TrackingState {}
+pub(crate) struct HeadingRef {
+    init: bool,
+    chi: f32,
+    beta_qs: f32,
+    beta_qs_dot: f32,
+    beta: f32,
+    beta_dot: f32,
+    beta_ddot: f32,
+}
+
+/// Internal state of the tracking laws (integrators, filters, saturation flags).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TrackingState {
+    /// XY: integral of the origin error (inertial, m s).
+    xy_int: [f32; 2],
+    /// XZ: integral of the x1 error (m s).
+    xz_int: f32,
+    /// Depth: integral of the depth error (m s).
+    z_int: f32,
+    /// The pitch demand was in its limit last step.
+    pitch_limited: bool,
+    /// Last allocation clamped the surge force.
+    surge_sat: bool,
+    /// Last allocation clamped the yaw moment.
+    yaw_sat: bool,
+    /// Last allocation clamped the heave force.
+    heave_sat: bool,
+    heading: HeadingRef,
+}
 
 impl TrackingState {
-    /// Tell the law what the thrusters really delivered (anti-windup).
-    pub fn on_allocation(&mut self, _requested: &BodyForces, _achieved: &BodyForces) {}
+    /// Tell the law what the thrusters really delivered (anti-windup): a channel whose
+    /// achieved force differs from the request is saturated, and the integrators it feeds stop
+    /// growing on the next step.
+    pub fn on_allocation(&mut self, requested: &BodyForces, achieved: &BodyForces) {
+        let off = |r: f32, a: f32| (r - a).abs() > 1e-3 * (1.0 + r.abs()) || (r - a).is_nan();
+        self.surge_sat = off(requested.surge_n, achieved.surge_n);
+        self.yaw_sat = off(requested.yaw_n_m, achieved.yaw_n_m);
+        self.heave_sat = off(requested.heave_n, achieved.heave_n);
+    }
+
+    /// Integrator values `[xy_x, xy_y, xz, z]` (m s), for logs and tests.
+    pub fn integrators(&self) -> [f32; 4] {
+        [self.xy_int[0], self.xy_int[1], self.xz_int, self.z_int]
+    }
 }
 
-/// XZ tracking step. PLACEHOLDER.
+/// A usable step length: non-finite or non-positive gives 0 (integrators and filters hold),
+/// and it is capped at 1 s.
+#[inline]
+pub(crate) fn clean_dt(dt_s: f32) -> f32 {
+    if dt_s.is_finite() && dt_s > 0.0 {
+        dt_s.min(1.0)
+    } else {
+        0.0
+    }
+}
+
+/// Integrate `e` into `i` over `dt` unless `frozen`; integration that shrinks `|i|` is always
+/// allowed. The result is clamped to `+-limit`.
+#[inline]
+pub(crate) fn integrate(i: f32, e: f32, dt: f32, frozen: bool, limit: f32) -> f32 {
+    let next = i + e * dt;
+    let next = if frozen && next.abs() > i.abs() {
+        i
+    } else {
+        next
+    };
+    let next = next.clamp(-limit, limit);
+    if next.is_finite() {
+        next
+    } else {
+        0.0
+    }
+}
+
+/// Limit a scalar error to `+-l`.
+#[inline]
+pub(crate) fn sat(e: f32, l: f32) -> f32 {
+    if e.is_nan() {
+        0.0
+    } else {
+        e.clamp(-l, l)
+    }
+}
+
+/// Scale a 2-vector so that its norm is at most `l` (direction kept).
+#[inline]
+pub(crate) fn sat2(x: f32, y: f32, l: f32) -> (f32, f32) {
+    let n = crate::math::sqrt(x * x + y * y);
+    if n > l && n.is_finite() {
+        let k = l / n;
+        (x * k, y * k)
+    } else if n.is_finite() {
+        (x, y)
+    } else {
+        (0.0, 0.0)
+    }
+}
+
+/// XZ tracking step: x by pitch (cascade on the transformed point), depth by heave, yaw held
+/// at 0. Errors: `x`, `z` of the origin and the pitch error against the steady pitch of the
+/// reference acceleration (`y`, yaw: 0).
 pub fn step_xz(
-    _v: &Vehicle,
-    _g: &TrackingGains,
-    _st: &mut TrackingState,
-    _nav: &NavState,
-    _r: &RefSample,
-    _dt_s: f32,
+    v: &Vehicle,
+    g: &TrackingGains,
+    st: &mut TrackingState,
+    nav: &NavState,
+    r: &RefSample,
+    dt_s: f32,
 ) -> LawOutput {
-    LawOutput::default()
+    let dt = clean_dt(dt_s);
+    let (heave_n, ez) = depth(v, g, st, nav, r, dt);
+    let (surge_n, pitch_err) = xz::surge(v, g, st, nav, r, heave_n, dt);
+    let yaw_n_m = xz::yaw_hold(v, g, nav);
+    let [xr, _, _] = r.pos_m;
+    LawOutput {
+        forces: BodyForces {
+            surge_n,
+            yaw_n_m,
+            heave_n,
+        },
+        errors: TrackingErrors {
+            x_m: nav.x_m - xr,
+            y_m: 0.0,
+            z_m: ez,
+            pitch_rad: pitch_err,
+            yaw_rad: 0.0,
+        },
+    }
 }
 
-/// XY tracking step. PLACEHOLDER.
+/// XY tracking step (hand position with feasible heading); no heave force. Errors: `x`, `y`
+/// of the origin and the yaw error against the feasible heading (`z`, pitch: 0).
 pub fn step_xy(
-    _v: &Vehicle,
-    _g: &TrackingGains,
-    _st: &mut TrackingState,
-    _nav: &NavState,
-    _r: &RefSample,
-    _dt_s: f32,
+    v: &Vehicle,
+    g: &TrackingGains,
+    st: &mut TrackingState,
+    nav: &NavState,
+    r: &RefSample,
+    dt_s: f32,
 ) -> LawOutput {
-    LawOutput::default()
+    let dt = clean_dt(dt_s);
+    let (surge_n, yaw_n_m, ex, ey, eyaw) = xy::hand(v, g, st, nav, r, dt);
+    LawOutput {
+        forces: BodyForces {
+            surge_n,
+            yaw_n_m,
+            heave_n: 0.0,
+        },
+        errors: TrackingErrors {
+            x_m: ex,
+            y_m: ey,
+            z_m: 0.0,
+            pitch_rad: 0.0,
+            yaw_rad: eyaw,
+        },
+    }
 }
 
-/// 3-D tracking step (XY law + depth law). PLACEHOLDER.
+/// 3-D tracking step: the XY law plus the depth law; pitch and roll left to their restoring
+/// moments. Errors: `x`, `y`, `z` of the origin and the yaw error.
 pub fn step_3d(
-    _v: &Vehicle,
-    _g: &TrackingGains,
-    _st: &mut TrackingState,
-    _nav: &NavState,
-    _r: &RefSample,
-    _dt_s: f32,
+    v: &Vehicle,
+    g: &TrackingGains,
+    st: &mut TrackingState,
+    nav: &NavState,
+    r: &RefSample,
+    dt_s: f32,
 ) -> LawOutput {
-    LawOutput::default()
+    let dt = clean_dt(dt_s);
+    let (heave_n, ez) = depth(v, g, st, nav, r, dt);
+    let (surge_n, yaw_n_m, ex, ey, eyaw) = xy::hand(v, g, st, nav, r, dt);
+    LawOutput {
+        forces: BodyForces {
+            surge_n,
+            yaw_n_m,
+            heave_n,
+        },
+        errors: TrackingErrors {
+            x_m: ex,
+            y_m: ey,
+            z_m: ez,
+            pitch_rad: 0.0,
+            yaw_rad: eyaw,
+        },
+    }
 }
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,140 @@
+//! XY: hand-position law with the feasible heading (see `docs/tracking.md`).
+//!
+//! `h = p + eps d(psi)`, `d = (cos, sin)`, `n = (-sin, cos)`. In the body frame
+//! `h_ddot = [u_dot - (v + eps r) r, v_dot + eps r_dot + u r]`, with
+//! `m11 u_dot = m22 v r - X(u) + tau_1`, `m22 v_dot = -m11 u r - Y(v)`,
+//! `m33 r_dot = (m11 - m22) u v - N(r) + tau_2`: both components are set by the inputs
+//! (the second through `eps r_dot`), so any desired hand acceleration `a_d` is reached:
+//! ```text
+//! tau_1 = m11 (b_x + (v + eps r) r) - m22 v r + X(u)
+//! tau_2 = m33 (b_y - v_dot - u r) / eps - (m11 - m22) u v + N(r)        b = R(psi)^T a_d
+//! a_d   = h_r_ddot - k_d (h_dot - h_r_dot) - k_p sat(h - h_r) - k_i int(p - p_r)
+//! h_r   = p_r + eps d(psi_r),  h_r_dot = p_r_dot + eps psi_r_dot n(psi_r),
+//! h_r_ddot = p_r_ddot + eps (psi_r_ddot n(psi_r) - psi_r_dot^2 d(psi_r))
+//! ```
+//! `psi_r = chi - beta` (course minus feasible sideslip); `chi`, `chi_dot`, `chi_ddot` are
+//! analytic from the sample, `beta` is the quasi-static sideslip advanced by `T_adv`, and its
+//! derivatives are filtered differences (time constant [`DERIV_TAU_S`]).
+
+use super::{clean_dt, integrate, sat2, HeadingRef, TrackingGains, TrackingState};
+use crate::math::{sin_cos, wrap_angle};
+use crate::params::{Vehicle, XyCoeffs};
+use crate::reference::feasible::{course, sideslip};
+use crate::reference::RefSample;
+use crate::state::NavState;
+
+/// Time constant of the filtered derivatives of the sideslip (s).
+pub const DERIV_TAU_S: f32 = 0.05;
+
+fn filt(prev: f32, d: f32, x: f32, dt: f32) -> f32 {
+    if dt <= 0.0 {
+        return d;
+    }
+    let raw = (x - prev) / dt;
+    d + (raw - d) * dt / (DERIV_TAU_S + dt)
+}
+
+impl HeadingRef {
+    /// Advance the generator; returns `(psi_r, psi_r_dot, psi_r_ddot)`.
+    pub(crate) fn update(
+        &mut self,
+        xy: &XyCoeffs,
+        r: &RefSample,
+        yaw: f32,
+        dt: f32,
+    ) -> (f32, f32, f32) {
+        let dt = clean_dt(dt);
+        let (chi, chi1, chi2, bqs, adv) = match course(r) {
+            Some(c) => {
+                let s = sideslip(xy, &c);
+                (c.chi_rad, c.chi_dot, c.chi_ddot, s.beta_rad, s.advance_s)
+            }
+            None => (if self.init { self.chi } else { yaw }, 0.0, 0.0, 0.0, 0.0),
+        };
+        if !self.init {
+            *self = HeadingRef {
+                init: true,
+                chi,
+                beta_qs: bqs,
+                beta_qs_dot: 0.0,
+                beta: bqs,
+                beta_dot: 0.0,
+                beta_ddot: 0.0,
+            };
+        }
+        self.beta_qs_dot = filt(self.beta_qs, self.beta_qs_dot, bqs, dt);
+        self.beta_qs = bqs;
+        let beta = bqs + adv * self.beta_qs_dot;
+        let beta_dot = filt(self.beta, self.beta_dot, beta, dt);
+        self.beta_ddot = filt(self.beta_dot, self.beta_ddot, beta_dot, dt);
+        self.beta_dot = beta_dot;
+        self.beta = beta;
+        self.chi = chi;
+        let ok = |x: f32| if x.is_finite() { x } else { 0.0 };
+        (
+            wrap_angle(chi - ok(self.beta)),
+            chi1 - ok(self.beta_dot),
+            chi2 - ok(self.beta_ddot),
+        )
+    }
+}
+
+/// `(tau_1, tau_2, x - x_r, y - y_r, wrapped yaw error)`.
+pub fn hand(
+    v: &Vehicle,
+    g: &TrackingGains,
+    st: &mut TrackingState,
+    nav: &NavState,
+    r: &RefSample,
+    dt: f32,
+) -> (f32, f32, f32, f32, f32) {
+    let p = v.params();
+    let xy = &v.xy;
+    let eps = g.hand_m;
+    let (psi_r, psi_r1, psi_r2) = st.heading.update(xy, r, nav.yaw_rad, dt);
+    let (s, c) = sin_cos(nav.yaw_rad);
+    let (u, vv, rr) = (nav.u_m_s, nav.v_m_s, nav.r_rad_s);
+    let vs = vv + eps * rr;
+    // Hand point and its velocity (inertial).
+    let hx = nav.x_m + eps * c;
+    let hy = nav.y_m + eps * s;
+    let hx1 = c * u - s * vs;
+    let hy1 = s * u + c * vs;
+    // Hand reference.
+    let [px, py, _] = r.pos_m;
+    let [vx, vy, _] = r.vel_m_s;
+    let [ax, ay, _] = r.acc_m_s2;
+    let (sr, cr) = sin_cos(psi_r);
+    let hrx = px + eps * cr;
+    let hry = py + eps * sr;
+    let hrx1 = vx - eps * psi_r1 * sr;
+    let hry1 = vy + eps * psi_r1 * cr;
+    let w2 = psi_r1 * psi_r1;
+    let hrx2 = ax - eps * (psi_r2 * sr + w2 * cr);
+    let hry2 = ay + eps * (psi_r2 * cr - w2 * sr);
+    let (ex, ey) = sat2(hx - hrx, hy - hry, g.error_limit_m);
+    // Integral on the origin error.
+    let eox = nav.x_m - px;
+    let eoy = nav.y_m - py;
+    let (ix_e, iy_e) = sat2(eox, eoy, g.error_limit_m);
+    let frozen = st.surge_sat || st.yaw_sat;
+    let limit = g.integral_limit_m_s2 / g.xy_ki;
+    let [ix, iy] = st.xy_int;
+    st.xy_int = [
+        integrate(ix, ix_e, dt, frozen, limit),
+        integrate(iy, iy_e, dt, frozen, limit),
+    ];
+    let [ix, iy] = st.xy_int;
+    let adx = hrx2 - g.xy_kd * (hx1 - hrx1) - g.xy_kp * ex - g.xy_ki * ix;
+    let ady = hry2 - g.xy_kd * (hy1 - hry1) - g.xy_kp * ey - g.xy_ki * iy;
+    let bx = c * adx + s * ady;
+    let by = -s * adx + c * ady;
+    // Model inversion.
+    let xd = (p.x_u + p.x_uu * u.abs()) * u;
+    let yd = (p.y_v + p.y_vv * vv.abs()) * vv;
+    let nd = (p.n_r + p.n_rr * rr.abs()) * rr;
+    let vdot = (-xy.m11 * u * rr - yd) / xy.m22;
+    let tau1 = xy.m11 * (bx + vs * rr) - xy.m22 * vv * rr + xd;
+    let tau2 = xy.m33 * (by - vdot - u * rr) / eps - (xy.m11 - xy.m22) * u * vv + nd;
+    (tau1, tau2, eox, eoy, wrap_angle(nav.yaw_rad - psi_r))
+}

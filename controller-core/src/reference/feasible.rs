@@ -1,0 +1,172 @@
+//! Orientation and body velocities consistent with a reference for the body origin.
+//!
+//! **Horizontal plane.** The path's course `chi = atan2(y_dot, x_dot)`, speed `U`, and their
+//! rates follow from the sample's velocity, acceleration and jerk. The vehicle cannot push
+//! sideways, so to move along the path its heading must differ from the course by the
+//! sideslip `beta` (`psi = chi - beta`, `u = U cos beta`, `v = U sin beta`) that the sway
+//! equation `m22 v_dot = -m11 u r - (Y_v + Y_vv |v|) v` allows. Written in `beta` with
+//! `r = chi_dot - beta_dot`:
+//! ```text
+//! (m11 - m22) U cos(beta) beta_dot = g(beta) := m11 U chi_dot cos(beta) + m22 U_dot sin(beta)
+//!                                              + (Y_v + Y_vv U |sin beta|) U sin(beta)
+//! ```
+//! Forward in time this is unstable (`dg/dbeta > 0`, `m11 > m22`): the only bounded solution
+//! stays near the slow manifold `g(beta) = 0`. [`sideslip`] solves `g(beta_qs) = 0` (Newton,
+//! floored derivative) and reports the time advance `T_adv = (m11 - m22) cos(beta) / g'`
+//! of the first-order correction `beta ~ beta_qs + T_adv beta_qs_dot`, which the law applies.
+//! Exact on circles and lines at constant speed; during speed ramps and curvature changes the
+//! residual is second order in the rates.
+//!
+//! **Vertical plane.** With the CG below the CB, a surge acceleration `a` in steady
+//! conditions needs the pitch `theta = -asin(a / g)` (`u1_dot = -g sin(theta)`, MODEL_NOTES
+//! section 3): [`pitch_for_accel`].
+
+use crate::math::{asin, atan2, sqrt};
+use crate::params::{XyCoeffs, XzCoeffs};
+use crate::reference::RefSample;
+
+/// Below this horizontal speed the course and its rates are not computed from the sample.
+pub const SPEED_FLOOR_M_S: f32 = 1.0e-6;
+
+/// Largest sideslip the solver returns (rad).
+pub const SIDESLIP_MAX_RAD: f32 = 0.8;
+
+/// Course of the horizontal reference velocity, with speed and rates.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Course {
+    /// Course `chi` (rad).
+    pub chi_rad: f32,
+    /// `chi_dot`.
+    pub chi_dot: f32,
+    /// `chi_ddot`.
+    pub chi_ddot: f32,
+    /// Horizontal speed `U`.
+    pub speed_m_s: f32,
+    /// `U_dot`.
+    pub speed_dot: f32,
+}
+
+/// Course of the sample's horizontal velocity, or `None` below [`SPEED_FLOOR_M_S`] (the caller
+/// holds its previous course then).
+pub fn course(r: &RefSample) -> Option<Course> {
+    let [vx, vy, _] = r.vel_m_s;
+    let [ax, ay, _] = r.acc_m_s2;
+    let [jx, jy, _] = r.jerk_m_s3;
+    let u2 = vx * vx + vy * vy;
+    let u = sqrt(u2);
+    if u.is_nan() || u < SPEED_FLOOR_M_S {
+        return None;
+    }
+    let cross = vx * ay - vy * ax;
+    let dot = vx * ax + vy * ay;
+    let chi_dot = cross / u2;
+    // d/dt (v x a) = v x j
+    let chi_ddot = (vx * jy - vy * jx) / u2 - 2.0 * chi_dot * dot / u2;
+    Some(Course {
+        chi_rad: atan2(vy, vx),
+        chi_dot,
+        chi_ddot,
+        speed_m_s: u,
+        speed_dot: dot / u,
+    })
+}
+
+/// Quasi-static sideslip and its time advance.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Sideslip {
+    /// `beta_qs` solving `g(beta) = 0` (rad), `psi = chi - beta`.
+    pub beta_rad: f32,
+    /// `T_adv` (s) of the first-order correction `beta = beta_qs + T_adv beta_qs_dot`.
+    pub advance_s: f32,
+}
+
+/// Solve `g(beta) = 0` for the course `c` (see the module docs).
+pub fn sideslip(xy: &XyCoeffs, c: &Course) -> Sideslip {
+    let u = c.speed_m_s;
+    if u.is_nan() || u < SPEED_FLOOR_M_S {
+        return Sideslip::default();
+    }
+    // g / (m22 U) = beta3 chi_dot cos b + (U_dot / U) sin b + (beta1 + beta2 U |sin b|) sin b
+    let k = xy.beta3 * c.chi_dot;
+    let rate = c.speed_dot / u;
+    let floor = 0.5 * xy.beta1 + 1.0e-3;
+    let deriv = |s: f32, co: f32| {
+        let d = -k * s + rate * co + (xy.beta1 + 2.0 * xy.beta2 * u * s.abs()) * co;
+        d.max(floor)
+    };
+    let mut b = -k / (rate + xy.beta1).max(floor);
+    b = b.clamp(-SIDESLIP_MAX_RAD, SIDESLIP_MAX_RAD);
+    for _ in 0..3 {
+        let (s, co) = crate::math::sin_cos(b);
+        let g = k * co + rate * s + (xy.beta1 + xy.beta2 * u * s.abs()) * s;
+        b = (b - g / deriv(s, co)).clamp(-SIDESLIP_MAX_RAD, SIDESLIP_MAX_RAD);
+    }
+    let (s, co) = crate::math::sin_cos(b);
+    // (m11 - m22) / m22 = beta3 - 1
+    let advance = (xy.beta3 - 1.0) * co / deriv(s, co);
+    Sideslip {
+        beta_rad: if b.is_finite() { b } else { 0.0 },
+        advance_s: if advance.is_finite() { advance } else { 0.0 },
+    }
+}
+
+/// Feasible pitch of an XZ reference, with two derivatives.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PitchRef {
+    /// `theta_r` (rad).
+    pub theta_rad: f32,
+    /// `theta_r_dot`.
+    pub theta_dot: f32,
+    /// `theta_r_ddot` (the reference's snap is not available and taken as 0).
+    pub theta_ddot: f32,
+    /// Munk term of the surge-point acceleration along the reference, `k_m u_r w_r`
+    /// (m/s^2), and its first two derivatives (the laws use them as the feedforward of the
+    /// derivatives of their model term `h`).
+    pub munk_m_s2: [f32; 3],
+}
+
+/// Pitch that lets the vehicle follow the XZ reference in quasi-steady motion
+/// (`q ~ 0`): from `u1_dot = F_q / a_uq = -g sin(theta) - k_m u w` (pitch drag dropped,
+/// `k_m = (Z_wdot - X_udot) / a_uq`, the Munk moment) and `u1_dot ~ x_ddot`:
+/// `sin(theta_r) = -(x_r_ddot + k_m u_r w_r) / g`, with the body velocities
+/// `u_r = c x_dot - s z_dot`, `w_r = s x_dot + c z_dot` (one fixed-point pass from
+/// `theta = 0`). Diving forward at 0.5 m/s in both axes needs about -0.055 rad.
+/// Derivatives with `theta` frozen in the rotation (first order).
+pub fn pitch_xz(xz: &XzCoeffs, zx_kg: f32, gravity_m_s2: f32, r: &RefSample) -> PitchRef {
+    let [vx, _, vz] = r.vel_m_s;
+    let [ax, _, az] = r.acc_m_s2;
+    let [jx, _, jz] = r.jerk_m_s3;
+    let km = zx_kg / xz.a_uq;
+    let g = gravity_m_s2;
+    let solve = |s: f32, c: f32| {
+        let cs = c * s;
+        let c2 = c * c - s * s;
+        let pw = cs * (vx * vx - vz * vz) + c2 * vx * vz;
+        let arg = -(ax + km * pw) / g;
+        (arg, cs, c2)
+    };
+    let (arg0, _, _) = solve(0.0, 1.0);
+    let th0 = asin(arg0);
+    let (s0, c0) = crate::math::sin_cos(th0);
+    let (arg, cs, c2) = solve(s0, c0);
+    let th = asin(arg);
+    let cth = crate::math::cos(th).max(0.5);
+    let pw1 = 2.0 * cs * (vx * ax - vz * az) + c2 * (ax * vz + vx * az);
+    let pw2 = 2.0 * cs * (ax * ax + vx * jx - az * az - vz * jz)
+        + c2 * (jx * vz + 2.0 * ax * az + vx * jz);
+    let th1 = -(jx + km * pw1) / (g * cth);
+    let th2 = -(km * pw2) / (g * cth);
+    let ok = |x: f32| if x.is_finite() { x } else { 0.0 };
+    let pw = cs * (vx * vx - vz * vz) + c2 * vx * vz;
+    PitchRef {
+        theta_rad: ok(th),
+        theta_dot: ok(th1),
+        theta_ddot: ok(th2),
+        munk_m_s2: [ok(km * pw), ok(km * pw1), ok(km * pw2)],
+    }
+}
+
+/// Steady pitch for a surge acceleration `accel_m_s2`: `-asin(a / g)` (argument clamped).
+pub fn pitch_for_accel(accel_m_s2: f32, gravity_m_s2: f32) -> f32 {
+    -asin(accel_m_s2 / gravity_m_s2)
+}
