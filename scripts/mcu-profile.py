@@ -6,7 +6,7 @@
 Builds mcu-bench with MCU_BENCH_ONLY=<item> (only that item runs), runs it in QEMU
 netduinoplus2 with one instruction per translation block and an execution trace
 (`-singlestep -d exec,nochain`), keeps only the instructions executed inside the bench's
-`#[inline(never)]` wrapper of the item (from its entry until control is back in the caller),
+`#[inline(never)]` `timed` wrapper of the item (from its entry until control is back in the caller),
 and attributes each to its function (ELF symbol) and to its innermost source line
 (`llvm-objdump -d -l`, release builds carry debug info). Prints instructions per call.
 Honors CARGO_TARGET_DIR.
@@ -21,15 +21,6 @@ import sys
 import tempfile
 
 TARGET = "thumbv7em-none-eabihf"
-WRAPPERS = {
-    "control_step": "control_step",
-    "alloc+pwm": "alloc_pwm",
-    "math.sin_cos": "own_sin_cos",
-    "math.atan2": "own_atan2",
-    "math.sqrt": "own_sqrt",
-    "reference": "ref_sample",
-    "loop": "loop_iteration",
-}
 
 
 def llvm(tool):
@@ -43,13 +34,11 @@ def llvm(tool):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("item")
-    ap.add_argument("--wrapper", help="bench wrapper function (default from the item name)")
+    ap.add_argument("--wrapper", default="timed",
+                    help="function whose calls are profiled (default: the bench's `timed`)")
     ap.add_argument("--top", type=int, default=25)
     a = ap.parse_args()
-    wrapper = a.wrapper or next(
-        (w for k, w in WRAPPERS.items() if a.item.startswith(k)), None)
-    if wrapper is None:
-        sys.exit("give --wrapper")
+    wrapper = a.wrapper
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     tdir = os.environ.get("CARGO_TARGET_DIR", os.path.join(root, "target"))
     env = dict(os.environ, MCU_BENCH_ONLY=a.item)

@@ -7,6 +7,8 @@
 //! - [`output`], [`plots`]: what a run writes.
 //! - [`monte_carlo`]: perturbed-parameter runs in parallel.
 
+pub mod hil;
+pub mod link;
 pub mod monte_carlo;
 pub mod output;
 pub mod plant;

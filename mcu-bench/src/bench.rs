@@ -26,6 +26,23 @@ pub const CALLS: u32 = 512;
 /// name starts with it run.
 const ONLY: Option<&str> = option_env!("MCU_BENCH_ONLY");
 
+/// The timed call. In a profiling build (`MCU_BENCH_ONLY` set) it goes through the
+/// `#[inline(never)]` [`timed`], which `scripts/mcu-profile.py` finds in the trace; otherwise
+/// it is inlined and the count holds only the measured code.
+#[inline(always)]
+fn call<R>(f: impl FnOnce() -> R) -> R {
+    if ONLY.is_some() {
+        timed(f)
+    } else {
+        f()
+    }
+}
+
+#[inline(never)]
+fn timed<R>(f: impl FnOnce() -> R) -> R {
+    f()
+}
+
 /// Control period used for the tracking laws' integrators (50 Hz).
 const DT_S: f32 = 0.02;
 
@@ -139,13 +156,17 @@ impl<'a, P: Platform> Bench<'a, P> {
             compiler_fence(Ordering::SeqCst);
             let t0 = self.p.now();
             compiler_fence(Ordering::SeqCst);
-            let out = f(input);
+            let out = call(|| f(input));
             let _ = black_box(&out);
             compiler_fence(Ordering::SeqCst);
             let t1 = self.p.now();
             compiler_fence(Ordering::SeqCst);
             st.add(t1.wrapping_sub(t0).saturating_sub(self.overhead));
         }
+        self.report(name, &st)
+    }
+
+    fn report(&self, name: &str, st: &Stats) -> u64 {
         let stack = self.p.stack_used_since_paint();
         let mean = st.mean_tenths();
         match stack {
@@ -167,6 +188,42 @@ impl<'a, P: Platform> Bench<'a, P> {
             )),
         }
         mean
+    }
+}
+
+impl<P: Platform> Bench<'_, P> {
+    /// Like [`Bench::run`], for an item that works on one state: `prepare(state, i)` before
+    /// each timed `f(state)`, `check(state)` after it (both untimed).
+    pub fn run_state<S>(
+        &self,
+        name: &str,
+        calls: u32,
+        state: &mut S,
+        mut prepare: impl FnMut(&mut S, u32),
+        mut f: impl FnMut(&mut S),
+        mut check: impl FnMut(&mut S),
+    ) -> u64 {
+        let mut st = Stats::new();
+        if let Some(only) = ONLY {
+            if !name.starts_with(only) {
+                return 0;
+            }
+        }
+        self.p.paint_stack();
+        for i in 0..calls {
+            prepare(state, i);
+            let s = black_box(&mut *state);
+            compiler_fence(Ordering::SeqCst);
+            let t0 = self.p.now();
+            compiler_fence(Ordering::SeqCst);
+            call(|| f(s));
+            compiler_fence(Ordering::SeqCst);
+            let t1 = self.p.now();
+            compiler_fence(Ordering::SeqCst);
+            st.add(t1.wrapping_sub(t0).saturating_sub(self.overhead));
+            check(state);
+        }
+        self.report(name, &st)
     }
 }
 
@@ -389,6 +446,8 @@ pub fn run_all<P: Platform>(p: &P) -> bool {
         );
     }
 
+    crate::loop_bench::run_loop(&b, p);
+
     if let Some(hw) = p.stack_high_water() {
         p.print(format_args!(
             "STACK high_water={hw} (from the top of RAM, whole bench program incl. its own frames)"
@@ -398,7 +457,7 @@ pub fn run_all<P: Platform>(p: &P) -> bool {
 }
 
 /// `a` followed by `b` in `buf` (truncated to fit); names are ASCII.
-fn join<'b>(buf: &'b mut [u8], a: &str, b: &str) -> &'b str {
+pub fn join<'b>(buf: &'b mut [u8], a: &str, b: &str) -> &'b str {
     let mut n = 0;
     for (dst, src) in buf.iter_mut().zip(a.bytes().chain(b.bytes())) {
         *dst = src;

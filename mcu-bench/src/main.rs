@@ -8,6 +8,7 @@
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 mod bench;
+mod loop_bench;
 
 #[cfg(target_os = "none")]
 mod board;

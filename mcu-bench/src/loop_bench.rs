@@ -1,0 +1,333 @@
+//! One full iteration of the firmware's loop, through the firmware library's own code:
+//! [`firmware::App::tick`] in lock-step timing reads one `NavState` frame from the serial
+//! port, decodes it (COBS, CRC-32, postcard), runs the autopilot's step (failsafes, reference,
+//! control law, allocation, PWM map), writes the three duties and encodes and writes the
+//! `Telemetry` frame. The serial port, PWM outputs and clock are fakes in RAM.
+//!
+//! Also timed alone: decoding one `NavState` frame and encoding one `Telemetry` frame.
+
+use crate::bench::{Bench, Platform, CALLS};
+use controller_core::controller::{Controller, Gains};
+use controller_core::params::Vehicle;
+use controller_core::reference::{PaperPolynomial, Reference};
+use controller_core::state::NavState;
+use core::convert::Infallible;
+use firmware::protocol::{
+    encode, Board, Command, Decoded, FrameDecoder, Law, Mode, NavSample, Plane, Reply, Telemetry,
+    MAX_FRAME_LEN,
+};
+use firmware::{App, Config, Monotonic};
+
+/// A PWM output that keeps the duty (a timer channel at 1 MHz, 50 Hz: 20,000 counts).
+struct FakePwm(u16);
+
+impl embedded_hal::pwm::ErrorType for FakePwm {
+    type Error = Infallible;
+}
+
+impl embedded_hal::pwm::SetDutyCycle for FakePwm {
+    fn max_duty_cycle(&self) -> u16 {
+        20_000
+    }
+    fn set_duty_cycle(&mut self, duty: u16) -> Result<(), Infallible> {
+        self.0 = duty;
+        Ok(())
+    }
+}
+
+/// A serial port in RAM: bytes queued for the firmware, bytes it wrote.
+struct FakeSerial {
+    rx: [u8; 2 * MAX_FRAME_LEN],
+    rx_len: usize,
+    rx_pos: usize,
+    tx: [u8; 2 * MAX_FRAME_LEN],
+    tx_len: usize,
+    /// Frames the firmware wrote (delimiters seen).
+    tx_frames: u32,
+}
+
+impl FakeSerial {
+    const fn new() -> Self {
+        Self {
+            rx: [0; 2 * MAX_FRAME_LEN],
+            rx_len: 0,
+            rx_pos: 0,
+            tx: [0; 2 * MAX_FRAME_LEN],
+            tx_len: 0,
+            tx_frames: 0,
+        }
+    }
+
+    /// Queue one frame for the firmware (replacing whatever was left).
+    fn load(&mut self, frame: &[u8]) {
+        let n = frame.len().min(self.rx.len());
+        if let (Some(d), Some(s)) = (self.rx.get_mut(..n), frame.get(..n)) {
+            d.copy_from_slice(s);
+        }
+        self.rx_len = n;
+        self.rx_pos = 0;
+        self.tx_len = 0;
+    }
+}
+
+impl embedded_io::ErrorType for FakeSerial {
+    type Error = Infallible;
+}
+
+impl embedded_io::Read for FakeSerial {
+    fn read(&mut self, buf: &mut [u8]) -> Result<usize, Infallible> {
+        let src = self.rx.get(self.rx_pos..self.rx_len).unwrap_or(&[]);
+        let n = src.len().min(buf.len());
+        if let (Some(d), Some(s)) = (buf.get_mut(..n), src.get(..n)) {
+            d.copy_from_slice(s);
+        }
+        self.rx_pos += n;
+        Ok(n)
+    }
+}
+
+impl embedded_io::ReadReady for FakeSerial {
+    fn read_ready(&mut self) -> Result<bool, Infallible> {
+        Ok(self.rx_pos < self.rx_len)
+    }
+}
+
+impl embedded_io::Write for FakeSerial {
+    fn write(&mut self, buf: &[u8]) -> Result<usize, Infallible> {
+        for &b in buf {
+            if b == 0 {
+                self.tx_frames = self.tx_frames.wrapping_add(1);
+            }
+            if let Some(d) = self.tx.get_mut(self.tx_len) {
+                *d = b;
+                self.tx_len += 1;
+            }
+        }
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> Result<(), Infallible> {
+        Ok(())
+    }
+}
+
+/// The platform's counter as the firmware's clock (only `ticks` matters in lock-step).
+struct Clock<'a, P: Platform>(&'a P);
+
+impl<P: Platform> Monotonic for Clock<'_, P> {
+    fn now_us(&mut self) -> u64 {
+        u64::from(self.0.now())
+    }
+    fn ticks(&mut self) -> u32 {
+        self.0.now()
+    }
+}
+
+type BenchApp<'a, P> = App<FakePwm, FakePwm, FakePwm, FakeSerial, Clock<'a, P>>;
+
+/// Control period of the lock-step loop (50 Hz).
+const PERIOD_US: u64 = 20_000;
+
+/// Frame of `cmd` into `buf`; empty if it does not fit (never for these commands).
+fn frame<'b>(seq: u16, cmd: &Command, buf: &'b mut [u8; MAX_FRAME_LEN]) -> &'b [u8] {
+    match encode(seq, cmd, buf) {
+        Ok(f) => f,
+        Err(_) => &[],
+    }
+}
+
+/// Hand one command to the app (untimed); returns true if it answered with an `Ack` or a
+/// `Telemetry` (i.e. did not refuse it).
+fn feed<P: Platform>(app: &mut BenchApp<'_, P>, seq: u16, cmd: &Command) -> bool {
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let f = frame(seq, cmd, &mut buf);
+    app.parts_mut().1.load(f);
+    app.tick();
+    let (_, serial, _) = app.parts_mut();
+    let mut dec = FrameDecoder::<Reply>::new();
+    let mut ok = matches!(cmd, Command::Heartbeat { .. });
+    for &b in serial.tx.get(..serial.tx_len).unwrap_or(&[]) {
+        if let Some(Decoded::Frame { msg, .. }) = dec.push(b) {
+            ok = matches!(msg, Reply::Ack { .. } | Reply::Telemetry(_));
+        }
+    }
+    ok
+}
+
+/// A navigation state near the paper reference at `t_s`.
+fn nav_at(t_s: f32, jitter: f32) -> NavState {
+    let r = PaperPolynomial::PAPER.sample(t_s);
+    let [x, y, z] = r.pos_m;
+    let [vx, vy, vz] = r.vel_m_s;
+    NavState {
+        x_m: x + 0.3 * jitter,
+        y_m: y - 0.2 * jitter,
+        z_m: z + 0.1 * jitter,
+        pitch_rad: 0.05 * jitter,
+        yaw_rad: 0.785 + 0.2 * jitter,
+        u_m_s: controller_core::math::sqrt(vx * vx + vy * vy) + 0.05 * jitter,
+        w_m_s: vz,
+        r_rad_s: 0.02 * jitter,
+        ..NavState::default()
+    }
+}
+
+/// Loop iterations for each tracking mode of the firmware, plus decode and encode alone.
+pub fn run_loop<P: Platform>(b: &Bench<'_, P>, p: &P) {
+    // Decode one NavState frame.
+    let mut dec = FrameDecoder::<Command>::new();
+    let mut n_ok = 0u32;
+    b.run(
+        "protocol.decode_nav",
+        CALLS,
+        |i| {
+            let mut out = [0u8; MAX_FRAME_LEN];
+            let cmd = Command::Nav(NavSample {
+                t_us: u64::from(i) * PERIOD_US,
+                state: nav_at(i as f32 * 0.2, jitter(i)),
+            });
+            let n = frame(i as u16, &cmd, &mut out).len();
+            (out, n)
+        },
+        |(buf, n)| {
+            let mut got = None;
+            for &byte in buf.get(..*n).unwrap_or(&[]) {
+                if let Some(d) = dec.push(byte) {
+                    got = Some(d);
+                }
+            }
+            if let Some(Decoded::Frame { .. }) = got {
+                n_ok += 1;
+            }
+            n_ok
+        },
+    );
+    if n_ok != CALLS {
+        p.print(format_args!(
+            "WARN protocol.decode_nav decoded {n_ok} of {CALLS}"
+        ));
+    }
+
+    // Encode one Telemetry frame.
+    let mut seq = 0u16;
+    b.run(
+        "protocol.encode_telemetry",
+        CALLS,
+        |i| {
+            let mut t = Telemetry {
+                t_us: u64::from(i) * PERIOD_US,
+                armed: true,
+                steps: i,
+                ..Telemetry::default()
+            };
+            t.thrust_n = [jitter(i) * 30.0, -jitter(i) * 20.0, 5.0];
+            t.pulse_us = [1500 + i as u16 % 300, 1500 - i as u16 % 300, 1600];
+            t.errors.x_m = 0.01 * jitter(i);
+            Reply::Telemetry(t)
+        },
+        |reply| {
+            let mut out = [0u8; MAX_FRAME_LEN];
+            seq = seq.wrapping_add(1);
+            encode(seq, reply, &mut out).map(|f| f.len()).unwrap_or(0)
+        },
+    );
+
+    let modes: [(&str, Plane, Law); 5] = [
+        ("paper_xz", Plane::Xz, Law::Paper),
+        ("paper_xy", Plane::Xy, Law::Paper),
+        ("tracking_xz", Plane::Xz, Law::Tracking),
+        ("tracking_xy", Plane::Xy, Law::Tracking),
+        ("tracking_3d", Plane::ThreeD, Law::Tracking),
+    ];
+    for (name, plane, law) in modes {
+        let Ok(controller) = Controller::new(Vehicle::observer(), Gains::default()) else {
+            p.print(format_args!("mcu-bench: Controller::new failed"));
+            return;
+        };
+        let pwm = (FakePwm(0), FakePwm(0), FakePwm(0));
+        let Ok(mut app) = App::new(
+            pwm,
+            FakeSerial::new(),
+            Clock(p),
+            controller,
+            Config::lockstep(Board::Host),
+        ) else {
+            p.print(format_args!("mcu-bench: App::new failed"));
+            return;
+        };
+        // Boot sequence as the host sends it: heartbeat, a NavState, reference, mode, arm.
+        let mut seq = 0u16;
+        let mut next = || {
+            seq = seq.wrapping_add(1);
+            seq
+        };
+        let setup = [
+            Command::Heartbeat { t_us: 0 },
+            Command::Nav(NavSample {
+                t_us: 0,
+                state: nav_at(0.0, 0.0),
+            }),
+            Command::SetReference {
+                reference: Reference::Paper(PaperPolynomial::PAPER),
+                start_us: Some(0),
+            },
+            Command::SetMode(Mode::Track { plane, law }),
+            Command::Arm,
+        ];
+        let mut refused = 0u32;
+        for cmd in setup.iter() {
+            if !feed(&mut app, next(), cmd) {
+                refused += 1;
+            }
+        }
+        let mut buf = [0u8; 40];
+        let label = crate::bench::join(&mut buf, "loop.", name);
+        let mut disarmed = 0u32;
+        let mut no_law = 0u32;
+        let mut no_reply = 0u32;
+        let mut hb = [0u8; MAX_FRAME_LEN];
+        b.run_state(
+            label,
+            CALLS,
+            &mut app,
+            |app, i| {
+                let t_us = u64::from(i + 1) * PERIOD_US;
+                // The heartbeat of this period, outside the timed region.
+                let f = frame(next(), &Command::Heartbeat { t_us }, &mut hb);
+                app.parts_mut().1.load(f);
+                app.tick();
+                // The NavState frame the timed iteration will read.
+                let mut out = [0u8; MAX_FRAME_LEN];
+                let cmd = Command::Nav(NavSample {
+                    t_us,
+                    state: nav_at(t_us as f32 * 1e-6, jitter(i)),
+                });
+                let f = frame(next(), &cmd, &mut out);
+                app.parts_mut().1.load(f);
+            },
+            |app| app.tick(),
+            |app| {
+                if app.parts_mut().1.tx_len == 0 {
+                    no_reply += 1;
+                }
+                if !app.autopilot().armed() {
+                    disarmed += 1;
+                }
+                if !app.last_output().law_ran {
+                    no_law += 1;
+                }
+            },
+        );
+        if refused + disarmed + no_law + no_reply > 0 {
+            p.print(format_args!(
+                "WARN loop.{name}: setup commands refused {refused}, iterations disarmed \
+                 {disarmed}, without the law {no_law}, without telemetry {no_reply}"
+            ));
+        }
+    }
+}
+
+/// A value in [-1, 1] that changes every call.
+fn jitter(i: u32) -> f32 {
+    let x = i.wrapping_mul(2_654_435_761) >> 8;
+    (x as f32) * (2.0 / 16_777_216.0) - 1.0
+}
