@@ -49,7 +49,16 @@ pub struct Course {
 /// Course of the sample's horizontal velocity, or `None` below [`SPEED_FLOOR_M_S`] (the caller
 /// holds its previous course then).
 pub fn course(r: &RefSample) -> Option<Course> {
+    course_in_water(r, [0.0, 0.0])
+}
+
+/// Course of the velocity relative to water moving at the constant inertial current
+/// `current_m_s` (`[cx, cy]`): the heading and sideslip a vehicle needs follow the
+/// water-relative motion. `None` below [`SPEED_FLOOR_M_S`].
+pub fn course_in_water(r: &RefSample, current_m_s: [f32; 2]) -> Option<Course> {
     let [vx, vy, _] = r.vel_m_s;
+    let [cx, cy] = current_m_s;
+    let (vx, vy) = (vx - cx, vy - cy);
     let [ax, ay, _] = r.acc_m_s2;
     let [jx, jy, _] = r.jerk_m_s3;
     let u2 = vx * vx + vy * vy;

@@ -1,0 +1,68 @@
+//! The 3-D tracking law (hand-position XY law + depth by heave) on the nominal 6-DOF plant
+//! with thruster limits, on the built-in scenarios' references (circle-3d, lawnmower-3d,
+//! helix-3d). Issue 3 bound: RMS position error <= 2 cm over the last 80 % of the run.
+
+mod tracking_common;
+
+use controller_core::controller::ControlMode;
+use controller_core::params::VehicleParams;
+use controller_core::reference::Reference;
+use host_sim::plant::Environment;
+use tracking_common::{at_rest, run, Metrics};
+
+fn nominal(r: Reference, start: [f64; 3], t: f64) -> Metrics {
+    run(
+        ControlMode::Tracking3d,
+        &r,
+        at_rest(start, 0.0),
+        &VehicleParams::OBSERVER,
+        Environment::default(),
+        t,
+    )
+}
+
+pub fn circle() -> Reference {
+    Reference::Circle {
+        center_m: [0.0, 5.0, 2.0],
+        radius_m: 5.0,
+        speed_m_s: 0.25,
+    }
+}
+
+#[test]
+fn tracking_3d_circle() {
+    let m = nominal(circle(), [0.0, 0.0, 2.0], 150.0);
+    println!("tracking 3-D, circle-3d, 150 s: {m:?}");
+    assert!(m.finite);
+    assert!(m.rms_last_80_m <= 0.02, "{m:?}");
+}
+
+#[test]
+fn tracking_3d_lawnmower() {
+    let r = Reference::Lawnmower {
+        start_m: [0.0, 0.0, 3.0],
+        heading_rad: 0.0,
+        leg_length_m: 15.0,
+        spacing_m: 5.0,
+        legs: 3,
+        speed_m_s: 0.25,
+    };
+    let m = nominal(r, [0.0, 0.0, 3.0], 250.0);
+    println!("tracking 3-D, lawnmower-3d, 250 s: {m:?}");
+    assert!(m.finite);
+    assert!(m.rms_last_80_m <= 0.02, "{m:?}");
+}
+
+#[test]
+fn tracking_3d_helix() {
+    let r = Reference::Helix {
+        center_m: [0.0, 5.0, 1.0],
+        radius_m: 5.0,
+        speed_m_s: 0.25,
+        depth_rate_m_s: 0.05,
+    };
+    let m = nominal(r, [0.0, 0.0, 1.0], 150.0);
+    println!("tracking 3-D, helix-3d, 150 s: {m:?}");
+    assert!(m.finite);
+    assert!(m.rms_last_80_m <= 0.02, "{m:?}");
+}
