@@ -257,6 +257,11 @@ fn largest_messages_fit() {
         },
         ..Telemetry::default()
     };
+    println!(
+        "size of the application state (host fakes): {} B, decoder {} B",
+        std::mem::size_of::<rov_tests::TestApp>(),
+        std::mem::size_of::<FrameDecoder<Command>>()
+    );
     let mut buf = [0u8; MAX_FRAME_LEN];
     let n = encode(u16::MAX, &Reply::Telemetry(big), &mut buf)
         .unwrap()
