@@ -25,7 +25,7 @@
 //! the link statistics), `timeseries.csv` and plots as `host-sim run`, and
 //! `telemetry.csv` with what the firmware reported each step.
 
-use crate::link::{open, tcp_port, Endpoint, HostLinkStats, Link, Noise};
+use crate::link::{open, tcp_port, Endpoint, HostLinkStats, Link, Noise, NoiseSpec};
 use crate::output::write_run;
 use crate::runner::{
     body_to_inertial, make_plant, nominal_plant_params, verdict, RunOutput, Sample, Sensor, Summary,
@@ -65,9 +65,8 @@ pub struct HilOptions {
     pub target: HilTarget,
     /// Stop sending heartbeats from this simulated time on (link-loss test).
     pub heartbeat_stop_s: Option<f64>,
-    /// Noise on the host -> firmware bytes: (frame error probability, garbage probability,
-    /// seed).
-    pub noise: Option<(f64, f64, u64)>,
+    /// Noise injected on the link (from arming on; the set-up is on a clean link).
+    pub noise: Option<NoiseSpec>,
     /// Run this long instead of the scenario's duration.
     pub duration_s: Option<f64>,
     /// Wall-clock time to wait for a reply before sending again.
@@ -157,7 +156,8 @@ pub struct HilReport {
     pub steps_failsafe: u64,
     /// Heartbeats stopped at this simulated time (s).
     pub heartbeat_stop_s: Option<f64>,
-    /// First time after the stop at which all outputs were neutral, minus the stop (s).
+    /// First time after the stop at which all outputs were neutral with the heartbeat
+    /// failsafe flagged, minus the stop (s).
     pub neutral_after_s: Option<f64>,
     /// First time after the stop at which the firmware was disarmed, minus the stop (s).
     pub disarmed_after_s: Option<f64>,
@@ -286,7 +286,7 @@ pub fn run_hil(sc: &Scenario, opts: &HilOptions, qemu_log: Option<&Path>) -> Res
         }
         HilTarget::Board(ep) => (open(ep)?, format!("{ep:?}")),
     };
-    let noise = opts.noise.map(|(f, g, s)| Noise::new(f, g, s));
+    let noise = opts.noise.map(Noise::new);
     let mut link = Link::new(port, None);
 
     // Hello (the emulator sends it at boot; a board may have sent it long ago).
@@ -484,7 +484,9 @@ pub fn run_hil(sc: &Scenario, opts: &HilOptions, qemu_log: Option<&Path>) -> Res
         }
         if let Some(stop) = opts.heartbeat_stop_s {
             if t >= stop {
-                let neutral = tel.pulse_us.iter().all(|&p| f32::from(p) == pwm.neutral_us);
+                // Neutral because of the link failsafe (not merely a zero command).
+                let neutral = tel.pulse_us.iter().all(|&p| f32::from(p) == pwm.neutral_us)
+                    && tel.faults & (fault::HEARTBEAT_LOST | fault::LINK_DISARMED) != 0;
                 if neutral && rep.neutral_after_s.is_none() {
                     rep.neutral_after_s = Some(t - stop);
                 }

@@ -87,26 +87,34 @@ pub fn tcp_port(s: TcpStream) -> Result<TcpStream> {
     Ok(s)
 }
 
-/// Noise on the host -> firmware direction: each frame sent is corrupted with probability
-/// `frame_error_prob` (one random byte replaced by a random non-zero value, or a random bit
-/// of it flipped), and garbage bytes are inserted between frames with probability
-/// `garbage_prob`.
+/// Noise injected on the link, both ways.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NoiseSpec {
+    /// Host -> firmware: probability that a frame gets one corrupted byte (replaced by a
+    /// random value or one bit flipped).
+    pub tx_frame_error_prob: f64,
+    /// Host -> firmware: probability that 1-8 random bytes precede a frame.
+    pub tx_garbage_prob: f64,
+    /// Firmware -> host: probability that a received byte gets one bit flipped.
+    pub rx_byte_error_prob: f64,
+    /// Seed (runs are reproducible for a seed, up to wall-clock timeouts).
+    pub seed: u64,
+}
+
+/// A [`NoiseSpec`] with its random generator.
 #[derive(Debug, Clone)]
 pub struct Noise {
-    /// Probability that a frame gets one corrupted byte.
-    pub frame_error_prob: f64,
-    /// Probability that 1-8 random bytes precede a frame.
-    pub garbage_prob: f64,
+    /// The settings.
+    pub spec: NoiseSpec,
     rng: ChaCha8Rng,
 }
 
 impl Noise {
-    /// Noise with a seed.
-    pub fn new(frame_error_prob: f64, garbage_prob: f64, seed: u64) -> Self {
+    /// Noise of a spec.
+    pub fn new(spec: NoiseSpec) -> Self {
         Self {
-            frame_error_prob,
-            garbage_prob,
-            rng: ChaCha8Rng::seed_from_u64(seed),
+            spec,
+            rng: ChaCha8Rng::seed_from_u64(spec.seed),
         }
     }
 }
@@ -131,6 +139,8 @@ pub struct HostLinkStats {
     pub frames_corrupted: u64,
     /// Garbage bytes the host inserted on purpose.
     pub garbage_bytes: u64,
+    /// Received bytes the host corrupted on purpose before decoding.
+    pub rx_bytes_corrupted: u64,
     /// Replies that did not come in time (each followed by a resend).
     pub timeouts: u64,
     /// Commands sent again after a timeout.
@@ -189,7 +199,7 @@ impl Link {
         let frame = encode(seq, cmd, &mut buf).map_err(|e| anyhow!("encode: {e}"))?;
         let mut bytes = Vec::with_capacity(frame.len() + 10);
         if let Some(n) = self.noise.as_mut() {
-            if n.rng.random::<f64>() < n.garbage_prob {
+            if n.rng.random::<f64>() < n.spec.tx_garbage_prob {
                 let k = n.rng.random_range(1..=8usize);
                 for _ in 0..k {
                     bytes.push(n.rng.random::<u8>());
@@ -203,7 +213,7 @@ impl Link {
         let start = bytes.len();
         bytes.extend_from_slice(frame);
         if let Some(n) = self.noise.as_mut() {
-            if n.rng.random::<f64>() < n.frame_error_prob && frame.len() > 1 {
+            if n.rng.random::<f64>() < n.spec.tx_frame_error_prob && frame.len() > 1 {
                 // Any byte but the delimiter.
                 let i = start + n.rng.random_range(0..frame.len() - 1);
                 let old = bytes[i];
@@ -239,6 +249,16 @@ impl Link {
                 }
                 Ok(n) => {
                     self.stats.bytes_received += n as u64;
+                    if let Some(nz) = self.noise.as_mut() {
+                        if nz.spec.rx_byte_error_prob > 0.0 {
+                            for b in &mut buf[..n] {
+                                if nz.rng.random::<f64>() < nz.spec.rx_byte_error_prob {
+                                    *b ^= 1u8 << nz.rng.random_range(0..8u32);
+                                    self.stats.rx_bytes_corrupted += 1;
+                                }
+                            }
+                        }
+                    }
                     for &b in &buf[..n] {
                         match self.dec.push(b) {
                             Some(Decoded::Frame { seq, msg }) => {

@@ -5,7 +5,9 @@
 //! image is built once per test binary into `<target>/hil-firmware` (or taken from
 //! `HIL_FIRMWARE_ELF`).
 
+use firmware::protocol::fault;
 use host_sim::hil::{run_hil, write_hil, HilOptions, HilOutput, HilTarget};
+use host_sim::link::NoiseSpec;
 use host_sim::runner::{run, RunOptions};
 use host_sim::scenario::Scenario;
 use std::path::{Path, PathBuf};
@@ -132,8 +134,9 @@ fn hil_paper_xy_tracks_within_2x_of_software() {
 
 #[test]
 fn hil_link_loss_goes_neutral_then_disarms() {
-    let sc = Scenario::load("tracking-xy").unwrap();
-    let stop = 10.0;
+    // The paper XY law with real limits: it commands thrust all along the reference.
+    let sc = Scenario::load("paper-xy-saturated").unwrap();
+    let stop = 20.0;
     let Some(h) = hil(
         &sc,
         |o| {
@@ -154,6 +157,9 @@ fn hil_link_loss_goes_neutral_then_disarms() {
     let before: Vec<_> = h.telemetry.iter().filter(|t| t.t_s < stop).collect();
     assert!(before.iter().all(|t| t.armed));
     assert!(before.iter().any(|t| t.pulse_us.iter().any(|&p| p != 1500)));
+    assert!(before
+        .iter()
+        .all(|t| t.faults & (fault::HEARTBEAT_LOST | fault::LINK_DISARMED) == 0));
     // Once neutral, it stays neutral: every output at 1500 us until the end.
     for t in h.telemetry.iter().filter(|t| t.t_s >= stop + neutral) {
         assert_eq!(t.pulse_us, [1500; 3], "not neutral at {} s", t.t_s);
@@ -162,7 +168,7 @@ fn hil_link_loss_goes_neutral_then_disarms() {
 
 #[test]
 fn hil_corrupted_bytes_do_not_lose_control() {
-    let sc = Scenario::load("tracking-xy").unwrap();
+    let sc = Scenario::load("paper-xy-saturated").unwrap();
     let dur = 30.0;
     let Some(clean) = hil(&sc, |o| o.duration_s = Some(dur), "hil-clean-30s") else {
         return;
@@ -171,7 +177,13 @@ fn hil_corrupted_bytes_do_not_lose_control() {
         &sc,
         |o| {
             o.duration_s = Some(dur);
-            o.noise = Some((0.05, 0.05, 7));
+            o.noise = Some(NoiseSpec {
+                tx_frame_error_prob: 0.05,
+                tx_garbage_prob: 0.05,
+                rx_byte_error_prob: 0.0005,
+                seed: 7,
+            });
+            o.reply_timeout = Duration::from_millis(50);
         },
         "hil-noise-30s",
     ) else {
@@ -179,11 +191,13 @@ fn hil_corrupted_bytes_do_not_lose_control() {
     };
     let r = &noisy.report;
     eprintln!(
-        "noise: {} frames corrupted, {} garbage bytes, firmware dropped {}, {} steps resent; \
-         RMS error clean {:.4} m, noisy {:.4} m",
+        "noise: {} frames corrupted, {} garbage bytes, {} received bytes corrupted, firmware \
+         dropped {}, host dropped {}, {} steps resent; RMS error clean {:.4} m, noisy {:.4} m",
         r.host.frames_corrupted,
         r.host.garbage_bytes,
+        r.host.rx_bytes_corrupted,
         r.firmware_dropped_frames,
+        r.host.frames_dropped,
         r.steps_resent,
         clean.run.summary.rms_position_error_m,
         noisy.run.summary.rms_position_error_m
