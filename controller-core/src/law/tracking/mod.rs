@@ -169,6 +169,20 @@ pub struct TrackingState {
     /// Last allocation clamped the heave force.
     heave_sat: bool,
     heading: HeadingRef,
+    /// Current observer (XY).
+    current: CurrentObserver,
+    /// Forces the thrusters delivered on the last step.
+    achieved: BodyForces,
+}
+
+/// Disturbance observer of the horizontal body dynamics, read as a constant current.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub(crate) struct CurrentObserver {
+    init: bool,
+    /// Observer states (surge, sway), N.
+    z: [f32; 2],
+    /// Filtered current estimate, inertial `[cx, cy]`, m/s.
+    pub(crate) vc: [f32; 2],
 }
 
 impl TrackingState {
@@ -180,11 +194,17 @@ impl TrackingState {
         self.surge_sat = off(requested.surge_n, achieved.surge_n);
         self.yaw_sat = off(requested.yaw_n_m, achieved.yaw_n_m);
         self.heave_sat = off(requested.heave_n, achieved.heave_n);
+        self.achieved = *achieved;
     }
 
     /// Integrator values `[xy_x, xy_y, xz, z]` (m s), for logs and tests.
     pub fn integrators(&self) -> [f32; 4] {
         [self.xy_int[0], self.xy_int[1], self.xz_int, self.z_int]
+    }
+
+    /// The XY law's current estimate `[cx, cy]` (inertial, m/s).
+    pub fn current_estimate_m_s(&self) -> [f32; 2] {
+        self.current.vc
     }
 }
 

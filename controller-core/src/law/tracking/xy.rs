@@ -19,7 +19,7 @@
 use super::{clean_dt, integrate, sat2, HeadingRef, TrackingGains, TrackingState};
 use crate::math::{sin_cos, wrap_angle};
 use crate::params::{Vehicle, XyCoeffs};
-use crate::reference::feasible::{course, sideslip};
+use crate::reference::feasible::{course_in_water, sideslip};
 use crate::reference::RefSample;
 use crate::state::NavState;
 
@@ -41,10 +41,11 @@ impl HeadingRef {
         xy: &XyCoeffs,
         r: &RefSample,
         yaw: f32,
+        current_m_s: [f32; 2],
         dt: f32,
     ) -> (f32, f32, f32) {
         let dt = clean_dt(dt);
-        let (chi, chi1, chi2, bqs, adv) = match course(r) {
+        let (chi, chi1, chi2, bqs, adv) = match course_in_water(r, current_m_s) {
             Some(c) => {
                 let s = sideslip(xy, &c);
                 (c.chi_rad, c.chi_dot, c.chi_ddot, s.beta_rad, s.advance_s)
@@ -79,6 +80,84 @@ impl HeadingRef {
     }
 }
 
+/// Below this estimated current (m/s) the estimate is not used; it is blended in linearly up
+/// to twice this value (model errors of the planar inversion on the 6-DOF vehicle must not
+/// read as a current).
+pub const CURRENT_DEADZONE_M_S: f32 = 0.01;
+
+/// Bandwidth of the disturbance observer (rad/s).
+pub const OBSERVER_GAIN: f32 = 1.0;
+
+/// Time constant of the low-pass on the current estimate (s).
+pub const CURRENT_TAU_S: f32 = 5.0;
+
+/// Solve `(k1 + k2 |x|) x = f` for `x` (odd, monotonic).
+fn inv_drag(k1: f32, k2: f32, f: f32) -> f32 {
+    let a = f.abs();
+    let x = if k2 > 0.0 {
+        (-k1 + crate::math::sqrt(k1 * k1 + 4.0 * k2 * a)) / (2.0 * k2)
+    } else if k1 > 0.0 {
+        a / k1
+    } else {
+        0.0
+    };
+    if x.is_finite() {
+        x.copysign(f)
+    } else {
+        0.0
+    }
+}
+
+impl super::CurrentObserver {
+    /// One step of the observer. The surge and sway momenta `m11 u`, `m22 v` obey
+    /// `m11 u_dot = m22 v r - X(u) + tau_1 + d_x`, `m22 v_dot = -m11 u r - Y(v) + d_y`; the
+    /// observer `d_hat = z + L M nu`, `z_dot = -L (d_hat + f_model + tau)` gives
+    /// `d_hat_dot = L (d - d_hat)` without differentiating the velocity. A current `c_b`
+    /// (body) makes `d = D(nu) - D(nu - c_b)`, solved per axis for `c_b`, rotated to the
+    /// inertial frame and low-passed ([`CURRENT_TAU_S`]).
+    pub(crate) fn update(
+        &mut self,
+        v: &Vehicle,
+        nav: &NavState,
+        achieved: &crate::state::BodyForces,
+        s: f32,
+        c: f32,
+        dt: f32,
+    ) {
+        let p = v.params();
+        let xy = &v.xy;
+        let (u, vv, r) = (nav.u_m_s, nav.v_m_s, nav.r_rad_s);
+        let l = OBSERVER_GAIN;
+        let mx = xy.m11 * u;
+        let my = xy.m22 * vv;
+        if !self.init {
+            self.init = true;
+            self.z = [-l * mx, -l * my];
+        }
+        let xd = (p.x_u + p.x_uu * u.abs()) * u;
+        let yd = (p.y_v + p.y_vv * vv.abs()) * vv;
+        let fx = xy.m22 * vv * r - xd + achieved.surge_n;
+        let fy = -xy.m11 * u * r - yd;
+        let [zx, zy] = self.z;
+        let dx = zx + l * mx;
+        let dy = zy + l * my;
+        let zx = zx - dt * l * (dx + fx);
+        let zy = zy - dt * l * (dy + fy);
+        // d = D(nu) - D(nu - c)  =>  nu - c = D^-1(D(nu) - d)
+        let cbx = u - inv_drag(p.x_u, p.x_uu, xd - dx);
+        let cby = vv - inv_drag(p.y_v, p.y_vv, yd - dy);
+        let cx = c * cbx - s * cby;
+        let cy = s * cbx + c * cby;
+        let k = dt / (CURRENT_TAU_S + dt);
+        let [vx, vy] = self.vc;
+        let nvx = vx + k * (cx - vx);
+        let nvy = vy + k * (cy - vy);
+        let fin = |a: f32| if a.is_finite() { a } else { 0.0 };
+        self.z = [fin(zx), fin(zy)];
+        self.vc = [fin(nvx), fin(nvy)];
+    }
+}
+
 /// `(tau_1, tau_2, x - x_r, y - y_r, wrapped yaw error)`.
 pub fn hand(
     v: &Vehicle,
@@ -91,8 +170,19 @@ pub fn hand(
     let p = v.params();
     let xy = &v.xy;
     let eps = g.hand_m;
-    let (psi_r, psi_r1, psi_r2) = st.heading.update(xy, r, nav.yaw_rad, dt);
     let (s, c) = sin_cos(nav.yaw_rad);
+    let achieved = st.achieved;
+    st.current.update(v, nav, &achieved, s, c, dt);
+    let [ccx, ccy] = st.current.vc;
+    let n = crate::math::sqrt(ccx * ccx + ccy * ccy);
+    let blend = ((n - CURRENT_DEADZONE_M_S) / CURRENT_DEADZONE_M_S).clamp(0.0, 1.0);
+    let blend = if blend.is_finite() { blend } else { 0.0 };
+    let vc_used = [blend * ccx, blend * ccy];
+    let (psi_r, psi_r1, psi_r2) = st.heading.update(xy, r, nav.yaw_rad, vc_used, dt);
+    // Current in the body frame, for the drag on the water-relative velocity.
+    let [ux, uy] = vc_used;
+    let vcb_x = c * ux + s * uy;
+    let vcb_y = -s * ux + c * uy;
     let (u, vv, rr) = (nav.u_m_s, nav.v_m_s, nav.r_rad_s);
     let vs = vv + eps * rr;
     // Hand point and its velocity (inertial).
@@ -130,8 +220,9 @@ pub fn hand(
     let bx = c * adx + s * ady;
     let by = -s * adx + c * ady;
     // Model inversion.
-    let xd = (p.x_u + p.x_uu * u.abs()) * u;
-    let yd = (p.y_v + p.y_vv * vv.abs()) * vv;
+    let (ur, vr) = (u - vcb_x, vv - vcb_y);
+    let xd = (p.x_u + p.x_uu * ur.abs()) * ur;
+    let yd = (p.y_v + p.y_vv * vr.abs()) * vr;
     let nd = (p.n_r + p.n_rr * rr.abs()) * rr;
     let vdot = (-xy.m11 * u * rr - yd) / xy.m22;
     let tau1 = xy.m11 * (bx + vs * rr) - xy.m22 * vv * rr + xd;
