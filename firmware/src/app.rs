@@ -1,7 +1,7 @@
 //! The application: the [`Autopilot`] behind three PWM outputs, a serial port and a clock.
 //!
-//! Generic over `embedded_hal::pwm::SetDutyCycle` (the ESCs), `embedded_io` `Read + ReadReady
-//! + Write` (the tether) and [`Monotonic`] (time), so the same code runs on the STM32F4, on
+//! Generic over `embedded_hal::pwm::SetDutyCycle` (the ESCs), `embedded_io`
+//! `Read + ReadReady + Write` (the tether) and [`Monotonic`] (time), so the same code runs on the STM32F4, on
 //! QEMU and in the host tests with fakes.
 //!
 //! Two timings ([`Timing`]):
@@ -335,16 +335,17 @@ where
     /// Feed one received byte to the decoder and act on a completed frame.
     pub fn on_byte(&mut self, byte: u8) {
         match self.decoder.push(byte) {
-            None => {}
+            None | Some(Decoded::Dropped { seq: None, .. }) => {}
             Some(Decoded::Frame { seq, msg }) => self.on_command(seq, &msg),
-            Some(Decoded::Dropped { reason, seq }) => {
-                if let Some(seq) = seq {
-                    let reason = match reason {
-                        DropReason::Version => NackReason::UnsupportedVersion,
-                        _ => NackReason::Malformed,
-                    };
-                    self.nack(seq, reason);
-                }
+            Some(Decoded::Dropped {
+                reason,
+                seq: Some(seq),
+            }) => {
+                let reason = match reason {
+                    DropReason::Version => NackReason::UnsupportedVersion,
+                    _ => NackReason::Malformed,
+                };
+                self.nack(seq, reason);
             }
         }
     }

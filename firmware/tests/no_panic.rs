@@ -14,6 +14,13 @@
 //!
 //! Without the feature this file is empty.
 #![cfg(feature = "no-panic")]
+// Test code: a failed expectation should stop the test.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
 
 use controller_core::controller::{Controller, Gains};
 use controller_core::params::Vehicle;

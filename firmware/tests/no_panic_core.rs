@@ -4,6 +4,13 @@
 //! whose callee can panic. Known today: `f32::clamp(lo, hi)` with bounds computed at run time
 //! (`alloc::allocate`, `math::clamp_nan_safe`, the tracking laws) keeps its `assert!(lo <= hi)`.
 #![cfg(feature = "no-panic-step")]
+// Test code: a failed expectation should stop the test.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
 
 use controller_core::alloc::{allocate, Allocation, ThrusterLimits};
 use controller_core::controller::{ControlMode, Controller, Gains};

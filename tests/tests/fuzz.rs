@@ -9,6 +9,14 @@
 //! `cargo test` runs 256 inputs per property. The long run (the figure in docs/protocol.md):
 //! `FUZZ_CASES=1000000 cargo test -p rov-tests --release --test fuzz -- --nocapture`.
 
+// Test code: a failed expectation should stop the test.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
+
 use controller_core::controller::Gains;
 use controller_core::reference::{PaperPolynomial, Reference};
 use controller_core::state::NavState;

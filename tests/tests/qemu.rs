@@ -6,6 +6,14 @@
 //! CI runs before the tests) and `qemu-system-arm`; without either it says so and passes.
 //! `ROV_QEMU_ELF` overrides the image path.
 
+// Test code: a failed expectation should stop the test.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
+
 use firmware::protocol::{
     encode, Board, Command, Decoded, FrameDecoder, ManualThrust, Mode, NavSample, Reply, Telemetry,
     MAX_FRAME_LEN,

@@ -1,5 +1,13 @@
 //! Every safety requirement of the firmware, on the host with fake PWM, serial and clock.
 
+// Test code: a failed expectation should stop the test.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
+
 use controller_core::controller::Gains;
 use controller_core::reference::{PaperPolynomial, Reference};
 use controller_core::state::NavState;
@@ -26,7 +34,7 @@ fn nav(t_us: u64) -> Command {
 }
 
 fn acked(replies: &[Reply], seq: u16) -> bool {
-    replies.iter().any(|r| *r == Reply::Ack { seq })
+    replies.contains(&Reply::Ack { seq })
 }
 
 fn nacked(replies: &[Reply], seq: u16) -> Option<NackReason> {

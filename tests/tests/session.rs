@@ -4,6 +4,14 @@
 //! recorded PWM pulse widths) streams `NavState`; lose the link (neutral, then disarm);
 //! recover (re-arm explicitly, track again). Every telemetry frame is parsed and checked.
 
+// Test code: a failed expectation should stop the test.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
+
 use controller_core::reference::{PaperPolynomial, Reference};
 use firmware::protocol::{fault, Board, Command, Law, Mode, NavSample, Plane, Reply, Telemetry};
 use firmware::Config;
