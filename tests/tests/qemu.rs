@@ -15,8 +15,8 @@
 )]
 
 use firmware::protocol::{
-    encode, Board, Command, Decoded, FrameDecoder, ManualThrust, Mode, NavSample, Reply, Telemetry,
-    MAX_FRAME_LEN,
+    encode, Board, Command, Decoded, FrameDecoder, Law, ManualThrust, Mode, NavSample, Plane,
+    Reply, Telemetry, MAX_FRAME_LEN,
 };
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
@@ -214,6 +214,38 @@ fn emulated_board_boots_and_answers_in_lockstep() {
     assert_eq!(tel.nav_seq, seq);
     assert_eq!(tel.link.dropped.total(), 2, "{:?}", tel.link);
     assert!(!tel.armed);
+
+    // Re-arm explicitly and track with each law; report the step's instruction count
+    // (TIM2 at prescaler 0 under -icount shift=0).
+    t_us += 40_000;
+    link.send(&Command::Heartbeat { t_us });
+    link.nav(t_us);
+    link.expect_ack(&Command::Arm);
+    link.expect_ack(&Command::SetReference {
+        reference: controller_core::reference::Reference::Paper(
+            controller_core::reference::PaperPolynomial::PAPER,
+        ),
+        start_us: Some(t_us),
+    });
+    for (plane, law) in [
+        (Plane::Xy, Law::Paper),
+        (Plane::Xz, Law::Paper),
+        (Plane::Xy, Law::Tracking),
+        (Plane::Xz, Law::Tracking),
+        (Plane::ThreeD, Law::Tracking),
+    ] {
+        link.expect_ack(&Command::SetMode(Mode::Track { plane, law }));
+        let mut ticks = Vec::new();
+        for _ in 0..10 {
+            t_us += 20_000;
+            link.send(&Command::Heartbeat { t_us });
+            let (_, tel) = link.nav(t_us);
+            assert!(tel.armed);
+            assert_eq!(tel.faults & 0b111, 0, "{tel:?}");
+            ticks.push(tel.loop_ticks);
+        }
+        println!("{plane:?}/{law:?}: control step {ticks:?} instructions");
+    }
     println!(
         "{frames} lock-step exchanges in {:?}; link {:?}",
         t1.elapsed(),
