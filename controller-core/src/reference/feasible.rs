@@ -179,3 +179,56 @@ pub fn pitch_xz(xz: &XzCoeffs, zx_kg: f32, gravity_m_s2: f32, r: &RefSample) -> 
 pub fn pitch_for_accel(accel_m_s2: f32, gravity_m_s2: f32) -> f32 {
     -asin(accel_m_s2 / gravity_m_s2)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::params::Vehicle;
+    use crate::reference::Reference;
+
+    /// On a steady circle the sideslip satisfies the steady sway equation
+    /// `m11 u r + (Y_v + Y_vv |v|) v = 0` with `r = U / R`, and the vehicle points inward.
+    #[test]
+    fn circle_sideslip_solves_steady_sway() {
+        let v = Vehicle::observer();
+        let p = v.params();
+        let r = Reference::Circle {
+            center_m: [0.0, 5.0, 0.0],
+            radius_m: 5.0,
+            speed_m_s: 0.25,
+        };
+        let c = course(&r.sample(60.0)).unwrap();
+        assert!((c.chi_dot - 0.05).abs() < 1e-5);
+        let s = sideslip(&v.xy, &c);
+        let (sb, cb) = crate::math::sin_cos(s.beta_rad);
+        let (u, vv) = (0.25 * cb, 0.25 * sb);
+        let res = v.xy.m11 * u * 0.05 + (p.y_v + p.y_vv * vv.abs()) * vv;
+        assert!(res.abs() < 1e-5, "residual {res}");
+        assert!(s.beta_rad < -0.1 && s.beta_rad > -0.3, "{s:?}");
+    }
+
+    #[test]
+    fn straight_line_has_no_sideslip_and_course_is_heading() {
+        let v = Vehicle::observer();
+        let r = Reference::Line {
+            start_m: [0.0; 3],
+            heading_rad: 2.0,
+            speed_m_s: 0.5,
+        };
+        let c = course(&r.sample(20.0)).unwrap();
+        assert!((c.chi_rad - 2.0).abs() < 1e-6);
+        assert_eq!(sideslip(&v.xy, &c).beta_rad, 0.0);
+        assert!(course(&r.sample(0.0)).is_none());
+    }
+
+    #[test]
+    fn xz_pitch_includes_the_munk_moment() {
+        let v = Vehicle::observer();
+        let p = v.params();
+        let r = crate::reference::PaperPolynomial::PAPER.sample(50.0);
+        let pr = pitch_xz(&v.xz, p.z_wdot_kg - p.x_udot_kg, p.gravity_m_s2, &r);
+        // 0.5 m/s forward and down at zero acceleration: about -0.055 rad.
+        assert!((pr.theta_rad + 0.055).abs() < 0.003, "{pr:?}");
+        assert!((pitch_for_accel(0.981, 9.81) + 0.100_167).abs() < 1e-5);
+    }
+}

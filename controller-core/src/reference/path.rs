@@ -229,8 +229,8 @@ impl Lawnmower {
         let by = y0 + off * self.side[1] + back * self.dir[1];
         let v = self.speed;
         if k == u32::from(last) || local <= tl {
+            // (sigma is clamped to the survey, so the last leg ends at its length.)
             let s = local.min(tl) * v;
-            let s = if k == u32::from(last) { local * v } else { s };
             return Geo {
                 p: [bx + s * dk[0], by + s * dk[1], z0],
                 d1: [v * dk[0], v * dk[1], 0.0],
@@ -241,20 +241,37 @@ impl Lawnmower {
         let ex = bx + self.leg * dk[0];
         let ey = by + self.leg * dk[1];
         let tau = ((local - tl) / tt).clamp(0.0, 1.0);
-        let t2 = tau * tau;
-        let t3 = t2 * tau;
-        let t4 = t3 * tau;
         let a = v * tt;
         let sp = self.spacing;
-        // x along dk, y along side; derivatives w.r.t. tau.
-        let x0t = a * (tau - 5.0 * t4 + 6.0 * t4 * tau - 2.0 * t4 * t2);
-        let x1t = a * (1.0 - 20.0 * t3 + 30.0 * t4 - 12.0 * t4 * tau);
-        let x2t = a * (-60.0 * t2 + 120.0 * t3 - 60.0 * t4);
-        let x3t = a * (-120.0 * tau + 360.0 * t2 - 240.0 * t3);
-        let y0t = sp * t4 * (35.0 - 84.0 * tau + 70.0 * t2 - 20.0 * t3);
-        let y1t = sp * t3 * (140.0 - 420.0 * tau + 420.0 * t2 - 140.0 * t3);
-        let y2t = sp * t2 * (420.0 - 1680.0 * tau + 2100.0 * t2 - 840.0 * t3);
-        let y3t = sp * tau * (840.0 - 5040.0 * tau + 8400.0 * t2 - 4200.0 * t3);
+        // x along dk, y along side; derivatives w.r.t. tau, in factored forms (the expanded
+        // polynomials cancel badly in f32 near the ends of the turn). x is symmetric about
+        // tau = 1/2 and y antisymmetric (y(tau) = 1 - y(1 - tau) for spacing 1), so the
+        // position is evaluated on the nearer half.
+        let om = 1.0 - tau;
+        let (m, mirrored) = if tau > 0.5 { (om, true) } else { (tau, false) };
+        let m2 = m * m;
+        let m4 = m2 * m2;
+        let xm = a * (m - 5.0 * m4 + 6.0 * m4 * m - 2.0 * m4 * m2);
+        let ym = sp * m4 * (35.0 - 84.0 * m + 70.0 * m2 - 20.0 * m2 * m);
+        let x0t = xm;
+        let y0t = if mirrored { sp - ym } else { ym };
+        let x1t = a
+            * (1.0 - 2.0 * tau)
+            * (1.0 + 2.0 * tau + 4.0 * tau * tau - 12.0 * tau * tau * tau
+                + 6.0 * tau * tau * tau * tau);
+        let x1t = if mirrored {
+            let mm = m;
+            -a * (1.0 - 2.0 * mm)
+                * (1.0 + 2.0 * mm + 4.0 * mm * mm - 12.0 * mm * mm * mm + 6.0 * mm * mm * mm * mm)
+        } else {
+            x1t
+        };
+        let tom = tau * om;
+        let x2t = -60.0 * a * tom * tom;
+        let x3t = -120.0 * a * tom * (1.0 - 2.0 * tau);
+        let y1t = 140.0 * sp * tom * tom * tom;
+        let y2t = 420.0 * sp * tom * tom * (1.0 - 2.0 * tau);
+        let y3t = 840.0 * sp * tom * (1.0 - 5.0 * tau + 5.0 * tau * tau);
         let inv = 1.0 / tt;
         let inv2 = inv * inv;
         let inv3 = inv2 * inv;
@@ -268,6 +285,193 @@ impl Lawnmower {
             d1: [d1[0], d1[1], 0.0],
             d2: [d2[0], d2[1], 0.0],
             d3: [d3[0], d3[1], 0.0],
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::reference::Reference;
+
+    fn refs() -> [Reference; 4] {
+        [
+            Reference::Line {
+                start_m: [1.0, -2.0, 3.0],
+                heading_rad: 0.7,
+                speed_m_s: 0.4,
+            },
+            Reference::Circle {
+                center_m: [0.0, 5.0, 2.0],
+                radius_m: 5.0,
+                speed_m_s: 0.25,
+            },
+            Reference::Lawnmower {
+                start_m: [0.0, 0.0, 3.0],
+                heading_rad: 0.3,
+                leg_length_m: 15.0,
+                spacing_m: 5.0,
+                legs: 3,
+                speed_m_s: 0.25,
+            },
+            Reference::Helix {
+                center_m: [0.0, 5.0, 1.0],
+                radius_m: 5.0,
+                speed_m_s: 0.25,
+                depth_rate_m_s: 0.05,
+            },
+        ]
+    }
+
+    /// Central differences (in f64 of the f32 samples) of each derivative against the next.
+    #[test]
+    fn derivatives_match_finite_differences() {
+        let h = 1e-2f32;
+        for r in refs() {
+            r.validate().unwrap();
+            let mut t = 0.05f32;
+            while t < 260.0 {
+                let s = r.sample(t);
+                let (ta, tb) = (t - h, t + h);
+                let a = r.sample(ta);
+                let b = r.sample(tb);
+                // The f32 times are not exactly t -+ h: divide by the real spacing.
+                let span = f64::from(tb) - f64::from(ta);
+                for k in 0..3 {
+                    let fd = |x: f32, y: f32| (f64::from(y) - f64::from(x)) / span;
+                    let v = fd(a.pos_m[k], b.pos_m[k]);
+                    let acc = fd(a.vel_m_s[k], b.vel_m_s[k]);
+                    let j = fd(a.acc_m_s2[k], b.acc_m_s2[k]);
+                    // Position is O(10 m) in f32: its difference quotient carries ~1e-3 m/s
+                    // round-off; the higher derivatives are small numbers and match tighter.
+                    assert!(
+                        (v - f64::from(s.vel_m_s[k])).abs() < 3e-3,
+                        "{r:?} vel t={t}"
+                    );
+                    assert!(
+                        (acc - f64::from(s.acc_m_s2[k])).abs() < 2e-4,
+                        "{r:?} acc t={t}: {acc} vs {}",
+                        s.acc_m_s2[k]
+                    );
+                    assert!(
+                        (j - f64::from(s.jerk_m_s3[k])).abs() < 1e-4,
+                        "{r:?} jerk t={t}"
+                    );
+                }
+                t += 0.731;
+            }
+        }
+    }
+
+    /// Position, velocity, acceleration and jerk are continuous at the lawnmower joints and at
+    /// the ends of the ramps.
+    #[test]
+    fn continuous_at_joints() {
+        let l = Lawnmower::new([0.0, 0.0, 3.0], 0.3, 15.0, 5.0, 3, 0.25);
+        let tl = l.leg_time();
+        let tt = l.turn_time();
+        let mut joints = vec![];
+        for k in 0..2 {
+            let base = k as f32 * (tl + tt);
+            joints.push(base + tl);
+            joints.push(base + tl + tt);
+        }
+        let e = 1e-3;
+        for sj in joints {
+            let a = l.geo(sj - e);
+            let b = l.geo(sj + e);
+            for k in 0..3 {
+                assert!((a.p[k] - b.p[k]).abs() < 2e-3, "pos at {sj}");
+                assert!((a.d1[k] - b.d1[k]).abs() < 1e-4, "vel at {sj}");
+                assert!((a.d2[k] - b.d2[k]).abs() < 1e-4, "acc at {sj}");
+                assert!((a.d3[k] - b.d3[k]).abs() < 1e-4, "jerk at {sj}");
+            }
+        }
+        for t in [0.0, RAMP_S] {
+            let a = ramp(t - 1e-4);
+            let b = ramp(t + 1e-4);
+            assert!((a.s1 - b.s1).abs() < 1e-3 && (a.s2 - b.s2).abs() < 1e-3);
+            assert!((a.s3 - b.s3).abs() < 1e-2);
+        }
+    }
+
+    #[test]
+    fn starts_at_rest_and_lawnmower_ends_at_rest() {
+        for r in refs() {
+            let s = r.sample(0.0);
+            assert_eq!(s.vel_m_s, [0.0; 3]);
+            assert_eq!(s.acc_m_s2, [0.0; 3]);
+            assert_eq!(s.jerk_m_s3, [0.0; 3]);
+        }
+        let l = Lawnmower::new([0.0, 0.0, 3.0], 0.0, 15.0, 5.0, 3, 0.25);
+        let r = Reference::Lawnmower {
+            start_m: [0.0, 0.0, 3.0],
+            heading_rad: 0.0,
+            leg_length_m: 15.0,
+            spacing_m: 5.0,
+            legs: 3,
+            speed_m_s: 0.25,
+        };
+        let end = r.sample(l.total_time() + 2.0 * RAMP_S);
+        assert_eq!(end.vel_m_s, [0.0; 3]);
+        // Third leg ends back at the start side, two spacings to starboard.
+        assert!((end.pos_m[0] - 15.0).abs() < 1e-3, "{end:?}");
+        assert!((end.pos_m[1] - 10.0).abs() < 1e-3, "{end:?}");
+    }
+
+    #[test]
+    fn cruise_speed_and_circle_geometry() {
+        let r = Reference::Circle {
+            center_m: [0.0, 5.0, 2.0],
+            radius_m: 5.0,
+            speed_m_s: 0.25,
+        };
+        for t in [10.0f32, 50.0, 123.4] {
+            let s = r.sample(t);
+            let [x, y, z] = s.pos_m;
+            assert!(((x * x + (y - 5.0) * (y - 5.0)).sqrt() - 5.0).abs() < 1e-4);
+            assert_eq!(z, 2.0);
+            let v = (s.vel_m_s[0].powi(2) + s.vel_m_s[1].powi(2)).sqrt();
+            assert!((v - 0.25).abs() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn validate_rejects_bad_values() {
+        let bad = [
+            Reference::Line {
+                start_m: [f32::NAN, 0.0, 0.0],
+                heading_rad: 0.0,
+                speed_m_s: 1.0,
+            },
+            Reference::Circle {
+                center_m: [0.0; 3],
+                radius_m: 0.0,
+                speed_m_s: 1.0,
+            },
+            Reference::Lawnmower {
+                start_m: [0.0; 3],
+                heading_rad: 0.0,
+                leg_length_m: 10.0,
+                spacing_m: 2.0,
+                legs: 0,
+                speed_m_s: 0.3,
+            },
+            Reference::Helix {
+                center_m: [0.0; 3],
+                radius_m: 2.0,
+                speed_m_s: -0.1,
+                depth_rate_m_s: 0.0,
+            },
+            Reference::Helix {
+                center_m: [0.0; 3],
+                radius_m: 2.0,
+                speed_m_s: 0.1,
+                depth_rate_m_s: f32::INFINITY,
+            },
+        ];
+        for r in bad {
+            assert!(r.validate().is_err(), "{r:?}");
         }
     }
 }
