@@ -352,24 +352,29 @@ where
 
     fn on_command(&mut self, seq: u16, cmd: &Command) {
         let lockstep = self.config.timing == Timing::LockStep;
-        if lockstep {
-            // The host's clock: the latest time stamp received (never goes back).
+        let now = if lockstep {
+            // The host's clock: the latest time stamp of an accepted Heartbeat or Nav (never
+            // goes back; a refused command does not move it).
             let t = match cmd {
-                Command::Heartbeat { t_us } => Some(*t_us),
-                Command::Nav(n) if n.state.is_finite() => Some(n.t_us),
-                _ => None,
+                Command::Heartbeat { t_us } => *t_us,
+                Command::Nav(n) => n.t_us,
+                _ => 0,
             };
-            if let Some(t) = t {
-                self.host_time_us = self.host_time_us.max(t);
-            }
-        }
-        let now = self.now_us();
+            self.host_time_us.max(t)
+        } else {
+            self.clock.now_us()
+        };
         match self.autopilot.handle(now, seq, cmd) {
             Err(reason) => self.nack(seq, reason),
             Ok(()) => match cmd {
-                Command::Heartbeat { .. } | Command::ManualThrust(_) => {}
+                Command::Heartbeat { .. } | Command::ManualThrust(_) => {
+                    if lockstep {
+                        self.host_time_us = now;
+                    }
+                }
                 Command::Nav(_) => {
                     if lockstep {
+                        self.host_time_us = now;
                         self.control(now);
                         self.send_telemetry(now);
                     }

@@ -460,6 +460,22 @@ fn lockstep_runs_on_host_time() {
         assert_eq!(tel.pulse_us == [1500; 3], age >= 500_000, "age {age}");
     }
     assert!(!a.autopilot().armed());
+    // A refused nav from the far future does not move the clock.
+    let far = Command::Nav(NavSample {
+        t_us: t_us + 3_600_000_000,
+        state: NavState {
+            u_m_s: 1e3,
+            ..NavState::default()
+        },
+    });
+    let (s, r) = t.send(&mut a, &far);
+    assert_eq!(nacked(&r, s), Some(NackReason::OutOfRange));
+    assert_eq!(a.now_us(), t_us);
+    let (s, r) = t.send(&mut a, &nav(t_us + 20_000));
+    assert_eq!(
+        last_telemetry(&r).map(|t| (t.nav_seq, t.t_us)),
+        Some((s, t_us + 20_000))
+    );
 }
 
 proptest! {
