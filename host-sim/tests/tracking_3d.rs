@@ -21,7 +21,7 @@ fn nominal(r: Reference, start: [f64; 3], t: f64) -> Metrics {
     )
 }
 
-pub fn circle() -> Reference {
+fn circle() -> Reference {
     Reference::Circle {
         center_m: [0.0, 5.0, 2.0],
         radius_m: 5.0,
