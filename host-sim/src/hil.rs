@@ -177,7 +177,7 @@ pub struct HilOutput {
 }
 
 /// A QEMU child that is killed when dropped.
-struct QemuChild {
+pub struct QemuChild {
     child: Child,
 }
 
@@ -190,7 +190,7 @@ impl Drop for QemuChild {
 
 impl QemuChild {
     /// Start QEMU with `elf`, its first serial port connecting to `port` on 127.0.0.1.
-    fn start(qemu: &str, elf: &Path, port: u16, log: Option<&Path>) -> Result<Self> {
+    pub fn start(qemu: &str, elf: &Path, port: u16, log: Option<&Path>) -> Result<Self> {
         if !elf.is_file() {
             bail!("firmware image {} not found", elf.display());
         }
@@ -232,6 +232,37 @@ impl QemuChild {
     }
 }
 
+/// Start QEMU with the firmware image `elf` and accept its serial connection on a port of
+/// 127.0.0.1 bound here first (no race). The child is killed when the guard is dropped.
+pub fn start_qemu_link(
+    qemu: &str,
+    elf: &Path,
+    log: Option<&Path>,
+) -> Result<(QemuChild, Box<dyn crate::link::Port>)> {
+    let listener = TcpListener::bind("127.0.0.1:0").context("cannot bind 127.0.0.1:0")?;
+    let port = listener.local_addr()?.port();
+    let mut q = QemuChild::start(qemu, elf, port, log)?;
+    listener.set_nonblocking(true)?;
+    let deadline = Instant::now() + Duration::from_secs(30);
+    let stream = loop {
+        match listener.accept() {
+            Ok((s, _)) => break s,
+            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
+                if let Some(why) = q.exited() {
+                    bail!("{why}");
+                }
+                if Instant::now() > deadline {
+                    bail!("QEMU did not connect to 127.0.0.1:{port} within 30 s");
+                }
+                std::thread::sleep(Duration::from_millis(5));
+            }
+            Err(e) => return Err(e).context("accept"),
+        }
+    };
+    stream.set_nonblocking(false)?;
+    Ok((q, Box::new(tcp_port(stream)?)))
+}
+
 /// The firmware's mode for a scenario's control mode.
 pub fn firmware_mode(m: ControlMode) -> Mode {
     let (plane, law) = match m {
@@ -259,29 +290,8 @@ pub fn run_hil(sc: &Scenario, opts: &HilOptions, qemu_log: Option<&Path>) -> Res
     let mut _qemu = None;
     let (port, target_name) = match &opts.target {
         HilTarget::Qemu { elf } => {
-            let listener = TcpListener::bind("127.0.0.1:0").context("cannot bind 127.0.0.1:0")?;
-            let port = listener.local_addr()?.port();
-            let mut q = QemuChild::start(&opts.qemu, elf, port, qemu_log)?;
-            listener.set_nonblocking(true)?;
-            let deadline = Instant::now() + Duration::from_secs(30);
-            let stream = loop {
-                match listener.accept() {
-                    Ok((s, _)) => break s,
-                    Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
-                        if let Some(why) = q.exited() {
-                            bail!("{why}");
-                        }
-                        if Instant::now() > deadline {
-                            bail!("QEMU did not connect to 127.0.0.1:{port} within 30 s");
-                        }
-                        std::thread::sleep(Duration::from_millis(5));
-                    }
-                    Err(e) => return Err(e).context("accept"),
-                }
-            };
-            stream.set_nonblocking(false)?;
+            let (q, p) = start_qemu_link(&opts.qemu, elf, qemu_log)?;
             _qemu = Some(q);
-            let p: Box<dyn crate::link::Port> = Box::new(tcp_port(stream)?);
             (p, "qemu netduinoplus2".to_string())
         }
         HilTarget::Board(ep) => (open(ep)?, format!("{ep:?}")),
@@ -691,5 +701,139 @@ pub fn write_hil(dir: &Path, out: &HilOutput) -> Result<()> {
         )?;
     }
     w.flush()?;
+    Ok(())
+}
+
+/// Arguments of `host-sim hil`.
+#[derive(Debug, clap::Args)]
+pub struct HilArgs {
+    /// Built-in scenario name or path to a scenario file.
+    pub scenario: String,
+    /// Run the firmware's QEMU image (default: target/thumbv7em-none-eabihf/release/qemu,
+    /// built by `cargo build -p firmware --release --target thumbv7em-none-eabihf`).
+    #[arg(long, value_name = "ELF", conflicts_with_all = ["serial", "tcp"])]
+    pub qemu: Option<PathBuf>,
+    /// A board on a serial device (lock-step firmware).
+    #[arg(long, value_name = "DEVICE", conflicts_with = "tcp")]
+    pub serial: Option<PathBuf>,
+    /// Baud rate of `--serial`.
+    #[arg(long, default_value_t = 115_200)]
+    pub baud: u32,
+    /// A board or emulator at HOST:PORT (lock-step firmware).
+    #[arg(long, value_name = "HOST:PORT")]
+    pub tcp: Option<String>,
+    /// Output folder (default out/hil-<scenario>).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Simulated duration instead of the scenario's (s).
+    #[arg(long)]
+    pub duration: Option<f64>,
+    /// Stop sending heartbeats at this simulated time (s): the link-loss failsafes.
+    #[arg(long, value_name = "SECONDS")]
+    pub heartbeat_stop: Option<f64>,
+    /// Inject noise: probability that a frame sent is corrupted (and that garbage precedes
+    /// it); received bytes are corrupted with probability NOISE / 100.
+    #[arg(long, value_name = "PROB")]
+    pub noise: Option<f64>,
+    /// Seed of the noise.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Apply the firmware's thrust commands instead of the thrust of its PWM pulse widths.
+    #[arg(long)]
+    pub apply_thrust: bool,
+    /// The QEMU binary.
+    #[arg(long, default_value = "qemu-system-arm")]
+    pub qemu_bin: String,
+}
+
+/// `host-sim hil`.
+pub fn main(a: HilArgs) -> Result<()> {
+    let sc = Scenario::load(&a.scenario)?;
+    let target = if let Some(dev) = a.serial {
+        HilTarget::Board(Endpoint::Serial {
+            device: dev,
+            baud: a.baud,
+        })
+    } else if let Some(t) = a.tcp {
+        HilTarget::Board(Endpoint::Tcp(t))
+    } else {
+        let elf = a
+            .qemu
+            .unwrap_or_else(|| PathBuf::from("target/thumbv7em-none-eabihf/release/qemu"));
+        if !elf.is_file() {
+            bail!(
+                "{} not found: build it with `cargo build -p firmware --release --target \
+                 thumbv7em-none-eabihf` or give --qemu ELF",
+                elf.display()
+            );
+        }
+        HilTarget::Qemu { elf }
+    };
+    let mut o = HilOptions::new(target);
+    o.duration_s = a.duration;
+    o.heartbeat_stop_s = a.heartbeat_stop;
+    o.noise = a.noise.map(|p| NoiseSpec {
+        tx_frame_error_prob: p,
+        tx_garbage_prob: p,
+        rx_byte_error_prob: p / 100.0,
+        seed: a.seed,
+    });
+    o.apply_pulses = !a.apply_thrust;
+    o.qemu = a.qemu_bin;
+    if !sc.thrusters.saturate {
+        eprintln!(
+            "note: scenario {} has no thruster limits, but the firmware always applies the \
+             vehicle's (+20 N / -15 N): compare with a saturated software run",
+            sc.name
+        );
+    }
+    let dir = a
+        .out
+        .unwrap_or_else(|| PathBuf::from("out").join(format!("hil-{}", sc.name)));
+    std::fs::create_dir_all(&dir)?;
+    let out = run_hil(&sc, &o, Some(&dir.join("qemu-stdout.bin")))?;
+    write_hil(&dir, &out)?;
+    let s = &out.run.summary;
+    let r = &out.report;
+    println!(
+        "{}: {} (RMS {:.4} m, final {:.4} m, {} steps in {:.1} s wall)",
+        s.scenario,
+        s.verdict,
+        s.rms_position_error_m,
+        s.final_position_error_m,
+        r.steps,
+        r.wall_time_s
+    );
+    println!(
+        "link: host sent {} frames, received {}, dropped {}; firmware received {}, dropped {}, \
+         sent {}; timeouts {}, steps resent {}; injected: {} frames corrupted, {} garbage \
+         bytes, {} received bytes corrupted",
+        r.host.frames_sent,
+        r.host.frames_received,
+        r.host.frames_dropped,
+        r.firmware_rx_frames,
+        r.firmware_dropped_frames,
+        r.firmware_tx_frames,
+        r.host.timeouts,
+        r.steps_resent,
+        r.host.frames_corrupted,
+        r.host.garbage_bytes,
+        r.host.rx_bytes_corrupted
+    );
+    println!(
+        "board: {}; control iteration {:.0} instructions mean, {} max; disarmed steps {}, \
+         failsafe steps {}",
+        r.board, r.loop_ticks_mean, r.loop_ticks_max, r.steps_disarmed, r.steps_failsafe
+    );
+    if let Some(stop) = r.heartbeat_stop_s {
+        println!(
+            "heartbeats stopped at {stop} s: neutral after {}, disarmed after {}",
+            r.neutral_after_s
+                .map_or("never".into(), |v| format!("{v:.3} s")),
+            r.disarmed_after_s
+                .map_or("never".into(), |v| format!("{v:.3} s"))
+        );
+    }
+    println!("outputs in {}", dir.display());
     Ok(())
 }

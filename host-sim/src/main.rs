@@ -6,6 +6,8 @@
 //! host-sim run <name-or-path.toml> [--controller paper|tracking] [--out DIR]
 //! host-sim list
 //! host-sim monte-carlo <scenario> --runs N [--seed S] [--perturb FRACTION] [--out DIR]
+//! host-sim hil <scenario> [--qemu ELF | --serial DEVICE --baud N | --tcp HOST:PORT]
+//! host-sim link --serial DEVICE [--baud N] | --tcp HOST:PORT | --qemu ELF [--script CMDS]
 //! ```
 //! New subcommands (e.g. `hil`, `link`) are one more variant in [`Command`] and one more arm
 //! in `main`'s `match`.
@@ -69,6 +71,10 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Hardware in the loop: the firmware (QEMU or a board) closes the loop, lock-step.
+    Hil(host_sim::hil::HilArgs),
+    /// Topside console: arm, disarm, mode, reference; telemetry to CSV with a status line.
+    Link(host_sim::link::LinkArgs),
 }
 
 fn print_table(rows: &[&RunOutput]) {
@@ -183,6 +189,8 @@ fn run_all(out_dir: &Path) -> Result<()> {
 fn main() -> Result<()> {
     let cli = Cli::parse();
     match cli.command {
+        Some(Command::Hil(a)) => host_sim::hil::main(a),
+        Some(Command::Link(a)) => host_sim::link::main(a),
         None => run_all(Path::new("out")),
         Some(Command::All { out }) => run_all(&out),
         Some(Command::List) => {

@@ -1,0 +1,107 @@
+//! `host-sim link` against the firmware's QEMU image: a scripted console session arms,
+//! holds a point in 3-D, switches mode, disarms, and streams telemetry to CSV.
+//! Skipped, with a message, when `qemu-system-arm` is not installed.
+
+use firmware::protocol::Reply;
+use host_sim::hil::start_qemu_link;
+use host_sim::link::{console, Link};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Duration;
+
+fn firmware_elf() -> Option<PathBuf> {
+    let qemu_ok = Command::new("qemu-system-arm")
+        .arg("--version")
+        .output()
+        .map(|o| o.status.success())
+        .unwrap_or(false);
+    if !qemu_ok {
+        eprintln!("SKIPPED: qemu-system-arm not found (apt-get install qemu-system-arm)");
+        return None;
+    }
+    if let Ok(p) = std::env::var("HIL_FIRMWARE_ELF") {
+        return Some(PathBuf::from(p));
+    }
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .to_path_buf();
+    let target = std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| root.join("target"));
+    let dir = if target.is_absolute() {
+        target.join("hil-firmware")
+    } else {
+        root.join(target).join("hil-firmware")
+    };
+    let st = Command::new(env!("CARGO"))
+        .current_dir(&root)
+        .args([
+            "build",
+            "-q",
+            "-p",
+            "firmware",
+            "--release",
+            "--bin",
+            "qemu",
+        ])
+        .args(["--target", "thumbv7em-none-eabihf", "--target-dir"])
+        .arg(&dir)
+        .status()
+        .unwrap();
+    assert!(st.success(), "building the firmware's qemu image failed");
+    Some(dir.join("thumbv7em-none-eabihf/release/qemu"))
+}
+
+#[test]
+fn hil_link_console_arms_streams_and_disarms() {
+    let Some(elf) = firmware_elf() else {
+        return;
+    };
+    let (_qemu, port) = start_qemu_link("qemu-system-arm", &elf, None).unwrap();
+    let mut link = Link::new(port, None);
+    let hello = link
+        .wait_for(
+            Duration::from_secs(30),
+            |r| matches!(r, Reply::Hello { .. }).then_some(()),
+            |_| {},
+        )
+        .unwrap();
+    assert!(hello.is_some(), "no Hello");
+    let (tx, rx) = std::sync::mpsc::channel();
+    for c in [
+        "nav 0 0 1 0 auto",
+        "ref hold 0.5 0 1",
+        "mode track-3d",
+        "arm",
+        "wait 1",
+        "mode paper-xy",
+        "disarm",
+        "wait 0.3",
+    ] {
+        tx.send(c.to_string()).unwrap();
+    }
+    drop(tx);
+    let mut csv = Vec::new();
+    let rep = console(&mut link, Duration::from_millis(50), rx, &mut csv, false).unwrap();
+    let text = String::from_utf8(csv).unwrap();
+    let rows: Vec<&str> = text.lines().skip(1).collect();
+    eprintln!(
+        "{} rows, {} armed, {} acks, nacks {:?}",
+        rep.telemetry_rows, rep.armed_rows, rep.acks, rep.nacks
+    );
+    assert!(rep.nacks.is_empty(), "refused: {:?}", rep.nacks);
+    assert_eq!(rep.acks, 5);
+    assert!(rep.armed_rows >= 5, "armed rows {}", rep.armed_rows);
+    assert_eq!(rows.len() as u64, rep.telemetry_rows);
+    // Armed and holding 0.5 m away: the 3-D law pushes (some pulse off neutral).
+    let armed_pushing = rows.iter().any(|r| {
+        let f: Vec<&str> = r.split(',').collect();
+        f[3] == "1" && f[16..19].iter().any(|p| *p != "1500")
+    });
+    assert!(armed_pushing, "no thrust while armed:\n{text}");
+    // Ends disarmed with neutral pulses.
+    let last: Vec<&str> = rows.last().unwrap().split(',').collect();
+    assert_eq!(last[3], "0");
+    assert_eq!(&last[16..19], &["1500", "1500", "1500"]);
+}
