@@ -163,6 +163,19 @@ pub fn chart(
     Ok(())
 }
 
+/// A length with a unit that keeps its significant digits (mm under 1 cm, cm under 1 m).
+pub fn fmt_len(m: f64) -> String {
+    if !m.is_finite() {
+        "inf".into()
+    } else if m.abs() < 0.01 {
+        format!("{:.3} mm", 1e3 * m)
+    } else if m.abs() < 1.0 {
+        format!("{:.1} cm", 1e2 * m)
+    } else {
+        format!("{m:.2} m")
+    }
+}
+
 fn ts(log: &[Sample], f: impl Fn(&Sample) -> f64) -> Vec<(f64, f64)> {
     log.iter().map(|s| (s.t_s, f(s))).collect()
 }
@@ -241,7 +254,7 @@ pub fn run_plots(dir: &Path, out: &RunOutput) -> Result<()> {
     let verdict = if s.nan_detected || s.diverged {
         format!(" - {}", s.stop_reason)
     } else {
-        format!(" - final error {:.4} m", s.final_position_error_m)
+        format!(" - final error {}", fmt_len(s.final_position_error_m))
     };
     let big = (1200, 800);
     match s.plane.as_str() {
@@ -472,11 +485,11 @@ pub fn compare_plot(path: &Path, paper: &RunOutput, tracking: &RunOutput) -> Res
         let log = &o.log;
         (
             format!(
-                "{} law ({}): final {:.3} m, tail RMS {:.3} m",
+                "{} law ({}): final {}, tail RMS {}",
                 o.summary.controller,
                 o.summary.scenario,
-                o.summary.final_position_error_m,
-                o.summary.rms_position_error_tail_m
+                fmt_len(o.summary.final_position_error_m),
+                fmt_len(o.summary.rms_position_error_tail_m)
             ),
             "x (m)".into(),
             if xz {
