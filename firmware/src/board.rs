@@ -191,6 +191,8 @@ pub fn run(variant: Variant) -> ! {
 
     // Watchdog first: everything below must finish within its window.
     let mut watchdog = IndependentWatchdog::new(dp.IWDG);
+    // Freeze it while a debugger halts the core (probe-rs sessions), run it otherwise.
+    watchdog.stop_on_debug(&dp.DBGMCU, true);
     watchdog.start(WATCHDOG_MS.millis());
 
     let gpioa = dp.GPIOA.split(&mut rcc);
