@@ -9,7 +9,7 @@
 //! the horizontal pair never exceeds its limits. Heave is independent. The achieved forces are
 //! returned so the laws can stop integrating against a saturated actuator.
 
-use crate::math::{clamp_nan_safe, sqrt};
+use crate::math::{clamp, clamp_nan_safe, sqrt};
 use crate::params::Vehicle;
 use crate::state::BodyForces;
 use serde::{Deserialize, Serialize};
@@ -66,10 +66,10 @@ pub fn allocate(request: &BodyForces, limits: &ThrusterLimits) -> Allocation {
     // Differential thrust d = F1 - F2, limited to what the pair can make.
     let d_req = finite_or_zero(request.yaw_n_m) / l;
     let d_max = fwd + rev;
-    let d = d_req.clamp(-d_max, d_max);
+    let d = clamp(d_req, -d_max, d_max);
     // Common thrust s = F1 + F2 with both F1 = (s + d)/2 and F2 = (s - d)/2 in [-rev, fwd].
     let s_req = finite_or_zero(request.surge_n);
-    let s = s_req.clamp(-2.0 * rev + d.abs(), 2.0 * fwd - d.abs());
+    let s = clamp(s_req, -2.0 * rev + d.abs(), 2.0 * fwd - d.abs());
     let f1 = limits.clamp(0.5 * (s + d));
     let f2 = limits.clamp(0.5 * (s - d));
     let h_req = finite_or_zero(request.heave_n);

@@ -76,7 +76,7 @@ pub fn sqrt(x: f32) -> f32 {
 /// (`libm::asinf` takes a square root in `f64` for |x| >= 0.5.)
 #[inline]
 pub fn asin(x: f32) -> f32 {
-    let x = x.clamp(-1.0, 1.0);
+    let x = clamp(x, -1.0, 1.0);
     atan2(x, sqrt((1.0 - x) * (1.0 + x)))
 }
 
@@ -113,14 +113,23 @@ pub fn sq_signed(x: f32) -> f32 {
     x * x.abs()
 }
 
-/// Clamp `x` into `[lo, hi]`, mapping NaN to `lo`... never used on the hot path with NaN,
-/// but a NaN must never reach a thruster.
+/// Clamp `x` into `[lo, hi]` (for `lo <= hi`); NaN gives `lo`.
+///
+/// Unlike `f32::clamp` it has no `lo <= hi` assertion, so bounds computed at run time leave
+/// no panic path (and no panic-message formatting) in the image.
+#[inline(always)]
+pub fn clamp(x: f32, lo: f32, hi: f32) -> f32 {
+    x.max(lo).min(hi)
+}
+
+/// Clamp `x` into `[lo, hi]`, mapping NaN to the point of the range nearest zero: a NaN must
+/// never reach a thruster.
 #[inline]
 pub fn clamp_nan_safe(x: f32, lo: f32, hi: f32) -> f32 {
     if x.is_nan() {
-        0.0f32.clamp(lo, hi)
+        clamp(0.0, lo, hi)
     } else {
-        x.clamp(lo, hi)
+        clamp(x, lo, hi)
     }
 }
 
@@ -170,6 +179,16 @@ mod tests {
             assert!((d - d.round()).abs() < 1e-5, "{a} -> {w}");
         }
         assert_eq!(wrap_angle(-PI), PI);
+    }
+
+    #[test]
+    fn clamp_behaves() {
+        assert_eq!(clamp(5.0, -1.0, 2.0), 2.0);
+        assert_eq!(clamp(-5.0, -1.0, 2.0), -1.0);
+        assert_eq!(clamp(0.5, -1.0, 2.0), 0.5);
+        assert_eq!(clamp(f32::NAN, -1.0, 2.0), -1.0);
+        assert_eq!(clamp_nan_safe(f32::NAN, -1.0, 2.0), 0.0);
+        assert_eq!(clamp_nan_safe(f32::NAN, 1.0, 2.0), 1.0);
     }
 
     #[test]
