@@ -62,9 +62,30 @@ pub fn run(
     env: Environment,
     t_end_s: f64,
 ) -> Metrics {
+    run_with(
+        Gains::default(),
+        mode,
+        reference,
+        initial,
+        plant_params,
+        env,
+        t_end_s,
+    )
+}
+
+/// [`run`] with explicit gains.
+pub fn run_with(
+    gains: Gains,
+    mode: ControlMode,
+    reference: &Reference,
+    initial: PlantState,
+    plant_params: &VehicleParams,
+    env: Environment,
+    t_end_s: f64,
+) -> Metrics {
     reference.validate().expect("reference");
     let vehicle = VehicleParams::OBSERVER.validate().expect("vehicle");
-    let mut ctl = Controller::new(vehicle, Gains::default()).expect("controller");
+    let mut ctl = Controller::new(vehicle, gains).expect("controller");
     let mut plant = SixDof::new(plant_params, env, true, initial);
     let sub = (CTRL_DT / PLANT_DT).round() as usize;
     let n = (t_end_s / CTRL_DT).round() as usize;

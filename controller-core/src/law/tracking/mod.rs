@@ -77,6 +77,10 @@ pub struct TrackingGains {
     pub error_limit_m: f32,
     /// Largest acceleration an integrator may contribute (m/s^2).
     pub integral_limit_m_s2: f32,
+    /// XY: bandwidth of the disturbance observer read as a current (rad/s); 0 turns it off
+    /// (the default: under +-20 % model error it reads the model error as a current and does
+    /// more harm than good, see `docs/tracking.md`). Must be >= 0.
+    pub current_observer_rad_s: f32,
 }
 
 impl TrackingGains {
@@ -99,6 +103,7 @@ impl TrackingGains {
         yaw_kd: 4.0,
         error_limit_m: 0.5,
         integral_limit_m_s2: 1.0,
+        current_observer_rad_s: 0.0,
     };
 
     /// Refuse non-finite or non-positive gains, and a pitch limit at or beyond 0.7 rad (the
@@ -125,6 +130,7 @@ impl TrackingGains {
         ] {
             positive(n, v)?;
         }
+        crate::error::non_negative("current_observer_rad_s", self.current_observer_rad_s)?;
         if self.pitch_max_rad >= 0.7 {
             return Err(Error::OutOfRange("pitch_max_rad"));
         }

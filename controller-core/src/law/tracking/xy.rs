@@ -85,9 +85,6 @@ impl HeadingRef {
 /// read as a current).
 pub const CURRENT_DEADZONE_M_S: f32 = 0.01;
 
-/// Bandwidth of the disturbance observer (rad/s).
-pub const OBSERVER_GAIN: f32 = 1.0;
-
 /// Time constant of the low-pass on the current estimate (s).
 pub const CURRENT_TAU_S: f32 = 5.0;
 
@@ -120,14 +117,18 @@ impl super::CurrentObserver {
         v: &Vehicle,
         nav: &NavState,
         achieved: &crate::state::BodyForces,
-        s: f32,
-        c: f32,
+        (s, c): (f32, f32),
+        gain_rad_s: f32,
         dt: f32,
     ) {
+        if gain_rad_s <= 0.0 || gain_rad_s.is_nan() {
+            *self = Self::default();
+            return;
+        }
         let p = v.params();
         let xy = &v.xy;
         let (u, vv, r) = (nav.u_m_s, nav.v_m_s, nav.r_rad_s);
-        let l = OBSERVER_GAIN;
+        let l = gain_rad_s;
         let mx = xy.m11 * u;
         let my = xy.m22 * vv;
         if !self.init {
@@ -172,7 +173,8 @@ pub fn hand(
     let eps = g.hand_m;
     let (s, c) = sin_cos(nav.yaw_rad);
     let achieved = st.achieved;
-    st.current.update(v, nav, &achieved, s, c, dt);
+    st.current
+        .update(v, nav, &achieved, s, c, g.current_observer_rad_s, dt);
     let [ccx, ccy] = st.current.vc;
     let n = crate::math::sqrt(ccx * ccx + ccy * ccy);
     let blend = ((n - CURRENT_DEADZONE_M_S) / CURRENT_DEADZONE_M_S).clamp(0.0, 1.0);
