@@ -174,7 +174,7 @@ pub fn hand(
     let (s, c) = sin_cos(nav.yaw_rad);
     let achieved = st.achieved;
     st.current
-        .update(v, nav, &achieved, s, c, g.current_observer_rad_s, dt);
+        .update(v, nav, &achieved, (s, c), g.current_observer_rad_s, dt);
     let [ccx, ccy] = st.current.vc;
     let n = crate::math::sqrt(ccx * ccx + ccy * ccy);
     let blend = ((n - CURRENT_DEADZONE_M_S) / CURRENT_DEADZONE_M_S).clamp(0.0, 1.0);
