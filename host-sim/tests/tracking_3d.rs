@@ -66,3 +66,39 @@ fn tracking_3d_helix() {
     assert!(m.finite);
     assert!(m.rms_last_80_m <= 0.02, "{m:?}");
 }
+
+/// Faster than the scenarios: the yaw dynamics of the hand point need `eps > 0.28 U`
+/// (`eps = 0.2 m` -> U < 0.7 m/s linearized; quadratic sway drag adds damping).
+#[test]
+fn tracking_3d_fast_line_from_offset_and_fast_circle() {
+    for (v, line_final, line_rms, circle_rms) in
+        [(0.5f32, 0.004, 0.012, 1e-4), (1.0, 0.035, 0.03, 3e-4)]
+    {
+        let line = Reference::Line {
+            start_m: [0.0, 0.0, 1.0],
+            heading_rad: 0.0,
+            speed_m_s: v,
+        };
+        let m = run(
+            ControlMode::Tracking3d,
+            &line,
+            at_rest([0.0, 0.3, 1.0], 0.3),
+            &VehicleParams::OBSERVER,
+            Environment::default(),
+            120.0,
+        );
+        println!("tracking 3-D, line {v} m/s from 0.3 m / 0.3 rad, 120 s: {m:?}");
+        assert!(
+            m.final_err_m <= line_final && m.rms_last_80_m <= line_rms,
+            "{m:?}"
+        );
+        let c = Reference::Circle {
+            center_m: [0.0, 5.0, 1.0],
+            radius_m: 5.0,
+            speed_m_s: v,
+        };
+        let m = nominal(c, [0.0, 0.0, 1.0], 120.0);
+        println!("tracking 3-D, circle R 5 m at {v} m/s, 120 s: {m:?}");
+        assert!(m.rms_last_80_m <= circle_rms, "{m:?}");
+    }
+}

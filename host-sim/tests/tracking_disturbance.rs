@@ -45,8 +45,14 @@ fn observer_on() -> Gains {
     g
 }
 
-/// Runs a case with the default gains (current observer off) and with the observer on
-/// (1 rad/s) and checks both against their measured RMS bounds.
+fn observer_off() -> Gains {
+    let mut g = Gains::default();
+    g.tracking.current_observer_rad_s = 0.0;
+    g
+}
+
+/// Runs a case with the current observer off and on (1 rad/s, the default) and checks both
+/// against their measured RMS bounds.
 #[allow(clippy::too_many_arguments)]
 fn both(
     name: &str,
@@ -59,7 +65,7 @@ fn both(
     rms_off: f64,
     rms_on: f64,
 ) -> (Metrics, Metrics) {
-    let off = run_with(Gains::default(), mode, r, start, p, e, t);
+    let off = run_with(observer_off(), mode, r, start, p, e, t);
     report(&format!("{name}, observer off"), &off);
     let on = run_with(observer_on(), mode, r, start, p, e, t);
     report(&format!("{name}, observer on"), &on);
@@ -70,7 +76,7 @@ fn both(
 
 #[test]
 fn tracking_3d_circle_current_02_buoyancy_5n() {
-    // Measured RMS: 0.180 m (observer off), 0.163 m (on). Misses the 2 cm nominal bound.
+    // Measured RMS: 0.064 m (observer off), 0.056 m (on). Misses the 2 cm nominal bound.
     both(
         "3-D circle, current [0.2, 0, 0] m/s, +5 N",
         ControlMode::Tracking3d,
@@ -79,14 +85,14 @@ fn tracking_3d_circle_current_02_buoyancy_5n() {
         &plant(5.0),
         env([0.2, 0.0, 0.0]),
         150.0,
-        0.19,
-        0.175,
+        0.07,
+        0.062,
     );
 }
 
 #[test]
 fn tracking_3d_circle_current_01_diag_buoyancy_minus5n() {
-    // Measured RMS: 0.057 m (off), 0.040 m (on).
+    // Measured RMS: 0.0215 m (off), 0.0058 m (on).
     let c = 0.1 / 2f64.sqrt();
     both(
         "3-D circle, current 0.1 m/s at 45 deg, -5 N",
@@ -96,14 +102,14 @@ fn tracking_3d_circle_current_01_diag_buoyancy_minus5n() {
         &plant(-5.0),
         env([c, c, 0.0]),
         150.0,
-        0.06,
-        0.045,
+        0.024,
+        0.0065,
     );
 }
 
 #[test]
 fn tracking_3d_lawnmower_cross_current() {
-    // Measured RMS: 0.221 m (off), 0.188 m (on).
+    // Measured RMS: 0.071 m (off), 0.062 m (on).
     let r = Reference::Lawnmower {
         start_m: [0.0, 0.0, 3.0],
         heading_rad: 0.0,
@@ -120,8 +126,8 @@ fn tracking_3d_lawnmower_cross_current() {
         &plant(5.0),
         env([0.0, 0.2, 0.0]),
         250.0,
-        0.23,
-        0.2,
+        0.078,
+        0.068,
     );
 }
 
@@ -144,7 +150,7 @@ fn tracking_xz_paper_current_and_buoyancy() {
 
 #[test]
 fn tracking_xy_paper_current() {
-    // Measured: RMS 0.165 m, final 0.120 m (off); RMS 0.085 m, final 0.0105 m (on).
+    // Measured: RMS 0.046 m, final 0.0013 m (off); RMS 0.032 m, final 0.0053 m (on).
     let (off, on) = both(
         "XY paper reference, current [0, -0.2, 0] m/s",
         ControlMode::TrackingXy,
@@ -153,11 +159,11 @@ fn tracking_xy_paper_current() {
         &plant(0.0),
         env([0.0, -0.2, 0.0]),
         120.0,
-        0.17,
-        0.09,
+        0.05,
+        0.036,
     );
-    assert!(off.final_err_m <= 0.13, "{off:?}");
-    assert!(on.final_err_m <= 0.015, "{on:?}");
+    assert!(off.final_err_m <= 0.002, "{off:?}");
+    assert!(on.final_err_m <= 0.006, "{on:?}");
 }
 
 #[test]
@@ -171,9 +177,9 @@ fn tracking_3d_recovers_from_large_offset_under_saturation() {
         150.0,
     );
     report("3-D circle from a 1.8 m / 0.8 rad offset", &m);
-    // Measured: final 0.9 mm, RMS over the last 80 % 0.060 m (the first 30 s of recovery).
+    // Measured: final 0.05 mm, RMS over the last 80 % 0.010 m (the recovery).
     assert!(m.final_err_m <= 0.002, "{m:?}");
-    assert!(m.rms_last_80_m <= 0.065, "{m:?}");
+    assert!(m.rms_last_80_m <= 0.011, "{m:?}");
 }
 
 #[test]
@@ -252,8 +258,8 @@ fn pct(v: &[f64], q: f64) -> f64 {
 #[test]
 fn tracking_3d_circle_perturbed_parameters_and_current() {
     for (name, g, p95_bound) in [
-        ("observer off", Gains::default(), 0.085),
-        ("observer on", observer_on(), 0.14),
+        ("observer off", observer_off(), 0.027),
+        ("observer on", observer_on(), 0.027),
     ] {
         let (rms, thrust) = perturbed(g);
         println!(
@@ -263,7 +269,7 @@ fn tracking_3d_circle_perturbed_parameters_and_current() {
             pct(&rms, 1.0),
             thrust
         );
-        // Measured p95: 0.079 m (off), 0.129 m (on).
+        // Measured p95: 0.0246 m (off), 0.0245 m (on); max 0.026 / 0.042 m.
         assert!(pct(&rms, 0.95) <= p95_bound, "{name}");
         assert!(thrust <= 20.0 + 1e-9);
     }

@@ -43,7 +43,9 @@ pub use depth::depth;
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct TrackingGains {
     /// XY: distance `eps` of the hand point ahead of the origin (m). The yaw dynamics are
-    /// stable for `eps > (m11 - m22) U / Y_v` (0.28 U for the Observer).
+    /// stable for `eps > (m11 - m22) U / Y_v` (0.28 U for the Observer, `U` relative to the
+    /// water); smaller `eps` shrinks the origin error a heading error causes. 0.2 m covers
+    /// about 1 m/s (measured).
     pub hand_m: f32,
     /// XY: hand position gain (1/s^2).
     pub xy_kp: f32,
@@ -77,16 +79,15 @@ pub struct TrackingGains {
     pub error_limit_m: f32,
     /// Largest acceleration an integrator may contribute (m/s^2).
     pub integral_limit_m_s2: f32,
-    /// XY: bandwidth of the disturbance observer read as a current (rad/s); 0 turns it off
-    /// (the default: under +-20 % model error it reads the model error as a current and does
-    /// more harm than good, see `docs/tracking.md`). Must be >= 0.
+    /// XY: bandwidth of the disturbance observer read as a current (rad/s); 0 turns it off.
+    /// Must be >= 0. Measured effect in `docs/tracking.md`.
     pub current_observer_rad_s: f32,
 }
 
 impl TrackingGains {
     /// The documented defaults (`docs/tracking.md`).
     pub const DEFAULT: Self = Self {
-        hand_m: 0.5,
+        hand_m: 0.2,
         xy_kp: 1.0,
         xy_kd: 2.0,
         xy_ki: 0.15,
@@ -103,7 +104,7 @@ impl TrackingGains {
         yaw_kd: 4.0,
         error_limit_m: 0.5,
         integral_limit_m_s2: 1.0,
-        current_observer_rad_s: 0.0,
+        current_observer_rad_s: 1.0,
     };
 
     /// Refuse non-finite or non-positive gains, and a pitch limit at or beyond 0.7 rad (the
