@@ -82,6 +82,8 @@ pub struct HilOptions {
     pub wall_limit: Duration,
     /// Keep the per-step log (CSV, plots).
     pub record: bool,
+    /// With `--qemu`: save the emulated SRAM here at the end of the run (stack high-water).
+    pub ram_dump: Option<PathBuf>,
 }
 
 impl HilOptions {
@@ -98,6 +100,7 @@ impl HilOptions {
             qemu: "qemu-system-arm".into(),
             wall_limit: Duration::from_secs(600),
             record: true,
+            ram_dump: None,
         }
     }
 }
@@ -179,6 +182,7 @@ pub struct HilOutput {
 /// A QEMU child that is killed when dropped.
 pub struct QemuChild {
     child: Child,
+    monitor_port: Option<u16>,
 }
 
 impl Drop for QemuChild {
@@ -190,7 +194,15 @@ impl Drop for QemuChild {
 
 impl QemuChild {
     /// Start QEMU with `elf`, its first serial port connecting to `port` on 127.0.0.1.
-    pub fn start(qemu: &str, elf: &Path, port: u16, log: Option<&Path>) -> Result<Self> {
+    /// With `monitor`, QEMU's monitor listens on a free port of 127.0.0.1 (for
+    /// [`QemuChild::dump_ram`]).
+    pub fn start(
+        qemu: &str,
+        elf: &Path,
+        port: u16,
+        log: Option<&Path>,
+        monitor: bool,
+    ) -> Result<Self> {
         if !elf.is_file() {
             bail!("firmware image {} not found", elf.display());
         }
@@ -201,8 +213,19 @@ impl QemuChild {
             ),
             None => Stdio::null(),
         };
+        let monitor_port = if monitor {
+            // A free port now; QEMU binds it a moment later (a small race, debug use only).
+            Some(TcpListener::bind("127.0.0.1:0")?.local_addr()?.port())
+        } else {
+            None
+        };
+        let monitor_arg = match monitor_port {
+            Some(p) => format!("tcp:127.0.0.1:{p},server=on,wait=off"),
+            None => "none".into(),
+        };
         let child = std::process::Command::new(qemu)
-            .args(["-M", "netduinoplus2", "-nographic", "-monitor", "none"])
+            .args(["-M", "netduinoplus2", "-nographic", "-monitor"])
+            .arg(monitor_arg)
             .args(["-semihosting-config", "enable=on,target=native"])
             .args(["-icount", "shift=0,align=off,sleep=off"])
             .arg("-serial")
@@ -214,7 +237,47 @@ impl QemuChild {
             .stderr(Stdio::piped())
             .spawn()
             .with_context(|| format!("cannot start {qemu}"))?;
-        Ok(Self { child })
+        Ok(Self {
+            child,
+            monitor_port,
+        })
+    }
+
+    /// Save the emulated STM32F405's 128 KiB of SRAM (0x2000_0000) to `path`, through the
+    /// monitor (`pmemsave`). QEMU starts with RAM zeroed, so the stack below its deepest
+    /// point is still zero: `scripts/mcu-cost.sh` reads the firmware's stack high-water
+    /// from this dump.
+    pub fn dump_ram(&mut self, path: &Path) -> Result<()> {
+        use std::io::Read;
+        let port = self
+            .monitor_port
+            .ok_or_else(|| anyhow!("QEMU was started without a monitor"))?;
+        let abs = std::path::absolute(path)?;
+        let _ = std::fs::remove_file(&abs);
+        let mut m = std::net::TcpStream::connect(("127.0.0.1", port))
+            .context("cannot connect to the QEMU monitor")?;
+        m.set_read_timeout(Some(Duration::from_millis(200)))?;
+        let read_until_prompt = |m: &mut std::net::TcpStream| {
+            let deadline = Instant::now() + Duration::from_secs(5);
+            let mut got = Vec::new();
+            let mut buf = [0u8; 512];
+            while Instant::now() < deadline && !got.ends_with(b"(qemu) ") {
+                if let Ok(n) = m.read(&mut buf) {
+                    got.extend_from_slice(&buf[..n]);
+                }
+            }
+        };
+        read_until_prompt(&mut m);
+        writeln!(m, "pmemsave 0x20000000 0x20000 \"{}\"", abs.display())?;
+        read_until_prompt(&mut m);
+        let deadline = Instant::now() + Duration::from_secs(5);
+        while std::fs::metadata(&abs).map(|md| md.len()).unwrap_or(0) < 0x20000 {
+            if Instant::now() > deadline {
+                bail!("QEMU did not write {}", abs.display());
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        Ok(())
     }
 
     fn exited(&mut self) -> Option<String> {
@@ -238,10 +301,11 @@ pub fn start_qemu_link(
     qemu: &str,
     elf: &Path,
     log: Option<&Path>,
+    monitor: bool,
 ) -> Result<(QemuChild, Box<dyn crate::link::Port>)> {
     let listener = TcpListener::bind("127.0.0.1:0").context("cannot bind 127.0.0.1:0")?;
     let port = listener.local_addr()?.port();
-    let mut q = QemuChild::start(qemu, elf, port, log)?;
+    let mut q = QemuChild::start(qemu, elf, port, log, monitor)?;
     listener.set_nonblocking(true)?;
     let deadline = Instant::now() + Duration::from_secs(30);
     let stream = loop {
@@ -287,11 +351,11 @@ pub fn run_hil(sc: &Scenario, opts: &HilOptions, qemu_log: Option<&Path>) -> Res
     let mode = firmware_mode(sc.control_mode()?);
 
     // Bring up the link.
-    let mut _qemu = None;
+    let mut qemu_guard = None;
     let (port, target_name) = match &opts.target {
         HilTarget::Qemu { elf } => {
-            let (q, p) = start_qemu_link(&opts.qemu, elf, qemu_log)?;
-            _qemu = Some(q);
+            let (q, p) = start_qemu_link(&opts.qemu, elf, qemu_log, opts.ram_dump.is_some())?;
+            qemu_guard = Some(q);
             (p, "qemu netduinoplus2".to_string())
         }
         HilTarget::Board(ep) => (open(ep)?, format!("{ep:?}")),
@@ -641,6 +705,9 @@ pub fn run_hil(sc: &Scenario, opts: &HilOptions, qemu_log: Option<&Path>) -> Res
     s.final_state = fs.eta.iter().chain(fs.nu.iter()).copied().collect();
     s.wall_time_s = wall.elapsed().as_secs_f64();
 
+    if let (Some(q), Some(p)) = (qemu_guard.as_mut(), opts.ram_dump.as_deref()) {
+        q.dump_ram(p)?;
+    }
     let fw: LinkStats = last_tel.link;
     rep.firmware_rx_frames = fw.rx_frames;
     rep.firmware_dropped_frames = fw.dropped.total();
@@ -744,6 +811,9 @@ pub struct HilArgs {
     /// The QEMU binary.
     #[arg(long, default_value = "qemu-system-arm")]
     pub qemu_bin: String,
+    /// With --qemu: save the emulated 128 KiB SRAM to FILE at the end (stack high-water).
+    #[arg(long, value_name = "FILE")]
+    pub ram_dump: Option<PathBuf>,
 }
 
 /// `host-sim hil`.
@@ -780,6 +850,7 @@ pub fn main(a: HilArgs) -> Result<()> {
     });
     o.apply_pulses = !a.apply_thrust;
     o.qemu = a.qemu_bin;
+    o.ram_dump = a.ram_dump;
     if !sc.thrusters.saturate {
         eprintln!(
             "note: scenario {} has no thruster limits, but the firmware always applies the \

@@ -712,7 +712,7 @@ pub fn console(
 pub fn main(a: LinkArgs) -> Result<()> {
     let mut _qemu = None;
     let port: Box<dyn Port> = if let Some(elf) = &a.qemu {
-        let (q, p) = crate::hil::start_qemu_link("qemu-system-arm", elf, None)?;
+        let (q, p) = crate::hil::start_qemu_link("qemu-system-arm", elf, None, false)?;
         _qemu = Some(q);
         p
     } else if let Some(dev) = &a.serial {

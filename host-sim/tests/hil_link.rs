@@ -58,7 +58,7 @@ fn hil_link_console_arms_streams_and_disarms() {
     let Some(elf) = firmware_elf() else {
         return;
     };
-    let (_qemu, port) = start_qemu_link("qemu-system-arm", &elf, None).unwrap();
+    let (_qemu, port) = start_qemu_link("qemu-system-arm", &elf, None, false).unwrap();
     let mut link = Link::new(port, None);
     let hello = link
         .wait_for(
