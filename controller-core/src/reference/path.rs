@@ -213,7 +213,7 @@ impl Lawnmower {
         let tt = self.turn_time();
         let period = tl + tt;
         let last = self.legs - 1;
-        let sigma = sigma.clamp(0.0, self.total_time());
+        let sigma = crate::math::clamp(sigma, 0.0, self.total_time());
         // `as` saturates; the result is clamped to the last leg.
         let k = ((sigma / period) as u32).min(u32::from(last));
         let kf = k as f32;

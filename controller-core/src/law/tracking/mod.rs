@@ -236,7 +236,7 @@ pub(crate) fn integrate(i: f32, e: f32, dt: f32, frozen: bool, limit: f32) -> f3
     } else {
         next
     };
-    let next = next.clamp(-limit, limit);
+    let next = crate::math::clamp(next, -limit, limit);
     if next.is_finite() {
         next
     } else {
@@ -250,7 +250,7 @@ pub(crate) fn sat(e: f32, l: f32) -> f32 {
     if e.is_nan() {
         0.0
     } else {
-        e.clamp(-l, l)
+        crate::math::clamp(e, -l, l)
     }
 }
 
