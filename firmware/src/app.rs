@@ -127,10 +127,13 @@ pub fn duty_for_pulse(
     period_us: u32,
     max_duty: u16,
 ) -> u16 {
+    // `math::clamp` (max then min), not `f32::clamp`: the bounds come from the PWM map at run
+    // time, and `f32::clamp`'s `min <= max` assertion would keep a panic path (and its `f32`
+    // `Debug` message formatting, ~20 KiB of flash) in the image.
     let p = if pulse_us.is_nan() {
         neutral_us
     } else {
-        pulse_us.clamp(min_us, max_us)
+        controller_core::math::clamp(pulse_us, min_us, max_us)
     };
     // `as` saturates; p is within [min_us, max_us] here.
     let p = (p + 0.5) as u32;
