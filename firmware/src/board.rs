@@ -56,8 +56,15 @@ static RX: Mutex<RefCell<Option<Rx<USART1>>>> = Mutex::new(RefCell::new(None));
 #[interrupt]
 fn USART1() {
     cortex_m::interrupt::free(|cs| {
-        let mut rx = RX.borrow(cs).borrow_mut();
-        let mut ring = RX_RING.borrow(cs).borrow_mut();
+        // `try_borrow_mut`, not `borrow_mut`: every borrow of these cells is inside a critical
+        // section and ends with it, so a borrow cannot fail, but `borrow_mut` would keep a
+        // panic path in the interrupt (and the main loop) that the compiler cannot remove.
+        let (Ok(mut rx), Ok(mut ring)) = (
+            RX.borrow(cs).try_borrow_mut(),
+            RX_RING.borrow(cs).try_borrow_mut(),
+        ) else {
+            return;
+        };
         if let Some(rx) = rx.as_mut() {
             // Drain; an error (overrun, framing) is cleared by the read and the frame it hit
             // is dropped by the CRC.
@@ -93,8 +100,12 @@ impl embedded_io::ErrorType for Tether {
 
 impl embedded_io::ReadReady for Tether {
     fn read_ready(&mut self) -> Result<bool, TetherError> {
+        // No panic path: see the interrupt handler on `try_borrow`.
         Ok(cortex_m::interrupt::free(|cs| {
-            !RX_RING.borrow(cs).borrow().is_empty()
+            RX_RING
+                .borrow(cs)
+                .try_borrow()
+                .is_ok_and(|ring| !ring.is_empty())
         }))
     }
 }
@@ -102,7 +113,10 @@ impl embedded_io::ReadReady for Tether {
 impl embedded_io::Read for Tether {
     fn read(&mut self, buf: &mut [u8]) -> Result<usize, TetherError> {
         Ok(cortex_m::interrupt::free(|cs| {
-            RX_RING.borrow(cs).borrow_mut().pop_into(buf)
+            RX_RING
+                .borrow(cs)
+                .try_borrow_mut()
+                .map_or(0, |mut ring| ring.pop_into(buf))
         }))
     }
 }
@@ -219,7 +233,11 @@ pub fn run(variant: Variant) -> ! {
     };
     let (tx, mut rx) = serial.split();
     rx.listen();
-    cortex_m::interrupt::free(|cs| RX.borrow(cs).replace(Some(rx)));
+    cortex_m::interrupt::free(|cs| {
+        if let Ok(mut slot) = RX.borrow(cs).try_borrow_mut() {
+            *slot = Some(rx);
+        }
+    });
     // SAFETY: the handler above only touches `RX` and `RX_RING` inside critical sections,
     // both initialized; unmasking cannot break a critical section in progress (there is none).
     unsafe { cortex_m::peripheral::NVIC::unmask(pac::Interrupt::USART1) };
