@@ -33,6 +33,10 @@ fn firmware_elf() -> Option<PathBuf> {
             .unwrap_or(false);
         if !qemu_ok {
             eprintln!("SKIPPED: qemu-system-arm not found (apt-get install qemu-system-arm)");
+            assert!(
+                std::env::var_os("ROV_REQUIRE_QEMU").is_none(),
+                "ROV_REQUIRE_QEMU is set: the emulated-board test must run"
+            );
             return None;
         }
         if let Ok(p) = std::env::var("HIL_FIRMWARE_ELF") {

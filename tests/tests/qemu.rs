@@ -102,6 +102,10 @@ impl Link {
 fn emulated_board_boots_and_answers_in_lockstep() {
     let Some(elf) = image() else {
         println!("skipped: no qemu firmware image (build firmware for thumbv7em-none-eabihf)");
+        assert!(
+            std::env::var_os("ROV_REQUIRE_QEMU").is_none(),
+            "ROV_REQUIRE_QEMU is set: the emulated-board test must run"
+        );
         return;
     };
     if Proc::new("qemu-system-arm")
@@ -110,6 +114,10 @@ fn emulated_board_boots_and_answers_in_lockstep() {
         .is_err()
     {
         println!("skipped: qemu-system-arm not installed");
+        assert!(
+            std::env::var_os("ROV_REQUIRE_QEMU").is_none(),
+            "ROV_REQUIRE_QEMU is set: the emulated-board test must run"
+        );
         return;
     }
     let listener = TcpListener::bind("127.0.0.1:0").unwrap();
