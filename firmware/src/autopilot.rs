@@ -297,10 +297,10 @@ impl Autopilot {
         }
     }
 
-    /// Compute the thruster commands at `now_us`, applying every failsafe. Has no panic path
-    /// of its own (unwrap/expect/indexing/panic are denied); the link-time proof waits on
-    /// controller-core (feature `no-panic-step`, docs/firmware.md).
-    #[cfg_attr(feature = "no-panic-step", no_panic::no_panic)]
+    /// Compute the thruster commands at `now_us`, applying every failsafe. No panic path,
+    /// including the controller-core law and allocation it calls (link-time proof with the
+    /// `no-panic` feature, docs/firmware.md).
+    #[cfg_attr(feature = "no-panic", no_panic::no_panic)]
     pub fn step(&mut self, now_us: u64) -> StepOutput {
         let fs = self.failsafe;
         let dt_s = match self.last_step_us {

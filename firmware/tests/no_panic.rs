@@ -1,11 +1,11 @@
 //! Link-time proof that the decoder and the control path cannot panic.
 //!
 //! With the `no-panic` feature, `FrameDecoder::push` (COBS, CRC and postcard decoding of a
-//! command) and `Autopilot::handle` (every command's validation) carry `#[no_panic]`: if the
-//! optimizer cannot remove every panic path from them, *linking this test fails*. With
-//! `no-panic-step` as well, `Autopilot::step` (failsafes, control law, allocation) does too;
-//! that one does not link yet because of `f32::clamp` in controller-core (see
-//! `tests/no_panic_core.rs` and docs/firmware.md). Optimized builds only:
+//! command), `Autopilot::handle` (every command's validation) and `Autopilot::step`
+//! (failsafes, control law, allocation) carry `#[no_panic]`: if the optimizer cannot remove
+//! every panic path from them, *linking this test fails*. `no-panic-step` adds per-function
+//! probes of controller-core (`tests/no_panic_core.rs`) that name the culprit. Optimized
+//! builds only:
 //!
 //! ```text
 //! cargo test -p firmware --release --features no-panic --test no_panic

@@ -1,8 +1,8 @@
 //! Which parts of controller-core's control step still have a panic path (link-time check,
 //! `cargo test -p firmware --release --features no-panic-step --test no_panic_core`).
 //! Each probe wraps one core function in `#[no_panic]`; the link error names every probe
-//! whose callee can panic. Known today: `f32::clamp(lo, hi)` with bounds computed at run time
-//! (`alloc::allocate`, `math::clamp_nan_safe`, the tracking laws) keeps its `assert!(lo <= hi)`.
+//! whose callee can panic. All link as of 2026-11-22 (the usual culprit was `f32::clamp(lo, hi)`
+//! with bounds computed at run time: its `assert!(lo <= hi)`; use `math::clamp`).
 #![cfg(feature = "no-panic-step")]
 // Test code: a failed expectation should stop the test.
 #![allow(
