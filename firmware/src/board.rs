@@ -243,11 +243,6 @@ pub fn run(variant: Variant) -> ! {
     unsafe { cortex_m::peripheral::NVIC::unmask(pac::Interrupt::USART1) };
     let tether = Tether { tx };
 
-    let controller = match Controller::new(Vehicle::observer(), Gains::default()) {
-        Ok(c) => c,
-        Err(_) => halt(),
-    };
-
     match variant {
         Variant::Stm32f4 => {
             let mut counter = dp.TIM2.counter::<1_000_000>(&mut rcc);
@@ -261,7 +256,7 @@ pub fn run(variant: Variant) -> ! {
             };
             let mut config = Config::fixed_rate(Board::Stm32f4);
             config.pwm_hz = PWM_HZ;
-            main_loop((ch1, ch2, ch3), tether, clock, controller, config, watchdog)
+            main_loop((ch1, ch2, ch3), tether, clock, config, watchdog)
         }
         Variant::Qemu => {
             // Default clocks: the timer clock is 16 MHz, so the prescaler is 0.
@@ -279,8 +274,38 @@ pub fn run(variant: Variant) -> ! {
             };
             let mut config = Config::lockstep(Board::QemuNetduinoPlus2);
             config.pwm_hz = PWM_HZ;
-            main_loop((ch1, ch2, ch3), tether, clock, controller, config, watchdog)
+            main_loop((ch1, ch2, ch3), tether, clock, config, watchdog)
         }
+    }
+}
+
+/// The controller and the application, built in a frame of their own (resets the MCU on a
+/// settings error).
+///
+/// Not inlined and returning the `App` itself (not a `Result`), for the stack: built inline,
+/// the ~1.3 KiB `App` was moved twice (the constructor's value, the `Result`, the loop's
+/// variable) inside `main_loop`'s frame, which lives forever, and the 0.5 KiB `Controller` sat
+/// in `run`'s. Here the temporaries are freed before the loop starts and the `App` is written
+/// straight into `main_loop`'s variable (docs/firmware.md, "Flash and RAM").
+#[inline(never)]
+fn build_app<P1, P2, P3, C>(
+    pwm: (P1, P2, P3),
+    tether: Tether,
+    clock: C,
+    config: Config,
+) -> App<P1, P2, P3, Tether, C>
+where
+    P1: embedded_hal::pwm::SetDutyCycle,
+    P2: embedded_hal::pwm::SetDutyCycle,
+    P3: embedded_hal::pwm::SetDutyCycle,
+    C: Monotonic,
+{
+    let Ok(controller) = Controller::new(Vehicle::observer(), Gains::default()) else {
+        halt()
+    };
+    match App::new(pwm, tether, clock, controller, config) {
+        Ok(app) => app,
+        Err(_) => halt(),
     }
 }
 
@@ -288,7 +313,6 @@ fn main_loop<P1, P2, P3, C>(
     pwm: (P1, P2, P3),
     tether: Tether,
     clock: C,
-    controller: Controller,
     config: Config,
     mut watchdog: IndependentWatchdog,
 ) -> !
@@ -298,10 +322,7 @@ where
     P3: embedded_hal::pwm::SetDutyCycle,
     C: Monotonic,
 {
-    let mut app = match App::new(pwm, tether, clock, controller, config) {
-        Ok(a) => a,
-        Err(_) => halt(),
-    };
+    let mut app = build_app(pwm, tether, clock, config);
     app.hello();
     defmt::info!(
         "ready: {}, PWM {} Hz, duties {}",
