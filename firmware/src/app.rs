@@ -138,15 +138,32 @@ pub fn duty_for_pulse(
     // `as` saturates; p is within [min_us, max_us] here.
     let p = (p + 0.5) as u32;
     let period = period_us.max(1);
-    let d = (u64::from(p) * u64::from(max_duty) + u64::from(period / 2)) / u64::from(period);
-    d.min(u64::from(max_duty)) as u16
+    let max = u32::from(max_duty);
+    if p >= period {
+        return max_duty;
+    }
+    // 32-bit arithmetic (hardware UDIV; a 64-bit division links ~1 KiB of compiler-builtins):
+    // exact whenever `p * max_duty` fits, i.e. for any pulse below 65.5 ms (PWM periods here
+    // are at most 20 ms). Beyond that, a float estimate.
+    let d = match p.checked_mul(max).and_then(|x| x.checked_add(period / 2)) {
+        Some(x) => x / period,
+        None => (p as f32 / period as f32 * max as f32 + 0.5) as u32,
+    };
+    d.min(max) as u16
 }
 
 /// Pulse width a duty gives, microseconds (what the ESC sees), rounded.
 pub fn pulse_for_duty(duty: u16, period_us: u32, max_duty: u16) -> u16 {
-    let m = u64::from(max_duty.max(1));
-    let p = (u64::from(duty) * u64::from(period_us) + m / 2) / m;
-    p.min(u64::from(u16::MAX)) as u16
+    let m = u32::from(max_duty.max(1));
+    // 32-bit arithmetic, exact for periods up to 65.5 ms (see `duty_for_pulse`).
+    let p = match u32::from(duty)
+        .checked_mul(period_us)
+        .and_then(|x| x.checked_add(m / 2))
+    {
+        Some(x) => x / m,
+        None => (f32::from(duty) * period_us as f32 / m as f32 + 0.5) as u32,
+    };
+    p.min(u32::from(u16::MAX)) as u16
 }
 
 /// The application.
