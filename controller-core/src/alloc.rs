@@ -9,7 +9,7 @@
 //! the horizontal pair never exceeds its limits. Heave is independent. The achieved forces are
 //! returned so the laws can stop integrating against a saturated actuator.
 
-use crate::math::{clamp, clamp_nan_safe, sqrt};
+use crate::math::{clamp, clamp_nan_safe, min, sqrt};
 use crate::params::Vehicle;
 use crate::state::BodyForces;
 use serde::{Deserialize, Serialize};
@@ -155,11 +155,11 @@ impl PwmMap {
             return self.neutral_us;
         }
         if thrust_n > 0.0 {
-            let y = (thrust_n / self.max_forward_n).min(1.0);
+            let y = min(thrust_n / self.max_forward_n, 1.0);
             let lo = self.neutral_us + self.deadband_us;
             lo + self.curve_inv(y) * (self.max_us - lo)
         } else {
-            let y = (-thrust_n / self.max_reverse_n).min(1.0);
+            let y = min(-thrust_n / self.max_reverse_n, 1.0);
             let hi = self.neutral_us - self.deadband_us;
             hi - self.curve_inv(y) * (hi - self.min_us)
         }

@@ -46,7 +46,7 @@
 
 use super::LawOutput;
 use crate::error::{positive, Error};
-use crate::math::{atan2, sin_cos, sq_signed, sqrt, wrap_angle};
+use crate::math::{atan2, max, sin_cos, sq_signed, sqrt, wrap_angle};
 use crate::params::Vehicle;
 use crate::reference::RefSample;
 use crate::state::{BodyForces, TrackingErrors, XyState};
@@ -158,7 +158,7 @@ pub fn reference_state(r: &RefSample, yaw_now_rad: f32) -> XyReference {
         wrap_angle(yaw_now_rad)
     };
     let (sp, cp) = sin_cos(psi_r);
-    let inv_speed = 1.0 / speed.max(MIN_REFERENCE_SPEED_M_S);
+    let inv_speed = 1.0 / max(speed, MIN_REFERENCE_SPEED_M_S);
     let u_dot = cp * xdd + sp * ydd;
     let (r_r, r_dot) = if defined {
         let r_r = (cp * ydd - sp * xdd) * inv_speed;

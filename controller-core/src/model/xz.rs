@@ -61,7 +61,7 @@ pub struct XzTransformedState {
 /// never let it reach zero or go negative, whatever a caller did to the public coefficients.
 #[inline(always)]
 pub(crate) fn pos_floor(x: f32) -> f32 {
-    x.max(f32::MIN_POSITIVE)
+    crate::math::max(x, f32::MIN_POSITIVE)
 }
 
 /// Physical model, eqs. (1)-(2) corrected: the time derivative of `s` under the generalized
