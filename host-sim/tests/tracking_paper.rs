@@ -44,6 +44,28 @@ fn tracking_xy_paper_reference() {
     assert!(m.max_err_after_10s_m <= 0.05, "{m:?}");
 }
 
+/// Started at rest at the origin with yaw 0 while the path runs at 45 deg: the rest law turns
+/// the vehicle to the path's course in place before the reference moves, and holds the end
+/// point without drifting after it stops.
+#[test]
+fn tracking_xy_paper_reference_misaligned_start() {
+    let r = Reference::Paper(PaperPolynomial::PAPER);
+    let mut s0 = at_rest([0.0; 3], 0.0);
+    s0.eta[5] = 0.0;
+    let m = run(
+        ControlMode::TrackingXy,
+        &r,
+        s0,
+        &VehicleParams::OBSERVER,
+        Environment::default(),
+        120.0,
+    );
+    println!("tracking XY, paper reference, yaw 0 at the start, 120 s: {m:?}");
+    assert!(m.finite);
+    assert!(m.final_err_m <= 0.01, "{m:?}");
+    assert!(m.max_err_after_10s_m <= 0.05, "{m:?}");
+}
+
 /// The `tracking-xy` / `tracking-xz` scenarios' initial offsets on the 6-DOF plant: XY from
 /// (0.5, -0.3) m with yaw 0 (the path runs at 45 deg), XZ from x = -0.5 m, z = 0.3 m,
 /// pitch 0.1 rad.
@@ -73,10 +95,12 @@ fn tracking_paper_reference_from_the_scenario_offsets() {
     );
     println!("tracking XZ, paper reference from x -0.5 m, z 0.3 m, pitch 0.1: {n:?}");
     assert!(m.finite && n.finite);
-    // Measured XY: final 11.4 mm, max after 10 s 0.261 m, RMS 0.069 m: misses the issue's
-    // 1 cm / 5 cm (the reference rests for ~15 s, and at rest the heading is not steered).
-    assert!(m.final_err_m <= 0.012, "{m:?}");
-    assert!(m.max_err_after_10s_m <= 0.27, "{m:?}");
+    // Measured XY: final 2.7 mm, max after 10 s 0.153 m, RMS (last 80 %) 0.023 m (before the
+    // rest law: 11.4 mm / 0.261 m / 0.069 m). Still misses the 5 cm max: at rest the
+    // rest law drives to the start point, but the sideways error left there (Brockett) is
+    // only removed by the hand law once the reference moves.
+    assert!(m.final_err_m <= 0.003, "{m:?}");
+    assert!(m.max_err_after_10s_m <= 0.16, "{m:?}");
     // Measured XZ: final 0.6 um, max after 10 s 9.9 mm.
     assert!(n.final_err_m <= 0.01, "{n:?}");
     assert!(n.max_err_after_10s_m <= 0.011, "{n:?}");

@@ -156,6 +156,11 @@ pub(crate) struct HeadingRef {
     beta: f32,
     beta_dot: f32,
     beta_ddot: f32,
+    /// Direction of the reference motion used at rest (rad): of the velocity, else the
+    /// acceleration, else the jerk; held when all vanish.
+    rest_chi: f32,
+    /// The rest law approaches the reference point backwards (hysteresis state).
+    rest_reverse: bool,
 }
 
 /// Internal state of the tracking laws (integrators, filters, saturation flags).

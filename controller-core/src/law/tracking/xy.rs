@@ -17,7 +17,7 @@
 //! derivatives are filtered differences (time constant [`DERIV_TAU_S`]).
 
 use super::{clean_dt, integrate, sat2, HeadingRef, TrackingGains, TrackingState};
-use crate::math::{sin_cos, wrap_angle};
+use crate::math::{atan2, clamp, sin_cos, sqrt, wrap_angle};
 use crate::params::{Vehicle, XyCoeffs};
 use crate::reference::feasible::{course_in_water, sideslip};
 use crate::reference::RefSample;
@@ -52,6 +52,7 @@ impl HeadingRef {
             }
             None => (if self.init { self.chi } else { yaw }, 0.0, 0.0, 0.0, 0.0),
         };
+        let rest = rest_course(r).unwrap_or(if self.init { self.rest_chi } else { yaw });
         if !self.init {
             *self = HeadingRef {
                 init: true,
@@ -61,8 +62,11 @@ impl HeadingRef {
                 beta: bqs,
                 beta_dot: 0.0,
                 beta_ddot: 0.0,
+                rest_chi: rest,
+                rest_reverse: false,
             };
         }
+        self.rest_chi = rest;
         self.beta_qs_dot = filt(self.beta_qs, self.beta_qs_dot, bqs, dt);
         self.beta_qs = bqs;
         let beta = bqs + adv * self.beta_qs_dot;
@@ -78,6 +82,50 @@ impl HeadingRef {
             chi2 - ok(self.beta_ddot),
         )
     }
+}
+
+/// Direction of the horizontal reference motion from the lowest non-vanishing derivative
+/// (velocity, acceleration, jerk): a reference starting from rest moves first along its
+/// acceleration and jerk. `None` when all vanish.
+fn rest_course(r: &RefSample) -> Option<f32> {
+    for [x, y, _] in [r.vel_m_s, r.acc_m_s2, r.jerk_m_s3] {
+        let n = sqrt(x * x + y * y);
+        if n.is_finite() && n > REST_DIRECTION_FLOOR {
+            return Some(atan2(y, x));
+        }
+    }
+    None
+}
+
+/// Below this norm a derivative of the reference gives no direction.
+pub const REST_DIRECTION_FLOOR: f32 = 1.0e-12;
+
+/// Reference speed (m/s) below which the XY law is entirely the rest law.
+pub const REST_SPEED_LO_M_S: f32 = 0.01;
+
+/// Reference speed (m/s) above which the XY law is entirely the hand law.
+pub const REST_SPEED_HI_M_S: f32 = 0.08;
+
+/// Origin error (m) below which the rest law points the heading along the path.
+pub const REST_LOS_NEAR_M: f32 = 0.05;
+
+/// Origin error (m) above which the rest law points the heading at the reference point.
+pub const REST_LOS_FAR_M: f32 = 0.2;
+
+/// Hysteresis (rad) of the rest law's choice between approaching forwards and backwards.
+pub const REST_REVERSE_HYST_RAD: f32 = 0.2;
+
+/// Time constant (s) with which the origin integrator bleeds at rest.
+pub const REST_BLEED_S: f32 = 10.0;
+
+/// `0` below `lo`, `1` above `hi`, cubic smoothstep between (C1).
+fn smoothstep(x: f32, lo: f32, hi: f32) -> f32 {
+    let w = hi - lo;
+    if w.is_nan() || w <= 0.0 || !x.is_finite() {
+        return if x >= hi { 1.0 } else { 0.0 };
+    }
+    let s = clamp((x - lo) / w, 0.0, 1.0);
+    s * s * (3.0 - 2.0 * s)
 }
 
 /// Below this estimated current (m/s) the estimate is not used; it is blended in linearly up
@@ -180,6 +228,19 @@ pub fn hand(
     let blend = ((n - CURRENT_DEADZONE_M_S) / CURRENT_DEADZONE_M_S).clamp(0.0, 1.0);
     let blend = if blend.is_finite() { blend } else { 0.0 };
     let vc_used = [blend * ccx, blend * ccy];
+    let [vx, vy, _] = r.vel_m_s;
+    // Weight of the hand law (1) against the rest law (0), from the larger of the reference
+    // speeds over ground and relative to the water (estimated current): the hand law's yaw
+    // dynamics are stable when moving forward through the water, also when holding a point
+    // in a current. Without the current observer a current cannot be told from rest, and the
+    // hand law is used throughout.
+    let (wx, wy) = (vx - vc_used[0], vy - vc_used[1]);
+    let speed = sqrt(vx * vx + vy * vy).max(sqrt(wx * wx + wy * wy));
+    let sigma = if g.current_observer_rad_s > 0.0 {
+        smoothstep(speed, REST_SPEED_LO_M_S, REST_SPEED_HI_M_S)
+    } else {
+        1.0
+    };
     let (psi_r, psi_r1, psi_r2) = st.heading.update(xy, r, nav.yaw_rad, vc_used, dt);
     // Current in the body frame, for the drag on the water-relative velocity.
     let [ux, uy] = vc_used;
@@ -194,7 +255,6 @@ pub fn hand(
     let hy1 = s * u + c * vs;
     // Hand reference.
     let [px, py, _] = r.pos_m;
-    let [vx, vy, _] = r.vel_m_s;
     let [ax, ay, _] = r.acc_m_s2;
     let (sr, cr) = sin_cos(psi_r);
     let hrx = px + eps * cr;
@@ -212,9 +272,12 @@ pub fn hand(
     let frozen = st.surge_sat || st.yaw_sat;
     let limit = g.integral_limit_m_s2 / g.xy_ki;
     let [ix, iy] = st.xy_int;
+    // At rest the integrator does not integrate (the vehicle cannot act sideways: it would wind
+    // up) and bleeds, so a value learnt while moving does not hold the vehicle off its point.
+    let bleed = (1.0 - sigma) / REST_BLEED_S;
     st.xy_int = [
-        integrate(ix, ix_e, dt, frozen, limit),
-        integrate(iy, iy_e, dt, frozen, limit),
+        integrate(ix, sigma * ix_e - bleed * ix, dt, frozen, limit),
+        integrate(iy, sigma * iy_e - bleed * iy, dt, frozen, limit),
     ];
     let [ix, iy] = st.xy_int;
     let adx = hrx2 - g.xy_kd * (hx1 - hrx1) - g.xy_kp * ex - g.xy_ki * ix;
@@ -229,5 +292,48 @@ pub fn hand(
     let vdot = (-xy.m11 * u * rr - yd) / xy.m22;
     let tau1 = xy.m11 * (bx + vs * rr) - xy.m22 * vv * rr + xd;
     let tau2 = xy.m33 * (by - vdot - u * rr) / eps - (xy.m11 - xy.m22) * u * vv + nd;
-    (tau1, tau2, eox, eoy, wrap_angle(nav.yaw_rad - psi_r))
+    if sigma >= 1.0 || sigma.is_nan() {
+        return (tau1, tau2, eox, eoy, wrap_angle(nav.yaw_rad - psi_r));
+    }
+    // Rest law: surge on the origin error along the body axis, heading by a PD. The heading
+    // points at the reference point when the origin is far from it, else along the path's
+    // course (Brockett: the sideways error of a vehicle at rest is not removed smoothly; it is
+    // removed by the hand law once the reference moves).
+    let ox1 = c * u - s * vv;
+    let oy1 = s * u + c * vv;
+    let aox = ax - g.xy_kd * (ox1 - vx) - g.xy_kp * ix_e - g.xy_ki * ix;
+    let aoy = ay - g.xy_kd * (oy1 - vy) - g.xy_kp * iy_e - g.xy_ki * iy;
+    let box_ = c * aox + s * aoy;
+    let tau1_rest = xy.m11 * (box_ + vv * rr) - xy.m22 * vv * rr + xd;
+    let chi0 = st.heading.rest_chi;
+    let dist = sqrt(eox * eox + eoy * eoy);
+    let w_los = smoothstep(dist, REST_LOS_NEAR_M, REST_LOS_FAR_M);
+    let los = if dist > 0.0 { atan2(-eoy, -eox) } else { chi0 };
+    // The line of sight or its opposite (approach backwards), whichever is nearer the course,
+    // with hysteresis so that a point abeam does not make the choice chatter.
+    let d_los = wrap_angle(los - chi0);
+    let half = core::f32::consts::FRAC_PI_2;
+    let rev = &mut st.heading.rest_reverse;
+    if d_los.abs() > half + REST_REVERSE_HYST_RAD {
+        *rev = true;
+    } else if d_los.abs() < half - REST_REVERSE_HYST_RAD {
+        *rev = false;
+    }
+    let d_axis = if *rev {
+        wrap_angle(d_los - core::f32::consts::PI)
+    } else {
+        d_los
+    };
+    let psi_rest = chi0 + w_los * d_axis;
+    let e_psi = wrap_angle(nav.yaw_rad - psi_rest);
+    let tau2_rest = xy.m33 * (-g.yaw_kp * e_psi - g.yaw_kd * rr) - (xy.m11 - xy.m22) * u * vv + nd;
+    let k = 1.0 - sigma;
+    let e_yaw = wrap_angle(nav.yaw_rad - (psi_r + k * wrap_angle(psi_rest - psi_r)));
+    (
+        sigma * tau1 + k * tau1_rest,
+        sigma * tau2 + k * tau2_rest,
+        eox,
+        eoy,
+        e_yaw,
+    )
 }
