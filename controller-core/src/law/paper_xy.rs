@@ -146,6 +146,12 @@ pub struct XyReference {
 /// The reference state for the horizontal plane; `yaw_now_rad` is the vehicle's heading, used
 /// only when the reference does not define one (module docs).
 pub fn reference_state(r: &RefSample, yaw_now_rad: f32) -> XyReference {
+    reference_state_sin_cos(r, yaw_now_rad).0
+}
+
+/// [`reference_state`] and `(sin, cos)` of its heading, so a step computes them once.
+#[inline]
+fn reference_state_sin_cos(r: &RefSample, yaw_now_rad: f32) -> (XyReference, (f32, f32)) {
     let [x_r, y_r, _] = r.pos_m;
     let [xd, yd, _] = r.vel_m_s;
     let [xdd, ydd, _] = r.acc_m_s2;
@@ -166,7 +172,7 @@ pub fn reference_state(r: &RefSample, yaw_now_rad: f32) -> XyReference {
     } else {
         (0.0, 0.0)
     };
-    XyReference {
+    let rf = XyReference {
         x_m: x_r,
         y_m: y_r,
         yaw_rad: psi_r,
@@ -176,7 +182,8 @@ pub fn reference_state(r: &RefSample, yaw_now_rad: f32) -> XyReference {
         u_dot_m_s2: u_dot,
         v_dot_m_s2: 0.0,
         r_dot_rad_s2: r_dot,
-    }
+    };
+    (rf, (sp, cp))
 }
 
 /// Intermediate quantities of one step, for logs and tests.
@@ -217,10 +224,9 @@ pub fn step_with_internals(
     r: &RefSample,
 ) -> (LawOutput, PaperXyInternals) {
     let c = &v.xy;
-    let rf = reference_state(r, s.yaw_rad);
+    let (rf, (spr, cpr)) = reference_state_sin_cos(r, s.yaw_rad);
     let k = g.k;
     let (sp, cp) = sin_cos(s.yaw_rad);
-    let (spr, cpr) = sin_cos(rf.yaw_rad);
     let (u, vv, rr_now) = (s.u_m_s, s.v_m_s, s.r_rad_s);
     let (ur, vr, rr) = (rf.u_m_s, rf.v_m_s, rf.r_rad_s);
 

@@ -54,7 +54,7 @@
 use super::LawOutput;
 use crate::error::{positive, Error};
 use crate::math::{sin_cos, sq_signed, wrap_angle};
-use crate::model::xz::{pos_floor, to_transformed};
+use crate::model::xz::{pos_floor, to_transformed_with};
 use crate::params::Vehicle;
 use crate::reference::RefSample;
 use crate::state::{BodyForces, TrackingErrors, XzState};
@@ -229,7 +229,7 @@ pub fn step_with_internals(
     let k = g.k;
     let (sth, cth) = sin_cos(s.pitch_rad);
     let (sr, cr) = sin_cos(rf.pitch_rad);
-    let t = to_transformed(v, s);
+    let t = to_transformed_with(v, s, (sth, cth));
     let (u, w, q) = (s.u_m_s, s.w_m_s, s.q_rad_s);
 
     // Errors of the transformed point and velocities.

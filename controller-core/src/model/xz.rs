@@ -100,8 +100,17 @@ pub fn derivative(v: &Vehicle, s: &XzState, f: &BodyForces) -> XzState {
 
 /// Physical -> transformed coordinates.
 pub fn to_transformed(v: &Vehicle, s: &XzState) -> XzTransformedState {
+    to_transformed_with(v, s, sin_cos(s.pitch_rad))
+}
+
+/// [`to_transformed`] with `(sin, cos)` of `s.pitch_rad` already computed by the caller.
+#[inline]
+pub(crate) fn to_transformed_with(
+    v: &Vehicle,
+    s: &XzState,
+    (sth, cth): (f32, f32),
+) -> XzTransformedState {
     let a = v.xz.alpha;
-    let (sth, cth) = sin_cos(s.pitch_rad);
     XzTransformedState {
         x1_m: s.x_m + a * sth,
         z1_m: s.z_m + a * cth,
