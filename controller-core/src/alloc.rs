@@ -118,6 +118,17 @@ pub struct PwmMap {
     pub max_reverse_n: f32,
 }
 
+/// Constants of the inverse thrust curve (see [`PwmMap::pulse_us`]).
+#[derive(Clone, Copy)]
+struct CurveInv {
+    k: f32,
+    k2: f32,
+    four_a: f32,
+    two_a: f32,
+    /// False for a (nearly) linear curve, `1 - k <= 1e-6`.
+    quadratic: bool,
+}
+
 impl PwmMap {
     /// 1100-1900 us, 1500 neutral, +-25 us deadband, with the vehicle's thrust limits.
     pub fn for_vehicle(vehicle: &Vehicle) -> Self {
@@ -138,31 +149,66 @@ impl PwmMap {
         k * x + (1.0 - k) * x * x
     }
 
-    fn curve_inv(&self, y: f32) -> f32 {
-        // Solve (1 - k) x^2 + k x - y = 0 for x >= 0.
+    /// The constants of the inverse curve, computed once per call of [`Self::pulse_us`] or
+    /// once for all three pulses in [`Self::pulses_us`].
+    #[inline(always)]
+    fn curve_inv_consts(&self) -> CurveInv {
         let k = self.linear_fraction;
         let a = 1.0 - k;
-        if a <= 1e-6 {
-            return y;
+        CurveInv {
+            k,
+            k2: k * k,
+            four_a: 4.0 * a,
+            two_a: 2.0 * a,
+            quadratic: a > 1e-6,
         }
-        (-k + sqrt(k * k + 4.0 * a * y)) / (2.0 * a)
+    }
+
+    /// Pulse width for one thrust with the curve constants `c` (see [`Self::pulse_us`]).
+    #[inline(always)]
+    fn pulse_with(&self, c: &CurveInv, thrust_n: f32) -> f32 {
+        // The end of travel and the thrust there, by the sign of the thrust. NaN, the
+        // infinities and zero fail both tests and give neutral.
+        let (f_end, edge_us, end_us) = if thrust_n > 0.0 && thrust_n < f32::INFINITY {
+            (
+                self.max_forward_n,
+                self.neutral_us + self.deadband_us,
+                self.max_us,
+            )
+        } else if thrust_n < 0.0 && thrust_n > f32::NEG_INFINITY {
+            (
+                -self.max_reverse_n,
+                self.neutral_us - self.deadband_us,
+                self.min_us,
+            )
+        } else {
+            return self.neutral_us;
+        };
+        let y = min(thrust_n / f_end, 1.0);
+        // Solve (1 - k) x^2 + k x - y = 0 for x >= 0.
+        let x = if c.quadratic {
+            (-c.k + sqrt(c.k2 + c.four_a * y)) / c.two_a
+        } else {
+            y
+        };
+        edge_us + x * (end_us - edge_us)
     }
 
     /// Pulse width for a thrust request. The thrust is clamped to the limits first; zero
     /// thrust gives exactly `neutral_us`. NaN gives neutral.
     pub fn pulse_us(&self, thrust_n: f32) -> f32 {
-        if !thrust_n.is_finite() || thrust_n == 0.0 {
-            return self.neutral_us;
-        }
-        if thrust_n > 0.0 {
-            let y = min(thrust_n / self.max_forward_n, 1.0);
-            let lo = self.neutral_us + self.deadband_us;
-            lo + self.curve_inv(y) * (self.max_us - lo)
-        } else {
-            let y = min(-thrust_n / self.max_reverse_n, 1.0);
-            let hi = self.neutral_us - self.deadband_us;
-            hi - self.curve_inv(y) * (hi - self.min_us)
-        }
+        self.pulse_with(&self.curve_inv_consts(), thrust_n)
+    }
+
+    /// [`Self::pulse_us`] of three thrusts, the curve constants computed once.
+    pub fn pulses_us(&self, thrust_n: [f32; 3]) -> [f32; 3] {
+        let c = self.curve_inv_consts();
+        let [t1, t2, t3] = thrust_n;
+        [
+            self.pulse_with(&c, t1),
+            self.pulse_with(&c, t2),
+            self.pulse_with(&c, t3),
+        ]
     }
 
     /// Thrust the ESC makes for a pulse width (the plant's view). Pulses outside
@@ -266,6 +312,32 @@ mod tests {
             let m = PwmMap::for_vehicle(&Vehicle::observer());
             prop_assert_eq!(m.thrust_n(pw), 0.0);
         }
+    }
+
+    #[test]
+    fn pulses_us_matches_pulse_us() {
+        let m = PwmMap::for_vehicle(&Vehicle::observer());
+        for i in -400..=400 {
+            let t = i as f32 * 0.06;
+            let p = m.pulses_us([t, -t, 0.5 * t]);
+            assert_eq!(p, [m.pulse_us(t), m.pulse_us(-t), m.pulse_us(0.5 * t)]);
+        }
+        // The same bits as the two-branch formula this replaced.
+        let inv = |y: f32| (-0.25 + sqrt(0.25 * 0.25 + 4.0 * 0.75 * y)) / (2.0 * 0.75);
+        for i in -3000..=3000 {
+            let t = i as f32 * 0.007_3;
+            let expect = if t == 0.0 {
+                1500.0
+            } else if t > 0.0 {
+                1525.0 + inv((t / m.max_forward_n).min(1.0)) * (1900.0 - 1525.0)
+            } else {
+                1475.0 - inv((-t / m.max_reverse_n).min(1.0)) * (1475.0 - 1100.0)
+            };
+            assert_eq!(m.pulse_us(t).to_bits(), expect.to_bits(), "{t}");
+        }
+        let odd = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY];
+        assert_eq!(m.pulses_us(odd), [1500.0; 3]);
+        assert_eq!(m.pulse_us(-0.0), 1500.0);
     }
 
     #[test]

@@ -147,11 +147,7 @@ impl Controller {
         };
         let allocation = allocate(&out.forces, &self.limits);
         self.state.on_allocation(&out.forces, &allocation.achieved);
-        let pulse_us = [
-            self.pwm.pulse_us(allocation.thrust_n[0]),
-            self.pwm.pulse_us(allocation.thrust_n[1]),
-            self.pwm.pulse_us(allocation.thrust_n[2]),
-        ];
+        let pulse_us = self.pwm.pulses_us(allocation.thrust_n);
         ControlOutput {
             requested: out.forces,
             allocation,
