@@ -167,31 +167,29 @@ impl PwmMap {
     /// Pulse width for one thrust with the curve constants `c` (see [`Self::pulse_us`]).
     #[inline(always)]
     fn pulse_with(&self, c: &CurveInv, thrust_n: f32) -> f32 {
-        // The end of travel and the thrust there, by the sign of the thrust. NaN, the
-        // infinities and zero fail both tests and give neutral.
-        let (f_end, edge_us, end_us) = if thrust_n > 0.0 && thrust_n < f32::INFINITY {
-            (
-                self.max_forward_n,
-                self.neutral_us + self.deadband_us,
-                self.max_us,
-            )
-        } else if thrust_n < 0.0 && thrust_n > f32::NEG_INFINITY {
-            (
-                -self.max_reverse_n,
-                self.neutral_us - self.deadband_us,
-                self.min_us,
-            )
-        } else {
-            return self.neutral_us;
-        };
-        let y = min(thrust_n / f_end, 1.0);
         // Solve (1 - k) x^2 + k x - y = 0 for x >= 0.
-        let x = if c.quadratic {
-            (-c.k + sqrt(c.k2 + c.four_a * y)) / c.two_a
-        } else {
-            y
+        let x_of = |y: f32| {
+            if c.quadratic {
+                (-c.k + sqrt(c.k2 + c.four_a * y)) / c.two_a
+            } else {
+                y
+            }
         };
-        edge_us + x * (end_us - edge_us)
+        // Zero, NaN and the infinities give neutral: one integer test on the magnitude bits
+        // (the float comparisons compile to several integer class checks).
+        let bits = thrust_n.to_bits();
+        if (bits & 0x7fff_ffff).wrapping_sub(1) >= 0x7f7f_ffff {
+            return self.neutral_us;
+        }
+        if bits >> 31 == 0 {
+            let y = min(thrust_n / self.max_forward_n, 1.0);
+            let lo = self.neutral_us + self.deadband_us;
+            lo + x_of(y) * (self.max_us - lo)
+        } else {
+            let y = min(-thrust_n / self.max_reverse_n, 1.0);
+            let hi = self.neutral_us - self.deadband_us;
+            hi - x_of(y) * (hi - self.min_us)
+        }
     }
 
     /// Pulse width for a thrust request. The thrust is clamped to the limits first; zero
@@ -338,6 +336,9 @@ mod tests {
         let odd = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY];
         assert_eq!(m.pulses_us(odd), [1500.0; 3]);
         assert_eq!(m.pulse_us(-0.0), 1500.0);
+        assert_eq!(m.pulse_us(-f32::NAN), 1500.0);
+        assert!(m.pulse_us(f32::MAX) > 1899.9 && m.pulse_us(f32::MIN) < 1100.1);
+        assert!(m.pulse_us(1e-45) > 1500.0 && m.pulse_us(-1e-45) < 1500.0);
     }
 
     #[test]
