@@ -177,9 +177,15 @@ fn tracking_3d_recovers_from_large_offset_under_saturation() {
         150.0,
     );
     report("3-D circle from a 1.8 m / 0.8 rad offset", &m);
-    // Measured: final 0.05 mm, RMS over the last 80 % 0.010 m (the recovery).
+    // The recovery: the origin reaches the path in ~8 s, then the heading (the hand law's
+    // zero dynamics) settles in a lightly damped swing of ~12 s period that decays ~4x per
+    // cycle. Measured: final 0.004 mm, max 6.5 mm after 60 s, RMS over the last 80 %
+    // (t >= 30 s) 11.05 mm. That RMS was 10.0 mm before the rest law (4e09b36), which starts
+    // the vehicle on the line of sight instead of turning on the spot; its earlier bound of
+    // 11 mm is now 12 mm, and the settling bound after 60 s is new.
     assert!(m.final_err_m <= 0.002, "{m:?}");
-    assert!(m.rms_last_80_m <= 0.011, "{m:?}");
+    assert!(m.max_err_after_60s_m <= 0.008, "{m:?}");
+    assert!(m.rms_last_80_m <= 0.012, "{m:?}");
 }
 
 #[test]

@@ -18,6 +18,7 @@ pub const CTRL_DT: f64 = 0.01;
 pub struct Metrics {
     pub final_err_m: f64,
     pub max_err_after_10s_m: f64,
+    pub max_err_after_60s_m: f64,
     pub rms_last_80_m: f64,
     pub max_thrust_n: f64,
     pub max_pitch_rad: f64,
@@ -126,6 +127,11 @@ pub fn run_with(
     out.max_err_after_10s_m = errs
         .iter()
         .filter(|x| x.0 >= 10.0)
+        .map(|x| x.1)
+        .fold(0.0, f64::max);
+    out.max_err_after_60s_m = errs
+        .iter()
+        .filter(|x| x.0 >= 60.0)
         .map(|x| x.1)
         .fold(0.0, f64::max);
     let tail: Vec<f64> = errs
