@@ -9,7 +9,7 @@
 //! the square root is a Newton iteration on `1/sqrt` (see [`sqrt`]). Nothing here touches `f64`, so no `__aeabi_d*` helper is linked into the
 //! control path.
 
-use core::f32::consts::{FRAC_2_PI, PI, TAU};
+use core::f32::consts::{FRAC_2_PI, FRAC_PI_4, PI, TAU};
 
 // pi/2 split into three parts so that k * PIO2_1 is exact for |k| < 2^16.
 const PIO2_1: f32 = 1.570_312_5;
@@ -44,6 +44,18 @@ pub fn sin_cos(x: f32) -> (f32, f32) {
         1 => (c, -s),
         2 => (-s, -c),
         _ => (-c, s),
+    }
+}
+
+/// [`sin_cos`] for angles that are usually small (pitch, roll, sideslip): for |x| <= pi/4
+/// the reduction is skipped (it would give `r = x` exactly), otherwise [`sin_cos`].
+#[inline]
+pub fn sin_cos_small(x: f32) -> (f32, f32) {
+    if x.abs() <= FRAC_PI_4 {
+        let z = x * x;
+        (sin_poly(x, z), cos_poly(z))
+    } else {
+        sin_cos(x)
     }
 }
 

@@ -21,7 +21,7 @@
 //! conditions needs the pitch `theta = -asin(a / g)` (`u1_dot = -g sin(theta)`, MODEL_NOTES
 //! section 3): [`pitch_for_accel`].
 
-use crate::math::{asin, atan2, sqrt};
+use crate::math::{asin, atan2, max, sin_cos_small, sqrt};
 use crate::params::{XyCoeffs, XzCoeffs};
 use crate::reference::RefSample;
 
@@ -59,25 +59,45 @@ pub fn course_in_water(r: &RefSample, current_m_s: [f32; 2]) -> Option<Course> {
     let [vx, vy, _] = r.vel_m_s;
     let [cx, cy] = current_m_s;
     let (vx, vy) = (vx - cx, vy - cy);
-    let [ax, ay, _] = r.acc_m_s2;
-    let [jx, jy, _] = r.jerk_m_s3;
-    let u2 = vx * vx + vy * vy;
-    let u = sqrt(u2);
-    if u.is_nan() || u < SPEED_FLOOR_M_S {
-        return None;
+    course_of(r, vx, vy, vx * vx + vy * vy)
+}
+
+/// [`course_in_water`] from the water-relative velocity `(vx, vy)` and its squared norm `u2`
+/// (the law has them already).
+#[inline]
+pub(crate) fn course_of(r: &RefSample, vx: f32, vy: f32, u2: f32) -> Option<Course> {
+    // `u < SPEED_FLOOR_M_S` (or NaN) decided on `u2`: no square root when it is `None`.
+    if u2 >= SPEED_FLOOR_M_S * SPEED_FLOOR_M_S {
+        let [ax, ay, _] = r.acc_m_s2;
+        let [jx, jy, _] = r.jerk_m_s3;
+        let u = sqrt(u2);
+        let cross = vx * ay - vy * ax;
+        let dot = vx * ax + vy * ay;
+        let chi_dot = cross / u2;
+        // d/dt (v x a) = v x j
+        let chi_ddot = (vx * jy - vy * jx) / u2 - 2.0 * chi_dot * dot / u2;
+        Some(Course {
+            chi_rad: atan2(vy, vx),
+            chi_dot,
+            chi_ddot,
+            speed_m_s: u,
+            speed_dot: dot / u,
+        })
+    } else {
+        None
     }
-    let cross = vx * ay - vy * ax;
-    let dot = vx * ax + vy * ay;
-    let chi_dot = cross / u2;
-    // d/dt (v x a) = v x j
-    let chi_ddot = (vx * jy - vy * jx) / u2 - 2.0 * chi_dot * dot / u2;
-    Some(Course {
-        chi_rad: atan2(vy, vx),
-        chi_dot,
-        chi_ddot,
-        speed_m_s: u,
-        speed_dot: dot / u,
-    })
+}
+
+/// `x` clamped into `[lo, hi]`, NaN kept (as `f32::clamp`, without its assertion).
+#[inline(always)]
+fn clamp_keep_nan(x: f32, lo: f32, hi: f32) -> f32 {
+    if x < lo {
+        lo
+    } else if x > hi {
+        hi
+    } else {
+        x
+    }
 }
 
 /// Quasi-static sideslip and its time advance.
@@ -99,18 +119,20 @@ pub fn sideslip(xy: &XyCoeffs, c: &Course) -> Sideslip {
     let k = xy.beta3 * c.chi_dot;
     let rate = c.speed_dot / u;
     let floor = 0.5 * xy.beta1 + 1.0e-3;
+    // `f32::max`/`clamp` would be calls of `fmaxf`/`fminf`; these comparisons give the same
+    // values (NaN: `max` gives the floor, `clamp_keep_nan` keeps the NaN as `f32::clamp` does).
     let deriv = |s: f32, co: f32| {
         let d = -k * s + rate * co + (xy.beta1 + 2.0 * xy.beta2 * u * s.abs()) * co;
-        d.max(floor)
+        max(d, floor)
     };
-    let mut b = -k / (rate + xy.beta1).max(floor);
-    b = b.clamp(-SIDESLIP_MAX_RAD, SIDESLIP_MAX_RAD);
+    let mut b = -k / max(rate + xy.beta1, floor);
+    b = clamp_keep_nan(b, -SIDESLIP_MAX_RAD, SIDESLIP_MAX_RAD);
     for _ in 0..3 {
-        let (s, co) = crate::math::sin_cos(b);
+        let (s, co) = sin_cos_small(b);
         let g = k * co + rate * s + (xy.beta1 + xy.beta2 * u * s.abs()) * s;
-        b = (b - g / deriv(s, co)).clamp(-SIDESLIP_MAX_RAD, SIDESLIP_MAX_RAD);
+        b = clamp_keep_nan(b - g / deriv(s, co), -SIDESLIP_MAX_RAD, SIDESLIP_MAX_RAD);
     }
-    let (s, co) = crate::math::sin_cos(b);
+    let (s, co) = sin_cos_small(b);
     // (m11 - m22) / m22 = beta3 - 1
     let advance = (xy.beta3 - 1.0) * co / deriv(s, co);
     Sideslip {

@@ -10,7 +10,7 @@
 //! heave thruster saturates.
 
 use super::{integrate, sat, TrackingGains, TrackingState};
-use crate::math::sin_cos;
+use crate::math::{max, sin_cos_small};
 use crate::params::Vehicle;
 use crate::reference::RefSample;
 use crate::state::NavState;
@@ -26,8 +26,8 @@ pub fn depth(
 ) -> (f32, f32) {
     let p = v.params();
     let c = &v.xz;
-    let (sf, cf) = sin_cos(nav.roll_rad);
-    let (sth, cth) = sin_cos(nav.pitch_rad);
+    let (sf, cf) = sin_cos_small(nav.roll_rad);
+    let (sth, cth) = sin_cos_small(nav.pitch_rad);
     let (u, vv, w, q) = (nav.u_m_s, nav.v_m_s, nav.w_m_s, nav.q_rad_s);
     let [_, _, zr] = r.pos_m;
     let [_, _, vzr] = r.vel_m_s;
@@ -39,7 +39,7 @@ pub fn depth(
     let es = sat(ez, g.error_limit_m);
     st.z_int = integrate(st.z_int, es, dt, st.heave_sat, limit);
     let zdd_c = azr - g.depth_kd * ez_dot - g.depth_kp * es - g.depth_ki * st.z_int;
-    let ccf = (cth * cf).max(0.5);
+    let ccf = max(cth * cf, 0.5);
     let wdot_c = (zdd_c + cth * q * u + sth * q * w) / ccf;
     let fw = -(p.z_w + p.z_ww * w.abs()) * w
         + (c.weight_n - c.buoyancy_n) * cth * cf

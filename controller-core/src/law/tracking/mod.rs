@@ -156,9 +156,12 @@ pub(crate) struct HeadingRef {
     beta: f32,
     beta_dot: f32,
     beta_ddot: f32,
-    /// Direction of the reference motion used at rest (rad): of the velocity, else the
-    /// acceleration, else the jerk; held when all vanish.
+    /// Direction of the reference motion used at rest: the vector `rest_vec` (of the
+    /// velocity, else the acceleration, else the jerk; held when all vanish) when
+    /// `rest_from_vec`, else the angle `rest_chi` (rad, the yaw at the start).
     rest_chi: f32,
+    rest_vec: [f32; 2],
+    rest_from_vec: bool,
     /// The rest law approaches the reference point backwards (hysteresis state).
     rest_reverse: bool,
 }
@@ -225,7 +228,7 @@ impl TrackingState {
 #[inline]
 pub(crate) fn clean_dt(dt_s: f32) -> f32 {
     if dt_s.is_finite() && dt_s > 0.0 {
-        dt_s.min(1.0)
+        crate::math::min(dt_s, 1.0)
     } else {
         0.0
     }
@@ -262,12 +265,15 @@ pub(crate) fn sat(e: f32, l: f32) -> f32 {
 /// Scale a 2-vector so that its norm is at most `l` (direction kept).
 #[inline]
 pub(crate) fn sat2(x: f32, y: f32, l: f32) -> (f32, f32) {
-    let n = crate::math::sqrt(x * x + y * y);
-    if n > l && n.is_finite() {
+    let n2 = x * x + y * y;
+    if n2 <= l * l {
+        // Within the limit (and finite): no root needed.
+        return (x, y);
+    }
+    let n = crate::math::sqrt(n2);
+    if n.is_finite() {
         let k = l / n;
         (x * k, y * k)
-    } else if n.is_finite() {
-        (x, y)
     } else {
         (0.0, 0.0)
     }

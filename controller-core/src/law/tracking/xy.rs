@@ -16,10 +16,10 @@
 //! analytic from the sample, `beta` is the quasi-static sideslip advanced by `T_adv`, and its
 //! derivatives are filtered differences (time constant [`DERIV_TAU_S`]).
 
-use super::{clean_dt, integrate, sat2, HeadingRef, TrackingGains, TrackingState};
+use super::{integrate, sat2, HeadingRef, TrackingGains, TrackingState};
 use crate::math::{atan2, clamp, sin_cos, sqrt, wrap_angle};
 use crate::params::{Vehicle, XyCoeffs};
-use crate::reference::feasible::{course_in_water, sideslip};
+use crate::reference::feasible::{course_of, sideslip, Course};
 use crate::reference::RefSample;
 use crate::state::NavState;
 
@@ -35,24 +35,24 @@ fn filt(prev: f32, d: f32, x: f32, dt: f32) -> f32 {
 }
 
 impl HeadingRef {
-    /// Advance the generator; returns `(psi_r, psi_r_dot, psi_r_ddot)`.
+    /// Advance the generator with the water-relative course `course` (`None` below the speed
+    /// floor) and the direction of the reference motion `rest_dir` (see [`rest_direction`]);
+    /// `dt` must be clean ([`super::clean_dt`]). Returns `(psi_r, psi_r_dot, psi_r_ddot)`.
     pub(crate) fn update(
         &mut self,
         xy: &XyCoeffs,
-        r: &RefSample,
+        course: Option<Course>,
+        rest_dir: Option<[f32; 2]>,
         yaw: f32,
-        current_m_s: [f32; 2],
         dt: f32,
     ) -> (f32, f32, f32) {
-        let dt = clean_dt(dt);
-        let (chi, chi1, chi2, bqs, adv) = match course_in_water(r, current_m_s) {
+        let (chi, chi1, chi2, bqs, adv) = match course {
             Some(c) => {
                 let s = sideslip(xy, &c);
                 (c.chi_rad, c.chi_dot, c.chi_ddot, s.beta_rad, s.advance_s)
             }
             None => (if self.init { self.chi } else { yaw }, 0.0, 0.0, 0.0, 0.0),
         };
-        let rest = rest_course(r).unwrap_or(if self.init { self.rest_chi } else { yaw });
         if !self.init {
             *self = HeadingRef {
                 init: true,
@@ -62,11 +62,16 @@ impl HeadingRef {
                 beta: bqs,
                 beta_dot: 0.0,
                 beta_ddot: 0.0,
-                rest_chi: rest,
+                rest_chi: yaw,
+                rest_vec: [0.0, 0.0],
+                rest_from_vec: false,
                 rest_reverse: false,
             };
         }
-        self.rest_chi = rest;
+        if let Some(d) = rest_dir {
+            self.rest_vec = d;
+            self.rest_from_vec = true;
+        }
         self.beta_qs_dot = filt(self.beta_qs, self.beta_qs_dot, bqs, dt);
         self.beta_qs = bqs;
         let beta = bqs + adv * self.beta_qs_dot;
@@ -82,16 +87,28 @@ impl HeadingRef {
             chi2 - ok(self.beta_ddot),
         )
     }
+
+    /// Direction of the reference motion used at rest (rad): of the velocity, else the
+    /// acceleration, else the jerk (the last one seen); at the very start the vehicle's yaw.
+    /// The arctangent is taken only here, when the rest law needs it.
+    fn rest_chi(&self) -> f32 {
+        if self.rest_from_vec {
+            let [x, y] = self.rest_vec;
+            atan2(y, x)
+        } else {
+            self.rest_chi
+        }
+    }
 }
 
-/// Direction of the horizontal reference motion from the lowest non-vanishing derivative
-/// (velocity, acceleration, jerk): a reference starting from rest moves first along its
-/// acceleration and jerk. `None` when all vanish.
-fn rest_course(r: &RefSample) -> Option<f32> {
+/// Direction vector of the horizontal reference motion from the lowest non-vanishing
+/// derivative (velocity, acceleration, jerk): a reference starting from rest moves first along
+/// its acceleration and jerk. `None` when all vanish. (Norms compared squared: no root.)
+fn rest_direction(r: &RefSample) -> Option<[f32; 2]> {
     for [x, y, _] in [r.vel_m_s, r.acc_m_s2, r.jerk_m_s3] {
-        let n = sqrt(x * x + y * y);
-        if n.is_finite() && n > REST_DIRECTION_FLOOR {
-            return Some(atan2(y, x));
+        let n2 = x * x + y * y;
+        if n2.is_finite() && n2 > REST_DIRECTION_FLOOR * REST_DIRECTION_FLOOR {
+            return Some([x, y]);
         }
     }
     None
@@ -117,6 +134,19 @@ pub const REST_REVERSE_HYST_RAD: f32 = 0.2;
 
 /// Time constant (s) with which the origin integrator bleeds at rest.
 pub const REST_BLEED_S: f32 = 10.0;
+
+/// [`smoothstep`] of `sqrt(x2)`, the root taken only between `lo` and `hi` (`lo >= 0`).
+#[inline]
+fn smoothstep_sq(x2: f32, lo: f32, hi: f32) -> f32 {
+    if x2 >= hi * hi {
+        1.0
+    } else if x2 > lo * lo {
+        smoothstep(sqrt(x2), lo, hi)
+    } else {
+        // At or below `lo`, or NaN (as `smoothstep` of a NaN).
+        0.0
+    }
+}
 
 /// `0` below `lo`, `1` above `hi`, cubic smoothstep between (C1).
 fn smoothstep(x: f32, lo: f32, hi: f32) -> f32 {
@@ -224,9 +254,17 @@ pub fn hand(
     st.current
         .update(v, nav, &achieved, (s, c), g.current_observer_rad_s, dt);
     let [ccx, ccy] = st.current.vc;
-    let n = crate::math::sqrt(ccx * ccx + ccy * ccy);
-    let blend = ((n - CURRENT_DEADZONE_M_S) / CURRENT_DEADZONE_M_S).clamp(0.0, 1.0);
-    let blend = if blend.is_finite() { blend } else { 0.0 };
+    // blend = clamp((|c| - dz) / dz, 0, 1): the root only between dz and 2 dz.
+    let n2 = ccx * ccx + ccy * ccy;
+    let dz = CURRENT_DEADZONE_M_S;
+    let blend = if n2 <= dz * dz {
+        0.0
+    } else if n2 >= 4.0 * dz * dz {
+        1.0
+    } else {
+        // NaN gives 0 (the lower bound).
+        clamp((sqrt(n2) - dz) / dz, 0.0, 1.0)
+    };
     let vc_used = [blend * ccx, blend * ccy];
     let [vx, vy, _] = r.vel_m_s;
     // Weight of the hand law (1) against the rest law (0), from the larger of the reference
@@ -235,13 +273,21 @@ pub fn hand(
     // in a current. Without the current observer a current cannot be told from rest, and the
     // hand law is used throughout.
     let (wx, wy) = (vx - vc_used[0], vy - vc_used[1]);
-    let speed = sqrt(vx * vx + vy * vy).max(sqrt(wx * wx + wy * wy));
+    let w2 = wx * wx + wy * wy;
     let sigma = if g.current_observer_rad_s > 0.0 {
-        smoothstep(speed, REST_SPEED_LO_M_S, REST_SPEED_HI_M_S)
+        // Both squares are NaN or neither (the estimate is finite), so `max` is `f32::max`.
+        smoothstep_sq(
+            crate::math::max(vx * vx + vy * vy, w2),
+            REST_SPEED_LO_M_S,
+            REST_SPEED_HI_M_S,
+        )
     } else {
         1.0
     };
-    let (psi_r, psi_r1, psi_r2) = st.heading.update(xy, r, nav.yaw_rad, vc_used, dt);
+    let course = course_of(r, wx, wy, w2);
+    let (psi_r, psi_r1, psi_r2) = st
+        .heading
+        .update(xy, course, rest_direction(r), nav.yaw_rad, dt);
     // Current in the body frame, for the drag on the water-relative velocity.
     let [ux, uy] = vc_used;
     let vcb_x = c * ux + s * uy;
@@ -292,7 +338,7 @@ pub fn hand(
     let vdot = (-xy.m11 * u * rr - yd) / xy.m22;
     let tau1 = xy.m11 * (bx + vs * rr) - xy.m22 * vv * rr + xd;
     let tau2 = xy.m33 * (by - vdot - u * rr) / eps - (xy.m11 - xy.m22) * u * vv + nd;
-    if sigma >= 1.0 || sigma.is_nan() {
+    if sigma >= 1.0 {
         return (tau1, tau2, eox, eoy, wrap_angle(nav.yaw_rad - psi_r));
     }
     // Rest law: surge on the origin error along the body axis, heading by a PD. The heading
@@ -305,7 +351,7 @@ pub fn hand(
     let aoy = ay - g.xy_kd * (oy1 - vy) - g.xy_kp * iy_e - g.xy_ki * iy;
     let box_ = c * aox + s * aoy;
     let tau1_rest = xy.m11 * (box_ + vv * rr) - xy.m22 * vv * rr + xd;
-    let chi0 = st.heading.rest_chi;
+    let chi0 = st.heading.rest_chi();
     let dist = sqrt(eox * eox + eoy * eoy);
     let w_los = smoothstep(dist, REST_LOS_NEAR_M, REST_LOS_FAR_M);
     let los = if dist > 0.0 { atan2(-eoy, -eox) } else { chi0 };
