@@ -178,10 +178,10 @@ pub fn pitch_xz(xz: &XzCoeffs, zx_kg: f32, gravity_m_s2: f32, r: &RefSample) -> 
     };
     let (arg0, _, _) = solve(0.0, 1.0);
     let th0 = asin(arg0);
-    let (s0, c0) = crate::math::sin_cos(th0);
+    let (s0, c0) = sin_cos_small(th0);
     let (arg, cs, c2) = solve(s0, c0);
     let th = asin(arg);
-    let cth = crate::math::cos(th).max(0.5);
+    let cth = max(sin_cos_small(th).1, 0.5);
     let pw1 = 2.0 * cs * (vx * ax - vz * az) + c2 * (ax * vz + vx * az);
     let pw2 = 2.0 * cs * (ax * ax + vx * jx - az * az - vz * jz)
         + c2 * (jx * vz + 2.0 * ax * az + vx * jz);

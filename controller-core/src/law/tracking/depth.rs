@@ -24,10 +24,23 @@ pub fn depth(
     r: &RefSample,
     dt: f32,
 ) -> (f32, f32) {
+    depth_with(v, g, st, nav, r, dt, sin_cos_small(nav.pitch_rad))
+}
+
+/// [`depth`] with `(sin, cos)` of the pitch already computed by the caller.
+#[inline]
+pub(crate) fn depth_with(
+    v: &Vehicle,
+    g: &TrackingGains,
+    st: &mut TrackingState,
+    nav: &NavState,
+    r: &RefSample,
+    dt: f32,
+    (sth, cth): (f32, f32),
+) -> (f32, f32) {
     let p = v.params();
     let c = &v.xz;
     let (sf, cf) = sin_cos_small(nav.roll_rad);
-    let (sth, cth) = sin_cos_small(nav.pitch_rad);
     let (u, vv, w, q) = (nav.u_m_s, nav.v_m_s, nav.w_m_s, nav.q_rad_s);
     let [_, _, zr] = r.pos_m;
     let [_, _, vzr] = r.vel_m_s;

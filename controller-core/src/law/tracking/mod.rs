@@ -205,7 +205,13 @@ impl TrackingState {
     /// achieved force differs from the request is saturated, and the integrators it feeds stop
     /// growing on the next step.
     pub fn on_allocation(&mut self, requested: &BodyForces, achieved: &BodyForces) {
-        let off = |r: f32, a: f32| (r - a).abs() > 1e-3 * (1.0 + r.abs()) || (r - a).is_nan();
+        // Off by more than the tolerance, or NaN (the comparison is false then).
+        let off = |r: f32, a: f32| {
+            !matches!(
+                (r - a).abs().partial_cmp(&(1e-3 * (1.0 + r.abs()))),
+                Some(core::cmp::Ordering::Less | core::cmp::Ordering::Equal)
+            )
+        };
         self.surge_sat = off(requested.surge_n, achieved.surge_n);
         self.yaw_sat = off(requested.yaw_n_m, achieved.yaw_n_m);
         self.heave_sat = off(requested.heave_n, achieved.heave_n);
@@ -291,8 +297,9 @@ pub fn step_xz(
     dt_s: f32,
 ) -> LawOutput {
     let dt = clean_dt(dt_s);
-    let (heave_n, ez) = depth(v, g, st, nav, r, dt);
-    let (surge_n, pitch_err) = xz::surge(v, g, st, nav, r, heave_n, dt);
+    let pitch_sc = crate::math::sin_cos_small(nav.pitch_rad);
+    let (heave_n, ez) = depth::depth_with(v, g, st, nav, r, dt, pitch_sc);
+    let (surge_n, pitch_err) = xz::surge(v, g, st, nav, r, heave_n, dt, pitch_sc);
     let yaw_n_m = xz::yaw_hold(v, g, nav);
     let [xr, _, _] = r.pos_m;
     LawOutput {

@@ -18,14 +18,15 @@
 //! `tau_1` through the coupled mass matrix.
 
 use super::{integrate, sat, TrackingGains, TrackingState};
-use crate::math::{asin, sin_cos, sqrt, tanh, wrap_angle};
+use crate::math::{asin, max, sin_cos_small, sqrt, tanh, wrap_angle};
 use crate::params::Vehicle;
 use crate::reference::feasible::pitch_xz;
 use crate::reference::RefSample;
 use crate::state::NavState;
 
 /// Surge force and pitch error; `heave_n` is the heave force the depth law asks for (enters
-/// `w_dot` in `h`).
+/// `w_dot` in `h`), `(s, co)` the sine and cosine of the pitch.
+#[allow(clippy::too_many_arguments)]
 pub fn surge(
     v: &Vehicle,
     g: &TrackingGains,
@@ -34,11 +35,11 @@ pub fn surge(
     r: &RefSample,
     heave_n: f32,
     dt: f32,
+    (s, co): (f32, f32),
 ) -> (f32, f32) {
     let p = v.params();
     let c = &v.xz;
     let grav = p.gravity_m_s2;
-    let (s, co) = sin_cos(nav.pitch_rad);
     let (u, w, q) = (nav.u_m_s, nav.w_m_s, nav.q_rad_s);
     let alpha = c.alpha;
     let u1 = u + alpha * q;
@@ -60,7 +61,7 @@ pub fn surge(
     let [axr, _, _] = r.acc_m_s2;
     let [jxr, _, _] = r.jerk_m_s3;
     let pr = pitch_xz(c, zx, grav, r);
-    let (sr, cr) = sin_cos(pr.theta_rad);
+    let (sr, cr) = sin_cos_small(pr.theta_rad);
     let x1r = xr + alpha * sr;
     let x1r_dot = vxr + alpha * cr * pr.theta_dot;
     let x1r_ddot = axr + alpha * (cr * pr.theta_ddot - sr * pr.theta_dot * pr.theta_dot);
@@ -87,7 +88,7 @@ pub fn surge(
     } else {
         (-2.0 * (a_d1 + munk1) / grav, -2.0 * (a_d2 + munk2) / grav)
     };
-    let root = sqrt((1.0 - y * y).max(1e-3));
+    let root = sqrt(max(1.0 - y * y, 1e-3));
     let th_u = 0.5 * asin(y);
     let th_u1 = 0.5 * y1 / root;
     let th_u2 = 0.5 * (y2 / root + y * y1 * y1 / (root * root * root));
