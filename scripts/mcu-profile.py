@@ -13,6 +13,7 @@ Honors CARGO_TARGET_DIR.
 """
 import argparse
 import collections
+import functools
 import glob
 import os
 import re
@@ -37,6 +38,10 @@ def main():
     ap.add_argument("--wrapper", default="timed",
                     help="function whose calls are profiled (default: the bench's `timed`)")
     ap.add_argument("--top", type=int, default=25)
+    ap.add_argument("--callers", default="memcpy",
+                    help="also split the instructions of functions whose name contains this "
+                         "by the function they were entered from and the source line of the call "
+                         "(default: memcpy)")
     a = ap.parse_args()
     wrapper = a.wrapper
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -83,6 +88,9 @@ def main():
         wrap_re = re.compile(r"mcu_bench\d*bench\d*" + re.escape(wrapper) + r"\d*h|"
                              r"bench::" + re.escape(wrapper) + "::|"
                              r"\d" + re.escape(wrapper) + r"17h")
+        by_caller = collections.Counter()
+        callee_from = None
+        prev_pc = None
         prev_sym = None
         with open(log, errors="replace") as f:
             for ln in f:
@@ -97,7 +105,12 @@ def main():
                 if inside:
                     by_fn[demangle(sym)] += 1
                     by_line[line_of.get(pc, "?")] += 1
+                    if a.callers and a.callers in sym:
+                        if prev_sym is not None and a.callers not in prev_sym:
+                            callee_from = (demangle(prev_sym or "?"), line_of.get(prev_pc, "?"))
+                        by_caller[callee_from] += 1
                 prev_sym = sym
+                prev_pc = pc
     if calls == 0:
         sys.exit(f"no call of the wrapper `{wrapper}` seen")
     total = sum(by_fn.values())
@@ -106,11 +119,16 @@ def main():
     print("\nby function (instructions per call, inlined code counts in its caller):")
     for k, v in by_fn.most_common(a.top):
         print(f"  {v / calls:8.1f}  {k}")
+    if by_caller:
+        print(f"\n`{a.callers}` by where it was entered from (instructions per call):")
+        for (fn, line), v in by_caller.most_common(a.top):
+            print(f"  {v / calls:8.1f}  {fn}  ({line})")
     print("\nby innermost source line (instructions per call):")
     for k, v in by_line.most_common(a.top):
         print(f"  {v / calls:8.1f}  {k}")
 
 
+@functools.lru_cache(maxsize=None)
 def demangle(sym):
     try:
         return subprocess.check_output(["rustfilt"], input=sym, text=True).strip()

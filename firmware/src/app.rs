@@ -323,9 +323,7 @@ where
                 break;
             }
             budget = budget.saturating_sub(n);
-            for &b in buf.get(..n).unwrap_or(&[]) {
-                self.on_byte(b);
-            }
+            self.on_bytes(buf.get(..n).unwrap_or(&[]));
         }
         if let Timing::FixedRate {
             control_period_us,
@@ -354,7 +352,22 @@ where
 
     /// Feed one received byte to the decoder and act on a completed frame.
     pub fn on_byte(&mut self, byte: u8) {
-        match self.decoder.push(byte) {
+        let d = self.decoder.push(byte);
+        self.on_decoded(d);
+    }
+
+    /// Feed received bytes to the decoder and act on every completed frame, in order
+    /// (the same as [`on_byte`](Self::on_byte) for each byte, but the decoder takes each
+    /// frame's bytes in one copy).
+    pub fn on_bytes(&mut self, mut bytes: &[u8]) {
+        while !bytes.is_empty() {
+            let d = self.decoder.push_slice(&mut bytes);
+            self.on_decoded(d);
+        }
+    }
+
+    fn on_decoded(&mut self, d: Option<Decoded<Command>>) {
+        match d {
             None | Some(Decoded::Dropped { seq: None, .. }) => {}
             Some(Decoded::Frame { seq, msg }) => self.on_command(seq, &msg),
             Some(Decoded::Dropped {

@@ -360,6 +360,10 @@ pub fn encode<'a, M: Serialize>(
 }
 
 /// [`encode`] with another protocol version (for tests of version handling).
+///
+/// Works in `out` alone, without a scratch buffer: postcard writes the payload at
+/// [`PAYLOAD_OFFSET`], the CRC goes right after it, and COBS encodes the body in place,
+/// forwards, into `out[1..]` (see [`cobs_encode_in_place`] for why that is safe).
 pub fn encode_with_version<'a, M: Serialize>(
     version: u8,
     seq: u16,
@@ -367,31 +371,74 @@ pub fn encode_with_version<'a, M: Serialize>(
     out: &'a mut [u8; MAX_FRAME_LEN],
 ) -> Result<&'a [u8], EncodeError> {
     let env = Envelope { version, seq, msg };
-    let mut raw = [0u8; MAX_PAYLOAD_LEN + CRC_LEN];
-    let n = {
-        let (payload, _) = raw.split_at_mut(MAX_PAYLOAD_LEN);
-        postcard::to_slice(&env, payload)
-            .map_err(|_| EncodeError::TooLong)?
-            .len()
-    };
-    let crc = crc32::checksum(raw.get(..n).unwrap_or(&[]));
-    if let Some(t) = raw.get_mut(n..n + CRC_LEN) {
-        t.copy_from_slice(&crc.to_le_bytes());
+    let (_, tail) = out.split_at_mut(PAYLOAD_OFFSET);
+    let (payload, crc_room) = tail.split_at_mut(MAX_PAYLOAD_LEN);
+    let n = postcard::to_slice(&env, payload)
+        .map_err(|_| EncodeError::TooLong)?
+        .len();
+    let crc = crc32::checksum(payload.get(..n).unwrap_or(&[])).to_le_bytes();
+    // The CRC follows the payload: in `payload` when there is room, else (a payload of
+    // exactly MAX_PAYLOAD_LEN bytes) at the start of `crc_room`.
+    for (k, b) in crc.into_iter().enumerate() {
+        let i = n + k;
+        if let Some(d) = payload.get_mut(i) {
+            *d = b;
+        } else if let Some(d) = crc_room.get_mut(i - MAX_PAYLOAD_LEN) {
+            *d = b;
+        }
     }
-    let body = raw.get(..n + CRC_LEN).unwrap_or(&[]);
-    let (lead, rest) = out.split_at_mut(1);
-    lead.fill(0);
-    let len = cobs_encode(body, rest);
-    // `len <= MAX_ENCODED_LEN` because body <= MAX_PAYLOAD_LEN + CRC_LEN.
-    if let Some(d) = rest.get_mut(len) {
+    let len = cobs_encode_in_place(out, n + CRC_LEN);
+    if let Some(d) = out.first_mut() {
+        *d = 0;
+    }
+    if let Some(d) = out.get_mut(len + 1) {
         *d = 0;
     }
     Ok(out.get(..len + 2).unwrap_or(&[]))
 }
 
+/// Where [`encode_with_version`] puts the payload in the frame buffer: one byte for the
+/// leading delimiter and room for every COBS code byte a body of up to
+/// `MAX_PAYLOAD_LEN + CRC_LEN` bytes can need.
+pub const PAYLOAD_OFFSET: usize =
+    1 + cobs_max_len(MAX_PAYLOAD_LEN + CRC_LEN) - (MAX_PAYLOAD_LEN + CRC_LEN);
+const _: () = assert!(PAYLOAD_OFFSET + MAX_PAYLOAD_LEN + CRC_LEN <= MAX_FRAME_LEN);
+const _: () = assert!(PAYLOAD_OFFSET == 2 && MAX_PAYLOAD_LEN + CRC_LEN < 254);
+
+/// COBS-encode the `n` bytes at `buf[PAYLOAD_OFFSET..]` into `buf[1..]` (no delimiter);
+/// returns the encoded length.
+///
+/// A body is at most `MAX_PAYLOAD_LEN + CRC_LEN` (< 254) bytes, so it has no 254-byte run of
+/// non-zero bytes and COBS needs exactly one code byte more than the body: the one in front
+/// (at `buf[1]`) and one in place of each zero byte, whose value is the distance to the next
+/// code byte (or to the end). Every non-zero byte stays where postcard wrote it
+/// (`PAYLOAD_OFFSET == 2`), so encoding is one scan for zero bytes and one store per zero.
+/// Every access is bounds-checked; nothing panics.
+fn cobs_encode_in_place(buf: &mut [u8], n: usize) -> usize {
+    let end = (PAYLOAD_OFFSET + n).min(buf.len());
+    let Some(body) = buf.get_mut(..end) else {
+        return 0;
+    };
+    let mut code_idx = 1usize;
+    for i in PAYLOAD_OFFSET..body.len() {
+        if body.get(i) == Some(&0) {
+            if let Some(c) = body.get_mut(code_idx) {
+                // i - code_idx <= n <= 252: fits, and is never 0xFF.
+                *c = (i - code_idx) as u8;
+            }
+            code_idx = i;
+        }
+    }
+    if let Some(c) = body.get_mut(code_idx) {
+        *c = (end - code_idx) as u8;
+    }
+    n + 1
+}
+
 /// COBS-encode `src` into `dst` (no delimiter); returns the length written. `dst` must hold
 /// `cobs_max_len(src.len())` bytes; bytes that do not fit are dropped (never the case for
-/// the frames built here).
+/// the frames built here). The reference the in-place encoder is tested against.
+#[cfg(test)]
 fn cobs_encode(src: &[u8], dst: &mut [u8]) -> usize {
     let mut code_idx = 0usize;
     let mut out = 1usize;
@@ -426,34 +473,38 @@ fn cobs_encode(src: &[u8], dst: &mut [u8]) -> usize {
     out.min(dst.len())
 }
 
-/// Decode COBS in place; returns the decoded length, or `None` if the data is not valid COBS
-/// (a zero byte, or a code that runs past the end).
-fn cobs_decode_in_place(buf: &mut [u8]) -> Option<usize> {
+/// Decode COBS in place: returns the range of `buf` that holds the decoded bytes, or `None`
+/// if the code chain is not valid (a zero code, a `0xFF` code, or a code that runs past the
+/// end). `buf` holds no zero byte (the [`FrameDecoder`] never stores one).
+///
+/// Only frames shorter than 254 bytes reach it ([`MAX_ENCODED_LEN`]), so no code byte can
+/// be `0xFF` (254 data bytes, no zero) in a valid frame: each code byte after the first
+/// stands for one zero byte of the data. Decoding is therefore: follow the chain of code
+/// bytes, write a zero over each one after the first, and the data is `buf[1..]`. The cost
+/// grows with the number of zero bytes, not with the length.
+fn cobs_decode_in_place(buf: &mut [u8]) -> Option<core::ops::Range<usize>> {
     let n = buf.len();
-    let mut read = 0usize;
-    let mut write = 0usize;
-    while read < n {
-        let code = *buf.get(read)? as usize;
-        if code == 0 {
+    let mut idx = 0usize;
+    loop {
+        let slot = buf.get_mut(idx)?;
+        let code = usize::from(*slot);
+        if code == 0 || code == 0xFF {
             return None;
         }
-        read += 1;
-        for _ in 1..code {
-            let b = *buf.get(read)?;
-            if b == 0 {
-                return None;
-            }
-            *buf.get_mut(write)? = b;
-            read += 1;
-            write += 1;
+        if idx > 0 {
+            // A code byte after the first stands for a zero byte of the data.
+            *slot = 0;
         }
-        if code != 0xFF && read < n {
-            *buf.get_mut(write)? = 0;
-            write += 1;
+        let next = idx + code;
+        if next >= n {
+            // The last code must end exactly at the end of the frame.
+            return (next == n).then_some(1..n);
         }
+        idx = next;
     }
-    Some(write)
 }
+
+const _: () = assert!(MAX_ENCODED_LEN < 255);
 
 /// Why a frame was dropped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -592,6 +643,43 @@ impl<M: DeserializeOwned> FrameDecoder<M> {
             }
             return None;
         }
+        self.end_of_frame()
+    }
+
+    /// Feed bytes up to and including the first delimiter in `bytes` and advance `bytes`
+    /// past them; returns what [`push`](Self::push) would have returned for the last of
+    /// them. Call it again while `bytes` is not empty. Same results as pushing the bytes
+    /// one by one, at a fraction of the cost (one scan for the delimiter and one copy).
+    #[cfg_attr(feature = "no-panic", no_panic::no_panic)]
+    pub fn push_slice(&mut self, bytes: &mut &[u8]) -> Option<Decoded<M>> {
+        let all: &[u8] = bytes;
+        let (data, rest, delimited) = match all.iter().position(|&b| b == 0) {
+            Some(i) => match (all.get(..i), all.get(i + 1..)) {
+                (Some(d), Some(r)) => (d, r, true),
+                _ => (all, &[][..], false),
+            },
+            None => (all, &[][..], false),
+        };
+        *bytes = rest;
+        if !self.overflowed {
+            let end = self.len + data.len();
+            match self.buf.get_mut(self.len..end) {
+                Some(dst) => {
+                    dst.copy_from_slice(data);
+                    self.len = end;
+                }
+                None => self.overflowed = true,
+            }
+        }
+        if delimited {
+            self.end_of_frame()
+        } else {
+            None
+        }
+    }
+
+    /// A delimiter arrived: check and decode the bytes gathered since the last one.
+    fn end_of_frame(&mut self) -> Option<Decoded<M>> {
         let len = core::mem::replace(&mut self.len, 0);
         if core::mem::replace(&mut self.overflowed, false) {
             return Some(self.drop_frame(DropReason::Overflow, None));
@@ -602,14 +690,15 @@ impl<M: DeserializeOwned> FrameDecoder<M> {
         let Some(frame) = self.buf.get_mut(..len) else {
             return Some(self.drop_frame(DropReason::Overflow, None));
         };
-        let Some(n) = cobs_decode_in_place(frame) else {
+        let Some(data) = cobs_decode_in_place(frame) else {
             return Some(self.drop_frame(DropReason::Cobs, None));
         };
+        let n = data.len();
         // Header (>= 2 bytes) + CRC.
         if n < 2 + CRC_LEN {
             return Some(self.drop_frame(DropReason::TooShort, None));
         }
-        let (payload, crc_bytes) = match frame.get(..n) {
+        let (payload, crc_bytes) = match frame.get(data) {
             Some(f) => f.split_at(n - CRC_LEN),
             None => return Some(self.drop_frame(DropReason::Cobs, None)),
         };
@@ -664,7 +753,8 @@ mod tests {
 
     #[test]
     fn cobs_round_trip_edge_cases() {
-        for len in [0usize, 1, 253, 254, 255, 256, 300] {
+        // Every length a frame can have (the decoder refuses longer ones as overflow).
+        for len in (0usize..=MAX_ENCODED_LEN - 1).chain([253, 254, 255, 300]) {
             for fill in [0u8, 1, 0xFF] {
                 let src: [u8; 300] =
                     core::array::from_fn(|i| if i % 7 == 0 { fill } else { i as u8 | 1 });
@@ -674,10 +764,120 @@ mod tests {
                 assert!(n <= cobs_max_len(len));
                 assert!(!dst[..n].contains(&0));
                 let mut buf = dst[..n].to_vec();
-                let m = cobs_decode_in_place(&mut buf).unwrap();
-                assert_eq!(&buf[..m], src);
+                match cobs_decode_in_place(&mut buf) {
+                    Some(r) => assert_eq!(&buf[r], src, "len {len}"),
+                    // Only a frame over MAX_ENCODED_LEN can hold a 0xFF code: refused.
+                    None => assert!(n > MAX_ENCODED_LEN, "len {len}"),
+                }
             }
         }
+        // Broken chains.
+        for bad in [&[0u8][..], &[3, 1], &[2, 1, 5], &[0xFF, 1, 1], &[1, 0]] {
+            assert_eq!(cobs_decode_in_place(&mut bad.to_vec()), None, "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn in_place_cobs_equals_the_reference_encoder() {
+        let mut seed = 0x1234_5678u32;
+        let mut next = || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 24) as u8
+        };
+        for n in 0..=MAX_PAYLOAD_LEN + CRC_LEN {
+            for zeros in [0u8, 1, 8, 255] {
+                let body: Vec<u8> = (0..n)
+                    .map(|_| {
+                        let b = next();
+                        if b < zeros {
+                            0
+                        } else {
+                            b
+                        }
+                    })
+                    .collect();
+                let mut want = [0u8; 400];
+                let m = cobs_encode(&body, &mut want);
+                let mut buf = [0xAAu8; MAX_FRAME_LEN];
+                buf[PAYLOAD_OFFSET..PAYLOAD_OFFSET + n].copy_from_slice(&body);
+                let got = cobs_encode_in_place(&mut buf, n);
+                assert_eq!(got, m, "n {n}");
+                assert_eq!(&buf[1..1 + got], &want[..m], "n {n}");
+            }
+        }
+    }
+
+    #[test]
+    fn largest_payload_frames_round_trip() {
+        // A payload of exactly MAX_PAYLOAD_LEN bytes puts the CRC past the payload area.
+        // Arrays are postcard tuples (no length prefix): 7 x 32 + 22 = 246 bytes.
+        #[derive(Serialize, Deserialize, Debug, PartialEq)]
+        struct Blob([[u8; 32]; 7], [u8; 22]);
+        for fill in [0u8, 7, 0xFF] {
+            let blob = Blob([[fill; 32]; 7], [fill; 22]);
+            let mut out = [0u8; MAX_FRAME_LEN];
+            let f = encode(0x7F, &blob, &mut out).unwrap().to_vec();
+            // version 1 B + seq 1 B + 246 B = MAX_PAYLOAD_LEN.
+            let mut p = [0u8; 300];
+            let env = Envelope {
+                version: 1,
+                seq: 0x7F_u16,
+                msg: &blob,
+            };
+            assert_eq!(
+                postcard::to_slice(&env, &mut p).unwrap().len(),
+                MAX_PAYLOAD_LEN
+            );
+            assert!(f.len() <= MAX_FRAME_LEN);
+            assert!(!f[1..f.len() - 1].contains(&0));
+            match decode_frame::<Blob>(&f) {
+                Some(Decoded::Frame { seq: 0x7F, msg }) => assert_eq!(msg, blob),
+                other => panic!("{other:?}"),
+            }
+        }
+        // One byte more does not fit and is refused.
+        let big = [1u8; MAX_PAYLOAD_LEN];
+        let mut out = [0u8; MAX_FRAME_LEN];
+        assert!(encode(0, &big.as_slice(), &mut out).is_err());
+    }
+
+    #[test]
+    fn push_slice_equals_push() {
+        let mut frames = Vec::new();
+        for (i, cmd) in [
+            Command::Arm,
+            Command::Disarm,
+            Command::Heartbeat { t_us: 1 << 40 },
+        ]
+        .iter()
+        .enumerate()
+        {
+            let mut out = [0u8; MAX_FRAME_LEN];
+            frames.extend_from_slice(encode(i as u16, cmd, &mut out).unwrap());
+            frames.extend_from_slice(&[5, 6, 0, 0]); // garbage, an empty frame
+        }
+        frames.extend_from_slice(&[9; 300]); // overflow
+        frames.push(0);
+        let mut one = FrameDecoder::<Command>::new();
+        let want: Vec<_> = frames.iter().filter_map(|&b| one.push(b)).collect();
+        for chunk in [1usize, 3, 64, 1000] {
+            let mut d = FrameDecoder::<Command>::new();
+            let mut got = Vec::new();
+            for c in frames.chunks(chunk) {
+                let mut rest = c;
+                while !rest.is_empty() {
+                    let before = rest.len();
+                    let x = d.push_slice(&mut rest);
+                    assert!(rest.len() < before);
+                    got.extend(x);
+                }
+            }
+            assert_eq!(got, want, "chunk {chunk}");
+            assert_eq!(d.dropped, one.dropped);
+            assert_eq!(d.frames, one.frames);
+        }
+        assert_eq!(one.frames, 3);
+        assert!(one.dropped.overflow == 1 && one.dropped.total() >= 4);
     }
 
     #[test]

@@ -190,9 +190,11 @@ pub fn run_loop<P: Platform>(b: &Bench<'_, P>, p: &P) {
         },
         |(buf, n)| {
             let mut got = None;
-            for &byte in buf.get(..*n).unwrap_or(&[]) {
-                if let Some(d) = dec.push(byte) {
-                    got = Some(d);
+            let mut rest = buf.get(..*n).unwrap_or(&[]);
+            while !rest.is_empty() {
+                let d = dec.push_slice(&mut rest);
+                if d.is_some() {
+                    got = d;
                 }
             }
             if let Some(Decoded::Frame { .. }) = got {
