@@ -38,6 +38,9 @@ def main():
     ap.add_argument("--wrapper", default="timed",
                     help="function whose calls are profiled (default: the bench's `timed`)")
     ap.add_argument("--top", type=int, default=25)
+    ap.add_argument("--lines-of", default="",
+                    help="count source lines only for instructions of functions whose "
+                         "(mangled) name contains this")
     ap.add_argument("--callers", default="memcpy",
                     help="also split the instructions of functions whose name contains this "
                          "by the function they were entered from and the source line of the call "
@@ -104,7 +107,8 @@ def main():
                     inside = False
                 if inside:
                     by_fn[demangle(sym)] += 1
-                    by_line[line_of.get(pc, "?")] += 1
+                    if a.lines_of in sym:
+                        by_line[line_of.get(pc, "?")] += 1
                     if a.callers and a.callers in sym:
                         if prev_sym is not None and a.callers not in prev_sym:
                             callee_from = (demangle(prev_sym or "?"), line_of.get(prev_pc, "?"))
