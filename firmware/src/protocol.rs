@@ -693,17 +693,17 @@ impl<M: DeserializeOwned> FrameDecoder<M> {
         let Some(data) = cobs_decode_in_place(frame) else {
             return Some(self.drop_frame(DropReason::Cobs, None));
         };
-        let n = data.len();
+        let Some(data) = frame.get(data) else {
+            return Some(self.drop_frame(DropReason::Cobs, None));
+        };
         // Header (>= 2 bytes) + CRC.
-        if n < 2 + CRC_LEN {
+        if data.len() < 2 + CRC_LEN {
             return Some(self.drop_frame(DropReason::TooShort, None));
         }
-        let (payload, crc_bytes) = match frame.get(data) {
-            Some(f) => f.split_at(n - CRC_LEN),
-            None => return Some(self.drop_frame(DropReason::Cobs, None)),
+        let Some((payload, crc_bytes)) = data.split_last_chunk::<CRC_LEN>() else {
+            return Some(self.drop_frame(DropReason::TooShort, None));
         };
-        let mut crc = [0u8; CRC_LEN];
-        crc.copy_from_slice(crc_bytes);
+        let crc = *crc_bytes;
         if crc32::checksum(payload) != u32::from_le_bytes(crc) {
             return Some(self.drop_frame(DropReason::Crc, None));
         }
