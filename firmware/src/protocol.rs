@@ -653,28 +653,45 @@ impl<M: DeserializeOwned> FrameDecoder<M> {
     #[cfg_attr(feature = "no-panic", no_panic::no_panic)]
     pub fn push_slice(&mut self, bytes: &mut &[u8]) -> Option<Decoded<M>> {
         let all: &[u8] = bytes;
-        let (data, rest, delimited) = match all.iter().position(|&b| b == 0) {
-            Some(i) => match (all.get(..i), all.get(i + 1..)) {
-                (Some(d), Some(r)) => (d, r, true),
-                _ => (all, &[][..], false),
-            },
-            None => (all, &[][..], false),
-        };
-        *bytes = rest;
+        let mut copied = 0usize;
+        let mut delimiter = None;
         if !self.overflowed {
-            let end = self.len + data.len();
-            match self.buf.get_mut(self.len..end) {
-                Some(dst) => {
-                    dst.copy_from_slice(data);
-                    self.len = end;
+            // Copy up to the first zero in one pass (scan and copy fused).
+            let room = self.buf.get_mut(self.len..).unwrap_or_default();
+            for (slot, &b) in room.iter_mut().zip(all) {
+                if b == 0 {
+                    delimiter = Some(copied);
+                    break;
                 }
-                None => self.overflowed = true,
+                *slot = b;
+                copied += 1;
+            }
+            self.len += copied;
+            if delimiter.is_none() {
+                match all.get(copied) {
+                    // The buffer is full and the frame ends right here.
+                    Some(0) => delimiter = Some(copied),
+                    // The buffer is full and the frame goes on.
+                    Some(_) => self.overflowed = true,
+                    None => {}
+                }
             }
         }
-        if delimited {
-            self.end_of_frame()
-        } else {
-            None
+        if delimiter.is_none() && self.overflowed {
+            delimiter = all
+                .get(copied..)
+                .and_then(|rest| rest.iter().position(|&b| b == 0))
+                .map(|k| copied + k);
+        }
+        match delimiter {
+            Some(i) => {
+                *bytes = all.get(i + 1..).unwrap_or_default();
+                self.end_of_frame()
+            }
+            None => {
+                *bytes = &[];
+                None
+            }
         }
     }
 
