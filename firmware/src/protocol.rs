@@ -372,22 +372,28 @@ pub fn encode_with_version<'a, M: Serialize>(
 ) -> Result<&'a [u8], EncodeError> {
     let env = Envelope { version, seq, msg };
     let (_, tail) = out.split_at_mut(PAYLOAD_OFFSET);
-    let (payload, crc_room) = tail.split_at_mut(MAX_PAYLOAD_LEN);
+    let (payload, _) = tail.split_at_mut(MAX_PAYLOAD_LEN);
     let n = postcard::to_slice(&env, payload)
         .map_err(|_| EncodeError::TooLong)?
         .len();
-    let crc = crc32::checksum(payload.get(..n).unwrap_or(&[])).to_le_bytes();
-    // The CRC follows the payload: in `payload` when there is room, else (a payload of
-    // exactly MAX_PAYLOAD_LEN bytes) at the start of `crc_room`.
-    for (k, b) in crc.into_iter().enumerate() {
-        let i = n + k;
-        if let Some(d) = payload.get_mut(i) {
-            *d = b;
-        } else if let Some(d) = crc_room.get_mut(i - MAX_PAYLOAD_LEN) {
+    // One pass over the payload computes the CRC and turns its zero bytes into COBS code
+    // bytes (see `CobsInPlace`); then the CRC goes after it and is COBS-encoded too.
+    let body_end = PAYLOAD_OFFSET + n;
+    let mut cobs = CobsInPlace::new();
+    let mut crc = crc32::INIT;
+    for i in PAYLOAD_OFFSET..body_end.min(MAX_FRAME_LEN) {
+        let b = out.get(i).copied().unwrap_or(0);
+        crc = crc32::update(crc, b);
+        cobs.byte(out, i, b);
+    }
+    for (k, b) in crc32::finish(crc).to_le_bytes().into_iter().enumerate() {
+        let i = body_end + k;
+        if let Some(d) = out.get_mut(i) {
             *d = b;
         }
+        cobs.byte(out, i, b);
     }
-    let len = cobs_encode_in_place(out, n + CRC_LEN);
+    let len = cobs.finish(out, body_end + CRC_LEN);
     if let Some(d) = out.first_mut() {
         *d = 0;
     }
@@ -414,25 +420,46 @@ const _: () = assert!(PAYLOAD_OFFSET == 2 && MAX_PAYLOAD_LEN + CRC_LEN < 254);
 /// code byte (or to the end). Every non-zero byte stays where postcard wrote it
 /// (`PAYLOAD_OFFSET == 2`), so encoding is one scan for zero bytes and one store per zero.
 /// Every access is bounds-checked; nothing panics.
+#[cfg(test)]
 fn cobs_encode_in_place(buf: &mut [u8], n: usize) -> usize {
-    let end = (PAYLOAD_OFFSET + n).min(buf.len());
-    let Some(body) = buf.get_mut(..end) else {
-        return 0;
-    };
-    let mut code_idx = 1usize;
-    for i in PAYLOAD_OFFSET..body.len() {
-        if body.get(i) == Some(&0) {
-            if let Some(c) = body.get_mut(code_idx) {
-                // i - code_idx <= n <= 252: fits, and is never 0xFF.
-                *c = (i - code_idx) as u8;
+    let mut cobs = CobsInPlace::new();
+    for i in PAYLOAD_OFFSET..PAYLOAD_OFFSET + n {
+        let b = buf.get(i).copied().unwrap_or(0);
+        cobs.byte(buf, i, b);
+    }
+    cobs.finish(buf, PAYLOAD_OFFSET + n)
+}
+
+/// The state of the in-place COBS encoder: where the open code byte is.
+struct CobsInPlace {
+    code_idx: usize,
+}
+
+impl CobsInPlace {
+    /// The first code byte is `buf[1]`, the body starts at `PAYLOAD_OFFSET`.
+    const fn new() -> Self {
+        Self { code_idx: 1 }
+    }
+
+    /// Body byte `b` is at `buf[i]`: a zero becomes the next code byte.
+    #[inline(always)]
+    fn byte(&mut self, buf: &mut [u8], i: usize, b: u8) {
+        if b == 0 {
+            if let Some(c) = buf.get_mut(self.code_idx) {
+                // i - code_idx <= 253 (body < 254 bytes): fits, and is never 0xFF.
+                *c = (i - self.code_idx) as u8;
             }
-            code_idx = i;
+            self.code_idx = i;
         }
     }
-    if let Some(c) = body.get_mut(code_idx) {
-        *c = (end - code_idx) as u8;
+
+    /// Close the last code byte at the body's end; returns the encoded length.
+    fn finish(self, buf: &mut [u8], end: usize) -> usize {
+        if let Some(c) = buf.get_mut(self.code_idx) {
+            *c = (end - self.code_idx) as u8;
+        }
+        end - 1
     }
-    n + 1
 }
 
 /// COBS-encode `src` into `dst` (no delimiter); returns the length written. `dst` must hold
