@@ -224,7 +224,17 @@ impl Autopilot {
                 self.reference = Some((*reference, start_us.unwrap_or(now_us)));
                 Ok(())
             }
-            Command::SetGains(g) => self.controller.set_gains(*g).map_err(NackReason::from),
+            Command::SetPaperGains { xz, xy } => {
+                let mut g = *self.controller.gains();
+                g.paper_xz = *xz;
+                g.paper_xy = *xy;
+                self.controller.set_gains(g).map_err(NackReason::from)
+            }
+            Command::SetTrackingGains(t) => {
+                let mut g = *self.controller.gains();
+                g.tracking = *t;
+                self.controller.set_gains(g).map_err(NackReason::from)
+            }
             Command::Nav(sample) => {
                 check_nav(&sample.state)?;
                 if let Some(prev) = self.nav {

@@ -24,7 +24,9 @@
 //! `docs/protocol.md` has the message table and how the emulated board is driven.
 
 use crate::crc32;
-use controller_core::controller::Gains;
+use controller_core::law::paper_xy::PaperXyGains;
+use controller_core::law::paper_xz::PaperXzGains;
+use controller_core::law::tracking::TrackingGains;
 use controller_core::reference::Reference;
 use controller_core::state::{BodyForces, NavState, TrackingErrors};
 use serde::{de::DeserializeOwned, Deserialize, Serialize};
@@ -32,7 +34,7 @@ use serde::{de::DeserializeOwned, Deserialize, Serialize};
 /// Protocol version. Bump it on any change of a message layout; a frame with another
 /// version is dropped (counted as [`DropReason::Version`]) and answered with
 /// `Nack { reason: UnsupportedVersion }` when its sequence number can be read.
-pub const PROTOCOL_VERSION: u8 = 1;
+pub const PROTOCOL_VERSION: u8 = 2;
 
 /// Largest postcard payload (envelope) in bytes, CRC not included.
 pub const MAX_PAYLOAD_LEN: usize = 248;
@@ -142,13 +144,23 @@ pub enum Command {
         /// Firmware time at which the reference's `t = 0` is, microseconds; `None` = now.
         start_us: Option<u64>,
     },
-    /// Replace all gains (validated; unchanged on error).
-    SetGains(Gains),
+    /// Replace both paper laws' gains (validated with the rest of the set; unchanged on
+    /// error). Version 2: the gains travel as two messages, so that the largest `Command`
+    /// (what every move of a decoded command copies) is 80 bytes, not 144.
+    SetPaperGains {
+        /// Paper XZ law.
+        xz: PaperXzGains,
+        /// Paper XY law.
+        xy: PaperXyGains,
+    },
     /// A navigation state. In lock-step mode it runs one control step and is answered by
     /// `Telemetry`.
     Nav(NavSample),
     /// Open-loop thrust for `Mode::Manual`.
     ManualThrust(ManualThrust),
+    /// Replace the tracking laws' gains (validated with the rest of the set; unchanged on
+    /// error).
+    SetTrackingGains(TrackingGains),
 }
 
 /// Why a command was refused.
@@ -864,7 +876,7 @@ mod tests {
             // version 1 B + seq 1 B + 246 B = MAX_PAYLOAD_LEN.
             let mut p = [0u8; 300];
             let env = Envelope {
-                version: 1,
+                version: PROTOCOL_VERSION,
                 seq: 0x7F_u16,
                 msg: &blob,
             };

@@ -92,9 +92,15 @@ fn command() -> impl Strategy<Value = Command> {
             start_us: None,
         }),
         finite().prop_map(|k| {
-            let mut g = Gains::default();
-            g.paper_xy.k = k;
-            Command::SetGains(g)
+            let g = Gains::default();
+            let mut xy = g.paper_xy;
+            xy.k = k;
+            Command::SetPaperGains { xz: g.paper_xz, xy }
+        }),
+        finite().prop_map(|k| {
+            let mut t = Gains::default().tracking;
+            t.xy_kp = k;
+            Command::SetTrackingGains(t)
         }),
     ]
 }
@@ -296,7 +302,11 @@ fn largest_messages_fit() {
     );
     assert!(n <= MAX_FRAME_LEN);
     let worst_cmds = [
-        Command::SetGains(Gains::default()),
+        Command::SetPaperGains {
+            xz: Gains::default().paper_xz,
+            xy: Gains::default().paper_xy,
+        },
+        Command::SetTrackingGains(Gains::default().tracking),
         Command::Nav(NavSample {
             t_us: u64::MAX,
             state: NavState::default(),

@@ -2,9 +2,9 @@
 //! waits for its Hello frame on a loopback TCP socket and drives it in lock-step: arm,
 //! manual thrust, nav -> telemetry, then heartbeat loss in emulated (host) time.
 //!
-//! Needs the image (`cargo build -p firmware --release --target thumbv7em-none-eabihf`, which
-//! CI runs before the tests) and `qemu-system-arm`; without either it says so and passes.
-//! `ROV_QEMU_ELF` overrides the image path.
+//! Builds the image from the current sources (`<target>/hil-firmware`, shared with the
+//! host-sim HIL tests) and needs `qemu-system-arm`; without QEMU it says so and passes
+//! (`ROV_REQUIRE_QEMU` makes that a failure, as in CI). `ROV_QEMU_ELF` overrides the image.
 
 // Test code: a failed expectation should stop the test.
 #![allow(
@@ -24,15 +24,35 @@ use std::path::PathBuf;
 use std::process::{Child, Command as Proc, Stdio};
 use std::time::{Duration, Instant};
 
+/// The firmware's `qemu` image, built from the current sources (so a protocol change can
+/// never be tested against a stale image) into `<target>/hil-firmware`, the directory the
+/// host-sim HIL tests build into too. `None` when it cannot be built.
 fn image() -> Option<PathBuf> {
     if let Some(p) = std::env::var_os("ROV_QEMU_ELF") {
         return Some(PathBuf::from(p));
     }
-    // target/<profile>/deps/qemu-<hash> -> target/thumbv7em-none-eabihf/release/qemu
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).parent()?;
+    // target/<profile>/deps/qemu-<hash> -> target
     let exe = std::env::current_exe().ok()?;
     let target = exe.parent()?.parent()?.parent()?;
-    let p = target.join("thumbv7em-none-eabihf/release/qemu");
-    p.exists().then_some(p)
+    let dir = target.join("hil-firmware");
+    let built = Proc::new(env!("CARGO"))
+        .current_dir(root)
+        .args([
+            "build",
+            "-q",
+            "-p",
+            "firmware",
+            "--release",
+            "--bin",
+            "qemu",
+        ])
+        .args(["--target", "thumbv7em-none-eabihf", "--target-dir"])
+        .arg(&dir)
+        .status()
+        .ok()?;
+    assert!(built.success(), "building the firmware's qemu image failed");
+    Some(dir.join("thumbv7em-none-eabihf/release/qemu"))
 }
 
 /// Kills QEMU when the test ends, also on a panic.
@@ -100,14 +120,6 @@ impl Link {
 
 #[test]
 fn emulated_board_boots_and_answers_in_lockstep() {
-    let Some(elf) = image() else {
-        println!("skipped: no qemu firmware image (build firmware for thumbv7em-none-eabihf)");
-        assert!(
-            std::env::var_os("ROV_REQUIRE_QEMU").is_none(),
-            "ROV_REQUIRE_QEMU is set: the emulated-board test must run"
-        );
-        return;
-    };
     if Proc::new("qemu-system-arm")
         .arg("--version")
         .output()
@@ -120,6 +132,14 @@ fn emulated_board_boots_and_answers_in_lockstep() {
         );
         return;
     }
+    let Some(elf) = image() else {
+        println!("skipped: no qemu firmware image");
+        assert!(
+            std::env::var_os("ROV_REQUIRE_QEMU").is_none(),
+            "ROV_REQUIRE_QEMU is set: the emulated-board test must run"
+        );
+        return;
+    };
     let listener = TcpListener::bind("127.0.0.1:0").unwrap();
     let port = listener.local_addr().unwrap().port();
     let log = std::env::temp_dir().join(format!("rov-qemu-{port}.defmt"));

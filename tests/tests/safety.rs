@@ -84,7 +84,7 @@ fn boots_disarmed_with_neutral_outputs_and_says_hello() {
     assert!(matches!(
         r.as_slice(),
         [Reply::Hello {
-            protocol: 1,
+            protocol: 2,
             board: Board::Host,
             lockstep: false,
             control_period_us: 20_000,
@@ -306,6 +306,8 @@ fn invalid_values_are_nacked_and_change_nothing() {
     g_nan.paper_xz.k = f32::NAN;
     let mut g_neg = Gains::default();
     g_neg.paper_xy.k = -1.0;
+    let mut g_trk_nan = Gains::default();
+    g_trk_nan.tracking.xy_kd = f32::NAN;
     let cases: Vec<(Command, NackReason)> = vec![
         (bad_nav(&|s| s.x_m = f32::NAN), NackReason::NonFinite),
         (
@@ -318,8 +320,24 @@ fn invalid_values_are_nacked_and_change_nothing() {
         ),
         (bad_nav(&|s| s.u_m_s = 1e3), NackReason::OutOfRange),
         (bad_nav(&|s| s.z_m = -1e9), NackReason::OutOfRange),
-        (Command::SetGains(g_nan), NackReason::NonFinite),
-        (Command::SetGains(g_neg), NackReason::NotPositive),
+        (
+            Command::SetPaperGains {
+                xz: g_nan.paper_xz,
+                xy: g_nan.paper_xy,
+            },
+            NackReason::NonFinite,
+        ),
+        (
+            Command::SetPaperGains {
+                xz: g_neg.paper_xz,
+                xy: g_neg.paper_xy,
+            },
+            NackReason::NotPositive,
+        ),
+        (
+            Command::SetTrackingGains(g_trk_nan.tracking),
+            NackReason::NonFinite,
+        ),
         (
             Command::SetReference {
                 reference: Reference::Paper(PaperPolynomial {
