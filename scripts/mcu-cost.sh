@@ -111,7 +111,7 @@ echo "== libm comparison: cargo build -p mcu-bench --release --target $TARGET --
 cargo build -q -p mcu-bench --release --target "$TARGET" --features libm-compare
 cp "$TDIR/$TARGET/release/mcu-bench" "$OUT/mcu-bench-libm.elf"
 run_qemu "$OUT/mcu-bench-libm.elf" "$OUT/bench-libm.log"
-grep -E '^BENCH (libm|math)\.' "$OUT/bench-libm.log"
+grep -E '^(BENCH (libm|math|micromath)\.|ACCURACY )' "$OUT/bench-libm.log"
 echo "   (that image links $(soft_f64_symbols "$OUT/mcu-bench-libm.elf" | wc -l) soft-f64 helpers, through libm::sinf only)"
 
 # ---- 4. the STM32F4 firmware image --------------------------------------------------------

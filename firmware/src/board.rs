@@ -336,9 +336,26 @@ where
     );
     let mut armed = false;
     let mut faults = 0u16;
+    let mut next_status_us = 0u64;
     loop {
         app.tick();
         watchdog.feed();
+        // Once a second while armed: what a pilot watching the defmt log wants to see.
+        let now = app.now_us();
+        if app.autopilot().armed() && now >= next_status_us {
+            next_status_us = now + 1_000_000;
+            let e = app.last_output().errors;
+            // Display only, so micromath's cheap approximations are enough here (its sqrt is
+            // within a few per cent); the laws use controller-core's accurate f32 maths.
+            let err_m = micromath::F32Ext::sqrt(e.x_m * e.x_m + e.y_m * e.y_m + e.z_m * e.z_m);
+            defmt::info!(
+                "t {=u64:us}: position error ~{=f32} m, yaw error ~{=f32} deg, duties {}",
+                now,
+                err_m,
+                e.yaw_rad * (180.0 / core::f32::consts::PI),
+                app.duties()
+            );
+        }
         let a = app.autopilot().armed();
         let f = app.last_output().faults & !crate::protocol::fault::SATURATED;
         if a != armed || f != faults {

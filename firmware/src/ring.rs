@@ -1,13 +1,14 @@
-//! A byte ring buffer for the serial receive interrupt (single producer, single consumer;
-//! the board wraps it in a critical section).
+//! The byte queue between the serial receive interrupt and the main loop: a
+//! `heapless::Deque` (fixed capacity, no allocation) plus a count of the bytes it had to drop.
+//! The board wraps it in a critical section (single producer, single consumer).
 
-/// Ring buffer of `N` bytes; when full, new bytes are dropped and counted.
+use heapless::Deque;
+
+/// Queue of up to `N` bytes; when full, new bytes are dropped and counted.
 #[derive(Debug, Clone)]
 pub struct Ring<const N: usize> {
-    buf: [u8; N],
-    head: usize,
-    len: usize,
-    /// Bytes dropped because the ring was full.
+    bytes: Deque<u8, N>,
+    /// Bytes dropped because the queue was full.
     pub overruns: u32,
 }
 
@@ -21,33 +22,25 @@ impl<const N: usize> Ring<N> {
     /// Empty.
     pub const fn new() -> Self {
         Self {
-            buf: [0; N],
-            head: 0,
-            len: 0,
+            bytes: Deque::new(),
             overruns: 0,
         }
     }
 
     /// Bytes waiting.
     pub fn len(&self) -> usize {
-        self.len
+        self.bytes.len()
     }
 
     /// Nothing waiting?
     pub fn is_empty(&self) -> bool {
-        self.len == 0
+        self.bytes.is_empty()
     }
 
     /// Append a byte (dropped and counted when full).
     pub fn push(&mut self, b: u8) {
-        if self.len >= N {
+        if self.bytes.push_back(b).is_err() {
             self.overruns = self.overruns.wrapping_add(1);
-            return;
-        }
-        let i = (self.head + self.len) % N;
-        if let Some(slot) = self.buf.get_mut(i) {
-            *slot = b;
-            self.len += 1;
         }
     }
 
@@ -55,14 +48,10 @@ impl<const N: usize> Ring<N> {
     pub fn pop_into(&mut self, out: &mut [u8]) -> usize {
         let mut n = 0;
         for o in out.iter_mut() {
-            if self.len == 0 {
-                break;
+            match self.bytes.pop_front() {
+                Some(b) => *o = b,
+                None => break,
             }
-            if let Some(b) = self.buf.get(self.head) {
-                *o = *b;
-            }
-            self.head = (self.head + 1) % N;
-            self.len -= 1;
             n += 1;
         }
         n
@@ -80,6 +69,7 @@ mod tests {
             r.push(b);
         }
         assert_eq!(r.overruns, 2);
+        assert_eq!(r.len(), 4);
         let mut o = [0u8; 3];
         assert_eq!(r.pop_into(&mut o), 3);
         assert_eq!(o, [1, 2, 3]);
@@ -89,5 +79,6 @@ mod tests {
         assert_eq!(r.pop_into(&mut o), 3);
         assert_eq!(&o[..3], &[4, 7, 8]);
         assert!(r.is_empty());
+        assert_eq!(r.pop_into(&mut o), 0);
     }
 }
