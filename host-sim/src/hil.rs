@@ -295,6 +295,53 @@ impl QemuChild {
     }
 }
 
+/// The firmware's `qemu` image for the emulated-board tests: `Ok(None)` when
+/// `qemu-system-arm` is not installed (the caller skips), else the image named by
+/// `HIL_FIRMWARE_ELF`, else the image built from the workspace at `root` into
+/// `<target>/hil-firmware` (`target` = `CARGO_TARGET_DIR` or `root/target`), so that a test
+/// never runs a stale image. Cargo rebuilds only what changed.
+pub fn qemu_firmware_image(root: &Path) -> Result<Option<PathBuf>> {
+    let qemu_ok = std::process::Command::new("qemu-system-arm")
+        .arg("--version")
+        .output()
+        .map(|o| o.status.success())
+        .unwrap_or(false);
+    if !qemu_ok {
+        return Ok(None);
+    }
+    if let Some(p) = std::env::var_os("HIL_FIRMWARE_ELF") {
+        return Ok(Some(PathBuf::from(p)));
+    }
+    let target = std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| root.join("target"));
+    let dir = if target.is_absolute() {
+        target.join("hil-firmware")
+    } else {
+        root.join(target).join("hil-firmware")
+    };
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let st = std::process::Command::new(cargo)
+        .current_dir(root)
+        .args([
+            "build",
+            "-q",
+            "-p",
+            "firmware",
+            "--release",
+            "--bin",
+            "qemu",
+        ])
+        .args(["--target", "thumbv7em-none-eabihf", "--target-dir"])
+        .arg(&dir)
+        .status()
+        .context("running cargo build for the firmware's qemu image")?;
+    if !st.success() {
+        bail!("building the firmware's qemu image failed ({st})");
+    }
+    Ok(Some(dir.join("thumbv7em-none-eabihf/release/qemu")))
+}
+
 /// Start QEMU with the firmware image `elf` and accept its serial connection on a port of
 /// 127.0.0.1 bound here first (no race). The child is killed when the guard is dropped.
 pub fn start_qemu_link(

@@ -3,58 +3,22 @@
 //! Skipped, with a message, when `qemu-system-arm` is not installed.
 
 use firmware::protocol::Reply;
-use host_sim::hil::start_qemu_link;
+use host_sim::hil::{qemu_firmware_image, start_qemu_link};
 use host_sim::link::{console, Link};
 use std::path::{Path, PathBuf};
-use std::process::Command;
 use std::time::Duration;
 
 fn firmware_elf() -> Option<PathBuf> {
-    let qemu_ok = Command::new("qemu-system-arm")
-        .arg("--version")
-        .output()
-        .map(|o| o.status.success())
-        .unwrap_or(false);
-    if !qemu_ok {
+    let elf = qemu_firmware_image(Path::new(env!("CARGO_MANIFEST_DIR")).parent()?)
+        .expect("the firmware's qemu image");
+    if elf.is_none() {
         eprintln!("SKIPPED: qemu-system-arm not found (apt-get install qemu-system-arm)");
         assert!(
             std::env::var_os("ROV_REQUIRE_QEMU").is_none(),
             "ROV_REQUIRE_QEMU is set: the emulated-board test must run"
         );
-        return None;
     }
-    if let Ok(p) = std::env::var("HIL_FIRMWARE_ELF") {
-        return Some(PathBuf::from(p));
-    }
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .unwrap()
-        .to_path_buf();
-    let target = std::env::var_os("CARGO_TARGET_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| root.join("target"));
-    let dir = if target.is_absolute() {
-        target.join("hil-firmware")
-    } else {
-        root.join(target).join("hil-firmware")
-    };
-    let st = Command::new(env!("CARGO"))
-        .current_dir(&root)
-        .args([
-            "build",
-            "-q",
-            "-p",
-            "firmware",
-            "--release",
-            "--bin",
-            "qemu",
-        ])
-        .args(["--target", "thumbv7em-none-eabihf", "--target-dir"])
-        .arg(&dir)
-        .status()
-        .unwrap();
-    assert!(st.success(), "building the firmware's qemu image failed");
-    Some(dir.join("thumbv7em-none-eabihf/release/qemu"))
+    elf
 }
 
 #[test]

@@ -6,12 +6,11 @@
 //! `HIL_FIRMWARE_ELF`).
 
 use firmware::protocol::fault;
-use host_sim::hil::{run_hil, write_hil, HilOptions, HilOutput, HilTarget};
+use host_sim::hil::{qemu_firmware_image, run_hil, write_hil, HilOptions, HilOutput, HilTarget};
 use host_sim::link::NoiseSpec;
 use host_sim::runner::{run, RunOptions};
 use host_sim::scenario::Scenario;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 use std::sync::OnceLock;
 use std::time::Duration;
 
@@ -22,51 +21,20 @@ fn root() -> PathBuf {
         .to_path_buf()
 }
 
-/// The firmware image, or `None` (test skipped) when QEMU is missing.
+/// The firmware image, or `None` (test skipped) when QEMU is missing; built once per test
+/// binary.
 fn firmware_elf() -> Option<PathBuf> {
     static ELF: OnceLock<Option<PathBuf>> = OnceLock::new();
     ELF.get_or_init(|| {
-        let qemu_ok = Command::new("qemu-system-arm")
-            .arg("--version")
-            .output()
-            .map(|o| o.status.success())
-            .unwrap_or(false);
-        if !qemu_ok {
+        let elf = qemu_firmware_image(&root()).expect("the firmware's qemu image");
+        if elf.is_none() {
             eprintln!("SKIPPED: qemu-system-arm not found (apt-get install qemu-system-arm)");
             assert!(
                 std::env::var_os("ROV_REQUIRE_QEMU").is_none(),
                 "ROV_REQUIRE_QEMU is set: the emulated-board test must run"
             );
-            return None;
         }
-        if let Ok(p) = std::env::var("HIL_FIRMWARE_ELF") {
-            return Some(PathBuf::from(p));
-        }
-        let target = std::env::var_os("CARGO_TARGET_DIR")
-            .map(PathBuf::from)
-            .unwrap_or_else(|| root().join("target"));
-        let dir = if target.is_absolute() {
-            target.join("hil-firmware")
-        } else {
-            root().join(target).join("hil-firmware")
-        };
-        let st = Command::new(env!("CARGO"))
-            .current_dir(root())
-            .args([
-                "build",
-                "-q",
-                "-p",
-                "firmware",
-                "--release",
-                "--bin",
-                "qemu",
-            ])
-            .args(["--target", "thumbv7em-none-eabihf", "--target-dir"])
-            .arg(&dir)
-            .status()
-            .expect("cargo build of the firmware image");
-        assert!(st.success(), "building the firmware's qemu image failed");
-        Some(dir.join("thumbv7em-none-eabihf/release/qemu"))
+        elf
     })
     .clone()
 }

@@ -25,34 +25,13 @@ use std::process::{Child, Command as Proc, Stdio};
 use std::time::{Duration, Instant};
 
 /// The firmware's `qemu` image, built from the current sources (so a protocol change can
-/// never be tested against a stale image) into `<target>/hil-firmware`, the directory the
-/// host-sim HIL tests build into too. `None` when it cannot be built.
+/// never be tested against a stale image) by the helper the host-sim HIL tests use.
 fn image() -> Option<PathBuf> {
     if let Some(p) = std::env::var_os("ROV_QEMU_ELF") {
         return Some(PathBuf::from(p));
     }
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).parent()?;
-    // target/<profile>/deps/qemu-<hash> -> target
-    let exe = std::env::current_exe().ok()?;
-    let target = exe.parent()?.parent()?.parent()?;
-    let dir = target.join("hil-firmware");
-    let built = Proc::new(env!("CARGO"))
-        .current_dir(root)
-        .args([
-            "build",
-            "-q",
-            "-p",
-            "firmware",
-            "--release",
-            "--bin",
-            "qemu",
-        ])
-        .args(["--target", "thumbv7em-none-eabihf", "--target-dir"])
-        .arg(&dir)
-        .status()
-        .ok()?;
-    assert!(built.success(), "building the firmware's qemu image failed");
-    Some(dir.join("thumbv7em-none-eabihf/release/qemu"))
+    host_sim::hil::qemu_firmware_image(root).expect("the firmware's qemu image")
 }
 
 /// Kills QEMU when the test ends, also on a panic.
