@@ -375,7 +375,8 @@ pub fn encode<'a, M: Serialize>(
 ///
 /// Works in `out` alone, without a scratch buffer: postcard writes the payload at
 /// [`PAYLOAD_OFFSET`], the CRC goes right after it, and COBS encodes the body in place,
-/// forwards, into `out[1..]` (see [`cobs_encode_in_place`] for why that is safe).
+/// forwards, into `out[1..]`, in the same pass as the CRC (`cobs_encode_in_place`'s comment
+/// says why that is safe).
 pub fn encode_with_version<'a, M: Serialize>(
     version: u8,
     seq: u16,
