@@ -201,6 +201,19 @@ pub fn min(a: f32, b: f32) -> f32 {
     }
 }
 
+/// Clamp `x` into `[lo, hi]` and keep a NaN (as `f32::clamp`, without its `lo <= hi`
+/// assertion): for iterations whose caller tests the result for NaN.
+#[inline(always)]
+pub fn clamp_keep_nan(x: f32, lo: f32, hi: f32) -> f32 {
+    if x < lo {
+        lo
+    } else if x > hi {
+        hi
+    } else {
+        x
+    }
+}
+
 /// Clamp `x` into `[lo, hi]`, mapping NaN to the point of the range nearest zero: a NaN must
 /// never reach a thruster.
 #[inline]
@@ -291,6 +304,10 @@ mod tests {
         assert_eq!(clamp(f32::NAN, -1.0, 2.0), -1.0);
         assert_eq!(clamp_nan_safe(f32::NAN, -1.0, 2.0), 0.0);
         assert_eq!(clamp_nan_safe(f32::NAN, 1.0, 2.0), 1.0);
+        assert!(clamp_keep_nan(f32::NAN, -1.0, 2.0).is_nan());
+        for x in [-3.0f32, -1.0, 0.5, 2.0, 7.0] {
+            assert_eq!(clamp_keep_nan(x, -1.0, 2.0), x.clamp(-1.0, 2.0));
+        }
     }
 
     fn sqrt_rel_err(x: f32) -> f64 {

@@ -341,12 +341,13 @@ where
         app.tick();
         watchdog.feed();
         // Once a second while armed: what a pilot watching the defmt log wants to see.
-        let now = app.now_us();
-        if app.autopilot().armed() && now >= next_status_us {
+        if app.autopilot().armed() && app.now_us() >= next_status_us {
+            let now = app.now_us();
             next_status_us = now + 1_000_000;
             let e = app.last_output().errors;
             // Display only, so micromath's cheap approximations are enough here (its sqrt is
-            // within a few per cent); the laws use controller-core's accurate f32 maths.
+            // an approximation of a few per cent by its documentation; not measured here);
+            // the laws use controller-core's accurate f32 maths.
             let err_m = micromath::F32Ext::sqrt(e.x_m * e.x_m + e.y_m * e.y_m + e.z_m * e.z_m);
             defmt::info!(
                 "t {=u64:us}: position error ~{=f32} m, yaw error ~{=f32} deg, duties {}",

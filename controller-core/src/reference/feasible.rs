@@ -21,7 +21,7 @@
 //! conditions needs the pitch `theta = -asin(a / g)` (`u1_dot = -g sin(theta)`, MODEL_NOTES
 //! section 3): [`pitch_for_accel`].
 
-use crate::math::{asin, atan2, max, sin_cos_small, sqrt};
+use crate::math::{asin, atan2, clamp_keep_nan, max, sin_cos_small, sqrt};
 use crate::params::{XyCoeffs, XzCoeffs};
 use crate::reference::RefSample;
 
@@ -85,18 +85,6 @@ pub(crate) fn course_of(r: &RefSample, vx: f32, vy: f32, u2: f32) -> Option<Cour
         })
     } else {
         None
-    }
-}
-
-/// `x` clamped into `[lo, hi]`, NaN kept (as `f32::clamp`, without its assertion).
-#[inline(always)]
-fn clamp_keep_nan(x: f32, lo: f32, hi: f32) -> f32 {
-    if x < lo {
-        lo
-    } else if x > hi {
-        hi
-    } else {
-        x
     }
 }
 

@@ -207,10 +207,8 @@ impl TrackingState {
     pub fn on_allocation(&mut self, requested: &BodyForces, achieved: &BodyForces) {
         // Off by more than the tolerance, or NaN (the comparison is false then).
         let off = |r: f32, a: f32| {
-            !matches!(
-                (r - a).abs().partial_cmp(&(1e-3 * (1.0 + r.abs()))),
-                Some(core::cmp::Ordering::Less | core::cmp::Ordering::Equal)
-            )
+            let within = (r - a).abs() <= 1e-3 * (1.0 + r.abs());
+            !within
         };
         self.surge_sat = off(requested.surge_n, achieved.surge_n);
         self.yaw_sat = off(requested.yaw_n_m, achieved.yaw_n_m);
