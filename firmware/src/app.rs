@@ -15,8 +15,8 @@
 
 use crate::autopilot::{Autopilot, Failsafe, StepOutput};
 use crate::protocol::{
-    encode, fault, Board, Command, Decoded, DropReason, FrameDecoder, LinkStats, NackReason, Reply,
-    Telemetry, MAX_FRAME_LEN,
+    encode, encode_telemetry, fault, Board, Command, Decoded, DropReason, EncodeError,
+    FrameDecoder, LinkStats, NackReason, Reply, Telemetry, MAX_FRAME_LEN,
 };
 use controller_core::controller::Controller;
 use embedded_hal::pwm::SetDutyCycle;
@@ -495,7 +495,11 @@ where
 
     fn send_telemetry(&mut self, now: u64) {
         let t = self.telemetry(now);
-        self.send(&Reply::Telemetry(t));
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let seq = self.next_tx_seq();
+        // The same bytes as `encode(seq, &Reply::Telemetry(t), ..)`, written by hand.
+        let frame = encode_telemetry(seq, &t, &mut buf);
+        self.write_frame(frame);
     }
 
     fn nack(&mut self, seq: u16, reason: NackReason) {
@@ -505,9 +509,19 @@ where
 
     fn send(&mut self, reply: &Reply) {
         let mut buf = [0u8; MAX_FRAME_LEN];
+        let seq = self.next_tx_seq();
+        let frame = encode(seq, reply, &mut buf);
+        self.write_frame(frame);
+    }
+
+    fn next_tx_seq(&mut self) -> u16 {
         let seq = self.tx_seq;
         self.tx_seq = self.tx_seq.wrapping_add(1);
-        let Ok(frame) = encode(seq, reply, &mut buf) else {
+        seq
+    }
+
+    fn write_frame(&mut self, frame: Result<&[u8], EncodeError>) {
+        let Ok(frame) = frame else {
             // Every reply fits (tested); never reached.
             self.io_faults |= fault::SERIAL_ERROR;
             return;

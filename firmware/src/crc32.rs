@@ -47,10 +47,37 @@ pub fn finish(crc: u32) -> u32 {
     crc ^ 0xFFFF_FFFF
 }
 
+/// Fold four bytes, read as a little-endian word, into the register: the same as
+/// [`update`] with each byte in turn (the register is reflected, so the word's bytes line up
+/// with the register's, least significant first), one load instead of four.
+#[inline(always)]
+fn update_word(crc: u32, word: u32) -> u32 {
+    // Written out: the firmware crate is built for size, which would keep a loop here.
+    let c = crc ^ word;
+    let c = shift(c);
+    let c = shift(c);
+    let c = shift(c);
+    shift(c)
+}
+
+/// One byte's worth of the register shifted out through the table.
+#[inline(always)]
+fn shift(c: u32) -> u32 {
+    // The index is masked to 0..=255: the lookup cannot miss.
+    TABLE.get((c & 0xFF) as usize).copied().unwrap_or(0) ^ (c >> 8)
+}
+
 /// CRC-32 of `bytes`.
 #[inline]
 pub fn checksum(bytes: &[u8]) -> u32 {
-    finish(bytes.iter().fold(INIT, |c, &b| update(c, b)))
+    let mut words = bytes.chunks_exact(4);
+    let mut crc = INIT;
+    for w in &mut words {
+        if let Ok(w) = <[u8; 4]>::try_from(w) {
+            crc = update_word(crc, u32::from_le_bytes(w));
+        }
+    }
+    finish(words.remainder().iter().fold(crc, |c, &b| update(c, b)))
 }
 
 #[cfg(test)]

@@ -389,31 +389,79 @@ pub fn encode_with_version<'a, M: Serialize>(
     let n = postcard::to_slice(&env, payload)
         .map_err(|_| EncodeError::TooLong)?
         .len();
-    // One pass over the payload computes the CRC and turns its zero bytes into COBS code
-    // bytes (see `CobsInPlace`); then the CRC goes after it and is COBS-encoded too.
-    let body_end = PAYLOAD_OFFSET + n;
+    Ok(seal(out, n))
+}
+
+/// [`encode`] for `Reply::Telemetry(*t)`, the reply of every control step: the same bytes,
+/// written by [`crate::wire`]'s hand-written postcard encoder instead of serde (about
+/// 1,100 instructions less on the Cortex-M4; tested equal to [`encode`]).
+pub fn encode_telemetry<'a>(
+    seq: u16,
+    t: &Telemetry,
+    out: &'a mut [u8; MAX_FRAME_LEN],
+) -> Result<&'a [u8], EncodeError> {
+    let (_, tail) = out.split_at_mut(PAYLOAD_OFFSET);
+    let (payload, _) = tail.split_at_mut(MAX_PAYLOAD_LEN);
+    let mut w = crate::wire::Writer::new(payload);
+    w.telemetry_envelope(PROTOCOL_VERSION, seq, t);
+    let n = w.finish().ok_or(EncodeError::TooLong)?;
+    Ok(seal(out, n))
+}
+
+/// True when one of the four bytes of `w` is zero (the classic bit trick: a byte's borrow
+/// reaches its top bit only if the byte was zero).
+#[inline(always)]
+fn has_zero_byte(w: u32) -> bool {
+    w.wrapping_sub(0x0101_0101) & !w & 0x8080_8080 != 0
+}
+
+/// The four bytes at `buf[i..i + 4]` as a little-endian word, if they are in `buf`.
+#[inline(always)]
+fn word_at(buf: &[u8], i: usize) -> Option<u32> {
+    let b = buf.get(i..i + 4)?;
+    <[u8; 4]>::try_from(b).ok().map(u32::from_le_bytes)
+}
+
+/// Finish a frame whose `n`-byte postcard payload (`n <= MAX_PAYLOAD_LEN`) is at
+/// `out[PAYLOAD_OFFSET..]`: append the CRC, COBS-encode payload and CRC in place into
+/// `out[1..]` (see `CobsInPlace`) and put a delimiter at both ends. Returns the frame.
+///
+/// The COBS scan reads a word at a time and looks at single bytes only in words that hold
+/// a zero.
+fn seal(out: &mut [u8; MAX_FRAME_LEN], n: usize) -> &[u8] {
+    let body_end = PAYLOAD_OFFSET + n.min(MAX_PAYLOAD_LEN);
+    let crc = crc32::checksum(out.get(PAYLOAD_OFFSET..body_end).unwrap_or_default());
+    let end = body_end + CRC_LEN;
+    if let Some(d) = out.get_mut(body_end..end) {
+        d.copy_from_slice(&crc.to_le_bytes());
+    }
     let mut cobs = CobsInPlace::new();
-    let mut crc = crc32::INIT;
-    for i in PAYLOAD_OFFSET..body_end.min(MAX_FRAME_LEN) {
-        let b = out.get(i).copied().unwrap_or(0);
-        crc = crc32::update(crc, b);
-        cobs.byte(out, i, b);
-    }
-    for (k, b) in crc32::finish(crc).to_le_bytes().into_iter().enumerate() {
-        let i = body_end + k;
-        if let Some(d) = out.get_mut(i) {
-            *d = b;
+    let mut i = PAYLOAD_OFFSET;
+    while i + 4 <= end {
+        if let Some(w) = word_at(out, i) {
+            if has_zero_byte(w) {
+                let [b0, b1, b2, b3] = w.to_le_bytes();
+                cobs.byte(out, i, b0);
+                cobs.byte(out, i + 1, b1);
+                cobs.byte(out, i + 2, b2);
+                cobs.byte(out, i + 3, b3);
+            }
         }
-        cobs.byte(out, i, b);
+        i += 4;
     }
-    let len = cobs.finish(out, body_end + CRC_LEN);
+    while i < end {
+        let b = out.get(i).copied().unwrap_or(0);
+        cobs.byte(out, i, b);
+        i += 1;
+    }
+    let len = cobs.finish(out, end);
     if let Some(d) = out.first_mut() {
         *d = 0;
     }
     if let Some(d) = out.get_mut(len + 1) {
         *d = 0;
     }
-    Ok(out.get(..len + 2).unwrap_or(&[]))
+    out.get(..len + 2).unwrap_or(&[])
 }
 
 /// Where [`encode_with_version`] puts the payload in the frame buffer: one byte for the
@@ -669,7 +717,32 @@ impl<M> FrameDecoder<M> {
     }
 }
 
-impl<M: DeserializeOwned> FrameDecoder<M> {
+/// A message type the [`FrameDecoder`] decodes: with postcard, or with a hand-written
+/// reader for a payload that reader recognizes.
+pub trait Message: DeserializeOwned {
+    /// The sequence number and the message of a payload (an [`Envelope`] whose version was
+    /// checked) when a hand-written reader recognizes it; it must decode exactly as
+    /// postcard would. `None` lets postcard decode the payload.
+    #[inline(always)]
+    fn fast_decode(_payload: &[u8]) -> Option<(u16, Self)> {
+        None
+    }
+}
+
+/// `Command::Nav`, the command of every control step, is read by [`crate::wire`]
+/// (about 250 instructions less on the Cortex-M4; tested against postcard).
+impl Message for Command {
+    #[inline(always)]
+    fn fast_decode(payload: &[u8]) -> Option<(u16, Self)> {
+        crate::wire::nav_envelope(payload)
+    }
+}
+
+/// The topside decodes every reply with postcard (so each telemetry frame the firmware
+/// writes by hand is checked against postcard's decoder).
+impl Message for Reply {}
+
+impl<M: Message> FrameDecoder<M> {
     /// Feed one byte. Returns `Some` at a delimiter that ended a non-empty frame.
     #[cfg_attr(feature = "no-panic", no_panic::no_panic)]
     pub fn push(&mut self, byte: u8) -> Option<Decoded<M>> {
@@ -696,9 +769,21 @@ impl<M: DeserializeOwned> FrameDecoder<M> {
         let mut copied = 0usize;
         let mut delimiter = None;
         if !self.overflowed {
-            // Copy up to the first zero in one pass (scan and copy fused).
+            // Copy up to the first zero in one pass (scan and copy fused): four bytes at a
+            // time while they hold no zero, then byte by byte.
             let room = self.buf.get_mut(self.len..).unwrap_or_default();
-            for (slot, &b) in room.iter_mut().zip(all) {
+            for (d, s) in room.chunks_exact_mut(4).zip(all.chunks_exact(4)) {
+                let Ok(w) = <[u8; 4]>::try_from(s) else {
+                    break;
+                };
+                if has_zero_byte(u32::from_le_bytes(w)) {
+                    break;
+                }
+                d.copy_from_slice(&w);
+                copied += 4;
+            }
+            let room = room.get_mut(copied..).unwrap_or_default();
+            for (slot, &b) in room.iter_mut().zip(all.get(copied..).unwrap_or_default()) {
                 if b == 0 {
                     delimiter = Some(copied);
                     break;
@@ -773,6 +858,10 @@ impl<M: DeserializeOwned> FrameDecoder<M> {
         if header.version != PROTOCOL_VERSION {
             return Some(self.drop_frame(DropReason::Version, Some(header.seq)));
         }
+        if let Some((seq, msg)) = M::fast_decode(payload) {
+            self.frames = self.frames.wrapping_add(1);
+            return Some(Decoded::Frame { seq, msg });
+        }
         match postcard::from_bytes::<Envelope<M>>(payload) {
             Ok(env) => {
                 self.frames = self.frames.wrapping_add(1);
@@ -792,7 +881,7 @@ impl<M: DeserializeOwned> FrameDecoder<M> {
 }
 
 /// Decode one complete frame (with or without its trailing delimiter) in one call.
-pub fn decode_frame<M: DeserializeOwned>(frame: &[u8]) -> Option<Decoded<M>> {
+pub fn decode_frame<M: Message>(frame: &[u8]) -> Option<Decoded<M>> {
     let mut d = FrameDecoder::<M>::new();
     let mut last = None;
     for &b in frame.iter().chain(core::iter::once(&0u8)) {
@@ -870,6 +959,7 @@ mod tests {
         // Arrays are postcard tuples (no length prefix): 7 x 32 + 22 = 246 bytes.
         #[derive(Serialize, Deserialize, Debug, PartialEq)]
         struct Blob([[u8; 32]; 7], [u8; 22]);
+        impl Message for Blob {}
         for fill in [0u8, 7, 0xFF] {
             let blob = Blob([[fill; 32]; 7], [fill; 22]);
             let mut out = [0u8; MAX_FRAME_LEN];

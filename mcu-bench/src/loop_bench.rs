@@ -13,8 +13,8 @@ use controller_core::reference::{PaperPolynomial, Reference};
 use controller_core::state::NavState;
 use core::convert::Infallible;
 use firmware::protocol::{
-    encode, Board, Command, Decoded, FrameDecoder, Law, Mode, NavSample, Plane, Reply, Telemetry,
-    MAX_FRAME_LEN,
+    encode, encode_telemetry, Board, Command, Decoded, FrameDecoder, Law, Mode, NavSample, Plane,
+    Reply, Telemetry, MAX_FRAME_LEN,
 };
 use firmware::{App, Config, Monotonic};
 
@@ -220,12 +220,14 @@ pub fn run_loop<P: Platform>(b: &Bench<'_, P>, p: &P) {
             t.thrust_n = [jitter(i) * 30.0, -jitter(i) * 20.0, 5.0];
             t.pulse_us = [1500 + i as u16 % 300, 1500 - i as u16 % 300, 1600];
             t.errors.x_m = 0.01 * jitter(i);
-            Reply::Telemetry(t)
+            t
         },
-        |reply| {
+        |t| {
             let mut out = [0u8; MAX_FRAME_LEN];
             seq = seq.wrapping_add(1);
-            encode(seq, reply, &mut out).map(|f| f.len()).unwrap_or(0)
+            encode_telemetry(seq, t, &mut out)
+                .map(|f| f.len())
+                .unwrap_or(0)
         },
     );
 
