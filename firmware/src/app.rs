@@ -18,6 +18,7 @@ use crate::protocol::{
     encode, encode_telemetry, fault, Board, Command, Decoded, DropReason, EncodeError,
     FrameDecoder, LinkStats, NackReason, Reply, Telemetry, MAX_FRAME_LEN,
 };
+use controller_core::alloc::PwmMap;
 use controller_core::controller::Controller;
 use embedded_hal::pwm::SetDutyCycle;
 use embedded_io::{Read, ReadReady, Write};
@@ -175,6 +176,8 @@ pub struct App<P1, P2, P3, S, C> {
     autopilot: Autopilot,
     decoder: FrameDecoder<Command>,
     tx_seq: u16,
+    /// The frame being sent (kept here, not on the stack: not zeroed for every frame).
+    tx_buf: [u8; MAX_FRAME_LEN],
     link: LinkStats,
     host_time_us: u64,
     next_control_us: Option<u64>,
@@ -217,30 +220,40 @@ where
         {
             return Err(ConfigError::ControlPeriod);
         }
-        let autopilot = Autopilot::new(controller, config.failsafe);
-        let mut app = Self {
+        // Neutral on the three outputs before anything else, then the `App` is built in
+        // its final place (no moves of it: it holds two frame buffers, see `build_app` in
+        // `board.rs` for why that matters to the stack).
+        let mut pwm = pwm;
+        let neutral = StepOutput {
+            pulse_us: [controller.pwm_map().neutral_us; 3],
+            ..StepOutput::default()
+        };
+        let (duty, ok) = set_duties(
+            &mut pwm,
+            controller.pwm_map(),
+            config.pwm_period_us(),
+            neutral.pulse_us,
+        );
+        Ok(Self {
             pwm,
             serial,
             clock,
             config,
-            autopilot,
+            autopilot: Autopilot::new(controller, config.failsafe),
             decoder: FrameDecoder::new(),
             tx_seq: 0,
+            tx_buf: [0; MAX_FRAME_LEN],
             link: LinkStats::default(),
             host_time_us: 0,
             next_control_us: None,
             next_telemetry_us: 0,
-            last: StepOutput::default(),
-            duty: [0; 3],
-            io_faults: 0,
+            last: neutral,
+            duty,
+            io_faults: if ok { 0 } else { fault::PWM_ERROR },
             loop_ticks: 0,
             loop_ticks_max: 0,
             overruns: 0,
-        };
-        let neutral = app.neutral_output();
-        app.write_pwm(&neutral);
-        app.last = neutral;
-        Ok(app)
+        })
     }
 
     /// Send the `Hello` frame (call once at boot, after the serial port is up).
@@ -446,20 +459,11 @@ where
     fn write_pwm(&mut self, out: &StepOutput) {
         let map = *self.autopilot.controller().pwm_map();
         let period = self.config.pwm_period_us();
-        let [p1, p2, p3] = out.pulse_us;
-        let d = |p: f32, max: u16| {
-            duty_for_pulse(p, map.min_us, map.neutral_us, map.max_us, period, max)
-        };
-        let d1 = d(p1, self.pwm.0.max_duty_cycle());
-        let d2 = d(p2, self.pwm.1.max_duty_cycle());
-        let d3 = d(p3, self.pwm.2.max_duty_cycle());
-        let ok = self.pwm.0.set_duty_cycle(d1).is_ok()
-            & self.pwm.1.set_duty_cycle(d2).is_ok()
-            & self.pwm.2.set_duty_cycle(d3).is_ok();
+        let (duty, ok) = set_duties(&mut self.pwm, &map, period, out.pulse_us);
         if !ok {
             self.io_faults |= fault::PWM_ERROR;
         }
-        self.duty = [d1, d2, d3];
+        self.duty = duty;
     }
 
     /// Telemetry as it would be sent now.
@@ -495,11 +499,10 @@ where
 
     fn send_telemetry(&mut self, now: u64) {
         let t = self.telemetry(now);
-        let mut buf = [0u8; MAX_FRAME_LEN];
         let seq = self.next_tx_seq();
         // The same bytes as `encode(seq, &Reply::Telemetry(t), ..)`, written by hand.
-        let frame = encode_telemetry(seq, &t, &mut buf);
-        self.write_frame(frame);
+        let frame = encode_telemetry(seq, &t, &mut self.tx_buf);
+        write_frame(&mut self.serial, frame, &mut self.io_faults, &mut self.link);
     }
 
     fn nack(&mut self, seq: u16, reason: NackReason) {
@@ -508,10 +511,9 @@ where
     }
 
     fn send(&mut self, reply: &Reply) {
-        let mut buf = [0u8; MAX_FRAME_LEN];
         let seq = self.next_tx_seq();
-        let frame = encode(seq, reply, &mut buf);
-        self.write_frame(frame);
+        let frame = encode(seq, reply, &mut self.tx_buf);
+        write_frame(&mut self.serial, frame, &mut self.io_faults, &mut self.link);
     }
 
     fn next_tx_seq(&mut self) -> u16 {
@@ -519,23 +521,54 @@ where
         self.tx_seq = self.tx_seq.wrapping_add(1);
         seq
     }
+}
 
-    fn write_frame(&mut self, frame: Result<&[u8], EncodeError>) {
-        let Ok(frame) = frame else {
-            // Every reply fits (tested); never reached.
-            self.io_faults |= fault::SERIAL_ERROR;
-            return;
-        };
-        let mut rest = frame;
-        while !rest.is_empty() {
-            match self.serial.write(rest) {
-                Ok(n) if n > 0 => rest = rest.get(n..).unwrap_or(&[]),
-                _ => {
-                    self.io_faults |= fault::SERIAL_ERROR;
-                    return;
-                }
+/// Write the duty cycles for `pulse_us` (ESC pulse widths, microseconds) to the three
+/// outputs; returns the duties and whether every output took its duty.
+fn set_duties<P1, P2, P3>(
+    pwm: &mut (P1, P2, P3),
+    map: &PwmMap,
+    period_us: u32,
+    pulse_us: [f32; 3],
+) -> ([u16; 3], bool)
+where
+    P1: SetDutyCycle,
+    P2: SetDutyCycle,
+    P3: SetDutyCycle,
+{
+    let [p1, p2, p3] = pulse_us;
+    let d = |p: f32, max: u16| {
+        duty_for_pulse(p, map.min_us, map.neutral_us, map.max_us, period_us, max)
+    };
+    let d1 = d(p1, pwm.0.max_duty_cycle());
+    let d2 = d(p2, pwm.1.max_duty_cycle());
+    let d3 = d(p3, pwm.2.max_duty_cycle());
+    let ok = pwm.0.set_duty_cycle(d1).is_ok()
+        & pwm.1.set_duty_cycle(d2).is_ok()
+        & pwm.2.set_duty_cycle(d3).is_ok();
+    ([d1, d2, d3], ok)
+}
+
+/// Write a frame to the serial port (all of it), counting it; a port error or an encoding
+/// error (never: every reply fits, tested) raises [`fault::SERIAL_ERROR`].
+fn write_frame<S: embedded_io::Write>(
+    serial: &mut S,
+    frame: Result<&[u8], EncodeError>,
+    io_faults: &mut u16,
+    link: &mut LinkStats,
+) {
+    let Ok(mut rest) = frame else {
+        *io_faults |= fault::SERIAL_ERROR;
+        return;
+    };
+    while !rest.is_empty() {
+        match serial.write(rest) {
+            Ok(n) if n > 0 => rest = rest.get(n..).unwrap_or(&[]),
+            _ => {
+                *io_faults |= fault::SERIAL_ERROR;
+                return;
             }
         }
-        self.link.tx_frames = self.link.tx_frames.wrapping_add(1);
     }
+    link.tx_frames = link.tx_frames.wrapping_add(1);
 }

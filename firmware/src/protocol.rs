@@ -439,7 +439,10 @@ fn seal(out: &mut [u8; MAX_FRAME_LEN], n: usize) -> &[u8] {
     let mut i = PAYLOAD_OFFSET;
     while i + 4 <= end {
         if let Some(w) = word_at(out, i) {
-            if has_zero_byte(w) {
+            if w == 0 {
+                // Four zero bytes (a 0.0, or zero counters): common in telemetry.
+                cobs.zero_word(out, i);
+            } else if has_zero_byte(w) {
                 let [b0, b1, b2, b3] = w.to_le_bytes();
                 cobs.byte(out, i, b0);
                 cobs.byte(out, i + 1, b1);
@@ -512,6 +515,20 @@ impl CobsInPlace {
             }
             self.code_idx = i;
         }
+    }
+
+    /// Body bytes `buf[i..i + 4]` are all zero: the same as four calls of [`byte`](Self::byte)
+    /// with `b = 0`. The first three become code bytes 1 (the next zero follows at once),
+    /// the fourth is the open code byte.
+    #[inline(always)]
+    fn zero_word(&mut self, buf: &mut [u8], i: usize) {
+        if let Some(c) = buf.get_mut(self.code_idx) {
+            *c = (i - self.code_idx) as u8;
+        }
+        if let Some(c) = buf.get_mut(i..i + 3) {
+            c.copy_from_slice(&[1, 1, 1]);
+        }
+        self.code_idx = i + 3;
     }
 
     /// Close the last code byte at the body's end; returns the encoded length.
@@ -949,6 +966,34 @@ mod tests {
                 let got = cobs_encode_in_place(&mut buf, n);
                 assert_eq!(got, m, "n {n}");
                 assert_eq!(&buf[1..1 + got], &want[..m], "n {n}");
+            }
+        }
+    }
+
+    #[test]
+    fn seal_equals_crc_then_reference_cobs() {
+        // `seal` scans words and shortcuts all-zero words: compare it with the byte-wise
+        // reference on payloads of every length and zero density (runs of zeros included).
+        let mut seed = 0x0BAD_5EEDu32;
+        let mut next = || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 24) as u8
+        };
+        for n in 0..=MAX_PAYLOAD_LEN {
+            for zeros in [0u8, 8, 128, 240, 255] {
+                let body: Vec<u8> = (0..n)
+                    .map(|_| if next() < zeros { 0 } else { next() | 1 })
+                    .collect();
+                let mut with_crc = body.clone();
+                with_crc.extend_from_slice(&crc32::checksum(&body).to_le_bytes());
+                let mut want = [0u8; 400];
+                let m = cobs_encode(&with_crc, &mut want);
+                let mut out = [0xAAu8; MAX_FRAME_LEN];
+                out[PAYLOAD_OFFSET..PAYLOAD_OFFSET + n].copy_from_slice(&body);
+                let frame = seal(&mut out, n);
+                assert_eq!(frame.len(), m + 2, "n {n}");
+                assert_eq!((frame[0], frame[m + 1]), (0, 0), "n {n}");
+                assert_eq!(&frame[1..=m], &want[..m], "n {n} zeros {zeros}");
             }
         }
     }
