@@ -65,21 +65,28 @@ pub mod nav_limits {
 /// Check a navigation state: every field finite and within [`nav_limits`].
 pub fn check_nav(s: &NavState) -> Result<(), NackReason> {
     use nav_limits::*;
-    if !s.is_finite() {
-        return Err(NackReason::NonFinite);
+    // One comparison per field on the path of every good state (`|v| <= lim` is false for
+    // NaN and infinities too); the reason is worked out only for a refused one.
+    let within = |v: f32, lim: f32| v.abs() <= lim;
+    let ok = within(s.x_m, POSITION_M)
+        & within(s.y_m, POSITION_M)
+        & within(s.z_m, POSITION_M)
+        & within(s.roll_rad, ANGLE_RAD)
+        & within(s.pitch_rad, ANGLE_RAD)
+        & within(s.yaw_rad, ANGLE_RAD)
+        & within(s.u_m_s, SPEED_M_S)
+        & within(s.v_m_s, SPEED_M_S)
+        & within(s.w_m_s, SPEED_M_S)
+        & within(s.p_rad_s, RATE_RAD_S)
+        & within(s.q_rad_s, RATE_RAD_S)
+        & within(s.r_rad_s, RATE_RAD_S);
+    if ok {
+        Ok(())
+    } else if !s.is_finite() {
+        Err(NackReason::NonFinite)
+    } else {
+        Err(NackReason::OutOfRange)
     }
-    let groups: [(&[f32], f32); 4] = [
-        (&[s.x_m, s.y_m, s.z_m], POSITION_M),
-        (&[s.roll_rad, s.pitch_rad, s.yaw_rad], ANGLE_RAD),
-        (&[s.u_m_s, s.v_m_s, s.w_m_s], SPEED_M_S),
-        (&[s.p_rad_s, s.q_rad_s, s.r_rad_s], RATE_RAD_S),
-    ];
-    for (vals, lim) in groups {
-        if vals.iter().any(|v| v.abs() > lim) {
-            return Err(NackReason::OutOfRange);
-        }
-    }
-    Ok(())
 }
 
 /// What one step commands.
@@ -439,5 +446,58 @@ pub fn control_mode(plane: Plane, law: Law) -> Option<ControlMode> {
         (Law::Tracking, Plane::Xz) => Some(ControlMode::TrackingXz),
         (Law::Tracking, Plane::Xy) => Some(ControlMode::TrackingXy),
         (Law::Tracking, Plane::ThreeD) => Some(ControlMode::Tracking3d),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Sets one field of a state.
+    type Setter = fn(&mut NavState, f32);
+
+    /// Every field of a state, each with its limit and its setter.
+    fn fields() -> [(f32, Setter); 12] {
+        use nav_limits::*;
+        [
+            (POSITION_M, |s, v| s.x_m = v),
+            (POSITION_M, |s, v| s.y_m = v),
+            (POSITION_M, |s, v| s.z_m = v),
+            (ANGLE_RAD, |s, v| s.roll_rad = v),
+            (ANGLE_RAD, |s, v| s.pitch_rad = v),
+            (ANGLE_RAD, |s, v| s.yaw_rad = v),
+            (SPEED_M_S, |s, v| s.u_m_s = v),
+            (SPEED_M_S, |s, v| s.v_m_s = v),
+            (SPEED_M_S, |s, v| s.w_m_s = v),
+            (RATE_RAD_S, |s, v| s.p_rad_s = v),
+            (RATE_RAD_S, |s, v| s.q_rad_s = v),
+            (RATE_RAD_S, |s, v| s.r_rad_s = v),
+        ]
+    }
+
+    #[test]
+    fn check_nav_names_the_first_reason_for_every_field() {
+        assert_eq!(check_nav(&NavState::default()), Ok(()));
+        for (k, (lim, set)) in fields().into_iter().enumerate() {
+            for (v, want) in [
+                (lim, Ok(())),
+                (-lim, Ok(())),
+                (lim * 1.001, Err(NackReason::OutOfRange)),
+                (-lim * 1.001, Err(NackReason::OutOfRange)),
+                (f32::NAN, Err(NackReason::NonFinite)),
+                (f32::INFINITY, Err(NackReason::NonFinite)),
+                (f32::NEG_INFINITY, Err(NackReason::NonFinite)),
+            ] {
+                let mut s = NavState::default();
+                set(&mut s, v);
+                assert_eq!(check_nav(&s), want, "field {k} = {v}");
+            }
+            // A non-finite field wins over an out-of-range one elsewhere.
+            let mut s = NavState::default();
+            set(&mut s, f32::NAN);
+            let (lim2, set2) = fields()[(k + 1) % 12];
+            set2(&mut s, lim2 * 2.0);
+            assert_eq!(check_nav(&s), Err(NackReason::NonFinite), "field {k}");
+        }
     }
 }
