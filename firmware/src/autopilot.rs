@@ -18,7 +18,7 @@
 use crate::protocol::{fault, Command, Law, ManualThrust, Mode, NackReason, NavSample, Plane};
 use controller_core::alloc::{allocate, Allocation};
 use controller_core::controller::{ControlMode, Controller};
-use controller_core::reference::Reference;
+use controller_core::reference::{RefSample, Reference};
 use controller_core::state::{BodyForces, NavState, TrackingErrors};
 
 /// Failsafe timeouts, microseconds of the firmware's clock.
@@ -87,6 +87,11 @@ pub fn check_nav(s: &NavState) -> Result<(), NackReason> {
     } else {
         Err(NackReason::OutOfRange)
     }
+}
+
+/// Seconds from `start_us` to `now_us` (0 before the start).
+fn seconds_since(now_us: u64, start_us: u64) -> f32 {
+    now_us.saturating_sub(start_us) as f32 * 1e-6
 }
 
 /// What one step commands.
@@ -348,16 +353,20 @@ impl Autopilot {
                 }
                 _ => self.neutral(faults | fault::MANUAL_STALE),
             },
+            // The references are sampled where they are kept (no copy of a `Reference`).
             Mode::Track { plane, law } => {
-                let (Some(cm), Some((r, start))) = (control_mode(plane, law), self.reference)
+                let (Some(cm), Some((r, start))) =
+                    (control_mode(plane, law), self.reference.as_ref())
                 else {
                     return self.neutral(faults);
                 };
-                self.track(now_us, cm, &r, start, dt_s, faults)
+                let sample = r.sample(seconds_since(now_us, *start));
+                self.track(now_us, cm, &sample, dt_s, faults)
             }
-            Mode::Hold => match self.hold {
+            Mode::Hold => match self.hold.as_ref() {
                 Some((r, start)) => {
-                    self.track(now_us, ControlMode::Tracking3d, &r, start, dt_s, faults)
+                    let sample = r.sample(seconds_since(now_us, *start));
+                    self.track(now_us, ControlMode::Tracking3d, &sample, dt_s, faults)
                 }
                 None => self.neutral(faults),
             },
@@ -368,18 +377,17 @@ impl Autopilot {
         &mut self,
         now_us: u64,
         cm: ControlMode,
-        r: &Reference,
-        start_us: u64,
+        sample: &RefSample,
         dt_s: f32,
         faults: u16,
     ) -> StepOutput {
-        let nav = match self.nav {
-            Some(n) if self.nav_fresh(now_us) => n,
+        // The state is read where it is kept (no copy of it).
+        let fresh = self.nav_fresh(now_us);
+        let nav = match &self.nav {
+            Some(n) if fresh => n,
             _ => return self.neutral(faults | fault::NAV_STALE),
         };
-        let t_s = now_us.saturating_sub(start_us) as f32 * 1e-6;
-        let sample = r.sample(t_s);
-        let out = self.controller.step(cm, &nav.sample.state, &sample, dt_s);
+        let out = self.controller.step(cm, &nav.sample.state, sample, dt_s);
         let sat = if out.allocation.saturated {
             fault::SATURATED
         } else {
