@@ -16,7 +16,7 @@
 use crate::autopilot::{Autopilot, Failsafe, StepOutput};
 use crate::protocol::{
     encode, encode_telemetry, fault, Board, Command, Decoded, DropReason, EncodeError,
-    FrameDecoder, LinkStats, NackReason, Reply, Telemetry, MAX_FRAME_LEN,
+    FrameDecoder, LinkStats, NackReason, Reply, Status, Telemetry, MAX_FRAME_LEN,
 };
 use controller_core::alloc::PwmMap;
 use controller_core::controller::Controller;
@@ -413,7 +413,14 @@ where
         match self.autopilot.handle(now, seq, cmd) {
             Err(reason) => self.nack(seq, reason),
             Ok(()) => match cmd {
-                Command::Heartbeat { .. } | Command::ManualThrust(_) => {
+                Command::Heartbeat { .. } => {
+                    if lockstep {
+                        self.host_time_us = now;
+                    }
+                    let status = self.status(now, seq);
+                    self.send(&Reply::Status(status));
+                }
+                Command::ManualThrust(_) => {
                     if lockstep {
                         self.host_time_us = now;
                     }
@@ -475,25 +482,40 @@ where
             pulse_for_duty(d2, period, self.pwm.1.max_duty_cycle()),
             pulse_for_duty(d3, period, self.pwm.2.max_duty_cycle()),
         ];
-        let (nav_seq, nav_t_us) = self.autopilot.latest_nav().unwrap_or((0, 0));
-        let overrun = if self.overruns > 0 { fault::OVERRUN } else { 0 };
+        let (nav_seq, _) = self.autopilot.latest_nav().unwrap_or((0, 0));
         Telemetry {
             t_us: now,
             mode: self.autopilot.mode(),
             armed: self.autopilot.armed(),
             nav_seq,
-            nav_t_us,
             errors: self.last.errors,
             requested: self.last.requested,
             achieved: self.last.allocation.achieved,
             thrust_n: self.last.allocation.thrust_n,
             pulse_us,
-            faults: self.last.faults | self.io_faults | overrun,
+            faults: self.faults(),
+            loop_ticks: self.loop_ticks,
+        }
+    }
+
+    /// Fault flags now: the latest step's, the I/O ones and the overrun flag.
+    fn faults(&self) -> u16 {
+        let overrun = if self.overruns > 0 { fault::OVERRUN } else { 0 };
+        self.last.faults | self.io_faults | overrun
+    }
+
+    /// The answer to the heartbeat `heartbeat_seq`: link counters and health.
+    pub fn status(&self, now: u64, heartbeat_seq: u16) -> Status {
+        let (_, nav_t_us) = self.autopilot.latest_nav().unwrap_or((0, 0));
+        Status {
+            t_us: now,
+            heartbeat_seq,
+            nav_t_us,
             link: self.link_stats(),
             steps: self.autopilot.steps,
-            loop_ticks: self.loop_ticks,
             loop_ticks_max: self.loop_ticks_max,
             overruns: self.overruns,
+            faults: self.faults(),
         }
     }
 

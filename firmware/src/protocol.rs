@@ -34,7 +34,7 @@ use serde::{de::DeserializeOwned, Deserialize, Serialize};
 /// Protocol version. Bump it on any change of a message layout; a frame with another
 /// version is dropped (counted as [`DropReason::Version`]) and answered with
 /// `Nack { reason: UnsupportedVersion }` when its sequence number can be read.
-pub const PROTOCOL_VERSION: u8 = 2;
+pub const PROTOCOL_VERSION: u8 = 3;
 
 /// Largest postcard payload (envelope) in bytes, CRC not included.
 pub const MAX_PAYLOAD_LEN: usize = 248;
@@ -238,8 +238,10 @@ pub struct LinkStats {
     pub nacks: u32,
 }
 
-/// Everything the ROV reports, periodically (fixed-rate mode) or as the answer to each
-/// `NavState` (lock-step mode).
+/// What the ROV reports every control step (lock-step: the answer to each `NavState`) or
+/// at the telemetry rate (fixed-rate mode). Version 3 keeps here what changes every step;
+/// the link counters and other slow figures are in [`Status`], the answer to each
+/// heartbeat.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct Telemetry {
     /// Firmware time, microseconds.
@@ -250,8 +252,6 @@ pub struct Telemetry {
     pub armed: bool,
     /// Sequence number of the latest `NavState` used (lock-step: the one this answers).
     pub nav_seq: u16,
-    /// Time stamp of that `NavState`.
-    pub nav_t_us: u64,
     /// Tracking errors of the latest control step.
     pub errors: TrackingErrors,
     /// Generalized forces the law (or the manual command) asked for.
@@ -265,17 +265,31 @@ pub struct Telemetry {
     pub pulse_us: [u16; 3],
     /// Fault flags ([`fault`]).
     pub faults: u16,
+    /// Duration of the latest control iteration in clock ticks (microseconds on the
+    /// STM32F4 board; instructions on the emulated board under `-icount shift=0`).
+    pub loop_ticks: u32,
+}
+
+/// The slow half of the report: link counters and health, sent as the answer to each
+/// accepted `Heartbeat` (so the topside sets its rate, and each one proves a round trip).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Status {
+    /// Firmware time, microseconds.
+    pub t_us: u64,
+    /// Sequence number of the heartbeat this answers.
+    pub heartbeat_seq: u16,
+    /// Time stamp of the latest accepted `NavState` (0 before the first).
+    pub nav_t_us: u64,
     /// Link counters.
     pub link: LinkStats,
     /// Control steps run since boot.
     pub steps: u32,
-    /// Duration of the latest control iteration in clock ticks (microseconds on the
-    /// STM32F4 board; instructions on the emulated board under `-icount shift=0`).
-    pub loop_ticks: u32,
-    /// Largest `loop_ticks` since boot.
+    /// Largest `Telemetry::loop_ticks` since boot.
     pub loop_ticks_max: u32,
     /// Control periods missed (fixed-rate mode).
     pub overruns: u32,
+    /// Fault flags now ([`fault`]).
+    pub faults: u16,
 }
 
 /// Which board sent a [`Reply::Hello`].
@@ -321,6 +335,8 @@ pub enum Reply {
         /// Why.
         reason: NackReason,
     },
+    /// The answer to a `Heartbeat` (version 3).
+    Status(Status),
 }
 
 /// What every frame carries.

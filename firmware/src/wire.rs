@@ -19,7 +19,7 @@
 //! (`tests/tests/fuzz.rs` and the unit tests below): equal bytes when writing, equal values
 //! when reading, and nothing accepted that postcard would refuse.
 
-use crate::protocol::{Command, Law, LinkStats, Mode, NavSample, Plane, Telemetry};
+use crate::protocol::{Command, Law, Mode, NavSample, Plane, Telemetry};
 use controller_core::state::{BodyForces, NavState, TrackingErrors};
 
 /// Postcard's variant index of [`Command::Nav`] (declaration order; a test checks it).
@@ -145,23 +145,6 @@ impl<'a> Writer<'a> {
         self.f32(e.yaw_rad);
     }
 
-    fn link(&mut self, l: &LinkStats) {
-        self.varint_u32(l.rx_frames);
-        let d = &l.dropped;
-        for c in [
-            d.overflow,
-            d.cobs,
-            d.too_short,
-            d.crc,
-            d.version,
-            d.malformed,
-        ] {
-            self.varint_u32(c);
-        }
-        self.varint_u32(l.tx_frames);
-        self.varint_u32(l.nacks);
-    }
-
     /// `Envelope { version, seq, msg: Reply::Telemetry(t) }`.
     pub(crate) fn telemetry_envelope(&mut self, version: u8, seq: u16, t: &Telemetry) {
         self.u8(version);
@@ -171,7 +154,6 @@ impl<'a> Writer<'a> {
         self.mode(t.mode);
         self.bool(t.armed);
         self.varint_u16(t.nav_seq);
-        self.varint_u64(t.nav_t_us);
         self.errors(&t.errors);
         self.forces(&t.requested);
         self.forces(&t.achieved);
@@ -182,11 +164,7 @@ impl<'a> Writer<'a> {
             self.varint_u16(p);
         }
         self.varint_u16(t.faults);
-        self.link(&t.link);
-        self.varint_u32(t.steps);
         self.varint_u32(t.loop_ticks);
-        self.varint_u32(t.loop_ticks_max);
-        self.varint_u32(t.overruns);
     }
 }
 
@@ -284,7 +262,7 @@ pub(crate) fn nav_envelope(payload: &[u8]) -> Option<(u16, Command)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::protocol::{DropCounters, Envelope, Reply, PROTOCOL_VERSION};
+    use crate::protocol::{Envelope, Reply, PROTOCOL_VERSION};
     use proptest::prelude::*;
 
     fn postcard_bytes<M: serde::Serialize>(m: &M) -> Vec<u8> {
@@ -319,19 +297,17 @@ mod tests {
 
     fn telemetry() -> impl Strategy<Value = Telemetry> {
         (
-            (u64_any(), mode(), any::<bool>(), any::<u16>(), u64_any()),
-            prop::array::uniform16(f32_bits()),
+            (u64_any(), mode(), any::<bool>(), any::<u16>()),
+            prop::array::uniform14(f32_bits()),
             prop::array::uniform3(any::<u16>()),
-            any::<u16>(),
-            prop::array::uniform15(u32_any()),
+            (any::<u16>(), u32_any()),
         )
             .prop_map(
-                |((t_us, mode, armed, nav_seq, nav_t_us), f, pulse_us, faults, c)| Telemetry {
+                |((t_us, mode, armed, nav_seq), f, pulse_us, (faults, loop_ticks))| Telemetry {
                     t_us,
                     mode,
                     armed,
                     nav_seq,
-                    nav_t_us,
                     errors: TrackingErrors {
                         x_m: f[0],
                         y_m: f[1],
@@ -352,23 +328,7 @@ mod tests {
                     thrust_n: [f[11], f[12], f[13]],
                     pulse_us,
                     faults,
-                    link: LinkStats {
-                        rx_frames: c[0],
-                        dropped: DropCounters {
-                            overflow: c[1],
-                            cobs: c[2],
-                            too_short: c[3],
-                            crc: c[4],
-                            version: c[5],
-                            malformed: c[6],
-                        },
-                        tx_frames: c[7],
-                        nacks: c[8],
-                    },
-                    steps: c[9],
-                    loop_ticks: c[10],
-                    loop_ticks_max: c[11],
-                    overruns: c[12],
+                    loop_ticks,
                 },
             )
     }
@@ -408,26 +368,18 @@ mod tests {
 
     #[test]
     fn largest_telemetry_fits_the_payload() {
-        let mut t = Telemetry {
+        let t = Telemetry {
             t_us: u64::MAX,
-            nav_t_us: u64::MAX,
             nav_seq: u16::MAX,
             pulse_us: [u16::MAX; 3],
             faults: u16::MAX,
-            steps: u32::MAX,
             loop_ticks: u32::MAX,
-            loop_ticks_max: u32::MAX,
-            overruns: u32::MAX,
             mode: Mode::Track {
                 plane: Plane::ThreeD,
                 law: Law::Tracking,
             },
             ..Telemetry::default()
         };
-        t.link.rx_frames = u32::MAX;
-        t.link.tx_frames = u32::MAX;
-        t.link.nacks = u32::MAX;
-        t.link.dropped.malformed = u32::MAX;
         let mut buf = [0u8; crate::protocol::MAX_PAYLOAD_LEN];
         let mut w = Writer::new(&mut buf);
         w.telemetry_envelope(PROTOCOL_VERSION, u16::MAX, &t);

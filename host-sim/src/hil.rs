@@ -36,7 +36,7 @@ use controller_core::alloc::PwmMap;
 use controller_core::controller::ControlMode;
 use controller_core::params::Vehicle;
 use firmware::protocol::{
-    fault, Command, Law, LinkStats, Mode, NavSample, Plane as FwPlane, Reply, Telemetry,
+    fault, Command, Law, LinkStats, Mode, NavSample, Plane as FwPlane, Reply,
 };
 use serde::Serialize;
 use std::io::Write;
@@ -526,7 +526,6 @@ pub fn run_hil(sc: &Scenario, opts: &HilOptions, qemu_log: Option<&Path>) -> Res
     let mut n_sat = 0u64;
     let mut ticks_sum = 0u64;
     let mut last = Sample::default();
-    let mut last_tel = Telemetry::default();
     let t_tail = 0.8 * duration;
     let t_80 = 0.2 * duration;
 
@@ -556,9 +555,7 @@ pub fn run_hil(sc: &Scenario, opts: &HilOptions, qemu_log: Option<&Path>) -> Res
             let got = link.wait_for(
                 opts.reply_timeout,
                 |r| match r {
-                    Reply::Telemetry(tl) if tl.nav_seq == nav_seq && tl.nav_t_us == t_us => {
-                        Some(Ok(*tl))
-                    }
+                    Reply::Telemetry(tl) if tl.nav_seq == nav_seq => Some(Ok(*tl)),
                     Reply::Nack { seq, reason } if *seq == nav_seq => Some(Err(*reason)),
                     _ => None,
                 },
@@ -587,7 +584,6 @@ pub fn run_hil(sc: &Scenario, opts: &HilOptions, qemu_log: Option<&Path>) -> Res
             rep.steps_resent += 1;
         }
         rep.steps += 1;
-        last_tel = tel;
 
         // Thrust the plant gets: from the pulse widths the ESCs see, or the commands.
         let applied = if opts.apply_pulses {
@@ -624,8 +620,9 @@ pub fn run_hil(sc: &Scenario, opts: &HilOptions, qemu_log: Option<&Path>) -> Res
             thrust_n: tel.thrust_n,
             applied_n: applied,
             loop_ticks: tel.loop_ticks,
-            fw_rx_frames: tel.link.rx_frames,
-            fw_dropped: tel.link.dropped.total(),
+            // From the answer to this step's heartbeat (it comes before the telemetry).
+            fw_rx_frames: link.last_status.map_or(0, |st| st.link.rx_frames),
+            fw_dropped: link.last_status.map_or(0, |st| st.link.dropped.total()),
         });
 
         // Metrics on the true state (as `runner::run`).
@@ -755,7 +752,23 @@ pub fn run_hil(sc: &Scenario, opts: &HilOptions, qemu_log: Option<&Path>) -> Res
     if let (Some(q), Some(p)) = (qemu_guard.as_mut(), opts.ram_dump.as_deref()) {
         q.dump_ram(p)?;
     }
-    let fw: LinkStats = last_tel.link;
+    // The firmware's counters at the end: the answer to one more heartbeat (or, if that
+    // is lost on a noisy link, the latest answer).
+    let hb = link.send(&Command::Heartbeat {
+        t_us: us(n_ctrl as f64 * tc),
+    })?;
+    let end_status = link.wait_for(
+        Duration::from_millis(500),
+        |r| match r {
+            Reply::Status(st) if st.heartbeat_seq == hb => Some(*st),
+            _ => None,
+        },
+        |_| {},
+    )?;
+    let fw: LinkStats = end_status
+        .or(link.last_status)
+        .map(|st| st.link)
+        .unwrap_or_default();
     rep.firmware_rx_frames = fw.rx_frames;
     rep.firmware_dropped_frames = fw.dropped.total();
     rep.firmware_tx_frames = fw.tx_frames;

@@ -7,7 +7,8 @@
 
 use anyhow::{anyhow, bail, Context, Result};
 use firmware::protocol::{
-    encode, Command, Decoded, DropCounters, FrameDecoder, NackReason, Reply, MAX_FRAME_LEN,
+    encode, Command, Decoded, DropCounters, FrameDecoder, NackReason, Reply, Status, Telemetry,
+    MAX_FRAME_LEN,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -160,6 +161,9 @@ pub struct Link {
     pending: VecDeque<(u16, Reply)>,
     /// Counters.
     pub stats: HostLinkStats,
+    /// The latest `Status` received (the firmware's answer to a heartbeat: its link
+    /// counters and health).
+    pub last_status: Option<Status>,
 }
 
 impl Link {
@@ -172,6 +176,7 @@ impl Link {
             noise,
             pending: VecDeque::new(),
             stats: HostLinkStats::default(),
+            last_status: None,
         }
     }
 
@@ -266,6 +271,7 @@ impl Link {
                                 match msg {
                                     Reply::Ack { .. } => self.stats.acks += 1,
                                     Reply::Nack { .. } => self.stats.nacks += 1,
+                                    Reply::Status(st) => self.last_status = Some(st),
                                     _ => {}
                                 }
                                 self.pending.push_back((seq, msg));
@@ -526,15 +532,28 @@ pub fn parse_console(line: &str) -> Result<Option<ConsoleCmd>> {
     Ok(Some(cmd))
 }
 
-/// Telemetry CSV header of the console.
+/// Telemetry CSV header of the console. The last six columns are from the latest `Status`
+/// (the answer to the console's heartbeats), empty before the first.
 pub const CONSOLE_CSV_HEADER: &str = "host_s,t_us,mode,armed,faults,ex_m,ey_m,ez_m,e_pitch_rad,\
 e_yaw_rad,tau1_req_n,tau2_req_n_m,tau3_req_n,f1x_n,f2x_n,f3z_n,pwm1_us,pwm2_us,pwm3_us,\
 steps,loop_ticks,rx_frames,dropped,tx_frames,nacks";
 
-fn csv_row(host_s: f64, t: &firmware::protocol::Telemetry) -> String {
+fn csv_row(host_s: f64, t: &Telemetry, st: Option<&Status>) -> String {
     let e = &t.errors;
+    let counters = st.map_or_else(
+        || ",,,,".to_string(),
+        |st| {
+            format!(
+                "{},{},{},{}",
+                st.link.rx_frames,
+                st.link.dropped.total(),
+                st.link.tx_frames,
+                st.link.nacks
+            )
+        },
+    );
     format!(
-        "{host_s:.3},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+        "{host_s:.3},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{counters}",
         t.t_us,
         format!("{:?}", t.mode).replace([',', ' '], ""),
         u8::from(t.armed),
@@ -553,18 +572,15 @@ fn csv_row(host_s: f64, t: &firmware::protocol::Telemetry) -> String {
         t.pulse_us[0],
         t.pulse_us[1],
         t.pulse_us[2],
-        t.steps,
+        st.map_or(String::new(), |st| st.steps.to_string()),
         t.loop_ticks,
-        t.link.rx_frames,
-        t.link.dropped.total(),
-        t.link.tx_frames,
-        t.link.nacks
     )
 }
 
-fn status_line(t: &firmware::protocol::Telemetry, host: &HostLinkStats) -> String {
+fn status_line(t: &Telemetry, st: Option<&Status>, host: &HostLinkStats) -> String {
     let e = &t.errors;
     let err = (e.x_m * e.x_m + e.y_m * e.y_m + e.z_m * e.z_m).sqrt();
+    let (rx, drop) = st.map_or((0, 0), |st| (st.link.rx_frames, st.link.dropped.total()));
     format!(
         "t={:>9.2}s {:<28} {} err={:.3}m pwm={}/{}/{} faults={:#06x} fw rx={} drop={} | host tx={} rx={} drop={}",
         t.t_us as f64 * 1e-6,
@@ -575,8 +591,8 @@ fn status_line(t: &firmware::protocol::Telemetry, host: &HostLinkStats) -> Strin
         t.pulse_us[1],
         t.pulse_us[2],
         t.faults,
-        t.link.rx_frames,
-        t.link.dropped.total(),
+        rx,
+        drop,
         host.frames_sent,
         host.frames_received,
         host.frames_dropped
@@ -673,9 +689,16 @@ pub fn console(
                     if t.armed {
                         rep.armed_rows += 1;
                     }
-                    writeln!(csv, "{}", csv_row(start.elapsed().as_secs_f64(), &t))?;
+                    writeln!(
+                        csv,
+                        "{}",
+                        csv_row(start.elapsed().as_secs_f64(), &t, link.last_status.as_ref())
+                    )?;
                     if live {
-                        eprint!("\r{}", status_line(&t, &link.stats));
+                        eprint!(
+                            "\r{}",
+                            status_line(&t, link.last_status.as_ref(), &link.stats)
+                        );
                     }
                 }
                 Reply::Ack { seq } => {
@@ -693,6 +716,8 @@ pub fn console(
                     }
                 }
                 Reply::Hello { board, .. } => eprintln!("\nhello from {board:?}"),
+                // Kept by the link (`last_status`) for the CSV and the status line.
+                Reply::Status(_) => {}
             }
         }
         // Answers still missing 2 s after the last command: give up on them.

@@ -143,7 +143,10 @@ fn feed<P: Platform>(app: &mut BenchApp<'_, P>, seq: u16, cmd: &Command) -> bool
     let mut ok = matches!(cmd, Command::Heartbeat { .. });
     for &b in serial.tx.get(..serial.tx_len).unwrap_or(&[]) {
         if let Some(Decoded::Frame { msg, .. }) = dec.push(b) {
-            ok = matches!(msg, Reply::Ack { .. } | Reply::Telemetry(_));
+            ok = matches!(
+                msg,
+                Reply::Ack { .. } | Reply::Telemetry(_) | Reply::Status(_)
+            );
         }
     }
     ok
@@ -214,7 +217,7 @@ pub fn run_loop<P: Platform>(b: &Bench<'_, P>, p: &P) {
             let mut t = Telemetry {
                 t_us: u64::from(i) * PERIOD_US,
                 armed: true,
-                steps: i,
+                loop_ticks: 2_000 + i,
                 ..Telemetry::default()
             };
             t.thrust_n = [jitter(i) * 30.0, -jitter(i) * 20.0, 5.0];
@@ -317,6 +320,26 @@ pub fn run_loop<P: Platform>(b: &Bench<'_, P>, p: &P) {
                 }
             },
         );
+        if name == "tracking_3d" {
+            // The answer to a heartbeat (a tick that reads one `Heartbeat` and sends the
+            // `Status`): not part of a control iteration, here so its cost is known too.
+            b.run_state(
+                "protocol.heartbeat_status",
+                CALLS,
+                &mut app,
+                |app, i| {
+                    let t_us = u64::from(CALLS + i + 1) * PERIOD_US;
+                    let f = frame(next(), &Command::Heartbeat { t_us }, &mut hb);
+                    app.parts_mut().1.load(f);
+                },
+                |app| app.tick(),
+                |app| {
+                    if app.parts_mut().1.tx_len == 0 {
+                        no_reply += 1;
+                    }
+                },
+            );
+        }
         if refused + disarmed + no_law + no_reply > 0 {
             p.print(format_args!(
                 "WARN loop.{name}: setup commands refused {refused}, iterations disarmed \

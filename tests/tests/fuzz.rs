@@ -258,21 +258,27 @@ fn app_survives_any_byte_stream() {
 /// `MAX_FRAME_LEN`, and the receive buffer takes any valid frame.
 #[test]
 fn largest_messages_fit() {
-    use firmware::protocol::{Reply, Telemetry, MAX_PAYLOAD_LEN};
+    use firmware::protocol::{Reply, Status, Telemetry, MAX_PAYLOAD_LEN};
     let big = Telemetry {
         t_us: u64::MAX,
         nav_seq: u16::MAX,
-        nav_t_us: u64::MAX,
-        steps: u32::MAX,
         loop_ticks: u32::MAX,
-        loop_ticks_max: u32::MAX,
-        overruns: u32::MAX,
         faults: u16::MAX,
         pulse_us: [u16::MAX; 3],
         mode: Mode::Track {
             plane: Plane::ThreeD,
             law: Law::Tracking,
         },
+        ..Telemetry::default()
+    };
+    let big_status = Status {
+        t_us: u64::MAX,
+        heartbeat_seq: u16::MAX,
+        nav_t_us: u64::MAX,
+        steps: u32::MAX,
+        loop_ticks_max: u32::MAX,
+        overruns: u32::MAX,
+        faults: u16::MAX,
         link: firmware::protocol::LinkStats {
             rx_frames: u32::MAX,
             tx_frames: u32::MAX,
@@ -286,7 +292,6 @@ fn largest_messages_fit() {
                 malformed: u32::MAX,
             },
         },
-        ..Telemetry::default()
     };
     println!(
         "size of the application state (host fakes): {} B, decoder {} B",
@@ -300,6 +305,11 @@ fn largest_messages_fit() {
     println!(
         "largest telemetry frame: {n} bytes (max {MAX_FRAME_LEN}, payload max {MAX_PAYLOAD_LEN})"
     );
+    assert!(n <= MAX_FRAME_LEN);
+    let n = encode(u16::MAX, &Reply::Status(big_status), &mut buf)
+        .unwrap()
+        .len();
+    println!("largest status frame: {n} bytes");
     assert!(n <= MAX_FRAME_LEN);
     let worst_cmds = [
         Command::SetPaperGains {

@@ -16,7 +16,7 @@
 
 use firmware::protocol::{
     encode, Board, Command, Decoded, FrameDecoder, Law, ManualThrust, Mode, NavSample, Plane,
-    Reply, Telemetry, MAX_FRAME_LEN,
+    Reply, Status, Telemetry, MAX_FRAME_LEN,
 };
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
@@ -83,6 +83,15 @@ impl Link {
     fn expect_ack(&mut self, cmd: &Command) {
         let seq = self.send(cmd);
         assert_eq!(self.recv(), Reply::Ack { seq }, "{cmd:?}");
+    }
+
+    /// Send a heartbeat; the answer is the firmware's `Status`.
+    fn heartbeat(&mut self, t_us: u64) -> Status {
+        let seq = self.send(&Command::Heartbeat { t_us });
+        match self.recv() {
+            Reply::Status(st) if st.heartbeat_seq == seq => st,
+            other => panic!("expected the status for heartbeat {seq}, got {other:?}"),
+        }
     }
 
     fn nav(&mut self, t_us: u64) -> (u16, Telemetry) {
@@ -182,7 +191,7 @@ fn emulated_board_boots_and_answers_in_lockstep() {
 
     // Boots disarmed and neutral.
     let mut t_us = 1_000_000u64;
-    link.send(&Command::Heartbeat { t_us });
+    link.heartbeat(t_us);
     let (seq, tel) = link.nav(t_us);
     assert_eq!(tel.nav_seq, seq);
     assert!(!tel.armed);
@@ -219,13 +228,15 @@ fn emulated_board_boots_and_answers_in_lockstep() {
         .unwrap();
     let (seq, tel) = link.nav(t_us + 20_000);
     assert_eq!(tel.nav_seq, seq);
-    assert_eq!(tel.link.dropped.total(), 2, "{:?}", tel.link);
     assert!(!tel.armed);
+    let st = link.heartbeat(t_us + 20_000);
+    assert_eq!(st.link.dropped.total(), 2, "{:?}", st.link);
+    assert_eq!(st.nav_t_us, t_us + 20_000);
 
     // Re-arm explicitly and track with each law; report the step's instruction count
     // (TIM2 at prescaler 0 under -icount shift=0).
     t_us += 40_000;
-    link.send(&Command::Heartbeat { t_us });
+    link.heartbeat(t_us);
     link.nav(t_us);
     link.expect_ack(&Command::Arm);
     link.expect_ack(&Command::SetReference {
@@ -245,7 +256,7 @@ fn emulated_board_boots_and_answers_in_lockstep() {
         let mut ticks = Vec::new();
         for _ in 0..10 {
             t_us += 20_000;
-            link.send(&Command::Heartbeat { t_us });
+            link.heartbeat(t_us);
             let (_, tel) = link.nav(t_us);
             assert!(tel.armed);
             assert_eq!(tel.faults & 0b111, 0, "{tel:?}");

@@ -13,7 +13,9 @@
 )]
 
 use controller_core::reference::{PaperPolynomial, Reference};
-use firmware::protocol::{fault, Board, Command, Law, Mode, NavSample, Plane, Reply, Telemetry};
+use firmware::protocol::{
+    fault, Board, Command, Law, Mode, NavSample, Plane, Reply, Status, Telemetry,
+};
 use firmware::Config;
 use rov_tests::{app, pulses_us, TestApp, Topside, XyPlant};
 
@@ -25,6 +27,8 @@ struct Session {
     top: Topside,
     plant: XyPlant,
     telemetry: Vec<Telemetry>,
+    /// The answers to the heartbeats.
+    statuses: Vec<Status>,
     acks: Vec<u16>,
     nacks: usize,
 }
@@ -65,8 +69,11 @@ impl Session {
                     for (a, b) in t.pulse_us.iter().zip(p) {
                         assert!((f32::from(*a) - b).abs() <= 1.0, "{t:?} vs {p:?}");
                     }
-                    assert_eq!(t.link.dropped.total(), 0);
                     self.telemetry.push(t);
+                }
+                Reply::Status(st) => {
+                    assert_eq!(st.link.dropped.total(), 0);
+                    self.statuses.push(st);
                 }
                 Reply::Ack { seq } => self.acks.push(seq),
                 Reply::Nack { .. } => self.nacks += 1,
@@ -99,6 +106,7 @@ fn arm_track_lose_link_recover() {
         top: Topside::default(),
         plant: XyPlant::default(),
         telemetry: Vec::new(),
+        statuses: Vec::new(),
         acks: Vec::new(),
         nacks: 0,
     };
@@ -136,7 +144,8 @@ fn arm_track_lose_link_recover() {
     let last = *s.telemetry.last().unwrap();
     println!(
         "tracking: worst {worst:.3} m, final {final_err:.4} m, plant {:?}, steps {}",
-        s.plant.state, last.steps
+        s.plant.state,
+        s.statuses.last().unwrap().steps
     );
     assert!(last.armed);
     assert_eq!(
@@ -189,7 +198,7 @@ fn arm_track_lose_link_recover() {
     let last = *s.telemetry.last().unwrap();
     println!(
         "after recovery: error {final_err:.4} m, link {:?}",
-        last.link
+        s.statuses.last().unwrap().link
     );
     assert!(last.armed);
     assert_eq!(
