@@ -70,10 +70,12 @@ pub fn allocate(request: &BodyForces, limits: &ThrusterLimits) -> Allocation {
     // Common thrust s = F1 + F2 with both F1 = (s + d)/2 and F2 = (s - d)/2 in [-rev, fwd].
     let s_req = finite_or_zero(request.surge_n);
     let s = clamp(s_req, -2.0 * rev + d.abs(), 2.0 * fwd - d.abs());
-    let f1 = limits.clamp(0.5 * (s + d));
-    let f2 = limits.clamp(0.5 * (s - d));
+    // `s`, `d` and `h_req` are finite here, so the plain clamp (no NaN test) gives what
+    // `limits.clamp` would.
+    let f1 = clamp(0.5 * (s + d), -rev, fwd);
+    let f2 = clamp(0.5 * (s - d), -rev, fwd);
     let h_req = finite_or_zero(request.heave_n);
-    let f3 = limits.clamp(h_req);
+    let f3 = clamp(h_req, -rev, fwd);
     let achieved = BodyForces {
         surge_n: f1 + f2,
         yaw_n_m: l * (f1 - f2),

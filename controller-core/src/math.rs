@@ -5,11 +5,11 @@
 //! QEMU), so this module carries its own single-precision sine and cosine: a Cody-Waite
 //! reduction by pi/2 in three parts followed by the Cephes minimax polynomials on
 //! [-pi/4, pi/4]. Absolute error is below 1e-6 for |x| <= 1e4 rad (checked in the tests
-//! against `f64`). `atan2f` comes from `libm`, whose single-precision version is pure `f32`;
-//! the square root is a Newton iteration on `1/sqrt` (see [`sqrt`]). Nothing here touches `f64`, so no `__aeabi_d*` helper is linked into the
+//! against `f64`). `atan2`, `asin` and `tanh` are own `f32` polynomials (Cephes), cheaper
+//! than `libm`'s (see each); the square root is a Newton iteration on `1/sqrt` (see [`sqrt`]). Nothing here touches `f64`, so no `__aeabi_d*` helper is linked into the
 //! control path.
 
-use core::f32::consts::{FRAC_2_PI, FRAC_PI_4, PI, TAU};
+use core::f32::consts::{FRAC_2_PI, FRAC_PI_2, FRAC_PI_4, PI, TAU};
 
 // pi/2 split into three parts so that k * PIO2_1 is exact for |k| < 2^16.
 const PIO2_1: f32 = 1.570_312_5;
@@ -73,9 +73,62 @@ pub fn cos(x: f32) -> f32 {
     sin_cos(x).1
 }
 
-/// Four-quadrant arctangent of `y / x` (single precision `libm`, pure `f32`).
-#[inline]
+/// Arctangent of `t` for |t| <= tan(pi/8) (Cephes `atanf` polynomial).
+#[inline(always)]
+fn atan_poly(t: f32) -> f32 {
+    let z = t * t;
+    (((8.053_744_5e-2 * z - 1.387_768_6e-1) * z + 1.997_771_1e-1) * z - 3.333_295e-1) * z * t + t
+}
+
+/// pi/4 - f32(pi/4).
+const PIO4_LO: f32 = -2.185_569e-8;
+
+/// Four-quadrant arctangent of `y / x`, pure `f32`.
+///
+/// `libm::atan2f` costs about 100 instructions a call on the M4F (special-case tests, then
+/// `atanf` with its own reduction); here one division reduces to the first octant,
+/// `(a - b) / (a + b)` to [-tan(pi/8), tan(pi/8)], a degree-9 odd polynomial, and the octant
+/// and quadrant are put back. Relative error below 2e-7 (tested against `f64`). Zeros,
+/// infinities and NaN go to `libm::atan2f` (same special values). Not inlined: a copy at
+/// each of the laws' call sites would cost 200 B of flash apiece.
+#[inline(never)]
 pub fn atan2(y: f32, x: f32) -> f32 {
+    let (ax, ay) = (x.abs(), y.abs());
+    let (num, den, swapped) = if ay > ax {
+        (ax, ay, true)
+    } else {
+        (ay, ax, false)
+    };
+    // `den` (>= +0 or NaN) positive and finite, as one integer test on its bits (the float
+    // comparisons compile to several class checks): `num / den` is in [0, 1] (or NaN).
+    if den.to_bits().wrapping_sub(1) >= 0x7f7f_ffff {
+        return atan2_special(y, x);
+    }
+    // atan(num/den) in [0, pi/4]: above tan(pi/8) as pi/4 + atan((n - d)/(n + d)).
+    let mid = num > 0.414_213_57 * den;
+    let p = atan_poly(if mid {
+        (num - den) / (num + den)
+    } else {
+        num / den
+    });
+    // First quadrant: off + (lo + -+p), with pi/4 and pi/2 in two parts (their f32 rounding
+    // alone is 3e-8 relative); pi/2 - (pi/4 + p) = pi/4 - p.
+    let (off, lo) = if mid {
+        (FRAC_PI_4, PIO4_LO)
+    } else if swapped {
+        (FRAC_PI_2, 2.0 * PIO4_LO)
+    } else {
+        (0.0, 0.0)
+    };
+    let a = off + (lo + if swapped { -p } else { p });
+    let a = if x < 0.0 { PI - a } else { a };
+    a.copysign(y)
+}
+
+/// [`atan2`] when `x` and `y` are both zero, or one is infinite or NaN.
+#[cold]
+#[inline(never)]
+fn atan2_special(y: f32, x: f32) -> f32 {
     libm::atan2f(y, x)
 }
 
@@ -124,19 +177,84 @@ fn sqrt_special(x: f32) -> f32 {
     }
 }
 
-/// Arcsine through `atan2(x, sqrt(1 - x^2))`; the argument is clamped to [-1, 1] first.
+/// Arcsine; the argument is clamped to [-1, 1] first (NaN gives -pi/2).
 ///
-/// (`libm::asinf` takes a square root in `f64` for |x| >= 0.5.)
+/// For |x| <= 0.5 (the laws' arguments nearly always) the Cephes `asinf` polynomial, odd of
+/// degree 11: no root, no division. Above, `atan2(|x|, sqrt(1 - x^2))` (`libm::asinf` would
+/// take a square root in `f64`; Cephes' `pi/2 - 2 asin(sqrt((1 - |x|)/2))` loses 3e-7 to the
+/// cancellation near 0.5). Relative error below 2e-7 (tested against `f64`).
 #[inline]
 pub fn asin(x: f32) -> f32 {
-    let x = clamp(x, -1.0, 1.0);
-    atan2(x, sqrt((1.0 - x) * (1.0 + x)))
+    let a = x.abs();
+    // False for NaN: the clamp is needed only in `asin_big`.
+    if a <= 0.5 {
+        let z = a * a;
+        let r = ((((4.216_32e-2 * z + 2.418_131e-2) * z + 4.547_002_6e-2) * z + 7.495_300_3e-2)
+            * z
+            + 1.666_675_2e-1)
+            * z
+            * a
+            + a;
+        r.copysign(x)
+    } else {
+        asin_big(x)
+    }
 }
 
-/// Hyperbolic tangent (single precision `libm`, pure `f32`).
+/// [`asin`] for |x| > 0.5 or NaN.
+#[inline(never)]
+fn asin_big(x: f32) -> f32 {
+    let x = clamp(x, -1.0, 1.0);
+    let a = x.abs();
+    atan2(a, sqrt((1.0 - a) * (1.0 + a))).copysign(x)
+}
+
+/// Hyperbolic tangent (Cephes `tanhf`), pure `f32`.
+///
+/// `libm::tanhf` goes through `expm1f` (about 130 instructions a call on the M4F). Here: an
+/// odd polynomial for |x| <= 0.625, else `1 - 2 / (e^{2|x|} + 1)` with an own `exp`, and
+/// +-1 from |x| >= 10 (where `tanh` rounds to 1). Relative error below 3e-7 (tested against
+/// `f64`). NaN gives NaN.
 #[inline]
 pub fn tanh(x: f32) -> f32 {
-    libm::tanhf(x)
+    let a = x.abs();
+    if a <= 0.625 {
+        let z = x * x;
+        ((((-5.704_988_7e-3 * z + 2.063_909e-2) * z - 5.373_971_6e-2) * z + 1.333_144_2e-1) * z
+            - 3.333_328e-1)
+            * z
+            * x
+            + x
+    } else if a < 10.0 {
+        let e = exp_mid(a + a);
+        (1.0 - 2.0 / (e + 1.0)).copysign(x)
+    } else if a >= 10.0 {
+        1.0f32.copysign(x)
+    } else {
+        // NaN.
+        x
+    }
+}
+
+/// `e^x` for 0 <= x <= 20 (Cephes `expf`): `x = n ln2 + r`, |r| <= ln2/2, a degree-7
+/// polynomial for `e^r`, and `2^n` put into the exponent bits (`n <= 29`, no overflow).
+#[inline(always)]
+fn exp_mid(x: f32) -> f32 {
+    // x >= 0: `as` truncation is the floor.
+    let n = (core::f32::consts::LOG2_E * x + 0.5) as i32;
+    let nf = n as f32;
+    // ln2 in two parts; `nf * 0.693_359_4` is exact for n < 2^11.
+    let r = (x - nf * 0.693_359_4) + nf * 2.121_944_4e-4;
+    let z = r * r;
+    let p = (((((1.987_569_2e-4 * r + 1.398_199_9e-3) * r + 8.333_452e-3) * r + 4.166_579_6e-2)
+        * r
+        + 1.666_666_5e-1)
+        * r
+        + 5.0e-1)
+        * z
+        + r
+        + 1.0;
+    p * f32::from_bits((n.wrapping_add(127) as u32) << 23)
 }
 
 /// Wrap an angle to (-pi, pi].
@@ -369,6 +487,102 @@ mod tests {
         assert_eq!(min(f32::NAN, 2.0), 2.0);
     }
 
+    fn rel(a: f32, e: f64) -> f64 {
+        if e == 0.0 {
+            (a as f64).abs()
+        } else {
+            ((a as f64) - e).abs() / e.abs()
+        }
+    }
+
+    #[test]
+    fn atan2_accuracy_and_special_values() {
+        let mut worst = 0.0f64;
+        // All directions densely, at several magnitudes.
+        let n = 1_000_000;
+        for i in 0..n {
+            let t = -3.2 + 6.4 * (i as f64) / (n as f64);
+            for m in [1.0e-30f64, 1.0e-3, 1.0, 7.5e4, 1.0e30] {
+                let (y, x) = ((m * t.sin()) as f32, (m * t.cos()) as f32);
+                let e = (y as f64).atan2(x as f64);
+                worst = worst.max(rel(atan2(y, x), e));
+            }
+        }
+        // Ratios y/x spread over many binades, all four quadrants.
+        let mut bits = 0x0080_0000u32;
+        while bits < 0x7f00_0000 {
+            let r = f32::from_bits(bits);
+            for (y, x) in [(r, 1.0f32), (1.0, r), (-r, 1.0), (r, -1.0), (-1.0, -r)] {
+                let e = (y as f64).atan2(x as f64);
+                worst = worst.max(rel(atan2(y, x), e));
+            }
+            bits += 4093;
+        }
+        assert!(worst <= 2.0e-7, "worst rel error {worst:e}");
+        // Special values as libm.
+        let sp = [
+            0.0f32,
+            -0.0,
+            1.0,
+            -1.0,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+        ];
+        for y in sp {
+            for x in sp {
+                let (a, b) = (atan2(y, x), libm::atan2f(y, x));
+                assert!(
+                    a.to_bits() == b.to_bits() || (a - b).abs() <= 1e-7,
+                    "{y} {x}: {a} {b}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn tanh_accuracy() {
+        let mut worst = 0.0f64;
+        for i in -2_000_000..=2_000_000 {
+            let x = i as f32 * 1.0e-5; // [-20, 20]
+            worst = worst.max(rel(tanh(x), (x as f64).tanh()));
+        }
+        for x in [
+            1.0e-30f32,
+            1.0e-8,
+            1.0e-3,
+            0.625,
+            9.99,
+            10.0,
+            1.0e3,
+            f32::MAX,
+        ] {
+            worst = worst.max(rel(tanh(x), (x as f64).tanh()));
+            worst = worst.max(rel(tanh(-x), (-x as f64).tanh()));
+        }
+        assert!(worst <= 3.0e-7, "worst rel error {worst:e}");
+        assert_eq!(tanh(f32::INFINITY), 1.0);
+        assert_eq!(tanh(f32::NEG_INFINITY), -1.0);
+        assert_eq!(tanh(-0.0), 0.0);
+        assert!(tanh(f32::NAN).is_nan());
+    }
+
+    #[test]
+    fn asin_accuracy() {
+        let (mut worst_abs, mut worst_rel) = (0.0f64, 0.0f64);
+        for i in -2_000_000..=2_000_000 {
+            let x = i as f32 * 5.0e-7; // [-1, 1]
+            let e = (x as f64).asin();
+            worst_abs = worst_abs.max(((asin(x) as f64) - e).abs());
+            worst_rel = worst_rel.max(rel(asin(x), e));
+        }
+        assert!(worst_abs <= 2.0e-7, "worst abs error {worst_abs:e}");
+        assert!(worst_rel <= 2.0e-7, "worst rel error {worst_rel:e}");
+        assert_eq!(asin(1.0), FRAC_PI_2);
+        assert_eq!(asin(-1.0), -FRAC_PI_2);
+        assert_eq!(asin(-0.0).to_bits(), (-0.0f32).to_bits());
+    }
+
     #[test]
     fn asin_matches_f64() {
         for i in -1000..=1000 {
@@ -376,5 +590,6 @@ mod tests {
             assert!((asin(x) as f64 - (x as f64).asin()).abs() < 1e-6);
         }
         assert!((asin(2.0) - core::f32::consts::FRAC_PI_2).abs() < 1e-6);
+        assert_eq!(asin(f32::NAN), -core::f32::consts::FRAC_PI_2);
     }
 }

@@ -152,6 +152,18 @@ pub struct PitchRef {
 /// `theta = 0`). Diving forward at 0.5 m/s in both axes needs about -0.055 rad.
 /// Derivatives with `theta` frozen in the rotation (first order).
 pub fn pitch_xz(xz: &XzCoeffs, zx_kg: f32, gravity_m_s2: f32, r: &RefSample) -> PitchRef {
+    pitch_xz_sc(xz, zx_kg, gravity_m_s2, r).0
+}
+
+/// [`pitch_xz`] and the sine and cosine of its `theta_rad` (the XZ law needs them too: one
+/// `sin_cos` fewer per step).
+#[inline]
+pub(crate) fn pitch_xz_sc(
+    xz: &XzCoeffs,
+    zx_kg: f32,
+    gravity_m_s2: f32,
+    r: &RefSample,
+) -> (PitchRef, (f32, f32)) {
     let [vx, _, vz] = r.vel_m_s;
     let [ax, _, az] = r.acc_m_s2;
     let [jx, _, jz] = r.jerk_m_s3;
@@ -168,8 +180,10 @@ pub fn pitch_xz(xz: &XzCoeffs, zx_kg: f32, gravity_m_s2: f32, r: &RefSample) -> 
     let th0 = asin(arg0);
     let (s0, c0) = sin_cos_small(th0);
     let (arg, cs, c2) = solve(s0, c0);
+    // `asin` clamps its argument, so `th` is always finite (`ok(th) == th` below).
     let th = asin(arg);
-    let cth = max(sin_cos_small(th).1, 0.5);
+    let sc_th = sin_cos_small(th);
+    let cth = max(sc_th.1, 0.5);
     let pw1 = 2.0 * cs * (vx * ax - vz * az) + c2 * (ax * vz + vx * az);
     let pw2 = 2.0 * cs * (ax * ax + vx * jx - az * az - vz * jz)
         + c2 * (jx * vz + 2.0 * ax * az + vx * jz);
@@ -177,12 +191,13 @@ pub fn pitch_xz(xz: &XzCoeffs, zx_kg: f32, gravity_m_s2: f32, r: &RefSample) -> 
     let th2 = -(km * pw2) / (g * cth);
     let ok = |x: f32| if x.is_finite() { x } else { 0.0 };
     let pw = cs * (vx * vx - vz * vz) + c2 * vx * vz;
-    PitchRef {
+    let pr = PitchRef {
         theta_rad: ok(th),
         theta_dot: ok(th1),
         theta_ddot: ok(th2),
         munk_m_s2: [ok(km * pw), ok(km * pw1), ok(km * pw2)],
-    }
+    };
+    (pr, sc_th)
 }
 
 /// Steady pitch for a surge acceleration `accel_m_s2`: `-asin(a / g)` (argument clamped).

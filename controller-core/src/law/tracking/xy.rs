@@ -105,9 +105,12 @@ impl HeadingRef {
 /// derivative (velocity, acceleration, jerk): a reference starting from rest moves first along
 /// its acceleration and jerk. `None` when all vanish. (Norms compared squared: no root.)
 fn rest_direction(r: &RefSample) -> Option<[f32; 2]> {
+    // `n2` is +0 or more, or NaN: for such bits the integer order is the float order, so
+    // "finite and above the floor" is two integer comparisons (`is_finite` is a class check).
+    const FLOOR2_BITS: u32 = (REST_DIRECTION_FLOOR * REST_DIRECTION_FLOOR).to_bits();
     for [x, y, _] in [r.vel_m_s, r.acc_m_s2, r.jerk_m_s3] {
-        let n2 = x * x + y * y;
-        if n2.is_finite() && n2 > REST_DIRECTION_FLOOR * REST_DIRECTION_FLOOR {
+        let n2 = (x * x + y * y).to_bits();
+        if n2 > FLOOR2_BITS && n2 < f32::INFINITY.to_bits() {
             return Some([x, y]);
         }
     }

@@ -18,9 +18,9 @@
 //! `tau_1` through the coupled mass matrix.
 
 use super::{integrate, sat, TrackingGains, TrackingState};
-use crate::math::{asin, max, sin_cos_small, sqrt, tanh, wrap_angle};
+use crate::math::{asin, max, sqrt, tanh, wrap_angle};
 use crate::params::Vehicle;
-use crate::reference::feasible::pitch_xz;
+use crate::reference::feasible::pitch_xz_sc;
 use crate::reference::RefSample;
 use crate::state::NavState;
 
@@ -60,8 +60,7 @@ pub fn surge(
     let [vxr, _, _] = r.vel_m_s;
     let [axr, _, _] = r.acc_m_s2;
     let [jxr, _, _] = r.jerk_m_s3;
-    let pr = pitch_xz(c, zx, grav, r);
-    let (sr, cr) = sin_cos_small(pr.theta_rad);
+    let (pr, (sr, cr)) = pitch_xz_sc(c, zx, grav, r);
     let x1r = xr + alpha * sr;
     let x1r_dot = vxr + alpha * cr * pr.theta_dot;
     let x1r_ddot = axr + alpha * (cr * pr.theta_ddot - sr * pr.theta_dot * pr.theta_dot);
