@@ -62,19 +62,35 @@ pub fn allocate(request: &BodyForces, limits: &ThrusterLimits) -> Allocation {
     let fwd = limits.max_forward_n;
     let rev = limits.max_reverse_n;
     let l = limits.lever_arm_m;
-    let finite_or_zero = |x: f32| if x.is_finite() { x } else { 0.0 };
+    // One finiteness test for the three requests in the common case: a sum is finite only if
+    // every term is (an infinity or NaN propagates); otherwise (or on overflow) per value.
+    let all_finite = (request.yaw_n_m + request.surge_n + request.heave_n).is_finite();
+    let (yaw_req, s_req, h_req, finite) = if all_finite {
+        (request.yaw_n_m, request.surge_n, request.heave_n, true)
+    } else {
+        let finite_or_zero = |x: f32| if x.is_finite() { x } else { 0.0 };
+        (
+            finite_or_zero(request.yaw_n_m),
+            finite_or_zero(request.surge_n),
+            finite_or_zero(request.heave_n),
+            request.is_finite(),
+        )
+    };
     // Differential thrust d = F1 - F2, limited to what the pair can make.
-    let d_req = finite_or_zero(request.yaw_n_m) / l;
+    let d_req = yaw_req / l;
     let d_max = fwd + rev;
-    let d = clamp(d_req, -d_max, d_max);
+    // Strictly inside: the clamp would return `d_req` (one comparison).
+    let d = if d_req.abs() < d_max {
+        d_req
+    } else {
+        clamp(d_req, -d_max, d_max)
+    };
     // Common thrust s = F1 + F2 with both F1 = (s + d)/2 and F2 = (s - d)/2 in [-rev, fwd].
-    let s_req = finite_or_zero(request.surge_n);
     let s = clamp(s_req, -2.0 * rev + d.abs(), 2.0 * fwd - d.abs());
     // `s`, `d` and `h_req` are finite here, so the plain clamp (no NaN test) gives what
     // `limits.clamp` would.
     let f1 = clamp(0.5 * (s + d), -rev, fwd);
     let f2 = clamp(0.5 * (s - d), -rev, fwd);
-    let h_req = finite_or_zero(request.heave_n);
     let f3 = clamp(h_req, -rev, fwd);
     let achieved = BodyForces {
         surge_n: f1 + f2,
@@ -82,10 +98,9 @@ pub fn allocate(request: &BodyForces, limits: &ThrusterLimits) -> Allocation {
         heave_n: f3,
     };
     let tol = 1e-4;
-    let saturated = (d - d_req).abs() > tol * (1.0 + d_req.abs())
-        || (s - s_req).abs() > tol * (1.0 + s_req.abs())
-        || (f3 - h_req).abs() > tol * (1.0 + h_req.abs())
-        || !request.is_finite();
+    // Unclamped values equal their request (all finite here): one comparison then.
+    let off = |x: f32, r: f32| x != r && (x - r).abs() > tol * (1.0 + r.abs());
+    let saturated = off(d, d_req) || off(s, s_req) || off(f3, h_req) || !finite;
     Allocation {
         thrust_n: [f1, f2, f3],
         achieved,
@@ -284,6 +299,31 @@ mod tests {
         );
         assert_eq!(a.thrust_n, [0.0; 3]);
         assert!(a.saturated);
+    }
+
+    #[test]
+    fn huge_finite_requests_whose_sum_overflows_are_clamped_not_zeroed() {
+        // The sum of the three overflows: the per-value path, which keeps them (finite).
+        let a = allocate(
+            &BodyForces {
+                surge_n: f32::MAX,
+                yaw_n_m: f32::MAX,
+                heave_n: f32::MAX,
+            },
+            &limits(),
+        );
+        assert!(a.saturated);
+        assert_eq!(a.thrust_n, [20.0, -15.0, 20.0]);
+        let a = allocate(
+            &BodyForces {
+                surge_n: 1.0,
+                yaw_n_m: f32::NAN,
+                heave_n: f32::MAX,
+            },
+            &limits(),
+        );
+        assert!(a.saturated);
+        assert_eq!(a.thrust_n, [0.5, 0.5, 20.0]);
     }
 
     proptest! {

@@ -185,20 +185,46 @@ fn sqrt_special(x: f32) -> f32 {
 /// cancellation near 0.5). Relative error below 2e-7 (tested against `f64`).
 #[inline]
 pub fn asin(x: f32) -> f32 {
-    let a = x.abs();
     // False for NaN: the clamp is needed only in `asin_big`.
-    if a <= 0.5 {
-        let z = a * a;
-        let r = ((((4.216_32e-2 * z + 2.418_131e-2) * z + 4.547_002_6e-2) * z + 7.495_300_3e-2)
-            * z
-            + 1.666_675_2e-1)
-            * z
-            * a
-            + a;
-        r.copysign(x)
+    if x.abs() <= 0.5 {
+        asin_poly(x)
     } else {
         asin_big(x)
     }
+}
+
+/// The odd `asin` polynomial for |x| <= 0.5, evaluated on `x` itself: round-to-nearest is
+/// symmetric, so this is bit for bit the value on |x| with the sign of `x` put back (also
+/// for -0), without the `copysign`.
+#[inline(always)]
+fn asin_poly(x: f32) -> f32 {
+    let z = x * x;
+    ((((4.216_32e-2 * z + 2.418_131e-2) * z + 4.547_002_6e-2) * z + 7.495_300_3e-2) * z
+        + 1.666_675_2e-1)
+        * z
+        * x
+        + x
+}
+
+/// `(asin(x), sin_cos_small(asin(x)))`, bit for bit: for |x| <= 0.5 the arcsine is below
+/// pi/6 in magnitude, so the sine and cosine polynomials take it without `sin_cos_small`'s
+/// range test.
+#[inline]
+pub fn asin_sin_cos(x: f32) -> (f32, (f32, f32)) {
+    if x.abs() <= 0.5 {
+        let t = asin_poly(x);
+        let z = t * t;
+        (t, (sin_poly(t, z), cos_poly(z)))
+    } else {
+        asin_sin_cos_big(x)
+    }
+}
+
+/// [`asin_sin_cos`] for |x| > 0.5 or NaN.
+#[inline(never)]
+fn asin_sin_cos_big(x: f32) -> (f32, (f32, f32)) {
+    let t = asin_big(x);
+    (t, sin_cos_small(t))
 }
 
 /// [`asin`] for |x| > 0.5 or NaN.
@@ -260,6 +286,10 @@ fn exp_mid(x: f32) -> f32 {
 /// Wrap an angle to (-pi, pi].
 #[inline]
 pub fn wrap_angle(a: f32) -> f32 {
+    // Common case, one comparison (false for NaN and at +-pi, handled below).
+    if a.abs() < PI {
+        return a;
+    }
     if (-PI..=PI).contains(&a) {
         if a == -PI {
             return PI;
@@ -346,6 +376,44 @@ pub fn clamp_nan_safe(x: f32, lo: f32, hi: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn asin_poly_on_x_matches_copysign_form_and_asin_sin_cos_matches_parts() {
+        // The polynomial on |x| with the sign put back (the form `asin_poly` replaced).
+        let old = |x: f32| {
+            let a = x.abs();
+            let z = a * a;
+            let r = ((((4.216_32e-2 * z + 2.418_131e-2) * z + 4.547_002_6e-2) * z
+                + 7.495_300_3e-2)
+                * z
+                + 1.666_675_2e-1)
+                * z
+                * a
+                + a;
+            r.copysign(x)
+        };
+        let mut xs: Vec<f32> = (-300_000..=300_000).map(|i| i as f32 * 4e-6).collect();
+        xs.extend([
+            0.0, -0.0, 0.5, -0.5, 1e-30, -1e-30, 1e-45, -1e-45, 0.75, -0.99, 1.0, -1.0, 2.0, -7.0,
+        ]);
+        for x in xs {
+            if x.abs() <= 0.5 {
+                assert_eq!(asin(x).to_bits(), old(x).to_bits(), "{x}");
+            }
+            let (t, (s, c)) = asin_sin_cos(x);
+            let (s2, c2) = sin_cos_small(asin(x));
+            assert_eq!(t.to_bits(), asin(x).to_bits(), "{x}");
+            assert_eq!(
+                (s.to_bits(), c.to_bits()),
+                (s2.to_bits(), c2.to_bits()),
+                "{x}"
+            );
+        }
+        let (t, (s, c)) = asin_sin_cos(f32::NAN);
+        assert_eq!(t.to_bits(), asin(f32::NAN).to_bits());
+        let (s2, c2) = sin_cos_small(asin(f32::NAN));
+        assert_eq!((s.to_bits(), c.to_bits()), (s2.to_bits(), c2.to_bits()));
+    }
 
     #[test]
     fn sin_cos_small_matches_sin_cos() {

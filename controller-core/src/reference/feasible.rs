@@ -21,7 +21,7 @@
 //! conditions needs the pitch `theta = -asin(a / g)` (`u1_dot = -g sin(theta)`, MODEL_NOTES
 //! section 3): [`pitch_for_accel`].
 
-use crate::math::{asin, atan2, clamp_keep_nan, max, sin_cos_small, sqrt};
+use crate::math::{asin, asin_sin_cos, atan2, clamp_keep_nan, max, sin_cos_small, sqrt};
 use crate::params::{XyCoeffs, XzCoeffs};
 use crate::reference::RefSample;
 
@@ -177,25 +177,35 @@ pub(crate) fn pitch_xz_sc(
         (arg, cs, c2)
     };
     let (arg0, _, _) = solve(0.0, 1.0);
-    let th0 = asin(arg0);
-    let (s0, c0) = sin_cos_small(th0);
+    let (_, (s0, c0)) = asin_sin_cos(arg0);
     let (arg, cs, c2) = solve(s0, c0);
     // `asin` clamps its argument, so `th` is always finite (`ok(th) == th` below).
-    let th = asin(arg);
-    let sc_th = sin_cos_small(th);
+    let (th, sc_th) = asin_sin_cos(arg);
     let cth = max(sc_th.1, 0.5);
     let pw1 = 2.0 * cs * (vx * ax - vz * az) + c2 * (ax * vz + vx * az);
     let pw2 = 2.0 * cs * (ax * ax + vx * jx - az * az - vz * jz)
         + c2 * (jx * vz + 2.0 * ax * az + vx * jz);
     let th1 = -(jx + km * pw1) / (g * cth);
     let th2 = -(km * pw2) / (g * cth);
-    let ok = |x: f32| if x.is_finite() { x } else { 0.0 };
     let pw = cs * (vx * vx - vz * vz) + c2 * vx * vz;
-    let pr = PitchRef {
-        theta_rad: ok(th),
-        theta_dot: ok(th1),
-        theta_ddot: ok(th2),
-        munk_m_s2: [ok(km * pw), ok(km * pw1), ok(km * pw2)],
+    let (m0, m1, m2) = (km * pw, km * pw1, km * pw2);
+    // One finiteness test for all five: a sum is finite only if every term is (an infinity
+    // or NaN propagates); a finite sum that overflows only takes the per-value path.
+    let pr = if (th1 + th2 + m0 + m1 + m2).is_finite() {
+        PitchRef {
+            theta_rad: th,
+            theta_dot: th1,
+            theta_ddot: th2,
+            munk_m_s2: [m0, m1, m2],
+        }
+    } else {
+        let ok = |x: f32| if x.is_finite() { x } else { 0.0 };
+        PitchRef {
+            theta_rad: ok(th),
+            theta_dot: ok(th1),
+            theta_ddot: ok(th2),
+            munk_m_s2: [ok(m0), ok(m1), ok(m2)],
+        }
     };
     (pr, sc_th)
 }

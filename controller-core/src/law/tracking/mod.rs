@@ -212,7 +212,10 @@ impl TrackingState {
         };
         self.surge_sat = off(requested.surge_n, achieved.surge_n);
         self.yaw_sat = off(requested.yaw_n_m, achieved.yaw_n_m);
-        self.heave_sat = off(requested.heave_n, achieved.heave_n);
+        // The allocation passes an unclamped heave force through unchanged: a zero difference
+        // (both finite and equal) is within the tolerance, one comparison.
+        let (rh, ah) = (requested.heave_n, achieved.heave_n);
+        self.heave_sat = rh - ah != 0.0 && off(rh, ah);
         self.achieved = *achieved;
     }
 
@@ -231,7 +234,9 @@ impl TrackingState {
 /// and it is capped at 1 s.
 #[inline]
 pub(crate) fn clean_dt(dt_s: f32) -> f32 {
-    if dt_s.is_finite() && dt_s > 0.0 {
+    // Positive and finite (subnormals included): the bits lie in [1, 0x7f80_0000), one
+    // integer test (`is_finite` and `> 0.0` compile to several class checks).
+    if dt_s.to_bits().wrapping_sub(1) < 0x7f7f_ffff {
         crate::math::min(dt_s, 1.0)
     } else {
         0.0
@@ -243,6 +248,11 @@ pub(crate) fn clean_dt(dt_s: f32) -> f32 {
 #[inline]
 pub(crate) fn integrate(i: f32, e: f32, dt: f32, frozen: bool, limit: f32) -> f32 {
     let next = i + e * dt;
+    // Common case first: not frozen and strictly inside the limit (so finite): the clamp and
+    // the finiteness test below would both return `next`.
+    if !frozen && next.abs() < limit {
+        return next;
+    }
     let next = if frozen && next.abs() > i.abs() {
         i
     } else {
@@ -259,7 +269,10 @@ pub(crate) fn integrate(i: f32, e: f32, dt: f32, frozen: bool, limit: f32) -> f3
 /// Limit a scalar error to `+-l`.
 #[inline]
 pub(crate) fn sat(e: f32, l: f32) -> f32 {
-    if e.is_nan() {
+    // Strictly inside (false for NaN): the clamp would return `e` (same bits).
+    if e.abs() < l {
+        e
+    } else if e.is_nan() {
         0.0
     } else {
         crate::math::clamp(e, -l, l)

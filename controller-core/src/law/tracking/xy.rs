@@ -80,12 +80,16 @@ impl HeadingRef {
         self.beta_dot = beta_dot;
         self.beta = beta;
         self.chi = chi;
-        let ok = |x: f32| if x.is_finite() { x } else { 0.0 };
-        (
-            wrap_angle(chi - ok(self.beta)),
-            chi1 - ok(self.beta_dot),
-            chi2 - ok(self.beta_ddot),
-        )
+        let (b0, b1, b2) = (self.beta, self.beta_dot, self.beta_ddot);
+        // One finiteness test for the three in the common case: a sum is finite only if every
+        // term is (an infinity or NaN propagates); otherwise (or on overflow) per value.
+        let (b0, b1, b2) = if (b0 + b1 + b2).is_finite() {
+            (b0, b1, b2)
+        } else {
+            let ok = |x: f32| if x.is_finite() { x } else { 0.0 };
+            (ok(b0), ok(b1), ok(b2))
+        };
+        (wrap_angle(chi - b0), chi1 - b1, chi2 - b2)
     }
 
     /// Direction of the reference motion used at rest (rad): of the velocity, else the
@@ -234,9 +238,15 @@ impl super::CurrentObserver {
         let [vx, vy] = self.vc;
         let nvx = vx + k * (cx - vx);
         let nvy = vy + k * (cy - vy);
-        let fin = |a: f32| if a.is_finite() { a } else { 0.0 };
-        self.z = [fin(zx), fin(zy)];
-        self.vc = [fin(nvx), fin(nvy)];
+        // One finiteness test for the four in the common case (see `HeadingRef::update`).
+        if (zx + zy + nvx + nvy).is_finite() {
+            self.z = [zx, zy];
+            self.vc = [nvx, nvy];
+        } else {
+            let fin = |a: f32| if a.is_finite() { a } else { 0.0 };
+            self.z = [fin(zx), fin(zy)];
+            self.vc = [fin(nvx), fin(nvy)];
+        }
     }
 }
 

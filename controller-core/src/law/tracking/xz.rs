@@ -78,8 +78,10 @@ pub fn surge(
     // Pitch demand, exact inverse of the dominant term.
     let y_raw = -2.0 * (a_d - h) / grav;
     let y_max = 0.95;
-    let clipped = y_raw.abs() > y_max || y_raw.is_nan();
-    let y = sat(y_raw, y_max);
+    // Beyond the limit or NaN (one comparison); inside, `sat` would return `y_raw`.
+    let inside = y_raw.abs() <= y_max;
+    let clipped = !inside;
+    let y = if inside { y_raw } else { sat(y_raw, y_max) };
     // h_dot, h_ddot ~ -(Munk term along the reference)', '' (the dominant part of h).
     let [_, munk1, munk2] = pr.munk_m_s2;
     let (y1, y2) = if clipped {
