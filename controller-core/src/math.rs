@@ -47,6 +47,22 @@ pub fn sin_cos(x: f32) -> (f32, f32) {
     }
 }
 
+/// [`sin_cos_small`] of `clamp_keep_nan(x, -lim, lim)` with that clamped value, for
+/// `pi/4 <= lim` (one magnitude test in the common case |x| <= pi/4, where the clamp keeps
+/// `x` and the polynomials take it directly). Bit-identical to the two calls.
+#[inline(always)]
+pub fn clamp_sin_cos_small(x: f32, lim: f32) -> (f32, (f32, f32)) {
+    if x.abs() <= FRAC_PI_4 {
+        let z = x * x;
+        (x, (sin_poly(x, z), cos_poly(z)))
+    } else {
+        // |x| > pi/4 or NaN: the clamped value is beyond pi/4 or NaN, where `sin_cos_small`
+        // is `sin_cos`.
+        let b = clamp_keep_nan(x, -lim, lim);
+        (b, sin_cos(b))
+    }
+}
+
 /// [`sin_cos`] for angles that are usually small (pitch, roll, sideslip): for |x| <= pi/4 the
 /// range reduction is skipped and the polynomials take `x` itself, otherwise [`sin_cos`].
 /// Bit-identical to [`sin_cos`] except near |x| = pi/4, where `sin_cos`'s rounding of
@@ -413,6 +429,32 @@ mod tests {
         assert_eq!(t.to_bits(), asin(f32::NAN).to_bits());
         let (s2, c2) = sin_cos_small(asin(f32::NAN));
         assert_eq!((s.to_bits(), c.to_bits()), (s2.to_bits(), c2.to_bits()));
+    }
+
+    #[test]
+    fn clamp_sin_cos_small_matches_clamp_then_sin_cos_small() {
+        // Bit for bit against the two calls it replaces, over and beyond the clamp.
+        let lim = 0.8;
+        let bits = |(b, (s, c)): (f32, (f32, f32))| (b.to_bits(), s.to_bits(), c.to_bits());
+        let n = 200_000;
+        let mut xs: Vec<f32> = (0..=n).map(|i| -3.0 + 6.0 * i as f32 / n as f32).collect();
+        xs.extend([
+            0.0,
+            -0.0,
+            FRAC_PI_4,
+            -FRAC_PI_4,
+            lim,
+            -lim,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            1.0e-40,
+        ]);
+        for x in xs {
+            let b = clamp_keep_nan(x, -lim, lim);
+            let want = bits((b, sin_cos_small(b)));
+            assert_eq!(bits(clamp_sin_cos_small(x, lim)), want, "{x}");
+        }
     }
 
     #[test]

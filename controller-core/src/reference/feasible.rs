@@ -21,7 +21,7 @@
 //! conditions needs the pitch `theta = -asin(a / g)` (`u1_dot = -g sin(theta)`, MODEL_NOTES
 //! section 3): [`pitch_for_accel`].
 
-use crate::math::{asin, asin_sin_cos, atan2, clamp_keep_nan, max, sin_cos_small, sqrt};
+use crate::math::{asin, asin_sin_cos, atan2, clamp_sin_cos_small, max, sqrt};
 use crate::params::{XyCoeffs, XzCoeffs};
 use crate::reference::RefSample;
 
@@ -100,7 +100,9 @@ pub struct Sideslip {
 /// Solve `g(beta) = 0` for the course `c` (see the module docs).
 pub fn sideslip(xy: &XyCoeffs, c: &Course) -> Sideslip {
     let u = c.speed_m_s;
-    if u.is_nan() || u < SPEED_FLOOR_M_S {
+    // Below the floor or NaN: one comparison (false for NaN).
+    let moving = u >= SPEED_FLOOR_M_S;
+    if !moving {
         return Sideslip::default();
     }
     // g / (m22 U) = beta3 chi_dot cos b + (U_dot / U) sin b + (beta1 + beta2 U |sin b|) sin b
@@ -113,19 +115,30 @@ pub fn sideslip(xy: &XyCoeffs, c: &Course) -> Sideslip {
         let d = -k * s + rate * co + (xy.beta1 + 2.0 * xy.beta2 * u * s.abs()) * co;
         max(d, floor)
     };
+    // Each iterate is clamped to +-SIDESLIP_MAX_RAD (keeping a NaN) before its sine and
+    // cosine are taken: `clamp_sin_cos_small` does both with one test in the common case.
     let mut b = -k / max(rate + xy.beta1, floor);
-    b = clamp_keep_nan(b, -SIDESLIP_MAX_RAD, SIDESLIP_MAX_RAD);
     for _ in 0..3 {
-        let (s, co) = sin_cos_small(b);
+        let (bc, (s, co)) = clamp_sin_cos_small(b, SIDESLIP_MAX_RAD);
         let g = k * co + rate * s + (xy.beta1 + xy.beta2 * u * s.abs()) * s;
-        b = clamp_keep_nan(b - g / deriv(s, co), -SIDESLIP_MAX_RAD, SIDESLIP_MAX_RAD);
+        b = bc - g / deriv(s, co);
     }
-    let (s, co) = sin_cos_small(b);
+    let (b, (s, co)) = clamp_sin_cos_small(b, SIDESLIP_MAX_RAD);
     // (m11 - m22) / m22 = beta3 - 1
     let advance = (xy.beta3 - 1.0) * co / deriv(s, co);
-    Sideslip {
-        beta_rad: if b.is_finite() { b } else { 0.0 },
-        advance_s: if advance.is_finite() { advance } else { 0.0 },
+    // One finiteness test for both in the common case: a sum is finite only if both terms
+    // are (an infinity or NaN propagates; `|b| <= SIDESLIP_MAX_RAD` cannot overflow it).
+    if (b + advance).is_finite() {
+        Sideslip {
+            beta_rad: b,
+            advance_s: advance,
+        }
+    } else {
+        let ok = |x: f32| if x.is_finite() { x } else { 0.0 };
+        Sideslip {
+            beta_rad: ok(b),
+            advance_s: ok(advance),
+        }
     }
 }
 

@@ -112,13 +112,23 @@ fn rest_direction(r: &RefSample) -> Option<[f32; 2]> {
     // `n2` is +0 or more, or NaN: for such bits the integer order is the float order, so
     // "finite and above the floor" is two integer comparisons (`is_finite` is a class check).
     const FLOOR2_BITS: u32 = (REST_DIRECTION_FLOOR * REST_DIRECTION_FLOOR).to_bits();
-    for [x, y, _] in [r.vel_m_s, r.acc_m_s2, r.jerk_m_s3] {
+    // The three in turn, read in place (a loop over an array of the three copies them).
+    let usable = |v: &[f32; 3]| {
+        let [x, y, _] = *v;
         let n2 = (x * x + y * y).to_bits();
-        if n2 > FLOOR2_BITS && n2 < f32::INFINITY.to_bits() {
-            return Some([x, y]);
-        }
-    }
-    None
+        n2 > FLOOR2_BITS && n2 < f32::INFINITY.to_bits()
+    };
+    let pick = if usable(&r.vel_m_s) {
+        &r.vel_m_s
+    } else if usable(&r.acc_m_s2) {
+        &r.acc_m_s2
+    } else if usable(&r.jerk_m_s3) {
+        &r.jerk_m_s3
+    } else {
+        return None;
+    };
+    let [x, y, _] = *pick;
+    Some([x, y])
 }
 
 /// Below this norm a derivative of the reference gives no direction.
@@ -173,7 +183,9 @@ pub const CURRENT_DEADZONE_M_S: f32 = 0.01;
 /// Time constant of the low-pass on the current estimate (s).
 pub const CURRENT_TAU_S: f32 = 5.0;
 
-/// Solve `(k1 + k2 |x|) x = f` for `x` (odd, monotonic).
+/// Solve `(k1 + k2 |x|) x = f` for `x` (odd, monotonic). Inlined: two calls a step, and
+/// the call kept its operands in saved registers (measured 26 instructions a step, +312 B).
+#[inline]
 fn inv_drag(k1: f32, k2: f32, f: f32) -> f32 {
     let a = f.abs();
     let x = if k2 > 0.0 {
