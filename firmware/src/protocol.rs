@@ -753,8 +753,8 @@ impl<M> FrameDecoder<M> {
 /// A message type the [`FrameDecoder`] decodes: with postcard, or with a hand-written
 /// reader for a payload that reader recognizes.
 pub trait Message: DeserializeOwned {
-    /// The sequence number and the message of a payload (an [`Envelope`] whose version was
-    /// checked) when a hand-written reader recognizes it; it must decode exactly as
+    /// The sequence number and the message of a payload (an [`Envelope`] whose first byte,
+    /// the version, was checked) when a hand-written reader recognizes it; it must decode exactly as
     /// postcard would. `None` lets postcard decode the payload.
     #[inline(always)]
     fn fast_decode(_payload: &[u8]) -> Option<(u16, Self)> {
@@ -882,6 +882,14 @@ impl<M: Message> FrameDecoder<M> {
         if crc32::checksum(payload) != u32::from_le_bytes(crc) {
             return Some(self.drop_frame(DropReason::Crc, None));
         }
+        // The version is the payload's first byte (a raw `u8`): a frame of this version that
+        // the hand-written reader recognizes needs no other parse.
+        if payload.first() == Some(&PROTOCOL_VERSION) {
+            if let Some((seq, msg)) = M::fast_decode(payload) {
+                self.frames = self.frames.wrapping_add(1);
+                return Some(Decoded::Frame { seq, msg });
+            }
+        }
         let header = postcard::take_from_bytes::<Header>(payload)
             .ok()
             .map(|(h, _)| h);
@@ -890,10 +898,6 @@ impl<M: Message> FrameDecoder<M> {
         };
         if header.version != PROTOCOL_VERSION {
             return Some(self.drop_frame(DropReason::Version, Some(header.seq)));
-        }
-        if let Some((seq, msg)) = M::fast_decode(payload) {
-            self.frames = self.frames.wrapping_add(1);
-            return Some(Decoded::Frame { seq, msg });
         }
         match postcard::from_bytes::<Envelope<M>>(payload) {
             Ok(env) => {
