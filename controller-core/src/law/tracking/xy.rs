@@ -19,19 +19,29 @@
 use super::{integrate, sat2, HeadingRef, TrackingGains, TrackingState};
 use crate::math::{atan2, clamp, sin_cos, sqrt, wrap_angle};
 use crate::params::{Vehicle, XyCoeffs};
-use crate::reference::feasible::{course_of, sideslip, Course};
+use crate::reference::feasible::{course_of, sideslip, sideslip_step, Course};
 use crate::reference::RefSample;
 use crate::state::NavState;
 
 /// Time constant of the filtered derivatives of the sideslip (s).
 pub const DERIV_TAU_S: f32 = 0.05;
 
-fn filt(prev: f32, d: f32, x: f32, dt: f32) -> f32 {
-    if dt <= 0.0 {
-        return d;
+/// One step of a filtered derivative: `d + (raw - d) dt / (tau + dt)` with the raw difference
+/// `raw = (x - prev) / dt`, written `d + (x - prev - d dt) k` with `k = 1 / (tau + dt)`
+/// computed once for the three filters ([`filt_gain`]); `k = 0` (no valid step) holds `d`.
+#[inline(always)]
+fn filt(prev: f32, d: f32, x: f32, dt: f32, k: f32) -> f32 {
+    d + (x - prev - d * dt) * k
+}
+
+/// `1 / (DERIV_TAU_S + dt)` for a clean `dt > 0`, else 0 (the filters hold).
+#[inline(always)]
+fn filt_gain(dt: f32) -> f32 {
+    if dt > 0.0 {
+        1.0 / (DERIV_TAU_S + dt)
+    } else {
+        0.0
     }
-    let raw = (x - prev) / dt;
-    d + (raw - d) * dt / (DERIV_TAU_S + dt)
 }
 
 impl HeadingRef {
@@ -48,7 +58,14 @@ impl HeadingRef {
     ) -> (f32, f32, f32) {
         let (chi, chi1, chi2, bqs, adv) = match course {
             Some(c) => {
-                let s = sideslip(xy, &c);
+                // One Newton step from the last solution; the full solve after a start from
+                // rest (or at the very start).
+                let s = if self.init && self.slip_warm {
+                    let guess = 2.0 * self.beta_qs - self.beta_qs_prev;
+                    sideslip_step(xy, &c, guess)
+                } else {
+                    sideslip(xy, &c)
+                };
                 (c.chi_rad, c.chi_dot, c.chi_ddot, s.beta_rad, s.advance_s)
             }
             None => (if self.init { self.chi } else { yaw }, 0.0, 0.0, 0.0, 0.0),
@@ -57,7 +74,9 @@ impl HeadingRef {
             *self = HeadingRef {
                 init: true,
                 chi,
+                slip_warm: false,
                 beta_qs: bqs,
+                beta_qs_prev: bqs,
                 beta_qs_dot: 0.0,
                 beta: bqs,
                 beta_dot: 0.0,
@@ -72,11 +91,15 @@ impl HeadingRef {
             self.rest_vec = d;
             self.rest_from_vec = true;
         }
-        self.beta_qs_dot = filt(self.beta_qs, self.beta_qs_dot, bqs, dt);
+        let k = filt_gain(dt);
+        self.beta_qs_dot = filt(self.beta_qs, self.beta_qs_dot, bqs, dt, k);
+        // After a full solve (or none) the next start is not advanced.
+        self.beta_qs_prev = if self.slip_warm { self.beta_qs } else { bqs };
         self.beta_qs = bqs;
+        self.slip_warm = course.is_some();
         let beta = bqs + adv * self.beta_qs_dot;
-        let beta_dot = filt(self.beta, self.beta_dot, beta, dt);
-        self.beta_ddot = filt(self.beta_dot, self.beta_ddot, beta_dot, dt);
+        let beta_dot = filt(self.beta, self.beta_dot, beta, dt, k);
+        self.beta_ddot = filt(self.beta_dot, self.beta_ddot, beta_dot, dt, k);
         self.beta_dot = beta_dot;
         self.beta = beta;
         self.chi = chi;
@@ -183,9 +206,9 @@ pub const CURRENT_DEADZONE_M_S: f32 = 0.01;
 /// Time constant of the low-pass on the current estimate (s).
 pub const CURRENT_TAU_S: f32 = 5.0;
 
-/// Solve `(k1 + k2 |x|) x = f` for `x` (odd, monotonic). Inlined: two calls a step, and
-/// the call kept its operands in saved registers (measured 26 instructions a step, +312 B).
-#[inline]
+/// Solve `(k1 + k2 |x|) x = f` for `x` (odd, monotonic) in closed form (one square root).
+/// Kept out of line: only the rare fallback of [`inv_drag_step`] takes it.
+#[inline(never)]
 fn inv_drag(k1: f32, k2: f32, f: f32) -> f32 {
     let a = f.abs();
     let x = if k2 > 0.0 {
@@ -199,6 +222,30 @@ fn inv_drag(k1: f32, k2: f32, f: f32) -> f32 {
         x.copysign(f)
     } else {
         0.0
+    }
+}
+
+/// Largest Newton correction [`inv_drag_step`] accepts (m/s); a larger one (a start far from
+/// the root) is replaced by the closed form.
+pub const DRAG_NEWTON_MAX_STEP_M_S: f32 = 0.02;
+
+/// [`inv_drag`] by one Newton step from `x0`, the root of the last control step moved by the
+/// change of the measured velocity: `x1 = x0 - ((k1 + k2 |x0|) x0 - f) / (k1 + 2 k2 |x0|)`.
+/// The function is odd and increasing with `|f''| = 2 k2`, so the step lands within about
+/// `k2 (x0 - x)^2 / (k1 + 2 k2 |x0|)` of the root: at the accepted limit
+/// [`DRAG_NEWTON_MAX_STEP_M_S`] and the Observer's surge drag below 2e-3 m/s, shrinking
+/// quadratically on the next steps, and the observer low-passes the result over
+/// [`CURRENT_TAU_S`]. No square root in the common case (two a step, 36 instructions each).
+#[inline(always)]
+fn inv_drag_step(k1: f32, k2: f32, f: f32, x0: f32) -> f32 {
+    let a = x0.abs();
+    let d = k1 + 2.0 * k2 * a;
+    let step = ((k1 + k2 * a) * x0 - f) / d;
+    // Small and finite (false for NaN, or for d = 0: no drag at all).
+    if step.abs() <= DRAG_NEWTON_MAX_STEP_M_S {
+        x0 - step
+    } else {
+        inv_drag(k1, k2, f)
     }
 }
 
@@ -241,23 +288,26 @@ impl super::CurrentObserver {
         let dy = zy + l * my;
         let zx = zx - dt * l * (dx + fx);
         let zy = zy - dt * l * (dy + fy);
-        // d = D(nu) - D(nu - c)  =>  nu - c = D^-1(D(nu) - d)
-        let cbx = u - inv_drag(p.x_u, p.x_uu, xd - dx);
-        let cby = vv - inv_drag(p.y_v, p.y_vv, yd - dy);
+        // d = D(nu) - D(nu - c)  =>  nu - c = D^-1(D(nu) - d), from the last step's current.
+        let [cbx0, cby0] = self.cb;
+        let cbx = u - inv_drag_step(p.x_u, p.x_uu, xd - dx, u - cbx0);
+        let cby = vv - inv_drag_step(p.y_v, p.y_vv, yd - dy, vv - cby0);
         let cx = c * cbx - s * cby;
         let cy = s * cbx + c * cby;
         let k = dt / (CURRENT_TAU_S + dt);
         let [vx, vy] = self.vc;
         let nvx = vx + k * (cx - vx);
         let nvy = vy + k * (cy - vy);
-        // One finiteness test for the four in the common case (see `HeadingRef::update`).
-        if (zx + zy + nvx + nvy).is_finite() {
+        // One finiteness test for the six in the common case (see `HeadingRef::update`).
+        if (zx + zy + nvx + nvy + cbx + cby).is_finite() {
             self.z = [zx, zy];
             self.vc = [nvx, nvy];
+            self.cb = [cbx, cby];
         } else {
             let fin = |a: f32| if a.is_finite() { a } else { 0.0 };
             self.z = [fin(zx), fin(zy)];
             self.vc = [fin(nvx), fin(nvy)];
+            self.cb = [fin(cbx), fin(cby)];
         }
     }
 }
@@ -407,4 +457,61 @@ pub fn hand(
         eoy,
         e_yaw,
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The Observer's surge drag: `X_u`, `X_uu`.
+    const K1: f32 = 0.9613;
+    const K2: f32 = 4.4674;
+
+    fn drag(x: f32) -> f32 {
+        (K1 + K2 * x.abs()) * x
+    }
+
+    #[test]
+    fn inv_drag_solves_the_drag_equation() {
+        for i in -150..=150 {
+            let x = i as f32 * 0.01;
+            assert!((inv_drag(K1, K2, drag(x)) - x).abs() < 2e-6, "{x}");
+        }
+        assert_eq!(inv_drag(0.0, 0.0, 3.0), 0.0);
+        assert_eq!(inv_drag(K1, K2, f32::NAN), 0.0);
+    }
+
+    // One Newton step from within the accepted distance lands within the quadratic bound
+    // `k2 d^2 / (k1 + 2 k2 |x0|)` of the root; from farther the closed form is taken.
+    proptest::proptest! {
+        #[test]
+        fn inv_drag_step_is_within_its_bound(
+            root in -1.5f32..1.5,
+            off in -DRAG_NEWTON_MAX_STEP_M_S..DRAG_NEWTON_MAX_STEP_M_S,
+        ) {
+            let f = drag(root);
+            let x0 = root + off;
+            let x1 = inv_drag_step(K1, K2, f, x0);
+            let bound = K2 * off * off / (K1 + 2.0 * K2 * x0.abs());
+            proptest::prop_assert!(
+                (x1 - root).abs() <= 1.01 * bound + 4e-6,
+                "root {} x0 {} x1 {} bound {}", root, x0, x1, bound
+            );
+        }
+
+        #[test]
+        fn inv_drag_step_from_far_is_the_closed_form(root in -1.5f32..1.5, off in 0.1f32..2.0) {
+            let f = drag(root);
+            proptest::prop_assert_eq!(
+                inv_drag_step(K1, K2, f, root + off),
+                inv_drag(K1, K2, f)
+            );
+        }
+    }
+
+    #[test]
+    fn inv_drag_step_without_drag_gives_zero() {
+        // d = 0 and a NaN step: the closed form, which has nothing to solve.
+        assert_eq!(inv_drag_step(0.0, 0.0, 1.0, 0.0), 0.0);
+    }
 }
