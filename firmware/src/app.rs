@@ -167,6 +167,9 @@ pub fn pulse_for_duty(duty: u16, period_us: u32, max_duty: u16) -> u16 {
     p.min(u32::from(u16::MAX)) as u16
 }
 
+/// Most bytes taken from the serial port per read (a whole `NavState` frame fits).
+const RX_CHUNK: usize = 64;
+
 /// The application.
 pub struct App<P1, P2, P3, S, C> {
     pwm: (P1, P2, P3),
@@ -178,6 +181,9 @@ pub struct App<P1, P2, P3, S, C> {
     tx_seq: u16,
     /// The frame being sent (kept here, not on the stack: not zeroed for every frame).
     tx_buf: [u8; MAX_FRAME_LEN],
+    /// Bytes read from the serial port (kept here for the same reason: a buffer on the
+    /// stack was zeroed at every read, ~40 instructions).
+    rx_buf: [u8; RX_CHUNK],
     link: LinkStats,
     host_time_us: u64,
     next_control_us: Option<u64>,
@@ -243,6 +249,7 @@ where
             decoder: FrameDecoder::new(),
             tx_seq: 0,
             tx_buf: [0; MAX_FRAME_LEN],
+            rx_buf: [0; RX_CHUNK],
             link: LinkStats::default(),
             host_time_us: 0,
             next_control_us: None,
@@ -323,9 +330,11 @@ where
                     break;
                 }
             }
-            let mut buf = [0u8; 64];
-            let want = budget.min(buf.len());
-            let n = match self.serial.read(buf.get_mut(..want).unwrap_or(&mut [])) {
+            let want = budget.min(RX_CHUNK);
+            let n = match self
+                .serial
+                .read(self.rx_buf.get_mut(..want).unwrap_or(&mut []))
+            {
                 Ok(n) => n,
                 Err(_) => {
                     self.io_faults |= fault::SERIAL_ERROR;
@@ -336,7 +345,7 @@ where
                 break;
             }
             budget = budget.saturating_sub(n);
-            self.on_bytes(buf.get(..n).unwrap_or(&[]));
+            self.on_rx_buf(n);
         }
         if let Timing::FixedRate {
             control_period_us,
@@ -375,6 +384,18 @@ where
     pub fn on_bytes(&mut self, mut bytes: &[u8]) {
         while !bytes.is_empty() {
             let d = self.decoder.push_slice(&mut bytes);
+            self.on_decoded(d);
+        }
+    }
+
+    /// [`on_bytes`](Self::on_bytes) for the first `n` bytes of `rx_buf`, walked by index: a
+    /// slice of it cannot stay borrowed while a frame is handled.
+    fn on_rx_buf(&mut self, n: usize) {
+        let mut pos = 0;
+        while let Some(mut rest) = self.rx_buf.get(pos..n).filter(|r| !r.is_empty()) {
+            let before = rest.len();
+            let d = self.decoder.push_slice(&mut rest);
+            pos += before - rest.len();
             self.on_decoded(d);
         }
     }
@@ -435,7 +456,7 @@ where
                 Command::Disarm => {
                     // Neutral at once, not at the next step.
                     let n = self.neutral_output();
-                    self.write_pwm(&n);
+                    self.write_pwm(n.pulse_us);
                     self.last = n;
                     self.send(&Reply::Ack { seq });
                 }
@@ -455,18 +476,18 @@ where
     /// Run the control step at `now` and write the outputs.
     fn control(&mut self, now: u64) {
         let t0 = self.clock.ticks();
-        let out = self.autopilot.step(now);
-        self.write_pwm(&out);
-        self.last = out;
+        // The step writes its output where it is kept (no 76-byte copy of a returned one).
+        self.autopilot.step_into(now, &mut self.last);
+        self.write_pwm(self.last.pulse_us);
         let dt = self.clock.ticks().wrapping_sub(t0);
         self.loop_ticks = dt;
         self.loop_ticks_max = self.loop_ticks_max.max(dt);
     }
 
-    fn write_pwm(&mut self, out: &StepOutput) {
+    fn write_pwm(&mut self, pulse_us: [f32; 3]) {
         let map = *self.autopilot.controller().pwm_map();
         let period = self.config.pwm_period_us();
-        let (duty, ok) = set_duties(&mut self.pwm, &map, period, out.pulse_us);
+        let (duty, ok) = set_duties(&mut self.pwm, &map, period, pulse_us);
         if !ok {
             self.io_faults |= fault::PWM_ERROR;
         }

@@ -390,9 +390,8 @@ pub fn encode<'a, M: Serialize>(
 /// [`encode`] with another protocol version (for tests of version handling).
 ///
 /// Works in `out` alone, without a scratch buffer: postcard writes the payload at
-/// [`PAYLOAD_OFFSET`], the CRC goes right after it, and COBS encodes the body in place,
-/// forwards, into `out[1..]`, in the same pass as the CRC (`cobs_encode_in_place`'s comment
-/// says why that is safe).
+/// [`PAYLOAD_OFFSET`], the CRC goes right after it, and COBS encodes the body in place into
+/// `out[1..]` (`cobs_encode_in_place`'s comment says why that is safe).
 pub fn encode_with_version<'a, M: Serialize>(
     version: u8,
     seq: u16,
@@ -431,49 +430,24 @@ fn has_zero_byte(w: u32) -> bool {
     w.wrapping_sub(0x0101_0101) & !w & 0x8080_8080 != 0
 }
 
-/// The four bytes at `buf[i..i + 4]` as a little-endian word, if they are in `buf`.
+/// `0x80` in each byte of `w` that is zero, `0` in the others. Exact, unlike
+/// [`has_zero_byte`]'s mask: `(b & 0x7F) + 0x7F` carries into bit 7 (and never out of the
+/// byte) unless the low seven bits are zero, and `| b` adds the top bit.
 #[inline(always)]
-fn word_at(buf: &[u8], i: usize) -> Option<u32> {
-    let b = buf.get(i..i + 4)?;
-    <[u8; 4]>::try_from(b).ok().map(u32::from_le_bytes)
+fn zero_bytes(w: u32) -> u32 {
+    !(((w & 0x7F7F_7F7F) + 0x7F7F_7F7F) | w | 0x7F7F_7F7F)
 }
 
 /// Finish a frame whose `n`-byte postcard payload (`n <= MAX_PAYLOAD_LEN`) is at
 /// `out[PAYLOAD_OFFSET..]`: append the CRC, COBS-encode payload and CRC in place into
-/// `out[1..]` (see `CobsInPlace`) and put a delimiter at both ends. Returns the frame.
-///
-/// The COBS scan reads a word at a time and looks at single bytes only in words that hold
-/// a zero.
+/// `out[1..]` ([`cobs_encode_in_place`]) and put a delimiter at both ends. Returns the frame.
 fn seal(out: &mut [u8; MAX_FRAME_LEN], n: usize) -> &[u8] {
     let body_end = PAYLOAD_OFFSET + n.min(MAX_PAYLOAD_LEN);
     let crc = crc32::checksum(out.get(PAYLOAD_OFFSET..body_end).unwrap_or_default());
-    let end = body_end + CRC_LEN;
-    if let Some(d) = out.get_mut(body_end..end) {
+    if let Some(d) = out.get_mut(body_end..body_end + CRC_LEN) {
         d.copy_from_slice(&crc.to_le_bytes());
     }
-    let mut cobs = CobsInPlace::new();
-    let mut i = PAYLOAD_OFFSET;
-    while i + 4 <= end {
-        if let Some(w) = word_at(out, i) {
-            if w == 0 {
-                // Four zero bytes (a 0.0, or zero counters): common in telemetry.
-                cobs.zero_word(out, i);
-            } else if has_zero_byte(w) {
-                let [b0, b1, b2, b3] = w.to_le_bytes();
-                cobs.byte(out, i, b0);
-                cobs.byte(out, i + 1, b1);
-                cobs.byte(out, i + 2, b2);
-                cobs.byte(out, i + 3, b3);
-            }
-        }
-        i += 4;
-    }
-    while i < end {
-        let b = out.get(i).copied().unwrap_or(0);
-        cobs.byte(out, i, b);
-        i += 1;
-    }
-    let len = cobs.finish(out, end);
+    let len = cobs_encode_in_place(out, body_end + CRC_LEN - PAYLOAD_OFFSET);
     if let Some(d) = out.first_mut() {
         *d = 0;
     }
@@ -492,68 +466,65 @@ const _: () = assert!(PAYLOAD_OFFSET + MAX_PAYLOAD_LEN + CRC_LEN <= MAX_FRAME_LE
 const _: () = assert!(PAYLOAD_OFFSET == 2 && MAX_PAYLOAD_LEN + CRC_LEN < 254);
 
 /// COBS-encode the `n` bytes at `buf[PAYLOAD_OFFSET..]` into `buf[1..]` (no delimiter);
-/// returns the encoded length.
+/// returns the encoded length, `n + 1` (0 if the body is not in `buf`: never for a frame).
 ///
 /// A body is at most `MAX_PAYLOAD_LEN + CRC_LEN` (< 254) bytes, so it has no 254-byte run of
 /// non-zero bytes and COBS needs exactly one code byte more than the body: the one in front
 /// (at `buf[1]`) and one in place of each zero byte, whose value is the distance to the next
-/// code byte (or to the end). Every non-zero byte stays where postcard wrote it
+/// zero byte (or to the end). Every non-zero byte stays where postcard wrote it
 /// (`PAYLOAD_OFFSET == 2`), so encoding is one scan for zero bytes and one store per zero.
-/// Every access is bounds-checked; nothing panics.
-#[cfg(test)]
+///
+/// The scan runs backwards, so the distance to the next zero is known at each zero and every
+/// code byte replaces the zero being looked at: a word at a time, each word's zero bytes
+/// found with [`zero_bytes`] (one test for a word without any) and its codes or'ed into it
+/// and stored back once. No index is computed from the data: nothing can go out of bounds.
 fn cobs_encode_in_place(buf: &mut [u8], n: usize) -> usize {
-    let mut cobs = CobsInPlace::new();
-    for i in PAYLOAD_OFFSET..PAYLOAD_OFFSET + n {
-        let b = buf.get(i).copied().unwrap_or(0);
-        cobs.byte(buf, i, b);
+    let Some((first, body)) = buf
+        .get_mut(PAYLOAD_OFFSET - 1..PAYLOAD_OFFSET + n)
+        .and_then(|b| b.split_first_mut())
+    else {
+        return 0;
+    };
+    // Body index of the zero after the scan point (or the body's end); < 254, so every
+    // distance below fits a code byte.
+    let mut next = body.len();
+    let (words, tail) = body.as_chunks_mut::<4>();
+    let tail_at = 4 * words.len();
+    for (k, b) in tail.iter_mut().enumerate().rev() {
+        if *b == 0 {
+            let j = tail_at + k;
+            *b = (next - j) as u8;
+            next = j;
+        }
     }
-    cobs.finish(buf, PAYLOAD_OFFSET + n)
-}
-
-/// The state of the in-place COBS encoder: where the open code byte is.
-struct CobsInPlace {
-    code_idx: usize,
-}
-
-impl CobsInPlace {
-    /// The first code byte is `buf[1]`, the body starts at `PAYLOAD_OFFSET`.
-    const fn new() -> Self {
-        Self { code_idx: 1 }
-    }
-
-    /// Body byte `b` is at `buf[i]`: a zero becomes the next code byte.
-    #[inline(always)]
-    fn byte(&mut self, buf: &mut [u8], i: usize, b: u8) {
-        if b == 0 {
-            if let Some(c) = buf.get_mut(self.code_idx) {
-                // i - code_idx <= 253 (body < 254 bytes): fits, and is never 0xFF.
-                *c = (i - self.code_idx) as u8;
+    for (i, word) in words.iter_mut().enumerate().rev() {
+        let w_at = 4 * i;
+        let w = u32::from_le_bytes(*word);
+        let mut zeros = zero_bytes(w);
+        if zeros == 0 {
+            continue;
+        }
+        let mut codes = w;
+        if zeros == 0x8080_8080 {
+            // Four zero bytes (a 0.0, or zero counters): common in telemetry. The first
+            // three point to their neighbours, the last to `next`.
+            codes = 0x0001_0101 | ((next - w_at - 3) as u32) << 24;
+            next = w_at;
+        } else {
+            while zeros != 0 {
+                // The highest zero byte left: bit 7 of byte `shift / 8`.
+                let shift = 24 - (zeros.leading_zeros() & 0x18);
+                let j = w_at + (shift / 8) as usize;
+                codes |= ((next - j) as u32) << shift;
+                next = j;
+                zeros &= !(0x80 << shift);
             }
-            self.code_idx = i;
         }
+        *word = codes.to_le_bytes();
     }
-
-    /// Body bytes `buf[i..i + 4]` are all zero: the same as four calls of [`byte`](Self::byte)
-    /// with `b = 0`. The first three become code bytes 1 (the next zero follows at once),
-    /// the fourth is the open code byte.
-    #[inline(always)]
-    fn zero_word(&mut self, buf: &mut [u8], i: usize) {
-        if let Some(c) = buf.get_mut(self.code_idx) {
-            *c = (i - self.code_idx) as u8;
-        }
-        if let Some(c) = buf.get_mut(i..i + 3) {
-            c.copy_from_slice(&[1, 1, 1]);
-        }
-        self.code_idx = i + 3;
-    }
-
-    /// Close the last code byte at the body's end; returns the encoded length.
-    fn finish(self, buf: &mut [u8], end: usize) -> usize {
-        if let Some(c) = buf.get_mut(self.code_idx) {
-            *c = (end - self.code_idx) as u8;
-        }
-        end - 1
-    }
+    // The code byte in front points to the first zero (or to the end).
+    *first = (next + 1) as u8;
+    n + 1
 }
 
 /// COBS-encode `src` into `dst` (no delimiter); returns the length written. `dst` must hold
@@ -605,23 +576,22 @@ fn cobs_encode(src: &[u8], dst: &mut [u8]) -> usize {
 /// grows with the number of zero bytes, not with the length.
 fn cobs_decode_in_place(buf: &mut [u8]) -> Option<core::ops::Range<usize>> {
     let n = buf.len();
-    let mut idx = 0usize;
+    let first = *buf.first()?;
+    // The first code byte stays (it is not part of the data); each one after it becomes a
+    // zero. `next < n` is the loop's test, so the index needs no other bounds check.
+    let mut next = usize::from(first);
+    let mut code = first;
     loop {
-        let slot = buf.get_mut(idx)?;
-        let code = usize::from(*slot);
-        if code == 0 || code == 0xFF {
+        // 0 and 0xFF in one comparison (both wrap to 0xFE or above).
+        if code.wrapping_sub(1) >= 0xFE {
             return None;
         }
-        if idx > 0 {
-            // A code byte after the first stands for a zero byte of the data.
-            *slot = 0;
-        }
-        let next = idx + code;
         if next >= n {
             // The last code must end exactly at the end of the frame.
             return (next == n).then_some(1..n);
         }
-        idx = next;
+        code = core::mem::replace(buf.get_mut(next)?, 0);
+        next += usize::from(code);
     }
 }
 
