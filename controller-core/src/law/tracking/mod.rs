@@ -182,6 +182,9 @@ pub struct TrackingState {
     z_int: f32,
     /// The pitch demand was in its limit last step.
     pitch_limited: bool,
+    /// XZ: sine and cosine of the last step's feasible pitch, the start of this step's
+    /// fixed-point pass ([`crate::reference::feasible::pitch_xz`]).
+    pitch_ref_sc: Option<(f32, f32)>,
     /// Last allocation clamped the surge force.
     surge_sat: bool,
     /// Last allocation clamped the yaw moment.
