@@ -10,8 +10,9 @@
 #    touched (stack painting). Instruction counts, not M4 cycles: see shared QEMU notes.
 # 2. Checks with `nm` that the default bench image (control path + loop, nothing else) links
 #    no soft-f64 helper (`__aeabi_d*`, `__*df*`); fails if it does and names the callers.
-# 3. Builds the bench again with `--features libm-compare` and times `libm::sinf` for
-#    comparison (that image does contain soft f64, by design).
+# 3. Builds the bench again with `--features libm-compare,law-alone`: times `libm::sinf` for
+#    comparison (that image does contain soft f64, by design) and each law alone (`law.*`,
+#    closed loop; the allocation, PWM map and anti-windup untimed).
 # 4. Prints flash and static RAM of the STM32F4 firmware image (`llvm-size`), if it builds.
 # 5. Compares with the targets of issue 5: control step <= 1,000 instructions, loop iteration
 #    <= 5,000, flash <= 48 KiB, RAM incl. stack <= 8 KiB. Over-budget figures are reported
@@ -107,11 +108,11 @@ fi
 
 # ---- 3. libm::sinf comparison ------------------------------------------------------------
 echo
-echo "== libm comparison: cargo build -p mcu-bench --release --target $TARGET --features libm-compare"
-cargo build -q -p mcu-bench --release --target "$TARGET" --features libm-compare
+echo "== libm comparison and the laws alone: cargo build -p mcu-bench --release --target $TARGET --features libm-compare,law-alone"
+cargo build -q -p mcu-bench --release --target "$TARGET" --features libm-compare,law-alone
 cp "$TDIR/$TARGET/release/mcu-bench" "$OUT/mcu-bench-libm.elf"
 run_qemu "$OUT/mcu-bench-libm.elf" "$OUT/bench-libm.log"
-grep -E '^(BENCH (libm|math|micromath)\.|ACCURACY )' "$OUT/bench-libm.log"
+grep -E '^(BENCH (libm|math|micromath|law)\.|ACCURACY )' "$OUT/bench-libm.log"
 echo "   (that image links $(soft_f64_symbols "$OUT/mcu-bench-libm.elf" | wc -l) soft-f64 helpers, through libm::sinf only)"
 
 # ---- 4. the STM32F4 firmware image --------------------------------------------------------
@@ -191,7 +192,12 @@ while read -r line; do
   name=$(echo "$line" | awk '{print $2}')
   check "$name (mean)" "$(echo "$line" | field mean)" 1000 instructions
   check "$name (max)" "$(echo "$line" | field max)" 1000 instructions
-done < <(grep '^BENCH control_step\.' "$OUT/bench.log")
+done < <(grep -E '^BENCH (control_step|control_step_random)\.' "$OUT/bench.log")
+while read -r line; do
+  name=$(echo "$line" | awk '{print $2}')
+  check "$name (mean, the law alone)" "$(echo "$line" | field mean)" 1000 instructions
+  check "$name (max, the law alone)" "$(echo "$line" | field max)" 1000 instructions
+done < <(grep '^BENCH law\.' "$OUT/bench-libm.log")
 LOOP_STACK=""
 while read -r line; do
   name=$(echo "$line" | awk '{print $2}')

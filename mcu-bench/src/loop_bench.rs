@@ -2,15 +2,20 @@
 //! [`firmware::App::tick`] in lock-step timing reads one `NavState` frame from the serial
 //! port, decodes it (COBS, CRC-32, postcard), runs the autopilot's step (failsafes, reference,
 //! control law, allocation, PWM map), writes the three duties and encodes and writes the
-//! `Telemetry` frame. The serial port, PWM outputs and clock are fakes in RAM.
+//! `Telemetry` frame. The serial port, PWM outputs and clock are fakes in RAM. The loop is
+//! closed: the `NavState` each iteration reads is the state of the core's planar model of the
+//! vehicle (`crate::plant`) after one control period under the forces of the last iteration,
+//! from a start 0.3 / -0.2 / 0.2 m off the paper reference (a `CLOSEDLOOP` line reports where
+//! it ended).
 //!
 //! Also timed alone: decoding one `NavState` frame and encoding one `Telemetry` frame.
 
 use crate::bench::{Bench, Platform, CALLS};
+use crate::plant::Plant;
 use controller_core::controller::{Controller, Gains};
 use controller_core::params::Vehicle;
 use controller_core::reference::{PaperPolynomial, Reference};
-use controller_core::state::NavState;
+use controller_core::state::{BodyForces, NavState};
 use core::convert::Infallible;
 use firmware::protocol::{
     encode, encode_telemetry, Board, Command, Decoded, FrameDecoder, Law, Mode, NavSample, Plane,
@@ -152,6 +157,22 @@ fn feed<P: Platform>(app: &mut BenchApp<'_, P>, seq: u16, cmd: &Command) -> bool
     ok
 }
 
+/// One closed-loop loop item: the firmware and the vehicle it steers.
+struct LoopSim<'a, P: Platform> {
+    app: BenchApp<'a, P>,
+    plant: Plant,
+    /// The forces the thrusters made in the last iteration.
+    forces: BodyForces,
+}
+
+/// The model that moves the vehicle for a firmware plane.
+fn plant_plane(plane: Plane) -> crate::plant::Plane {
+    match plane {
+        Plane::Xz => crate::plant::Plane::Xz,
+        _ => crate::plant::Plane::Xy3d,
+    }
+}
+
 /// A navigation state near the paper reference at `t_s`.
 fn nav_at(t_s: f32, jitter: f32) -> NavState {
     let r = PaperPolynomial::PAPER.sample(t_s);
@@ -263,11 +284,14 @@ pub fn run_loop<P: Platform>(b: &Bench<'_, P>, p: &P) {
             seq = seq.wrapping_add(1);
             seq
         };
+        // The vehicle starts off the reference and is steered by the firmware in closed loop
+        // (the core's planar model, `crate::plant`, untimed between the iterations).
+        let start = crate::bench::offset_start(&PaperPolynomial::PAPER.sample(0.0));
         let setup = [
             Command::Heartbeat { t_us: 0 },
             Command::Nav(NavSample {
                 t_us: 0,
-                state: nav_at(0.0, 0.0),
+                state: start,
             }),
             Command::SetReference {
                 reference: Reference::Paper(PaperPolynomial::PAPER),
@@ -288,27 +312,36 @@ pub fn run_loop<P: Platform>(b: &Bench<'_, P>, p: &P) {
         let mut no_law = 0u32;
         let mut no_reply = 0u32;
         let mut hb = [0u8; MAX_FRAME_LEN];
+        let mut sim = LoopSim {
+            app,
+            plant: Plant::new(Vehicle::observer(), plant_plane(plane), start),
+            forces: BodyForces::default(),
+        };
         b.run_state(
             label,
             CALLS,
-            &mut app,
-            |app, i| {
+            &mut sim,
+            |sim, i| {
                 let t_us = u64::from(i + 1) * PERIOD_US;
+                // The vehicle moves one period under the last thrust.
+                let f = sim.forces;
+                sim.plant.advance(&f, PERIOD_US as f32 * 1e-6);
                 // The heartbeat of this period, outside the timed region.
                 let f = frame(next(), &Command::Heartbeat { t_us }, &mut hb);
-                app.parts_mut().1.load(f);
-                app.tick();
+                sim.app.parts_mut().1.load(f);
+                sim.app.tick();
                 // The NavState frame the timed iteration will read.
                 let mut out = [0u8; MAX_FRAME_LEN];
                 let cmd = Command::Nav(NavSample {
                     t_us,
-                    state: nav_at(t_us as f32 * 1e-6, jitter(i)),
+                    state: *sim.plant.nav(),
                 });
                 let f = frame(next(), &cmd, &mut out);
-                app.parts_mut().1.load(f);
+                sim.app.parts_mut().1.load(f);
             },
-            |app| app.tick(),
-            |app| {
+            |sim| sim.app.tick(),
+            |sim| {
+                let app = &mut sim.app;
                 if app.parts_mut().1.tx_len == 0 {
                     no_reply += 1;
                 }
@@ -318,8 +351,27 @@ pub fn run_loop<P: Platform>(b: &Bench<'_, P>, p: &P) {
                 if !app.last_output().law_ran {
                     no_law += 1;
                 }
+                sim.forces = app.last_output().allocation.achieved;
             },
         );
+        let mut app = sim.app;
+        // Where the closed loop ended, against the reference.
+        let n = sim.plant.nav();
+        let [x, y, z] = PaperPolynomial::PAPER
+            .sample(CALLS as f32 * PERIOD_US as f32 * 1e-6)
+            .pos_m;
+        // The components the law steers: XZ (x, z), XY (x, y), 3-D (x, y, z).
+        let (ex, ey, ez) = (n.x_m - x, n.y_m - y, n.z_m - z);
+        let (ey, ez, axes) = match plane {
+            Plane::Xz => (0.0, ez, "x, z"),
+            Plane::Xy => (ey, 0.0, "x, y"),
+            Plane::ThreeD => (ey, ez, "x, y, z"),
+        };
+        let err = controller_core::math::sqrt(ex * ex + ey * ey + ez * ez);
+        p.print(format_args!(
+            "CLOSEDLOOP {label} after {:.2} s: position error ({axes}) {err:.4} m, from (0.3, -0.2, 0.2) m off",
+            CALLS as f32 * PERIOD_US as f32 * 1e-6,
+        ));
         if name == "tracking_3d" {
             // The answer to a heartbeat (a tick that reads one `Heartbeat` and sends the
             // `Status`): not part of a control iteration, here so its cost is known too.
