@@ -77,6 +77,10 @@ struct Stats {
     sum: u64,
     min: u32,
     max: u32,
+    /// Index of the (first) call that took `max`.
+    max_at: u32,
+    /// The largest excluding the first call (a start: filters and solvers initialised).
+    max_after_first: u32,
 }
 
 impl Stats {
@@ -86,10 +90,18 @@ impl Stats {
             sum: 0,
             min: u32::MAX,
             max: 0,
+            max_at: 0,
+            max_after_first: 0,
         }
     }
 
     fn add(&mut self, ticks: u32) {
+        if ticks > self.max {
+            self.max_at = self.calls;
+        }
+        if self.calls > 0 {
+            self.max_after_first = self.max_after_first.max(ticks);
+        }
         self.calls += 1;
         self.sum += u64::from(ticks);
         self.min = self.min.min(ticks);
@@ -176,20 +188,24 @@ impl<'a, P: Platform> Bench<'a, P> {
         let mean = st.mean_tenths();
         match stack {
             Some(s) => self.p.print(format_args!(
-                "BENCH {name} calls={} mean={}.{} min={} max={} stack={s}",
+                "BENCH {name} calls={} mean={}.{} min={} max={} stack={s} max_at={} max_after_first={}",
                 st.calls,
                 mean / 10,
                 mean % 10,
                 st.min,
-                st.max
+                st.max,
+                st.max_at,
+                st.max_after_first
             )),
             None => self.p.print(format_args!(
-                "BENCH {name} calls={} mean={}.{} min={} max={} stack=n/a",
+                "BENCH {name} calls={} mean={}.{} min={} max={} stack=n/a max_at={} max_after_first={}",
                 st.calls,
                 mean / 10,
                 mean % 10,
                 st.min,
-                st.max
+                st.max,
+                st.max_at,
+                st.max_after_first
             )),
         }
         mean

@@ -46,12 +46,14 @@ fn filt_gain(dt: f32) -> f32 {
 
 impl HeadingRef {
     /// Advance the generator with the water-relative course `course` (`None` below the speed
-    /// floor) and the direction of the reference motion `rest_dir` (see [`rest_direction`]);
-    /// `dt` must be clean ([`super::clean_dt`]). Returns `(psi_r, psi_r_dot, psi_r_ddot)`.
+    /// floor) of the velocity `course_vec` and the direction of the reference motion
+    /// `rest_dir` (see [`rest_direction`]); `dt` must be clean ([`super::clean_dt`]).
+    /// Returns `(psi_r, psi_r_dot, psi_r_ddot)`.
     pub(crate) fn update(
         &mut self,
         xy: &XyCoeffs,
         course: Option<Course>,
+        course_vec: [f32; 2],
         rest_dir: Option<[f32; 2]>,
         yaw: f32,
         dt: f32,
@@ -88,8 +90,20 @@ impl HeadingRef {
             };
         }
         if let Some(d) = rest_dir {
-            self.rest_vec = d;
-            self.rest_from_vec = true;
+            // Without a current the rest direction is the velocity the course was taken of:
+            // the same bits give the same arctangent, so keep the course's angle (no second
+            // `atan2` where the rest law runs). Otherwise the vector, its angle taken when used.
+            let same = |a: f32, b: f32| a.to_bits() == b.to_bits();
+            match course {
+                Some(c) if same(d[0], course_vec[0]) && same(d[1], course_vec[1]) => {
+                    self.rest_chi = c.chi_rad;
+                    self.rest_from_vec = false;
+                }
+                _ => {
+                    self.rest_vec = d;
+                    self.rest_from_vec = true;
+                }
+            }
         }
         let k = filt_gain(dt);
         self.beta_qs_dot = filt(self.beta_qs, self.beta_qs_dot, bqs, dt, k);
@@ -360,9 +374,9 @@ pub fn hand(
         1.0
     };
     let course = course_of(r, wx, wy, w2);
-    let (psi_r, psi_r1, psi_r2) = st
-        .heading
-        .update(xy, course, rest_direction(r), nav.yaw_rad, dt);
+    let (psi_r, psi_r1, psi_r2) =
+        st.heading
+            .update(xy, course, [wx, wy], rest_direction(r), nav.yaw_rad, dt);
     // Current in the body frame, for the drag on the water-relative velocity.
     let [ux, uy] = vc_used;
     let vcb_x = c * ux + s * uy;
