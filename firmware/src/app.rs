@@ -167,9 +167,6 @@ pub fn pulse_for_duty(duty: u16, period_us: u32, max_duty: u16) -> u16 {
     p.min(u32::from(u16::MAX)) as u16
 }
 
-/// Most bytes taken from the serial port per read (a whole `NavState` frame fits).
-const RX_CHUNK: usize = 64;
-
 /// The application.
 pub struct App<P1, P2, P3, S, C> {
     pwm: (P1, P2, P3),
@@ -181,9 +178,6 @@ pub struct App<P1, P2, P3, S, C> {
     tx_seq: u16,
     /// The frame being sent (kept here, not on the stack: not zeroed for every frame).
     tx_buf: [u8; MAX_FRAME_LEN],
-    /// Bytes read from the serial port (kept here for the same reason: a buffer on the
-    /// stack was zeroed at every read, ~40 instructions).
-    rx_buf: [u8; RX_CHUNK],
     link: LinkStats,
     host_time_us: u64,
     next_control_us: Option<u64>,
@@ -249,7 +243,6 @@ where
             decoder: FrameDecoder::new(),
             tx_seq: 0,
             tx_buf: [0; MAX_FRAME_LEN],
-            rx_buf: [0; RX_CHUNK],
             link: LinkStats::default(),
             host_time_us: 0,
             next_control_us: None,
@@ -330,11 +323,9 @@ where
                     break;
                 }
             }
-            let want = budget.min(RX_CHUNK);
-            let n = match self
-                .serial
-                .read(self.rx_buf.get_mut(..want).unwrap_or(&mut []))
-            {
+            // The port writes straight into the decoder's buffer (no copy in between).
+            let serial = &mut self.serial;
+            let n = match self.decoder.fill(budget, |buf| serial.read(buf)) {
                 Ok(n) => n,
                 Err(_) => {
                     self.io_faults |= fault::SERIAL_ERROR;
@@ -345,7 +336,10 @@ where
                 break;
             }
             budget = budget.saturating_sub(n);
-            self.on_rx_buf(n);
+            while self.decoder.has_unscanned() {
+                let d = self.decoder.poll();
+                self.on_decoded(d);
+            }
         }
         if let Timing::FixedRate {
             control_period_us,
@@ -384,18 +378,6 @@ where
     pub fn on_bytes(&mut self, mut bytes: &[u8]) {
         while !bytes.is_empty() {
             let d = self.decoder.push_slice(&mut bytes);
-            self.on_decoded(d);
-        }
-    }
-
-    /// [`on_bytes`](Self::on_bytes) for the first `n` bytes of `rx_buf`, walked by index: a
-    /// slice of it cannot stay borrowed while a frame is handled.
-    fn on_rx_buf(&mut self, n: usize) {
-        let mut pos = 0;
-        while let Some(mut rest) = self.rx_buf.get(pos..n).filter(|r| !r.is_empty()) {
-            let before = rest.len();
-            let d = self.decoder.push_slice(&mut rest);
-            pos += before - rest.len();
             self.on_decoded(d);
         }
     }

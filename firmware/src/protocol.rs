@@ -430,6 +430,23 @@ fn has_zero_byte(w: u32) -> bool {
     w.wrapping_sub(0x0101_0101) & !w & 0x8080_8080 != 0
 }
 
+/// Index of the first zero byte of `bytes`, looked for a word at a time: the lowest byte
+/// [`has_zero_byte`]'s mask marks is always a zero byte (a false mark needs a borrow from a
+/// zero byte below it).
+#[inline(always)]
+fn find_zero(bytes: &[u8]) -> Option<usize> {
+    let (words, tail) = bytes.as_chunks::<4>();
+    for (i, w) in words.iter().enumerate() {
+        let w = u32::from_le_bytes(*w);
+        let marks = w.wrapping_sub(0x0101_0101) & !w & 0x8080_8080;
+        if marks != 0 {
+            return Some(4 * i + (marks.trailing_zeros() / 8) as usize);
+        }
+    }
+    let at = 4 * words.len();
+    tail.iter().position(|&b| b == 0).map(|k| at + k)
+}
+
 /// `0x80` in each byte of `w` that is zero, `0` in the others. Exact, unlike
 /// [`has_zero_byte`]'s mask: `(b & 0x7F) + 0x7F` carries into bit 7 (and never out of the
 /// byte) unless the low seven bits are zero, and `| b` adds the top bit.
@@ -567,32 +584,40 @@ fn cobs_encode(src: &[u8], dst: &mut [u8]) -> usize {
 
 /// Decode COBS in place: returns the range of `buf` that holds the decoded bytes, or `None`
 /// if the code chain is not valid (a zero code, a `0xFF` code, or a code that runs past the
-/// end). `buf` holds no zero byte (the [`FrameDecoder`] never stores one).
+/// end) or `buf` is longer than [`MAX_ENCODED_LEN`]. `buf` holds no zero byte (the
+/// [`FrameDecoder`] never stores one).
 ///
 /// Only frames shorter than 254 bytes reach it ([`MAX_ENCODED_LEN`]), so no code byte can
 /// be `0xFF` (254 data bytes, no zero) in a valid frame: each code byte after the first
 /// stands for one zero byte of the data. Decoding is therefore: follow the chain of code
 /// bytes, write a zero over each one after the first, and the data is `buf[1..]`. The cost
 /// grows with the number of zero bytes, not with the length.
+///
+/// A `0xFF` code needs no test of its own: it points 255 bytes on, past the end of any
+/// `buf` of at most [`MAX_ENCODED_LEN`] bytes, so the chain cannot end exactly at the end.
+/// A zero code (only in a `buf` that breaks the rule above) is refused, or the chain would
+/// not move.
 fn cobs_decode_in_place(buf: &mut [u8]) -> Option<core::ops::Range<usize>> {
     let n = buf.len();
+    if n > MAX_ENCODED_LEN {
+        return None;
+    }
     let first = *buf.first()?;
     // The first code byte stays (it is not part of the data); each one after it becomes a
     // zero. `next < n` is the loop's test, so the index needs no other bounds check.
     let mut next = usize::from(first);
-    let mut code = first;
-    loop {
-        // 0 and 0xFF in one comparison (both wrap to 0xFE or above).
-        if code.wrapping_sub(1) >= 0xFE {
+    if first == 0 {
+        return None;
+    }
+    while next < n {
+        let code = core::mem::replace(buf.get_mut(next)?, 0);
+        if code == 0 {
             return None;
         }
-        if next >= n {
-            // The last code must end exactly at the end of the frame.
-            return (next == n).then_some(1..n);
-        }
-        code = core::mem::replace(buf.get_mut(next)?, 0);
         next += usize::from(code);
     }
+    // The last code must end exactly at the end of the frame.
+    (next == n).then_some(1..n)
 }
 
 const _: () = assert!(MAX_ENCODED_LEN < 255);
@@ -676,6 +701,33 @@ pub enum Decoded<M> {
     },
 }
 
+/// Move `buf[start..end]` to the front of `buf` (`0 < start < end`) in pieces of at most
+/// `start` bytes, each a copy between parts that do not overlap: `copy_within` would link
+/// `memmove` (1.5 KiB of flash) for this one rare move.
+#[inline(never)]
+fn move_to_front(buf: &mut [u8], start: usize, end: usize) {
+    let mut at = 0;
+    while start + at < end {
+        let m = (end - start - at).min(start);
+        let (head, tail) = buf.split_at_mut((start + at).min(buf.len()));
+        let (Some(d), Some(s)) = (head.get_mut(at..at + m), tail.get(..m)) else {
+            return;
+        };
+        if m == 0 {
+            return;
+        }
+        for (x, y) in d.iter_mut().zip(s) {
+            *x = *y;
+        }
+        at += m;
+    }
+}
+
+/// Size of the [`FrameDecoder`]'s buffer: a frame of [`MAX_ENCODED_LEN`] bytes and one byte
+/// more, so that [`FrameDecoder::fill`] always has room for the byte that tells whether a
+/// frame of the largest length ends there or runs over.
+const RX_BUF_LEN: usize = MAX_ENCODED_LEN + 1;
+
 /// Streaming frame decoder: feed it bytes, it yields messages of type `M` at each delimiter.
 ///
 /// Resynchronizes on the next `0x00` after garbage, an overlong frame or a bad CRC; empty
@@ -683,8 +735,14 @@ pub enum Decoded<M> {
 /// with a delimiter to flush garbage. Never allocates, never panics.
 #[derive(Debug, Clone)]
 pub struct FrameDecoder<M> {
-    buf: [u8; MAX_ENCODED_LEN],
+    /// The frame being gathered is `buf[start..len]` (no delimiter in it); `buf[len..filled]`
+    /// were read by [`fill`](Self::fill) and not yet looked at by [`poll`](Self::poll).
+    /// `start <= len <= filled <= RX_BUF_LEN`; `push` and `push_slice` keep `start == 0` and
+    /// `filled == len`.
+    buf: [u8; RX_BUF_LEN],
+    start: usize,
     len: usize,
+    filled: usize,
     overflowed: bool,
     /// Frames accepted.
     pub frames: u32,
@@ -703,8 +761,10 @@ impl<M> FrameDecoder<M> {
     /// An empty decoder.
     pub const fn new() -> Self {
         Self {
-            buf: [0; MAX_ENCODED_LEN],
+            buf: [0; RX_BUF_LEN],
+            start: 0,
             len: 0,
+            filled: 0,
             overflowed: false,
             frames: 0,
             dropped: DropCounters {
@@ -749,11 +809,15 @@ impl<M: Message> FrameDecoder<M> {
     /// Feed one byte. Returns `Some` at a delimiter that ended a non-empty frame.
     #[cfg_attr(feature = "no-panic", no_panic::no_panic)]
     pub fn push(&mut self, byte: u8) -> Option<Decoded<M>> {
+        if self.start != 0 {
+            self.compact_cold();
+        }
         if byte != 0 {
             match self.buf.get_mut(self.len) {
-                Some(slot) if !self.overflowed => {
+                Some(slot) if !self.overflowed && self.len < MAX_ENCODED_LEN => {
                     *slot = byte;
                     self.len += 1;
+                    self.filled = self.len;
                 }
                 _ => self.overflowed = true,
             }
@@ -768,13 +832,19 @@ impl<M: Message> FrameDecoder<M> {
     /// one by one, at a fraction of the cost (one scan for the delimiter and one copy).
     #[cfg_attr(feature = "no-panic", no_panic::no_panic)]
     pub fn push_slice(&mut self, bytes: &mut &[u8]) -> Option<Decoded<M>> {
+        if self.start != 0 {
+            self.compact_cold();
+        }
         let all: &[u8] = bytes;
         let mut copied = 0usize;
         let mut delimiter = None;
         if !self.overflowed {
             // Copy up to the first zero in one pass (scan and copy fused): four bytes at a
             // time while they hold no zero, then byte by byte.
-            let room = self.buf.get_mut(self.len..).unwrap_or_default();
+            let room = self
+                .buf
+                .get_mut(self.len..MAX_ENCODED_LEN)
+                .unwrap_or_default();
             for (d, s) in room.chunks_exact_mut(4).zip(all.chunks_exact(4)) {
                 let Ok(w) = <[u8; 4]>::try_from(s) else {
                     break;
@@ -795,6 +865,7 @@ impl<M: Message> FrameDecoder<M> {
                 copied += 1;
             }
             self.len += copied;
+            self.filled = self.len;
             if delimiter.is_none() {
                 match all.get(copied) {
                     // The buffer is full and the frame ends right here.
@@ -823,16 +894,119 @@ impl<M: Message> FrameDecoder<M> {
         }
     }
 
+    /// Read bytes straight into the decoder's buffer: `read` gets the free part of it (at
+    /// most `max` bytes, never empty when `max > 0`) and returns how many bytes it wrote at
+    /// its start (a larger count is taken as the length of the part it got). Returns that
+    /// count, or `read`'s error (nothing taken). Then call [`poll`](Self::poll) while
+    /// [`has_unscanned`](Self::has_unscanned): the same frames, drops and counts as
+    /// [`push`](Self::push) with each byte, without a copy of the bytes (only the start of
+    /// a frame a read left unfinished moves to the front of the buffer, at the next `fill`).
+    pub fn fill<E>(
+        &mut self,
+        max: usize,
+        read: impl FnOnce(&mut [u8]) -> Result<usize, E>,
+    ) -> Result<usize, E> {
+        let spare = self.spare(max);
+        let room = spare.len();
+        let n = read(spare)?.min(room);
+        self.filled += n;
+        Ok(n)
+    }
+
+    /// The free part of the buffer for [`fill`](Self::fill), at most `max` bytes (the frame
+    /// being gathered moved to the front first).
+    #[cfg_attr(feature = "no-panic", no_panic::no_panic)]
+    #[inline(always)]
+    fn spare(&mut self, max: usize) -> &mut [u8] {
+        self.compact();
+        let spare = self.buf.get_mut(self.filled..).unwrap_or_default();
+        let room = spare.len().min(max);
+        spare.get_mut(..room).unwrap_or_default()
+    }
+
+    /// True while bytes taken by [`fill`](Self::fill) wait for [`poll`](Self::poll).
+    #[inline]
+    pub fn has_unscanned(&self) -> bool {
+        self.filled > self.len
+    }
+
+    /// Look at the bytes [`fill`](Self::fill) took, up to the first delimiter that ends a
+    /// non-empty (or over-long) frame; returns what [`push`](Self::push) returned for that
+    /// delimiter, or `None` when the bytes ran out first (call again while
+    /// [`has_unscanned`](Self::has_unscanned)). The scan reads a word at a time.
+    #[cfg_attr(feature = "no-panic", no_panic::no_panic)]
+    pub fn poll(&mut self) -> Option<Decoded<M>> {
+        loop {
+            let new = self.buf.get(self.len..self.filled).unwrap_or_default();
+            let Some(k) = find_zero(new) else {
+                // No delimiter: the bytes join the frame being gathered.
+                self.len = self.filled;
+                if self.overflowed || self.len.wrapping_sub(self.start) > MAX_ENCODED_LEN {
+                    // Over-long: its bytes are of no use, only the flag is kept (the frame
+                    // is dropped at its delimiter, like `push` does).
+                    self.overflowed = true;
+                    self.start = 0;
+                    self.len = 0;
+                    self.filled = 0;
+                }
+                return None;
+            };
+            let start = self.start;
+            let end = self.len + k;
+            self.start = end + 1;
+            self.len = end + 1;
+            if end != start || self.overflowed {
+                return self.decode(start, end);
+            }
+            // An empty frame (two delimiters in a row): `push` returns `None` for it.
+            if self.len >= self.filled {
+                return None;
+            }
+        }
+    }
+
+    /// [`compact`](Self::compact) out of line, for `push` and `push_slice` (only after
+    /// [`fill`](Self::fill) and [`poll`](Self::poll) is there anything to move).
+    #[cold]
+    #[inline(never)]
+    fn compact_cold(&mut self) {
+        self.compact();
+    }
+
+    /// Move the frame being gathered (and any unscanned bytes) to the front of the buffer.
+    #[inline(always)]
+    fn compact(&mut self) {
+        let (start, len, filled) = (self.start, self.len, self.filled);
+        self.start = 0;
+        if start <= len && len <= filled && filled <= RX_BUF_LEN {
+            if start != 0 && start < filled {
+                move_to_front(&mut self.buf, start, filled);
+            }
+            self.len = len - start;
+            self.filled = filled - start;
+        } else {
+            self.len = 0;
+            self.filled = 0;
+        }
+    }
+
     /// A delimiter arrived: check and decode the bytes gathered since the last one.
     fn end_of_frame(&mut self) -> Option<Decoded<M>> {
-        let len = core::mem::replace(&mut self.len, 0);
+        let start = core::mem::replace(&mut self.start, 0);
+        let end = core::mem::replace(&mut self.len, 0);
+        self.filled = 0;
+        self.decode(start, end)
+    }
+
+    /// Check and decode the frame `buf[start..end]` (its delimiter arrived).
+    fn decode(&mut self, start: usize, end: usize) -> Option<Decoded<M>> {
         if core::mem::replace(&mut self.overflowed, false) {
             return Some(self.drop_frame(DropReason::Overflow, None));
         }
-        if len == 0 {
+        if end == start {
             return None;
         }
-        let Some(frame) = self.buf.get_mut(..len) else {
+        let Some(frame) = self.buf.get_mut(start..end) else {
             return Some(self.drop_frame(DropReason::Overflow, None));
         };
         let Some(data) = cobs_decode_in_place(frame) else {
@@ -1060,6 +1234,191 @@ mod tests {
         }
         assert_eq!(one.frames, 3);
         assert!(one.dropped.overflow == 1 && one.dropped.total() >= 4);
+    }
+
+    /// A byte stream for the decoder tests: valid frames, garbage (zeros included), runs of
+    /// non-zero bytes around the longest frame (one byte shorter, exact, one and more
+    /// bytes over), valid frames of the largest length, and runs of delimiters.
+    fn stream_strategy() -> impl proptest::strategy::Strategy<Value = Vec<u8>> {
+        use proptest::prelude::*;
+        #[derive(Serialize, Deserialize)]
+        struct Blob([[u8; 32]; 7], [u8; 22]);
+        let seg = prop_oneof![
+            (any::<u16>(), any::<u64>(), 0u8..4).prop_map(|(seq, t, k)| {
+                let cmd = match k {
+                    0 => Command::Arm,
+                    1 => Command::Heartbeat { t_us: t },
+                    2 => Command::Nav(NavSample {
+                        t_us: t,
+                        state: NavState {
+                            x_m: t as f32,
+                            ..NavState::default()
+                        },
+                    }),
+                    _ => Command::SetMode(Mode::Manual),
+                };
+                let mut out = [0u8; MAX_FRAME_LEN];
+                encode(seq, &cmd, &mut out).unwrap().to_vec()
+            }),
+            proptest::collection::vec(prop_oneof![Just(0u8), any::<u8>()], 0..40),
+            (
+                MAX_ENCODED_LEN - 2..=MAX_ENCODED_LEN + 2,
+                1u8..=255,
+                any::<bool>()
+            )
+                .prop_map(|(n, fill, end)| {
+                    let mut v = vec![fill; n];
+                    if end {
+                        v.push(0);
+                    }
+                    v
+                }),
+            (0usize..600, 1u8..=255).prop_map(|(n, fill)| vec![fill; n]),
+            (any::<u16>(), 1u8..=255).prop_map(|(seq, fill)| {
+                let blob = Blob([[fill; 32]; 7], [fill; 22]);
+                let mut out = [0u8; MAX_FRAME_LEN];
+                encode(seq & 0x7F, &blob, &mut out).unwrap().to_vec()
+            }),
+            (1usize..4).prop_map(|n| vec![0u8; n]),
+        ];
+        proptest::collection::vec(seg, 0..16).prop_map(|v| v.concat())
+    }
+
+    /// What `push` returns for each byte of `bytes` (the `Some`s), and the decoder after.
+    fn by_push(bytes: &[u8]) -> (Vec<Decoded<Command>>, FrameDecoder<Command>) {
+        let mut d = FrameDecoder::<Command>::new();
+        let got = bytes.iter().filter_map(|&b| d.push(b)).collect();
+        (got, d)
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(2000))]
+
+        /// `fill` + `poll` (the firmware loop's path: reads straight into the decoder's
+        /// buffer) decode exactly what `push` decodes byte by byte, for any stream cut into
+        /// reads of any size (a read may return fewer bytes than it was given room for), with
+        /// `push` and `push_slice` used now and then between reads on the same decoder.
+        #[test]
+        fn fill_and_poll_equal_push(
+            bytes in stream_strategy(),
+            sizes in proptest::collection::vec((1usize..300, 0usize..300, 0u8..8), 1..20),
+        ) {
+            let (want, one) = by_push(&bytes);
+            let mut d = FrameDecoder::<Command>::new();
+            let mut got = Vec::new();
+            let mut rest = bytes.as_slice();
+            let mut k = 0;
+            while !rest.is_empty() {
+                let (max, short, how) = sizes[k % sizes.len()];
+                k += 1;
+                match how {
+                    // A byte or a slice through the other entry points.
+                    0 => {
+                        got.extend(d.push(rest[0]));
+                        rest = &rest[1..];
+                    }
+                    1 => {
+                        let mut s = &rest[..max.min(rest.len())];
+                        rest = &rest[s.len()..];
+                        while !s.is_empty() {
+                            got.extend(d.push_slice(&mut s));
+                        }
+                    }
+                    _ => {
+                        let n = d
+                            .fill(max, |buf| {
+                                proptest::prop_assert!(!buf.is_empty() && buf.len() <= max);
+                                // Sometimes fewer bytes than there is room for.
+                                let n = buf.len().min(rest.len()).min(short.max(1));
+                                buf[..n].copy_from_slice(&rest[..n]);
+                                Ok(n)
+                            })?;
+                        rest = &rest[n..];
+                        while d.has_unscanned() {
+                            got.extend(d.poll());
+                        }
+                    }
+                }
+            }
+            proptest::prop_assert_eq!(&got, &want);
+            proptest::prop_assert_eq!(d.frames, one.frames);
+            proptest::prop_assert_eq!(d.dropped, one.dropped);
+            // And the state after: the next frame decodes the same way on both.
+            let mut out = [0u8; MAX_FRAME_LEN];
+            let f = encode(9, &Command::Disarm, &mut out).unwrap();
+            let (mut a, mut b) = (d, one);
+            let x: Vec<_> = f.iter().filter_map(|&c| a.push(c)).collect();
+            let y: Vec<_> = f.iter().filter_map(|&c| b.push(c)).collect();
+            proptest::prop_assert_eq!(x, y);
+        }
+    }
+
+    #[test]
+    fn fill_handles_errors_and_bad_counts() {
+        let mut d = FrameDecoder::<Command>::new();
+        // An error takes nothing.
+        assert_eq!(d.fill(10, |_| Err::<usize, ()>(())), Err(()));
+        assert!(!d.has_unscanned());
+        // A count larger than the room is taken as the room.
+        assert_eq!(d.fill(4, |buf| Ok::<_, ()>(buf.len() + 100)), Ok(4));
+        assert!(d.has_unscanned());
+        while d.has_unscanned() {
+            let _ = d.poll();
+        }
+        // `max == 0`: an empty buffer, nothing taken.
+        assert_eq!(d.fill(0, |buf| Ok::<_, ()>(buf.len())), Ok(0));
+        // Never an empty buffer when `max > 0`, whatever came before: a frame of the
+        // largest length, then one byte over it.
+        for _ in 0..3 {
+            let n = d.fill(MAX_ENCODED_LEN, |buf| {
+                assert!(!buf.is_empty());
+                buf.fill(7);
+                Ok::<_, ()>(buf.len())
+            });
+            assert!(n.unwrap() > 0);
+            while d.has_unscanned() {
+                assert_eq!(d.poll(), None);
+            }
+        }
+        let _ = d.fill(1, |buf| {
+            buf[0] = 0;
+            Ok::<_, ()>(1)
+        });
+        assert_eq!(
+            d.poll(),
+            Some(Decoded::Dropped {
+                reason: DropReason::Overflow,
+                seq: None
+            })
+        );
+        assert_eq!(d.dropped.overflow, 1);
+    }
+
+    /// With the `no-panic` feature (release builds: `cargo test -p firmware --release
+    /// --features no-panic --lib`), linking this proves that the loop's receive path cannot
+    /// panic: `poll` for `Command` and the decoder's part of `fill` (`spare`; `read` is the
+    /// caller's).
+    #[cfg(feature = "no-panic")]
+    #[test]
+    fn fill_and_poll_link_without_panics() {
+        let mut d = FrameDecoder::<Command>::new();
+        let bytes = std::hint::black_box([0u8, 3, 1, 2, 0, 9, 9, 9, 0]);
+        let mut rest = &bytes[..];
+        while !rest.is_empty() {
+            // A panic-free `read` (the check covers what is inlined into `fill`).
+            let n = d.fill(std::hint::black_box(4), |buf| {
+                let mut n = 0;
+                for (b, x) in buf.iter_mut().zip(rest) {
+                    *b = *x;
+                    n += 1;
+                }
+                Ok::<_, ()>(n)
+            });
+            rest = &rest[n.unwrap()..];
+            while d.has_unscanned() {
+                assert!(!matches!(d.poll(), Some(Decoded::Frame { .. })));
+            }
+        }
     }
 
     #[test]
