@@ -209,12 +209,23 @@ pub fn run_loop<P: Platform>(b: &Bench<'_, P>, p: &P) {
             (out, n)
         },
         |(buf, n)| {
+            // As the loop reads it: the port writes the frame into the decoder's buffer (one
+            // copy, here from `buf`), `poll` scans and decodes.
             let mut got = None;
-            let mut rest = buf.get(..*n).unwrap_or(&[]);
-            while !rest.is_empty() {
-                let d = dec.push_slice(&mut rest);
-                if d.is_some() {
-                    got = d;
+            let src = buf.get(..*n).unwrap_or(&[]);
+            let filled = dec.fill(src.len(), |dst: &mut [u8]| {
+                let k = dst.len().min(src.len());
+                if let (Some(d), Some(s)) = (dst.get_mut(..k), src.get(..k)) {
+                    d.copy_from_slice(s);
+                }
+                Ok::<usize, Infallible>(k)
+            });
+            if filled.is_ok() {
+                while dec.has_unscanned() {
+                    let d = dec.poll();
+                    if d.is_some() {
+                        got = d;
+                    }
                 }
             }
             if let Some(Decoded::Frame { .. }) = got {
