@@ -523,6 +523,42 @@ mod tests {
         }
     }
 
+    /// A new reference (no reset: `SetReference` keeps the law's state) makes the sideslip
+    /// jump; the one-step solver is back on the full solve within a few steps.
+    #[test]
+    fn sideslip_recovers_after_the_reference_jumps() {
+        use crate::params::Vehicle;
+        use crate::reference::feasible::{course, sideslip};
+        use crate::reference::Reference;
+        let v = Vehicle::observer();
+        let tight = Reference::Circle {
+            center_m: [0.0; 3],
+            radius_m: 1.5,
+            speed_m_s: 0.8,
+        };
+        let other = Reference::Circle {
+            center_m: [0.0; 3],
+            radius_m: -3.0,
+            speed_m_s: 0.3,
+        };
+        let mut h = HeadingRef::default();
+        let mut steps_to_converge = 0;
+        for i in 0..400 {
+            let r = if i < 200 { &tight } else { &other };
+            let rs = r.sample(20.0 + i as f32 * 0.01);
+            let c = course(&rs);
+            let [vx, vy, _] = rs.vel_m_s;
+            h.update(&v.xy, c, [vx, vy], None, 0.0, 0.01);
+            let full = sideslip(&v.xy, &c.unwrap()).beta_rad;
+            if i >= 200 && (h.beta_qs - full).abs() > 1e-5 {
+                steps_to_converge = i - 199;
+            }
+            assert!(h.beta_qs.is_finite() && h.beta.is_finite());
+        }
+        // Measured: from the clamp (-0.8 rad) to 0.366 rad, within 1e-5 after 5 steps.
+        assert!(steps_to_converge <= 6, "{steps_to_converge} steps");
+    }
+
     #[test]
     fn inv_drag_step_without_drag_gives_zero() {
         // d = 0 and a NaN step: the closed form, which has nothing to solve.
