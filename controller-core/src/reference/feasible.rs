@@ -143,11 +143,22 @@ impl<'a> SlipEquation<'a> {
         let xy = self.xy;
         let (bc, (s, co)) = clamp_sin_cos_small(b, SIDESLIP_MAX_RAD);
         let g = self.k * co + self.rate * s + (xy.beta1 + xy.beta2 * self.u * s.abs()) * s;
+        let (d, floored) = self.deriv(s, co);
+        (bc - g / d, co, d, floored)
+    }
+
+    /// `g'` at the angle of sine `s` and cosine `co`, floored; and whether the floor was
+    /// used (the derivative was below it, or NaN).
+    #[inline(always)]
+    fn deriv(&self, s: f32, co: f32) -> (f32, bool) {
+        let xy = self.xy;
         let d = -self.k * s + self.rate * co + (xy.beta1 + 2.0 * xy.beta2 * self.u * s.abs()) * co;
         // `f32::max` would be a call of `fmaxf`; this gives the same value (NaN: the floor).
-        let above = d > self.floor;
-        let d = if above { d } else { self.floor };
-        (bc - g / d, co, d, !above)
+        if d > self.floor {
+            (d, false)
+        } else {
+            (self.floor, true)
+        }
     }
 
     /// `T_adv = (m11 - m22) cos(beta) / g'(beta)`, with `(m11 - m22) / m22 = beta3 - 1`.
@@ -189,8 +200,7 @@ pub fn sideslip(xy: &XyCoeffs, c: &Course) -> Sideslip {
         b = eq.newton(b).0;
     }
     let (b, (s, co)) = clamp_sin_cos_small(b, SIDESLIP_MAX_RAD);
-    let d = -eq.k * s + eq.rate * co + (xy.beta1 + 2.0 * xy.beta2 * eq.u * s.abs()) * co;
-    finite_slip(b, eq.advance(co, max(d, eq.floor)))
+    finite_slip(b, eq.advance(co, eq.deriv(s, co).0))
 }
 
 /// The real-time form of [`sideslip`]: one Newton step from `beta_prev`, the solution of the
