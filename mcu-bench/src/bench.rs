@@ -536,10 +536,7 @@ pub fn run_all<P: Platform>(p: &P) -> bool {
     for (name, mode) in MODES.iter() {
         let r = ref_for(mode);
         ctl.reset();
-        let plane = match mode {
-            ControlMode::PaperXz | ControlMode::TrackingXz => Plane::Xz,
-            _ => Plane::Xy3d,
-        };
+        let plane = Plane::for_mode(*mode);
         let mut sim = ClosedLoop {
             ctl: &mut ctl,
             plant: Plant::new(vehicle, plane, offset_start(&r.sample(0.0))),
@@ -587,10 +584,7 @@ pub fn run_all<P: Platform>(p: &P) -> bool {
     for (name, mode) in MODES.iter() {
         let gains = Gains::default();
         let r = ref_for(mode);
-        let plane = match mode {
-            ControlMode::PaperXz | ControlMode::TrackingXz => Plane::Xz,
-            _ => Plane::Xy3d,
-        };
+        let plane = Plane::for_mode(*mode);
         let mut sim = LawLoop {
             plant: Plant::new(vehicle, plane, offset_start(&r.sample(0.0))),
             state: TrackingState::default(),

@@ -11,6 +11,7 @@
 //! The plant takes the forces the allocation achieved (the thrusters' limits apply) and
 //! runs untimed between two timed control steps.
 
+use controller_core::controller::ControlMode;
 use controller_core::model::{rk4_step, xy, xz};
 use controller_core::params::Vehicle;
 use controller_core::state::{BodyForces, NavState, XyState, XzState};
@@ -22,6 +23,17 @@ pub enum Plane {
     Xz,
     /// Horizontal plane plus depth.
     Xy3d,
+}
+
+impl Plane {
+    /// The model for a control mode: the vertical plane for the XZ laws, else the horizontal
+    /// plane plus depth.
+    pub fn for_mode(mode: ControlMode) -> Self {
+        match mode {
+            ControlMode::PaperXz | ControlMode::TrackingXz => Plane::Xz,
+            _ => Plane::Xy3d,
+        }
+    }
 }
 
 /// The simulated vehicle.
