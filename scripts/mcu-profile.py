@@ -41,6 +41,11 @@ def main():
     ap.add_argument("--lines-of", default="",
                     help="count source lines only for instructions of functions whose "
                          "(mangled) name contains this")
+    ap.add_argument("--inclusive", action="store_true",
+                    help="also count, per function, the instructions executed in it or in code "
+                         "inlined into it (inline frames from llvm-symbolizer)")
+    ap.add_argument("--mnemonics", action="store_true",
+                    help="also count the executed instructions by mnemonic (vldr, vmul, b, ...)")
     ap.add_argument("--callers", default="memcpy",
                     help="also split the instructions of functions whose name contains this "
                          "by the function they were entered from and the source line of the call "
@@ -58,6 +63,7 @@ def main():
     dis = subprocess.check_output([llvm("llvm-objdump"), "-d", "-l", "--no-show-raw-insn",
                                    elf], text=True)
     line_of = {}
+    mnem_of = {}
     cur = "?"
     for ln in dis.splitlines():
         m = re.match(r"^; (/\S+:\d+)", ln)
@@ -72,9 +78,10 @@ def main():
         if m:
             cur = "?"
             continue
-        m = re.match(r"^\s*([0-9a-f]+):\s", ln)
+        m = re.match(r"^\s*([0-9a-f]+):\s+(\S+)", ln)
         if m:
             line_of[int(m.group(1), 16)] = cur
+            mnem_of[int(m.group(1), 16)] = m.group(2)
 
     with tempfile.TemporaryDirectory() as td:
         log = os.path.join(td, "trace.log")
@@ -92,6 +99,8 @@ def main():
                              r"bench::" + re.escape(wrapper) + "::|"
                              r"\d" + re.escape(wrapper) + r"17h")
         by_caller = collections.Counter()
+        by_mnem = collections.Counter()
+        by_pc = collections.Counter()
         callee_from = None
         prev_pc = None
         prev_sym = None
@@ -107,6 +116,10 @@ def main():
                     inside = False
                 if inside:
                     by_fn[demangle(sym)] += 1
+                    if a.inclusive:
+                        by_pc[pc] += 1
+                    if a.mnemonics:
+                        by_mnem[mnem_of.get(pc, "?")] += 1
                     if a.lines_of in sym:
                         by_line[line_of.get(pc, "?")] += 1
                     if a.callers and a.callers in sym:
@@ -127,9 +140,38 @@ def main():
         print(f"\n`{a.callers}` by where it was entered from (instructions per call):")
         for (fn, line), v in by_caller.most_common(a.top):
             print(f"  {v / calls:8.1f}  {fn}  ({line})")
+    if by_pc:
+        incl = inclusive(elf, by_pc)
+        print("\ninclusive, by (inlined) function (instructions per call, callees included):")
+        for k, v in incl.most_common(a.top):
+            print(f"  {v / calls:8.1f}  {k}")
+    if by_mnem:
+        print("\nby mnemonic (instructions per call):")
+        for k, v in by_mnem.most_common(a.top):
+            print(f"  {v / calls:8.1f}  {k}")
     print("\nby innermost source line (instructions per call):")
     for k, v in by_line.most_common(a.top):
         print(f"  {v / calls:8.1f}  {k}")
+
+
+def inclusive(elf, by_pc):
+    """Per function, the executed instructions at addresses whose inline stack contains it."""
+    pcs = sorted(by_pc)
+    out = subprocess.run(["llvm-symbolizer", "--inlining", "--demangle", "--obj=" + elf],
+                         input="".join(f"0x{pc:x}\n" for pc in pcs), text=True,
+                         capture_output=True, check=True).stdout
+    blocks = out.strip("\n").split("\n\n")
+    incl = collections.Counter()
+    for pc, blk in zip(pcs, blocks):
+        lines = blk.splitlines()
+        names = set()
+        for fn in lines[0::2]:
+            fn = re.sub(r"::h[0-9a-f]{16}$", "", fn)
+            fn = re.sub(r"<[^<>]*>", "", re.sub(r"<[^<>]*>", "", fn))
+            names.add(fn)
+        for n in names:
+            incl[n] += by_pc[pc]
+    return incl
 
 
 @functools.lru_cache(maxsize=None)
