@@ -166,8 +166,11 @@ def inclusive(elf, by_pc):
         lines = blk.splitlines()
         names = set()
         for fn in lines[0::2]:
-            fn = re.sub(r"::h[0-9a-f]{16}$", "", fn)
-            fn = re.sub(r"<[^<>]*>", "", re.sub(r"<[^<>]*>", "", fn))
+            # llvm-symbolizer leaves Rust's legacy escapes (`_$LT$impl$u20$...$GT$`).
+            fn = re.sub(r"::h[0-9a-f]{16}$", "", fn).replace("_$LT$", "<")
+            for esc, ch in (("$LT$", "<"), ("$GT$", ">"), ("$u20$", " "), ("$u7b$", "{"),
+                            ("$u7d$", "}"), ("$C$", ","), ("..", "::")):
+                fn = fn.replace(esc, ch)
             names.add(fn)
         for n in names:
             incl[n] += by_pc[pc]
