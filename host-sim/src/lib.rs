@@ -3,15 +3,21 @@
 //!
 //! - [`plant`]: the planar plants ([`plant::xz`], [`plant::xy`]) and the 6-DOF plant.
 //! - [`scenario`]: TOML scenarios, built-ins embedded from `scenarios/`.
-//! - [`runner`]: one closed-loop run.
+//! - [`sim_loop`]: the one closed loop (plant, navigation, a controller endpoint, metrics).
+//! - [`runner`]: a software run (the core in process); [`hil`]: the firmware over the
+//!   tether; [`qemu`]: the emulated board.
 //! - [`output`], [`plots`]: what a run writes.
 //! - [`monte_carlo`]: perturbed-parameter runs in parallel.
 
 pub mod hil;
+pub mod in_process;
 pub mod link;
 pub mod monte_carlo;
 pub mod output;
 pub mod plant;
 pub mod plots;
+pub mod port;
+pub mod qemu;
 pub mod runner;
 pub mod scenario;
+pub mod sim_loop;

@@ -202,6 +202,7 @@ pub fn run_batch(sc: &Scenario, cfg: &McConfig) -> Result<(McSummary, Vec<McRun>
                     plant_params: Some(params),
                     current_m_s: Some(current),
                     noise_seed: Some(noise_seed),
+                    ..RunOptions::default()
                 },
             )
             .with_context(|| format!("monte-carlo run {i}"))?;

@@ -1,6 +1,6 @@
 //! Run outputs: `summary.json` and `timeseries.csv`.
 
-use crate::runner::{RunOutput, Sample};
+use crate::sim_loop::{RunOutput, Sample};
 use anyhow::{Context, Result};
 use std::io::{BufWriter, Write};
 use std::path::Path;

@@ -7,7 +7,7 @@
 //! time), plus `fig_thrusters.png`. 3-D runs get `fig_xy.png`, `fig_xz.png`, `fig_errors.png`,
 //! `fig_thrusters.png`. [`compare_plot`] draws the paper law beside the tracking law.
 
-use crate::runner::{RunOutput, Sample};
+use crate::sim_loop::{RunOutput, Sample};
 use anyhow::{anyhow, Result};
 use plotters::coord::Shift;
 use plotters::prelude::*;

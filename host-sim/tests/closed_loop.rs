@@ -5,8 +5,9 @@
 //! --release` (see the report in `docs/` / README), with a margin.
 
 use host_sim::plant::PlantState;
-use host_sim::runner::{run, RunOptions, Sensor, Summary};
+use host_sim::runner::{run, RunOptions, Summary};
 use host_sim::scenario::{NoiseStd, Scenario};
+use host_sim::sim_loop::{Navigation, TruthNav};
 
 fn run_builtin(name: &str) -> Summary {
     let sc = Scenario::load(name).unwrap();
@@ -111,9 +112,9 @@ fn sensor_delays_by_whole_plant_steps() {
         eta: [x, 0.0, 0.0, 0.0, 0.0, 0.0],
         ..PlantState::default()
     };
-    let mut s = Sensor::new(at(-1.0), 10, None, 1);
+    let mut s = TruthNav::new(at(-1.0), 10, None, 1);
     for k in 0..10 {
-        s.push(at(k as f64));
+        s.observe(0.0, &at(k as f64));
         assert_eq!(
             s.measure().x_m,
             -1.0,
@@ -121,11 +122,11 @@ fn sensor_delays_by_whole_plant_steps() {
         );
     }
     for k in 10..30 {
-        s.push(at(k as f64));
+        s.observe(0.0, &at(k as f64));
         assert_eq!(s.measure().x_m, (k - 10) as f32);
     }
-    let mut s0 = Sensor::new(at(0.0), 0, None, 1);
-    s0.push(at(5.0));
+    let mut s0 = TruthNav::new(at(0.0), 0, None, 1);
+    s0.observe(0.0, &at(5.0));
     assert_eq!(s0.measure().x_m, 5.0);
 }
 
@@ -137,8 +138,8 @@ fn sensor_noise_has_the_configured_spread_and_is_seeded() {
         velocity_m_s: 0.05,
         rate_rad_s: 0.02,
     };
-    let mut a = Sensor::new(PlantState::default(), 0, Some(std), 9);
-    let mut b = Sensor::new(PlantState::default(), 0, Some(std), 9);
+    let mut a = TruthNav::new(PlantState::default(), 0, Some(std), 9);
+    let mut b = TruthNav::new(PlantState::default(), 0, Some(std), 9);
     let n = 20_000;
     let (mut sx, mut sxx, mut sr) = (0.0f64, 0.0f64, 0.0f64);
     for _ in 0..n {

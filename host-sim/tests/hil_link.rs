@@ -3,22 +3,13 @@
 //! Skipped, with a message, when `qemu-system-arm` is not installed.
 
 use firmware::protocol::Reply;
-use host_sim::hil::{qemu_firmware_image, start_qemu_link};
 use host_sim::link::{console, Link};
-use std::path::{Path, PathBuf};
+use host_sim::qemu::{image_or_skip, start_qemu_link};
+use std::path::PathBuf;
 use std::time::Duration;
 
 fn firmware_elf() -> Option<PathBuf> {
-    let elf = qemu_firmware_image(Path::new(env!("CARGO_MANIFEST_DIR")).parent()?)
-        .expect("the firmware's qemu image");
-    if elf.is_none() {
-        eprintln!("SKIPPED: qemu-system-arm not found (apt-get install qemu-system-arm)");
-        assert!(
-            std::env::var_os("ROV_REQUIRE_QEMU").is_none(),
-            "ROV_REQUIRE_QEMU is set: the emulated-board test must run"
-        );
-    }
-    elf
+    image_or_skip().expect("the firmware's qemu image")
 }
 
 #[test]

@@ -6,37 +6,21 @@
 //! `HIL_FIRMWARE_ELF`).
 
 use firmware::protocol::fault;
-use host_sim::hil::{qemu_firmware_image, run_hil, write_hil, HilOptions, HilOutput, HilTarget};
+use host_sim::hil::{run_hil, write_hil, HilOptions, HilOutput, HilTarget};
 use host_sim::link::NoiseSpec;
+use host_sim::qemu::image_or_skip;
 use host_sim::runner::{run, RunOptions};
 use host_sim::scenario::Scenario;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::OnceLock;
 use std::time::Duration;
 
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("workspace root")
-        .to_path_buf()
-}
-
-/// The firmware image, or `None` (test skipped) when QEMU is missing; built once per test
-/// binary.
+/// The firmware image, or `None` (test skipped, with the reason and the fix) without QEMU
+/// or the thumbv7em target; built once per test binary.
 fn firmware_elf() -> Option<PathBuf> {
     static ELF: OnceLock<Option<PathBuf>> = OnceLock::new();
-    ELF.get_or_init(|| {
-        let elf = qemu_firmware_image(&root()).expect("the firmware's qemu image");
-        if elf.is_none() {
-            eprintln!("SKIPPED: qemu-system-arm not found (apt-get install qemu-system-arm)");
-            assert!(
-                std::env::var_os("ROV_REQUIRE_QEMU").is_none(),
-                "ROV_REQUIRE_QEMU is set: the emulated-board test must run"
-            );
-        }
-        elf
-    })
-    .clone()
+    ELF.get_or_init(|| image_or_skip().expect("the firmware's qemu image"))
+        .clone()
 }
 
 fn out_dir(name: &str) -> PathBuf {

@@ -1,0 +1,150 @@
+//! The firmware library's `App` in this process, behind an in-memory serial port.
+//!
+//! [`InProcessFirmware`] is a byte [`Port`](crate::port::Port) like the TCP socket of the
+//! emulated board or a serial device: what the host writes is the App's received bytes, and a
+//! read first lets the App run one pass of its main loop (`App::tick`, which decodes the
+//! frames, runs the control step on a lock-step `Nav` and writes its replies), then returns
+//! what it wrote. The App is built exactly as the boards build it (`Config::lockstep`, 50 Hz
+//! PWM with 1 us per duty step, the Observer's controller), so a run through it exercises the
+//! same framing, state machine, failsafes and PWM quantization as the firmware image, at the
+//! speed of a software run.
+
+use anyhow::{anyhow, Result};
+use controller_core::controller::{Controller, Gains};
+use controller_core::params::Vehicle;
+use firmware::protocol::Board;
+use firmware::{App, Config, Monotonic};
+use std::collections::VecDeque;
+use std::convert::Infallible;
+use std::time::Instant;
+
+/// Duty steps of a PWM output: 1 us per step at 50 Hz, like the board's timer.
+const PWM_MAX_DUTY: u16 = 20_000;
+
+/// A PWM output that keeps its duty.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct SimPwm {
+    /// The duty last written.
+    pub duty: u16,
+}
+
+impl embedded_hal::pwm::ErrorType for SimPwm {
+    type Error = Infallible;
+}
+
+impl embedded_hal::pwm::SetDutyCycle for SimPwm {
+    fn max_duty_cycle(&self) -> u16 {
+        PWM_MAX_DUTY
+    }
+
+    fn set_duty_cycle(&mut self, duty: u16) -> Result<(), Infallible> {
+        self.duty = duty.min(PWM_MAX_DUTY);
+        Ok(())
+    }
+}
+
+/// The App's side of the in-memory serial line.
+#[derive(Debug, Default)]
+pub struct SimSerial {
+    rx: VecDeque<u8>,
+    tx: VecDeque<u8>,
+}
+
+impl embedded_io::ErrorType for SimSerial {
+    type Error = Infallible;
+}
+
+impl embedded_io::Read for SimSerial {
+    fn read(&mut self, buf: &mut [u8]) -> Result<usize, Infallible> {
+        let n = buf.len().min(self.rx.len());
+        for (b, x) in buf.iter_mut().zip(self.rx.drain(..n)) {
+            *b = x;
+        }
+        Ok(n)
+    }
+}
+
+impl embedded_io::ReadReady for SimSerial {
+    fn read_ready(&mut self) -> Result<bool, Infallible> {
+        Ok(!self.rx.is_empty())
+    }
+}
+
+impl embedded_io::Write for SimSerial {
+    fn write(&mut self, buf: &[u8]) -> Result<usize, Infallible> {
+        self.tx.extend(buf);
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> Result<(), Infallible> {
+        Ok(())
+    }
+}
+
+/// The host's clock (the App's time in lock-step comes from the frames; this only times
+/// its loop, in microseconds).
+#[derive(Debug, Clone, Copy)]
+pub struct SimClock(Instant);
+
+impl Monotonic for SimClock {
+    fn now_us(&mut self) -> u64 {
+        self.0.elapsed().as_micros() as u64
+    }
+}
+
+/// The App as the boards build it, with simulated peripherals.
+pub type SimApp = App<SimPwm, SimPwm, SimPwm, SimSerial, SimClock>;
+
+/// The firmware library in process, as a byte port.
+pub struct InProcessFirmware {
+    app: SimApp,
+}
+
+impl InProcessFirmware {
+    /// Boot the App (lock-step, the Observer's controller); it sends its `Hello` at once.
+    pub fn new() -> Result<Self> {
+        let controller = Controller::new(Vehicle::observer(), Gains::default())
+            .map_err(|e| anyhow!("controller: {e}"))?;
+        let mut app = App::new(
+            (SimPwm::default(), SimPwm::default(), SimPwm::default()),
+            SimSerial::default(),
+            SimClock(Instant::now()),
+            controller,
+            Config::lockstep(Board::Host),
+        )
+        .map_err(|e| anyhow!("firmware config: {e}"))?;
+        app.hello();
+        Ok(Self { app })
+    }
+
+    /// The App (read-only), e.g. for its state machine.
+    pub fn app(&self) -> &SimApp {
+        &self.app
+    }
+}
+
+impl std::io::Write for InProcessFirmware {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.app.parts_mut().1.rx.extend(buf);
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+impl std::io::Read for InProcessFirmware {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        // One pass of the main loop per read while bytes wait (a tick reads a bounded number).
+        while self.app.parts_mut().1.tx.is_empty() && !self.app.parts_mut().1.rx.is_empty() {
+            self.app.tick();
+        }
+        let tx = &mut self.app.parts_mut().1.tx;
+        let n = buf.len().min(tx.len());
+        for (b, x) in buf.iter_mut().zip(tx.drain(..n)) {
+            *b = x;
+        }
+        Ok(n)
+    }
+}

@@ -1,0 +1,678 @@
+//! The one closed loop: the `f64` plant at `plant_dt_s`, a navigation stage, and a controller
+//! endpoint at `control_period_s` with a zero-order hold. Every run uses it: the software run
+//! (`host-sim run`, Monte Carlo), the firmware library's `App` in process, and the firmware
+//! over the tether (hardware in the loop, `host-sim hil`). Only the endpoint differs, so the
+//! plant, the measurement path, the logging, the metrics and the stop rules are the same code.
+//!
+//! Each control tick at `t = k * control_period_s`:
+//! 1. the [`Navigation`] stage gives the state the controller sees (today's truth path: the
+//!    plant state `delay_s` ago with Gaussian noise, [`TruthNav`]);
+//! 2. the reference is sampled at `t` (for the metrics, and for an in-process core);
+//! 3. the [`ControllerEndpoint`] runs one control step and says what the thrusters were
+//!    commanded and what the plant gets (the thrust of the pulse widths, for the firmware);
+//! 4. the metrics are computed from the *true* plant state: the position error is always the
+//!    body origin against the reference for the body origin, on the plane's axes;
+//! 5. the plant runs `control_period_s / plant_dt_s` steps with that thrust held, and the
+//!    navigation stage sees every plant step.
+//!
+//! The run stops early when the state or the requested forces stop being finite
+//! (`nan_detected`) or when it diverges (position error > 1 km, |position| > 10 km,
+//! |velocity| > 100 m/s, |rate| > 100 rad/s, or a thrust command above 10 kN). An endpoint
+//! that fails (the firmware refused a command, the link was lost) ends the run with an error.
+
+use crate::plant::six_dof_factory;
+use crate::plant::xy::XyPlant;
+use crate::plant::xz::XzPlant;
+use crate::plant::{Environment, Plant, PlantState};
+use crate::scenario::{NoiseStd, Plane, Scenario};
+use anyhow::{anyhow, Result};
+use controller_core::alloc::PwmMap;
+use controller_core::controller::{ControlMode, Controller, Gains};
+use controller_core::params::{Vehicle, VehicleParams};
+use controller_core::reference::RefSample;
+use controller_core::state::{BodyForces, NavState, TrackingErrors};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+use std::collections::VecDeque;
+use std::time::Instant;
+
+/// What a run may change from the scenario (Monte Carlo and HIL use these).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct RunOptions {
+    /// Keep the per-tick log (for CSV and plots).
+    pub record: bool,
+    /// Plant parameters instead of the nominal Observer (the controller keeps the nominal).
+    pub plant_params: Option<VehicleParams>,
+    /// Current instead of the scenario's.
+    pub current_m_s: Option<[f64; 3]>,
+    /// Noise seed instead of the scenario's.
+    pub noise_seed: Option<u64>,
+    /// Simulated duration instead of the scenario's (s).
+    pub duration_s: Option<f64>,
+}
+
+/// One logged control tick.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct Sample {
+    /// Time (s).
+    pub t_s: f64,
+    /// True plant state.
+    #[serde(skip)]
+    pub state: PlantState,
+    /// Position the controller was given (the navigation stage's output).
+    pub nav_pos_m: [f64; 3],
+    /// Reference position.
+    pub ref_pos_m: [f64; 3],
+    /// Reference velocity (inertial).
+    pub ref_vel_m_s: [f64; 3],
+    /// Position error on the plane's axes (zero on the others).
+    pub pos_err_m: [f64; 3],
+    /// Norm of `pos_err_m`.
+    pub pos_err_norm_m: f64,
+    /// Inertial velocity error of the body origin on the plane's axes.
+    pub vel_err_m_s: [f64; 3],
+    /// Angle error reported by the law (pitch in XZ, yaw otherwise).
+    pub angle_err_rad: f64,
+    /// Everything the law reported.
+    #[serde(skip)]
+    pub law_errors: TrackingErrors,
+    /// Requested generalized forces `[tau_1, tau_2, tau_3]`.
+    pub requested: [f64; 3],
+    /// Achieved generalized forces after allocation.
+    pub achieved: [f64; 3],
+    /// Thruster commands `[F1x, F2x, F3z]`.
+    pub thrust_cmd_n: [f64; 3],
+    /// Thrust delivered by the plant's thrusters (after lag).
+    pub thrust_n: [f64; 3],
+    /// PWM pulses (real map, clamped).
+    pub pulse_us: [f64; 3],
+    /// The allocation clamped the request (or, unlimited, a thrust exceeded the real limits).
+    pub saturated: bool,
+}
+
+/// Figures of the navigation stage for `summary.json` (the truth path leaves them empty).
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct NavReport {
+    /// `truth` or `estimator`.
+    pub source: String,
+    /// Share of control ticks whose position NEES lies inside the 95 % chi-square bound.
+    pub nees_in_bounds_fraction: Option<f64>,
+    /// USBL fixes replaced by multipath outliers.
+    pub usbl_outliers_injected: u64,
+    /// USBL fixes the estimator rejected on its innovation gate.
+    pub usbl_fixes_rejected: u64,
+}
+
+/// The per-run summary, written as `summary.json`.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Summary {
+    /// Scenario name.
+    pub scenario: String,
+    /// `xz`, `xy` or `3d`.
+    pub plane: String,
+    /// `paper` or `tracking`.
+    pub controller: String,
+    /// Reference kind.
+    pub reference: String,
+    /// Thruster limits applied.
+    pub saturate: bool,
+    /// Requested simulated time (s).
+    pub duration_s: f64,
+    /// Simulated time reached (s).
+    pub simulated_s: f64,
+    /// Position error at the end (m).
+    pub final_position_error_m: f64,
+    /// Largest position error (m).
+    pub max_position_error_m: f64,
+    /// Largest position error after the first 10 s (m).
+    pub max_position_error_after_10s_m: f64,
+    /// RMS position error over the whole run (m).
+    pub rms_position_error_m: f64,
+    /// RMS position error over the last 20 % of the run (m).
+    pub rms_position_error_tail_m: f64,
+    /// RMS position error over the last 80 % of the run (m).
+    pub rms_position_error_last80_m: f64,
+    /// Final position error per axis `[x, y, z]` (m).
+    pub final_position_error_xyz_m: [f64; 3],
+    /// Angle error at the end, as the law reports it (rad).
+    pub final_angle_error_rad: f64,
+    /// Largest |angle error| after the first 10 s (rad).
+    pub max_angle_error_after_10s_rad: f64,
+    /// Largest |thruster command| (N).
+    pub max_abs_thruster_force_n: f64,
+    /// Largest |requested generalized force| `[tau_1 (N), tau_2 (N m), tau_3 (N)]`.
+    pub max_abs_requested_force: [f64; 3],
+    /// Share of control ticks with saturated thrusters.
+    pub saturated_fraction: f64,
+    /// RMS of the navigation position (what the controller saw) against the true position,
+    /// on the plane's axes, after the first 10 s (m).
+    pub rms_estimation_error_m: f64,
+    /// The navigation stage's own figures.
+    pub navigation: NavReport,
+    /// The run diverged.
+    pub diverged: bool,
+    /// A NaN or infinity appeared.
+    pub nan_detected: bool,
+    /// Why the run stopped.
+    pub stop_reason: String,
+    /// One-line verdict: "tracks" (final and last-20 % RMS error under 1 cm), "tracks
+    /// roughly" (under 10 cm), or "does not track" with the reason.
+    pub verdict: String,
+    /// Plant RK4 steps done.
+    pub sim_steps: u64,
+    /// Control steps done.
+    pub control_steps: u64,
+    /// Wall-clock time of the simulation (s).
+    pub wall_time_s: f64,
+    /// Final plant state `[x, y, z, roll, pitch, yaw, u, v, w, p, q, r]`.
+    pub final_state: Vec<f64>,
+}
+
+/// The result of one run.
+#[derive(Debug, Clone, Default)]
+pub struct RunOutput {
+    /// Summary figures.
+    pub summary: Summary,
+    /// Per-tick log (empty unless `record`).
+    pub log: Vec<Sample>,
+}
+
+/// The navigation stage: what the controller is told about the vehicle.
+pub trait Navigation {
+    /// After every plant step: the true state at `t_s`.
+    fn observe(&mut self, t_s: f64, truth: &PlantState);
+    /// At each control tick: the state handed to the controller. `thrust_cmd_n` is the
+    /// command `[F1x, F2x, F3z]` (N) held over the period that just ended.
+    fn estimate(&mut self, t_s: f64, thrust_cmd_n: [f64; 3]) -> NavState;
+    /// Figures for `summary.json`.
+    fn report(&self) -> NavReport;
+}
+
+/// The truth path: the plant state `delay` plant steps old (the initial state until enough
+/// steps have passed), converted to the core's `f32` [`NavState`], with Gaussian noise.
+#[derive(Debug, Clone)]
+pub struct TruthNav {
+    history: VecDeque<PlantState>,
+    noise: Option<NoiseStd>,
+    rng: ChaCha8Rng,
+}
+
+impl TruthNav {
+    /// A truth path `delay_steps` plant steps late, with noise of `noise` standard
+    /// deviations if given.
+    pub fn new(
+        initial: PlantState,
+        delay_steps: usize,
+        noise: Option<NoiseStd>,
+        seed: u64,
+    ) -> Self {
+        let mut history = VecDeque::with_capacity(delay_steps + 1);
+        for _ in 0..=delay_steps {
+            history.push_back(initial);
+        }
+        Self {
+            history,
+            noise,
+            rng: ChaCha8Rng::seed_from_u64(seed),
+        }
+    }
+
+    /// The truth path of a scenario (`[disturbance] delay_s`, `noise`, `noise_seed`).
+    pub fn for_scenario(sc: &Scenario, seed: Option<u64>) -> Self {
+        let d = &sc.disturbance;
+        Self::new(
+            sc.initial.to_plant(),
+            (d.delay_s / sc.plant_dt_s).round() as usize,
+            d.noise.then_some(d.noise_std),
+            seed.unwrap_or(d.noise_seed),
+        )
+    }
+
+    /// The measurement now.
+    pub fn measure(&mut self) -> NavState {
+        let st = self.history.front().copied().unwrap_or_default();
+        let mut nav = to_nav(&st);
+        if let Some(ns) = self.noise {
+            let rng = &mut self.rng;
+            let mut g = |sd: f64| (sd * gauss(rng)) as f32;
+            nav.x_m += g(ns.position_m);
+            nav.y_m += g(ns.position_m);
+            nav.z_m += g(ns.position_m);
+            nav.roll_rad += g(ns.angle_rad);
+            nav.pitch_rad += g(ns.angle_rad);
+            nav.yaw_rad += g(ns.angle_rad);
+            nav.u_m_s += g(ns.velocity_m_s);
+            nav.v_m_s += g(ns.velocity_m_s);
+            nav.w_m_s += g(ns.velocity_m_s);
+            nav.p_rad_s += g(ns.rate_rad_s);
+            nav.q_rad_s += g(ns.rate_rad_s);
+            nav.r_rad_s += g(ns.rate_rad_s);
+        }
+        nav
+    }
+}
+
+impl Navigation for TruthNav {
+    fn observe(&mut self, _t_s: f64, truth: &PlantState) {
+        self.history.pop_front();
+        self.history.push_back(*truth);
+    }
+
+    fn estimate(&mut self, _t_s: f64, _thrust_cmd_n: [f64; 3]) -> NavState {
+        self.measure()
+    }
+
+    fn report(&self) -> NavReport {
+        NavReport {
+            source: "truth".into(),
+            ..NavReport::default()
+        }
+    }
+}
+
+/// What the controller end answered for one control tick.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct StepReply {
+    /// Forces the law asked for.
+    pub requested: BodyForces,
+    /// Forces the allocated thrusts make.
+    pub achieved: BodyForces,
+    /// Thruster commands `[F1x, F2x, F3z]` (N).
+    pub thrust_cmd_n: [f32; 3],
+    /// Thrust the plant gets over the next period (N): the commands, or the thrust of the
+    /// pulse widths the ESCs see.
+    pub applied_n: [f64; 3],
+    /// Pulse widths of the three outputs (us).
+    pub pulse_us: [f64; 3],
+    /// The law's tracking errors.
+    pub errors: TrackingErrors,
+    /// The allocation clamped the request.
+    pub saturated: bool,
+}
+
+/// The controller end of the loop: the core in process, the firmware library's `App` in
+/// process, or the firmware over the tether.
+pub trait ControllerEndpoint {
+    /// Before the first step, with the first navigation state (set-up: mode, reference, arm).
+    fn start(&mut self, _nav0: &NavState) -> Result<()> {
+        Ok(())
+    }
+    /// One control step at `t_s` on `nav`; `reference` is the loop's sample of the scenario's
+    /// reference at `t_s` (a firmware samples its own).
+    fn step(&mut self, t_s: f64, nav: &NavState, reference: &RefSample) -> Result<StepReply>;
+}
+
+/// The core's [`Controller`] in process, stepped at the control period.
+pub struct CoreEndpoint {
+    controller: Controller,
+    mode: ControlMode,
+    period_s: f32,
+    pwm: PwmMap,
+}
+
+impl CoreEndpoint {
+    /// The controller of a scenario: the nominal Observer and default gains, with
+    /// unlimited thrusters when the scenario says `saturate = false` (the paper's setting).
+    pub fn for_scenario(sc: &Scenario) -> Result<Self> {
+        let mut p = VehicleParams::OBSERVER;
+        if !sc.thrusters.saturate {
+            p.thrust_max_forward_n = 1.0e6;
+            p.thrust_max_reverse_n = 1.0e6;
+        }
+        let vehicle = p
+            .validate()
+            .map_err(|e| anyhow!("controller parameters: {e}"))?;
+        let controller = Controller::new(vehicle, Gains::default())
+            .map_err(|e| anyhow!("controller gains: {e}"))?;
+        Ok(Self {
+            controller,
+            mode: sc.control_mode()?,
+            period_s: (sc.plant_dt_s * sc.plant_steps_per_control().max(1) as f64) as f32,
+            pwm: PwmMap::for_vehicle(&Vehicle::observer()),
+        })
+    }
+}
+
+impl ControllerEndpoint for CoreEndpoint {
+    fn step(&mut self, _t_s: f64, nav: &NavState, reference: &RefSample) -> Result<StepReply> {
+        let out = self
+            .controller
+            .step(self.mode, nav, reference, self.period_s);
+        let cmd = out.allocation.thrust_n;
+        Ok(StepReply {
+            requested: out.requested,
+            achieved: out.allocation.achieved,
+            thrust_cmd_n: cmd,
+            applied_n: cmd.map(f64::from),
+            // The real map (clamped), also when the controller's thrusters are unlimited.
+            pulse_us: cmd.map(|f| f64::from(self.pwm.pulse_us(f))),
+            errors: out.errors,
+            saturated: out.allocation.saturated,
+        })
+    }
+}
+
+/// Build the plant for a scenario.
+pub fn make_plant(
+    plane: Plane,
+    params: &VehicleParams,
+    env: Environment,
+    saturate: bool,
+    initial: PlantState,
+) -> Result<Box<dyn Plant>> {
+    Ok(match plane {
+        Plane::Xz => Box::new(XzPlant::new(params, env, saturate, initial)),
+        Plane::Xy => Box::new(XyPlant::new(params, env, saturate, initial)),
+        Plane::ThreeD => six_dof_factory(params, env, saturate, initial)?,
+    })
+}
+
+/// Rotation body -> inertial (ZYX Euler), applied to a body vector.
+pub fn body_to_inertial(eta: &[f64; 6], v: [f64; 3]) -> [f64; 3] {
+    let (sf, cf) = eta[3].sin_cos();
+    let (st, ct) = eta[4].sin_cos();
+    let (sp, cp) = eta[5].sin_cos();
+    [
+        cp * ct * v[0] + (cp * st * sf - sp * cf) * v[1] + (cp * st * cf + sp * sf) * v[2],
+        sp * ct * v[0] + (sp * st * sf + cp * cf) * v[1] + (sp * st * cf - cp * sf) * v[2],
+        -st * v[0] + ct * sf * v[1] + ct * cf * v[2],
+    ]
+}
+
+/// The plant state as the core's `f32` navigation state.
+pub fn to_nav(s: &PlantState) -> NavState {
+    NavState {
+        x_m: s.eta[0] as f32,
+        y_m: s.eta[1] as f32,
+        z_m: s.eta[2] as f32,
+        roll_rad: s.eta[3] as f32,
+        pitch_rad: s.eta[4] as f32,
+        yaw_rad: s.eta[5] as f32,
+        u_m_s: s.nu[0] as f32,
+        v_m_s: s.nu[1] as f32,
+        w_m_s: s.nu[2] as f32,
+        p_rad_s: s.nu[3] as f32,
+        q_rad_s: s.nu[4] as f32,
+        r_rad_s: s.nu[5] as f32,
+    }
+}
+
+/// Standard normal draw (Box-Muller; one of the pair is dropped, simplicity over speed).
+pub fn gauss(rng: &mut ChaCha8Rng) -> f64 {
+    let u1: f64 = rng.random::<f64>().max(1e-300);
+    let u2: f64 = rng.random::<f64>();
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
+/// The nominal plant parameters of a scenario: the Observer with the scenario's buoyancy offset.
+pub fn nominal_plant_params(sc: &Scenario) -> VehicleParams {
+    let mut p = VehicleParams::OBSERVER;
+    p.buoyancy_offset_n = sc.disturbance.buoyancy_offset_n as f32;
+    p
+}
+
+/// The one-line verdict of a summary.
+pub fn verdict(s: &Summary) -> String {
+    if s.nan_detected || s.diverged {
+        return format!("does not track: {}", s.stop_reason);
+    }
+    let worst = s.final_position_error_m.max(s.rms_position_error_tail_m);
+    if worst < 0.01 {
+        format!(
+            "tracks: final error {:.3} mm, last-20 % RMS {:.3} mm",
+            1e3 * s.final_position_error_m,
+            1e3 * s.rms_position_error_tail_m
+        )
+    } else if worst < 0.1 {
+        format!(
+            "tracks roughly: final error {:.1} cm, last-20 % RMS {:.1} cm",
+            1e2 * s.final_position_error_m,
+            1e2 * s.rms_position_error_tail_m
+        )
+    } else {
+        format!(
+            "does not track: final error {:.2} m, last-20 % RMS {:.2} m",
+            s.final_position_error_m, s.rms_position_error_tail_m
+        )
+    }
+}
+
+/// Sums of squares over the windows the summary reports.
+#[derive(Debug, Default)]
+struct Rms {
+    sq: f64,
+    n: u64,
+}
+
+impl Rms {
+    fn add(&mut self, e: f64) {
+        self.sq += e * e;
+        self.n += 1;
+    }
+
+    fn value(&self) -> f64 {
+        if self.n > 0 {
+            (self.sq / self.n as f64).sqrt()
+        } else {
+            f64::NAN
+        }
+    }
+}
+
+/// Why a run diverged, if it did.
+fn divergence(pen: f64, truth: &PlantState, cmd: &[f64; 3]) -> Option<&'static str> {
+    let max_abs = |v: &[f64]| v.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+    if pen > 1.0e3 {
+        Some("position error > 1 km")
+    } else if max_abs(&truth.eta[..3]) > 1.0e4 {
+        Some("|position| > 10 km")
+    } else if max_abs(&truth.nu[..3]) > 100.0 {
+        Some("|velocity| > 100 m/s")
+    } else if max_abs(&truth.nu[3..]) > 100.0 {
+        Some("|angular rate| > 100 rad/s")
+    } else if max_abs(cmd) > 1.0e4 {
+        Some("thrust command > 10 kN")
+    } else {
+        None
+    }
+}
+
+/// Run a scenario in closed loop with `nav` as the navigation stage and `endpoint` as the
+/// controller.
+pub fn run_closed_loop(
+    sc: &Scenario,
+    opts: &RunOptions,
+    nav: &mut dyn Navigation,
+    endpoint: &mut dyn ControllerEndpoint,
+) -> Result<RunOutput> {
+    sc.validate()?;
+    let wall = Instant::now();
+    let saturate = sc.thrusters.saturate;
+    let nominal = Vehicle::observer();
+    let (lim_fwd, lim_rev) = (
+        f64::from(nominal.params().thrust_max_forward_n),
+        f64::from(nominal.params().thrust_max_reverse_n),
+    );
+
+    let plant_params = opts
+        .plant_params
+        .unwrap_or_else(|| nominal_plant_params(sc));
+    plant_params
+        .validate()
+        .map_err(|e| anyhow!("plant parameters: {e}"))?;
+    let env = Environment {
+        current_m_s: opts.current_m_s.unwrap_or(sc.disturbance.current_m_s),
+    };
+    let mut plant = make_plant(
+        sc.plane,
+        &plant_params,
+        env,
+        saturate,
+        sc.initial.to_plant(),
+    )?;
+
+    let reference = sc.reference.to_core();
+    let axes = sc.plane.axes();
+    let n_sub = sc.plant_steps_per_control().max(1);
+    let dt = sc.plant_dt_s;
+    let tc = dt * n_sub as f64;
+    let duration = opts.duration_s.unwrap_or(sc.duration_s);
+    let n_ctrl = (duration / tc).round() as u64;
+
+    let mut log = Vec::with_capacity(if opts.record { n_ctrl as usize + 1 } else { 0 });
+    let (mut all, mut tail, mut last80, mut est) = (
+        Rms::default(),
+        Rms::default(),
+        Rms::default(),
+        Rms::default(),
+    );
+    let mut s = Summary {
+        scenario: sc.name.clone(),
+        plane: sc.plane.as_str().into(),
+        controller: sc.controller.as_str().into(),
+        reference: sc.reference.kind().into(),
+        saturate,
+        duration_s: duration,
+        stop_reason: "completed".into(),
+        ..Summary::default()
+    };
+    let mut n_sat = 0u64;
+    let mut last = Sample::default();
+    let t_tail = 0.8 * duration;
+    let t_80 = 0.2 * duration;
+    let mut held_cmd = [0.0f64; 3];
+
+    for k in 0..=n_ctrl {
+        let t = k as f64 * tc;
+        let truth = plant.state();
+        let nav_state = nav.estimate(t, held_cmd);
+        if k == 0 {
+            endpoint.start(&nav_state)?;
+        }
+        let r: RefSample = reference.sample(t as f32);
+        let out = endpoint.step(t, &nav_state, &r)?;
+
+        // Metrics on the true state.
+        let ref_pos = r.pos_m.map(f64::from);
+        let ref_vel = r.vel_m_s.map(f64::from);
+        let nav_pos = [nav_state.x_m, nav_state.y_m, nav_state.z_m].map(f64::from);
+        let vel = body_to_inertial(&truth.eta, [truth.nu[0], truth.nu[1], truth.nu[2]]);
+        let (mut pe, mut ve, mut ee) = ([0.0; 3], [0.0; 3], [0.0; 3]);
+        for i in 0..3 {
+            if axes[i] {
+                pe[i] = truth.eta[i] - ref_pos[i];
+                ve[i] = vel[i] - ref_vel[i];
+                ee[i] = nav_pos[i] - truth.eta[i];
+            }
+        }
+        let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        let pen = norm(pe);
+        let angle_err = f64::from(match sc.plane {
+            Plane::Xz => out.errors.pitch_rad,
+            _ => out.errors.yaw_rad,
+        });
+        let forces = |f: BodyForces| [f.surge_n, f.yaw_n_m, f.heave_n].map(f64::from);
+        let requested = forces(out.requested);
+        let cmd = out.thrust_cmd_n.map(f64::from);
+        let exceeds = cmd
+            .iter()
+            .any(|&f| f > lim_fwd + 1e-6 || f < -lim_rev - 1e-6);
+        let saturated = out.saturated || exceeds;
+        let sample = Sample {
+            t_s: t,
+            state: truth,
+            nav_pos_m: nav_pos,
+            ref_pos_m: ref_pos,
+            ref_vel_m_s: ref_vel,
+            pos_err_m: pe,
+            pos_err_norm_m: pen,
+            vel_err_m_s: ve,
+            angle_err_rad: angle_err,
+            law_errors: out.errors,
+            requested,
+            achieved: forces(out.achieved),
+            thrust_cmd_n: cmd,
+            thrust_n: plant.thrust_n(),
+            pulse_us: out.pulse_us,
+            saturated,
+        };
+        last = sample;
+        if opts.record {
+            log.push(sample);
+        }
+
+        if !truth.is_finite() || !out.requested.is_finite() || !pen.is_finite() {
+            s.nan_detected = true;
+            s.stop_reason = format!("non-finite state or force at t = {t:.3} s");
+            break;
+        }
+        all.add(pen);
+        if t >= t_tail {
+            tail.add(pen);
+        }
+        if t >= t_80 {
+            last80.add(pen);
+        }
+        s.max_position_error_m = s.max_position_error_m.max(pen);
+        if t >= 10.0 {
+            s.max_position_error_after_10s_m = s.max_position_error_after_10s_m.max(pen);
+            s.max_angle_error_after_10s_rad = s.max_angle_error_after_10s_rad.max(angle_err.abs());
+            est.add(norm(ee));
+        }
+        for i in 0..3 {
+            s.max_abs_requested_force[i] = s.max_abs_requested_force[i].max(requested[i].abs());
+            s.max_abs_thruster_force_n = s.max_abs_thruster_force_n.max(cmd[i].abs());
+        }
+        if saturated {
+            n_sat += 1;
+        }
+        s.control_steps += 1;
+        s.simulated_s = t;
+
+        if let Some(why) = divergence(pen, &truth, &cmd) {
+            s.diverged = true;
+            s.stop_reason = format!("diverged at t = {t:.3} s: {why}");
+            break;
+        }
+        if k == n_ctrl {
+            break;
+        }
+
+        // Zero-order hold over the plant steps of this period.
+        held_cmd = out.applied_n;
+        for i in 0..n_sub {
+            plant.step(out.applied_n, dt);
+            s.sim_steps += 1;
+            nav.observe(t + (i + 1) as f64 * dt, &plant.state());
+        }
+    }
+
+    s.rms_position_error_m = all.value();
+    s.rms_position_error_tail_m = tail.value();
+    s.rms_position_error_last80_m = last80.value();
+    s.rms_estimation_error_m = est.value();
+    s.navigation = nav.report();
+    s.final_position_error_m = last.pos_err_norm_m;
+    s.final_position_error_xyz_m = last.pos_err_m;
+    s.final_angle_error_rad = last.angle_err_rad;
+    s.saturated_fraction = if s.control_steps > 0 {
+        n_sat as f64 / s.control_steps as f64
+    } else {
+        0.0
+    };
+    if s.diverged || s.nan_detected {
+        // A run that stopped early has no meaningful tail: report it as infinite error.
+        if !s.rms_position_error_tail_m.is_finite() || tail.n == 0 {
+            s.rms_position_error_tail_m = f64::INFINITY;
+        }
+        if last80.n == 0 {
+            s.rms_position_error_last80_m = f64::INFINITY;
+        }
+    }
+    s.verdict = verdict(&s);
+    let fs = last.state;
+    s.final_state = fs.eta.iter().chain(fs.nu.iter()).copied().collect();
+    s.wall_time_s = wall.elapsed().as_secs_f64();
+    Ok(RunOutput { summary: s, log })
+}
