@@ -10,6 +10,12 @@
 //! - draws its own measurement-noise seed.
 //!
 //! Runs go in parallel with rayon, with an indicatif progress bar.
+//!
+//! A campaign can be split over machines: `--shard I/N` runs the I-th of N contiguous slices
+//! of the run indices (run `i` draws from stream `i` whatever the slice), and `host-sim merge`
+//! joins the slices' `runs.json` into the same `summary.json`, `runs.csv` and histogram as one
+//! run of the whole campaign, byte for byte (`docs/monte-carlo.md`: a Slurm job array and a
+//! Kubernetes indexed Job).
 
 use crate::runner::{run, RunOptions};
 use crate::scenario::{Plane, Scenario};
@@ -19,7 +25,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::path::Path;
 use std::time::Instant;
 
@@ -36,22 +42,55 @@ pub struct McConfig {
     pub progress: bool,
 }
 
+/// `f64` in JSON with the non-finite values a diverged run has (`"inf"`, `"-inf"`,
+/// `"NaN"`; plain JSON has none), read back exactly.
+mod json_f64 {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
+        if v.is_finite() {
+            s.serialize_f64(*v)
+        } else {
+            s.serialize_str(&v.to_string())
+        }
+    }
+
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Num {
+        F(f64),
+        S(String),
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        match Num::deserialize(d)? {
+            Num::F(v) => Ok(v),
+            Num::S(t) => t.parse().map_err(serde::de::Error::custom),
+        }
+    }
+}
+
 /// One run of a batch.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct McRun {
     /// Index in the batch.
     pub index: usize,
     /// Current used (inertial, m/s).
     pub current_m_s: [f64; 3],
     /// RMS position error over the run.
+    #[serde(with = "json_f64")]
     pub rms_position_error_m: f64,
     /// RMS position error over the last 80 %.
+    #[serde(with = "json_f64")]
     pub rms_position_error_last80_m: f64,
     /// Final position error.
+    #[serde(with = "json_f64")]
     pub final_position_error_m: f64,
     /// Largest thruster command.
+    #[serde(with = "json_f64")]
     pub max_abs_thruster_force_n: f64,
     /// Share of saturated control ticks.
+    #[serde(with = "json_f64")]
     pub saturated_fraction: f64,
     /// Diverged.
     pub diverged: bool,
@@ -68,6 +107,60 @@ pub struct Percentiles {
     pub p95: f64,
     /// Largest.
     pub max: f64,
+}
+
+/// What defines a campaign: runs with the same campaign and index are the same run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Campaign {
+    /// Scenario name.
+    pub scenario: String,
+    /// Runs in the whole campaign.
+    pub runs: usize,
+    /// Master seed.
+    pub seed: u64,
+    /// Relative perturbation bound.
+    pub perturb: f64,
+    /// Current magnitude used in every run (m/s).
+    pub current_magnitude_m_s: f64,
+    /// The scenario applies thruster limits.
+    pub saturate: bool,
+}
+
+/// `DIR/runs.json`: the campaign, which slice this is, and every run of it (full precision,
+/// so that merged slices give the same figures as one run).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ShardRuns {
+    /// The campaign.
+    pub campaign: Campaign,
+    /// `[i, n]`: the i-th of n slices (`[0, 1]` for a whole campaign).
+    pub shard: [usize; 2],
+    /// The runs of this slice, by index.
+    pub runs: Vec<McRun>,
+}
+
+/// The run indices of slice `i` of `n` of a campaign of `runs` runs: contiguous, the first
+/// `runs % n` slices one longer.
+pub fn shard_range(runs: usize, i: usize, n: usize) -> std::ops::Range<usize> {
+    let n = n.max(1);
+    let (q, r) = (runs / n, runs % n);
+    let start = i * q + i.min(r);
+    let len = q + usize::from(i < r);
+    start.min(runs)..(start + len).min(runs)
+}
+
+/// Parse `I/N` (0 <= I < N).
+pub fn parse_shard(s: &str) -> Result<(usize, usize)> {
+    let (i, n) = s
+        .split_once('/')
+        .ok_or_else(|| anyhow::anyhow!("--shard takes I/N, e.g. 0/4 (got {s:?})"))?;
+    let (i, n): (usize, usize) = (
+        i.trim().parse().context("--shard I")?,
+        n.trim().parse().context("--shard N")?,
+    );
+    if n == 0 || i >= n {
+        anyhow::bail!("--shard I/N needs 0 <= I < N (got {i}/{n})");
+    }
+    Ok((i, n))
 }
 
 /// `DIR/summary.json` of a batch.
@@ -97,8 +190,6 @@ pub struct McSummary {
     pub max_abs_thruster_force_n: f64,
     /// Every thruster command stayed within the real limits.
     pub thrust_within_limits: bool,
-    /// Wall-clock time of the batch (s).
-    pub wall_time_s: f64,
 }
 
 /// Multiply every hydrodynamic and inertial parameter by `1 + U(-p, p)`.
@@ -169,16 +260,30 @@ fn percentiles(values: &[f64]) -> Percentiles {
     }
 }
 
-/// Run a batch.
-pub fn run_batch(sc: &Scenario, cfg: &McConfig) -> Result<(McSummary, Vec<McRun>)> {
+/// Run a batch: the whole campaign (`shard = (0, 1)`) or one slice of it. Returns the
+/// summary of the runs done and the runs.
+pub fn run_batch(
+    sc: &Scenario,
+    cfg: &McConfig,
+    shard: (usize, usize),
+) -> Result<(McSummary, ShardRuns)> {
     sc.validate()?;
     let wall = Instant::now();
-    let mag = sc.current_magnitude_m_s();
+    let campaign = Campaign {
+        scenario: sc.name.clone(),
+        runs: cfg.runs,
+        seed: cfg.seed,
+        perturb: cfg.perturb,
+        current_magnitude_m_s: sc.current_magnitude_m_s(),
+        saturate: sc.thrusters.saturate,
+    };
+    let mag = campaign.current_magnitude_m_s;
     let base = crate::runner::nominal_plant_params(sc);
+    let indices = shard_range(cfg.runs, shard.0, shard.1);
     let pb = if cfg.progress {
-        ProgressBar::new(cfg.runs as u64)
+        ProgressBar::new(indices.len() as u64)
     } else {
-        ProgressBar::with_draw_target(Some(cfg.runs as u64), ProgressDrawTarget::hidden())
+        ProgressBar::with_draw_target(Some(indices.len() as u64), ProgressDrawTarget::hidden())
     };
     pb.set_style(
         ProgressStyle::with_template(
@@ -187,7 +292,7 @@ pub fn run_batch(sc: &Scenario, cfg: &McConfig) -> Result<(McSummary, Vec<McRun>
         .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     pb.set_message(format!("monte-carlo {}", sc.name));
-    let results: Vec<Result<McRun>> = (0..cfg.runs)
+    let results: Vec<Result<McRun>> = indices
         .into_par_iter()
         .map(|i| {
             let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
@@ -223,6 +328,24 @@ pub fn run_batch(sc: &Scenario, cfg: &McConfig) -> Result<(McSummary, Vec<McRun>
         .collect();
     pb.finish_and_clear();
     let runs: Vec<McRun> = results.into_iter().collect::<Result<_>>()?;
+    let shard_runs = ShardRuns {
+        campaign,
+        shard: [shard.0, shard.1],
+        runs,
+    };
+    let summary = summarize(&shard_runs.campaign, &shard_runs.runs);
+    if cfg.progress {
+        eprintln!(
+            "{} runs in {:.1} s",
+            shard_runs.runs.len(),
+            wall.elapsed().as_secs_f64()
+        );
+    }
+    Ok((summary, shard_runs))
+}
+
+/// The summary of a set of runs of a campaign.
+pub fn summarize(campaign: &Campaign, runs: &[McRun]) -> McSummary {
     // A run that diverged or produced a NaN counts as an infinite error in the percentiles
     // (its partial-run figures would flatter it); runs.csv keeps the raw numbers.
     let col = |f: fn(&McRun) -> f64| {
@@ -241,40 +364,100 @@ pub fn run_batch(sc: &Scenario, cfg: &McConfig) -> Result<(McSummary, Vec<McRun>
         .map(|r| r.max_abs_thruster_force_n)
         .fold(0.0, f64::max);
     let nominal = VehicleParams::OBSERVER;
-    let within = !sc.thrusters.saturate
-        || runs.iter().all(|r| {
-            r.max_abs_thruster_force_n
-                <= f64::from(
-                    nominal
-                        .thrust_max_forward_n
-                        .max(nominal.thrust_max_reverse_n),
-                ) + 1e-6
-        });
-    let summary = McSummary {
-        scenario: sc.name.clone(),
+    let limit = f64::from(
+        nominal
+            .thrust_max_forward_n
+            .max(nominal.thrust_max_reverse_n),
+    );
+    let within = runs
+        .iter()
+        .all(|r| r.max_abs_thruster_force_n <= limit + 1e-6);
+    McSummary {
+        scenario: campaign.scenario.clone(),
         runs: runs.len(),
-        seed: cfg.seed,
-        perturb: cfg.perturb,
-        current_magnitude_m_s: mag,
+        seed: campaign.seed,
+        perturb: campaign.perturb,
+        current_magnitude_m_s: campaign.current_magnitude_m_s,
         nan_runs: runs.iter().filter(|r| r.nan_detected).count(),
         diverged_runs: runs.iter().filter(|r| r.diverged).count(),
         rms_position_error_m: percentiles(&col(|r| r.rms_position_error_m)),
         rms_position_error_last80_m: percentiles(&col(|r| r.rms_position_error_last80_m)),
         final_position_error_m: percentiles(&col(|r| r.final_position_error_m)),
         max_abs_thruster_force_n: max_thrust,
-        thrust_within_limits: within && sc.thrusters.saturate,
-        wall_time_s: wall.elapsed().as_secs_f64(),
-    };
-    Ok((summary, runs))
+        thrust_within_limits: within && campaign.saturate,
+    }
 }
 
-/// Write `summary.json`, `runs.csv` and `histogram.png` into `dir`.
-pub fn write_batch(dir: &Path, summary: &McSummary, runs: &[McRun]) -> Result<()> {
+/// Join the slices in `dirs` (each with the `runs.json` of `monte-carlo --shard`) into the
+/// whole campaign. Refuses slices of different campaigns, a run present twice, or a
+/// missing run, naming it.
+pub fn merge_shards(dirs: &[std::path::PathBuf]) -> Result<(McSummary, ShardRuns)> {
+    let mut campaign: Option<Campaign> = None;
+    let mut runs: Vec<McRun> = Vec::new();
+    for d in dirs {
+        let path = d.join("runs.json");
+        let text = std::fs::read_to_string(&path)
+            .with_context(|| format!("cannot read {}", path.display()))?;
+        let part: ShardRuns = serde_json::from_str(&text)
+            .with_context(|| format!("{} is not a monte-carlo runs.json", path.display()))?;
+        match &campaign {
+            None => campaign = Some(part.campaign.clone()),
+            Some(c) if *c != part.campaign => anyhow::bail!(
+                "{} is from another campaign ({:?}, expected {:?})",
+                path.display(),
+                part.campaign,
+                c
+            ),
+            Some(_) => {}
+        }
+        runs.extend(part.runs);
+    }
+    let campaign = campaign.ok_or_else(|| anyhow::anyhow!("no shard folders given"))?;
+    runs.sort_by_key(|r| r.index);
+    for w in runs.windows(2) {
+        if let [a, b] = w {
+            if a.index == b.index {
+                anyhow::bail!("run {} is in two shards", a.index);
+            }
+        }
+    }
+    let have: std::collections::BTreeSet<usize> = runs.iter().map(|r| r.index).collect();
+    if let Some(missing) = (0..campaign.runs).find(|i| !have.contains(i)) {
+        anyhow::bail!(
+            "run {missing} of {} is missing: give every shard's folder",
+            campaign.runs
+        );
+    }
+    if let Some(extra) = runs.iter().find(|r| r.index >= campaign.runs) {
+        anyhow::bail!(
+            "run {} is outside the campaign of {}",
+            extra.index,
+            campaign.runs
+        );
+    }
+    let summary = summarize(&campaign, &runs);
+    Ok((
+        summary,
+        ShardRuns {
+            campaign,
+            shard: [0, 1],
+            runs,
+        },
+    ))
+}
+
+/// Write `summary.json`, `runs.json`, `runs.csv` and `histogram.png` into `dir`.
+pub fn write_batch(dir: &Path, summary: &McSummary, shard: &ShardRuns) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     std::fs::write(
         dir.join("summary.json"),
         serde_json::to_string_pretty(summary)? + "\n",
     )?;
+    std::fs::write(
+        dir.join("runs.json"),
+        serde_json::to_string_pretty(shard)? + "\n",
+    )?;
+    let runs = &shard.runs;
     let mut csv = String::from(
         "index,cx_m_s,cy_m_s,cz_m_s,rms_position_error_m,rms_position_error_last80_m,final_position_error_m,max_abs_thruster_force_n,saturated_fraction,diverged,nan_detected\n",
     );

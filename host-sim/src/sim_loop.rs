@@ -412,6 +412,25 @@ pub fn nominal_plant_params(sc: &Scenario) -> VehicleParams {
     p
 }
 
+/// Does the run track, in a word for a table: `yes` (final error and last-20 % RMS under
+/// 1 cm), `roughly` (under 10 cm), `NO` (more), `NO: diverged`, `NO: NaN`.
+pub fn tracks_word(s: &Summary) -> &'static str {
+    if s.nan_detected {
+        "NO: NaN"
+    } else if s.diverged {
+        "NO: diverged"
+    } else {
+        let worst = s.final_position_error_m.max(s.rms_position_error_tail_m);
+        if worst < 0.01 {
+            "yes"
+        } else if worst < 0.1 {
+            "roughly"
+        } else {
+            "NO"
+        }
+    }
+}
+
 /// The one-line verdict of a summary.
 pub fn verdict(s: &Summary) -> String {
     if s.nan_detected || s.diverged {

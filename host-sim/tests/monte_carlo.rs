@@ -1,7 +1,9 @@
 //! Monte Carlo: reproducible for a seed, different for another seed, perturbations bounded.
 
 use controller_core::params::VehicleParams;
-use host_sim::monte_carlo::{perturb_params, random_current, run_batch, McConfig};
+use host_sim::monte_carlo::{
+    merge_shards, perturb_params, random_current, run_batch, shard_range, write_batch, McConfig,
+};
 use host_sim::scenario::{Plane, Scenario};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -34,8 +36,8 @@ fn cfg(seed: u64) -> McConfig {
 #[test]
 fn batch_is_reproducible_for_a_seed() {
     let sc = Scenario::from_toml(SHORT, "short").unwrap();
-    let (a, ra) = run_batch(&sc, &cfg(7)).unwrap();
-    let (b, rb) = run_batch(&sc, &cfg(7)).unwrap();
+    let (a, ra) = run_batch(&sc, &cfg(7), (0, 1)).unwrap();
+    let (b, rb) = run_batch(&sc, &cfg(7), (0, 1)).unwrap();
     assert_eq!(a.runs, 8);
     assert_eq!(
         serde_json::to_string(&ra).unwrap(),
@@ -43,14 +45,14 @@ fn batch_is_reproducible_for_a_seed() {
     );
     assert_eq!(a.rms_position_error_m, b.rms_position_error_m);
     assert_eq!(a.max_abs_thruster_force_n, b.max_abs_thruster_force_n);
-    let (_, rc) = run_batch(&sc, &cfg(8)).unwrap();
+    let (_, rc) = run_batch(&sc, &cfg(8), (0, 1)).unwrap();
     assert_ne!(
         serde_json::to_string(&ra).unwrap(),
         serde_json::to_string(&rc).unwrap(),
         "another seed must give other runs"
     );
     // Currents have the scenario's magnitude, in the plane.
-    for r in &ra {
+    for r in &ra.runs {
         let c = r.current_m_s;
         assert!(((c[0] * c[0] + c[1] * c[1]).sqrt() - 0.1).abs() < 1e-12 && c[2] == 0.0);
     }
@@ -96,4 +98,56 @@ fn perturbation_is_bounded_and_touches_every_parameter() {
     }
     let c = random_current(Plane::ThreeD, 0.2, &mut rng);
     assert!(((c[0] * c[0] + c[1] * c[1]).sqrt() - 0.2).abs() < 1e-12 && c[2] == 0.0);
+}
+
+#[test]
+fn shards_cover_every_run_once() {
+    for runs in [1usize, 7, 8, 100, 101] {
+        for n in 1..=9usize {
+            let mut seen = vec![0u32; runs];
+            for i in 0..n {
+                for k in shard_range(runs, i, n) {
+                    seen[k] += 1;
+                }
+            }
+            assert!(seen.iter().all(|&c| c == 1), "runs {runs}, {n} shards");
+        }
+    }
+}
+
+/// Four shards merged give the same `summary.json`, `runs.json` and `runs.csv` as one run of
+/// the campaign, byte for byte; a missing or doubled shard is refused.
+#[test]
+fn four_shards_merged_equal_one_run_byte_for_byte() {
+    let sc = Scenario::from_toml(SHORT, "short").unwrap();
+    let base = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("mc-shards");
+    let _ = std::fs::remove_dir_all(&base);
+    let whole = base.join("whole");
+    let (s, r) = run_batch(&sc, &cfg(5), (0, 1)).unwrap();
+    write_batch(&whole, &s, &r).unwrap();
+    let mut dirs = Vec::new();
+    for i in 0..4 {
+        let d = base.join(format!("shard-{i}"));
+        let (s, r) = run_batch(&sc, &cfg(5), (i, 4)).unwrap();
+        assert_eq!(r.runs.len(), 2);
+        write_batch(&d, &s, &r).unwrap();
+        dirs.push(d);
+    }
+    let merged = base.join("merged");
+    let (ms, mr) = merge_shards(&dirs).unwrap();
+    write_batch(&merged, &ms, &mr).unwrap();
+    for f in ["summary.json", "runs.json", "runs.csv"] {
+        let a = std::fs::read(whole.join(f)).unwrap();
+        let b = std::fs::read(merged.join(f)).unwrap();
+        assert!(
+            a == b,
+            "{f} differs between the whole run and the merged shards"
+        );
+    }
+    let e = merge_shards(&dirs[..3]).unwrap_err().to_string();
+    assert!(e.contains("missing"), "{e}");
+    let mut twice = dirs.clone();
+    twice.push(dirs[0].clone());
+    let e = merge_shards(&twice).unwrap_err().to_string();
+    assert!(e.contains("two shards"), "{e}");
 }
