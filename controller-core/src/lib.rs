@@ -24,6 +24,7 @@ pub mod error;
 pub mod law;
 pub mod math;
 pub mod model;
+pub mod nav;
 pub mod params;
 pub mod reference;
 pub mod state;

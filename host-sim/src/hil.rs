@@ -35,9 +35,7 @@ use crate::link::{open, Endpoint, HostLinkStats, Link, Noise, NoiseSpec, Port};
 use crate::output::write_run;
 use crate::qemu::{qemu_firmware_image, start_qemu_link, workspace_root, FirmwareImage};
 use crate::scenario::Scenario;
-use crate::sim_loop::{
-    run_closed_loop, ControllerEndpoint, RunOptions, RunOutput, StepReply, TruthNav,
-};
+use crate::sim_loop::{run_closed_loop, ControllerEndpoint, RunOptions, RunOutput, StepReply};
 use anyhow::{anyhow, bail, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::controller::ControlMode;
@@ -505,13 +503,13 @@ pub fn run_hil(sc: &Scenario, opts: &HilOptions, qemu_log: Option<&Path>) -> Res
     let link = Link::new(port, None);
     let mut endpoint =
         TetherEndpoint::connect(link, sc, opts, target_name, hello_wait, hello_required)?;
-    let mut nav = TruthNav::for_scenario(sc, None);
+    let mut nav = crate::estimator_nav::navigation_for(sc, None)?;
     let run_opts = RunOptions {
         record: opts.record,
         duration_s: opts.duration_s,
         ..RunOptions::default()
     };
-    let run = run_closed_loop(sc, &run_opts, &mut nav, &mut endpoint)?;
+    let run = run_closed_loop(sc, &run_opts, nav.as_mut(), &mut endpoint)?;
     if let (Some(q), Some(p)) = (qemu_guard.as_mut(), opts.ram_dump.as_deref()) {
         q.dump_ram(p)?;
     }

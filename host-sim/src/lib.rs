@@ -6,9 +6,12 @@
 //! - [`sim_loop`]: the one closed loop (plant, navigation, a controller endpoint, metrics).
 //! - [`runner`]: a software run (the core in process); [`hil`]: the firmware over the
 //!   tether; [`qemu`]: the emulated board.
+//! - [`sensors`]: simulated IMU, depth, compass, DVL and USBL; [`estimator_nav`]: the core's
+//!   estimator on them as the navigation stage.
 //! - [`output`], [`plots`]: what a run writes.
 //! - [`monte_carlo`]: perturbed-parameter runs in parallel.
 
+pub mod estimator_nav;
 pub mod hil;
 pub mod in_process;
 pub mod link;
@@ -20,4 +23,5 @@ pub mod port;
 pub mod qemu;
 pub mod runner;
 pub mod scenario;
+pub mod sensors;
 pub mod sim_loop;

@@ -7,8 +7,9 @@
 //!
 //! [`Controller`]: controller_core::controller::Controller
 
+use crate::estimator_nav::navigation_for;
 use crate::scenario::Scenario;
-use crate::sim_loop::{run_closed_loop, CoreEndpoint, TruthNav};
+use crate::sim_loop::{run_closed_loop, CoreEndpoint};
 use anyhow::Result;
 
 pub use crate::sim_loop::{
@@ -20,6 +21,6 @@ pub use crate::sim_loop::{
 pub fn run(sc: &Scenario, opts: &RunOptions) -> Result<RunOutput> {
     sc.validate()?;
     let mut endpoint = CoreEndpoint::for_scenario(sc)?;
-    let mut nav = TruthNav::for_scenario(sc, opts.noise_seed);
-    run_closed_loop(sc, opts, &mut nav, &mut endpoint)
+    let mut nav = navigation_for(sc, opts.noise_seed)?;
+    run_closed_loop(sc, opts, nav.as_mut(), &mut endpoint)
 }

@@ -3,6 +3,7 @@
 //! Parsing is strict: unknown keys are rejected (`deny_unknown_fields`) and every number is
 //! checked by [`Scenario::validate`] before a run starts, with an error that names the key.
 
+pub use crate::sensors::{NavSource, NavigationSpec, SensorsSpec};
 use anyhow::{anyhow, bail, Context, Result};
 use controller_core::controller::ControlMode;
 use controller_core::reference::{PaperPolynomial, Reference};
@@ -450,6 +451,12 @@ pub struct Scenario {
     /// Disturbances.
     #[serde(default)]
     pub disturbance: DisturbanceSpec,
+    /// Where the laws' state comes from.
+    #[serde(default)]
+    pub navigation: NavigationSpec,
+    /// The sensors fitted (used by `navigation.source = "estimator"`).
+    #[serde(default)]
+    pub sensors: SensorsSpec,
 }
 
 /// A built-in scenario: its name and TOML text, embedded in the binary.
@@ -650,6 +657,12 @@ impl Scenario {
             d.noise_std.velocity_m_s,
         )?;
         nonneg("disturbance.noise_std.rate_rad_s", d.noise_std.rate_rad_s)?;
+        self.sensors.validate()?;
+        if self.navigation.source == NavSource::Estimator {
+            if let Some(missing) = self.sensors.missing_for_estimator() {
+                bail!("navigation.source = \"estimator\" needs {missing}");
+            }
+        }
         Ok(())
     }
 

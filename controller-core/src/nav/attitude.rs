@@ -1,0 +1,144 @@
+//! Attitude: roll and pitch from a complementary filter, heading from a Kalman filter.
+
+use super::kf::{unit, Kf};
+use super::{NavConfig, Refusal, GATE_CHI2_1DOF, GRAVITY_M_S2};
+use crate::math::{atan2, clamp, sin_cos, sqrt, wrap_angle};
+
+/// Largest |pitch| the Euler kinematics are integrated at (rad); the Observer is passively
+/// stable in pitch and never comes near it.
+const MAX_PITCH_RAD: f32 = 1.4;
+
+/// Roll and pitch with their gyro biases: a complementary filter with an integral term
+/// (Mahony, Hamel and Pflimlin, 2008, reduced to the two tilt angles). The gyro propagates
+/// the Euler angles; the accelerometer's gravity direction pulls them back with the time
+/// constant `tau` (`kp = 1 / tau`), and the integral term (`ki = kp^2 / 4`, critically
+/// damped) learns the gyro biases of `p` and `q`. The pull is skipped while the specific force
+/// is not close to `g` (the vehicle is accelerating hard or the sample is bad).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Tilt {
+    roll_rad: f32,
+    pitch_rad: f32,
+    bias_p_rad_s: f32,
+    bias_q_rad_s: f32,
+}
+
+impl Tilt {
+    pub(super) fn new(roll_rad: f32, pitch_rad: f32) -> Self {
+        Self {
+            roll_rad,
+            pitch_rad,
+            bias_p_rad_s: 0.0,
+            bias_q_rad_s: 0.0,
+        }
+    }
+
+    pub(super) fn angles(&self) -> (f32, f32) {
+        (self.roll_rad, self.pitch_rad)
+    }
+
+    pub(super) fn bias(&self) -> (f32, f32) {
+        (self.bias_p_rad_s, self.bias_q_rad_s)
+    }
+
+    /// `rates` are bias-corrected `[p, q, r]`, `accel` the specific force.
+    pub(super) fn predict(
+        &mut self,
+        cfg: &NavConfig,
+        rates: [f32; 3],
+        accel: [f32; 3],
+        _yaw_rad: f32,
+        dt: f32,
+    ) {
+        let [p, q, r] = rates;
+        let (sr, cr) = sin_cos(self.roll_rad);
+        let (sp, cp) = sin_cos(self.pitch_rad);
+        let tp = sp / cp;
+        let roll_dot = p + (sr * q + cr * r) * tp;
+        let pitch_dot = cr * q - sr * r;
+        let [fx, fy, fz] = accel;
+        let f2 = fx * fx + fy * fy + fz * fz;
+        let g2 = GRAVITY_M_S2 * GRAVITY_M_S2;
+        let (mut e_roll, mut e_pitch) = (0.0, 0.0);
+        if f2 > 0.64 * g2 && f2 < 1.44 * g2 {
+            let roll_acc = atan2(-fy, -fz);
+            let pitch_acc = atan2(fx, sqrt(fy * fy + fz * fz));
+            e_roll = wrap_angle(roll_acc - self.roll_rad);
+            e_pitch = pitch_acc - self.pitch_rad;
+        }
+        let kp = 1.0 / cfg.tilt_time_constant_s;
+        let ki = 0.25 * kp * kp;
+        self.roll_rad = wrap_angle(self.roll_rad + (roll_dot + kp * e_roll) * dt);
+        self.pitch_rad = clamp(
+            self.pitch_rad + (pitch_dot + kp * e_pitch) * dt,
+            -MAX_PITCH_RAD,
+            MAX_PITCH_RAD,
+        );
+        self.bias_p_rad_s -= ki * e_roll * dt;
+        self.bias_q_rad_s -= ki * e_pitch * dt;
+    }
+}
+
+/// Heading and the yaw-gyro bias, `[psi, b_r]`: propagated with the Euler kinematics
+/// `psi_dot = (sin(phi) q + cos(phi) (r_m - b_r)) / cos(theta)`, updated by the compass.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Heading {
+    kf: Kf<2>,
+}
+
+const PSI: usize = 0;
+const BIAS: usize = 1;
+
+impl Heading {
+    pub(super) fn new(yaw_rad: f32, cfg: &NavConfig) -> Self {
+        let s_psi = cfg.initial_heading_std_rad;
+        let s_b = cfg.initial_gyro_bias_std_rad_s;
+        Self {
+            kf: Kf::new([yaw_rad, 0.0], [s_psi * s_psi, s_b * s_b]),
+        }
+    }
+
+    pub(super) fn yaw(&self) -> f32 {
+        self.kf.x[PSI]
+    }
+
+    pub(super) fn bias(&self) -> f32 {
+        self.kf.x[BIAS]
+    }
+
+    pub(super) fn variance(&self) -> f32 {
+        self.kf.var(PSI)
+    }
+
+    /// `q` is bias-corrected, `r_m` the raw yaw-axis gyro.
+    pub(super) fn predict(
+        &mut self,
+        cfg: &NavConfig,
+        roll_rad: f32,
+        pitch_rad: f32,
+        q: f32,
+        r_m: f32,
+        dt: f32,
+    ) {
+        let (sr, cr) = sin_cos(roll_rad);
+        let (_, cp) = sin_cos(pitch_rad);
+        let inv_cp = 1.0 / cp;
+        let psi_dot = (sr * q + cr * (r_m - self.kf.x[BIAS])) * inv_cp;
+        self.kf.x[PSI] = wrap_angle(self.kf.x[PSI] + psi_dot * dt);
+        let phi = [[1.0, -cr * inv_cp * dt], [0.0, 1.0]];
+        let n = cfg.gyro_noise_rad_s_sqrt_hz;
+        let w = cfg.gyro_bias_walk_rad_s_sqrt_s;
+        self.kf.propagate(&phi, &[n * n * dt, w * w * dt]);
+    }
+
+    pub(super) fn fuse(&mut self, yaw_rad: f32, std_rad: f32) -> Result<(), Refusal> {
+        let nu = wrap_angle(yaw_rad - self.kf.x[PSI]);
+        let r = std_rad * std_rad;
+        let s = self.kf.var(PSI) + r;
+        if nu * nu > GATE_CHI2_1DOF * s {
+            return Err(Refusal::Outlier);
+        }
+        self.kf.update(&unit(PSI), nu, r);
+        self.kf.x[PSI] = wrap_angle(self.kf.x[PSI]);
+        Ok(())
+    }
+}

@@ -1,0 +1,227 @@
+//! The navigation stage of `[navigation] source = "estimator"`: the scenario's simulated
+//! sensors ([`crate::sensors`]) feed the core's [`Estimator`], and the laws see only its
+//! output. Measurements reach the estimator when they *arrive* (a USBL fix `latency_s` after
+//! its ping), in arrival order, at the control tick; the IMU samples drive the prediction
+//! with the thrust commands held over the period.
+//!
+//! At every control tick the estimate is compared with the truth for the summary: the
+//! position NEES `e^T P^-1 e` on the plane's axes against the 95 % chi-square bound.
+
+use crate::plant::PlantState;
+use crate::scenario::Scenario;
+use crate::sensors::{Measurement, NavSource, SensorSuite, SensorsSpec};
+use crate::sim_loop::{to_nav, NavReport, Navigation, TruthNav};
+use anyhow::{anyhow, bail, Result};
+use controller_core::nav::{Estimator, NavConfig, Refusal};
+use controller_core::params::Vehicle;
+use controller_core::state::NavState;
+
+/// 95 % quantile of the chi-square distribution with 1, 2 and 3 degrees of freedom.
+pub const CHI2_95: [f64; 3] = [3.841, 5.991, 7.815];
+
+/// One USBL fix as the estimator saw it, for plots and logs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FixRecord {
+    /// Time of validity (s).
+    pub t_valid_s: f64,
+    /// Arrival (s).
+    pub t_arrival_s: f64,
+    /// North, east (m).
+    pub pos_m: [f64; 2],
+    /// Injected as an outlier.
+    pub outlier: bool,
+    /// Fused (false: refused, with the reason).
+    pub refused: Option<Refusal>,
+}
+
+/// The estimator on simulated sensors.
+pub struct EstimatorNav {
+    estimator: Estimator,
+    sensors: SensorSuite,
+    pending: Vec<(f64, Measurement)>,
+    axes: [bool; 3],
+    truth: PlantState,
+    nees_in: u64,
+    nees_n: u64,
+    fixes: Vec<FixRecord>,
+}
+
+/// The estimator's process noise for a sensor suite: the IMU figures are the datasheet's
+/// (what the simulated IMU uses); the start-up bias uncertainties are the IMU's bias spreads.
+pub fn nav_config(spec: &SensorsSpec) -> NavConfig {
+    let mut cfg = NavConfig::default();
+    if let Some(s) = &spec.imu {
+        cfg.gyro_noise_rad_s_sqrt_hz = s.gyro_noise_rad_s_sqrt_hz as f32;
+        cfg.gyro_bias_walk_rad_s_sqrt_s = s.gyro_bias_walk_rad_s_sqrt_s as f32;
+        cfg.accel_noise_m_s2_sqrt_hz = s.accel_noise_m_s2_sqrt_hz as f32;
+        cfg.accel_bias_walk_m_s2_sqrt_s = s.accel_bias_walk_m_s2_sqrt_s as f32;
+        cfg.initial_gyro_bias_std_rad_s = s.gyro_bias_rad_s.max(1e-4) as f32;
+        cfg.initial_accel_bias_std_m_s2 = s.accel_bias_m_s2.max(1e-3) as f32;
+    }
+    cfg
+}
+
+impl EstimatorNav {
+    /// The estimator of a scenario, started at the scenario's initial state (the launch
+    /// point), its sensors drawing from `seed`'s stream.
+    pub fn for_scenario(sc: &Scenario, seed: u64) -> Result<Self> {
+        if let Some(missing) = sc.sensors.missing_for_estimator() {
+            bail!("navigation.source = \"estimator\" needs {missing}");
+        }
+        let initial = sc.initial.to_plant();
+        let estimator = Estimator::new(
+            Vehicle::observer(),
+            nav_config(&sc.sensors),
+            &to_nav(&initial),
+            0,
+        )
+        .map_err(|e| anyhow!("estimator: {e}"))?;
+        Ok(Self {
+            estimator,
+            sensors: SensorSuite::new(&sc.sensors, seed),
+            pending: Vec::new(),
+            axes: sc.plane.axes(),
+            truth: initial,
+            nees_in: 0,
+            nees_n: 0,
+            fixes: Vec::new(),
+        })
+    }
+
+    /// The estimator (for its covariance, current and counters).
+    pub fn estimator(&self) -> &Estimator {
+        &self.estimator
+    }
+
+    /// Every USBL fix so far.
+    pub fn fixes(&self) -> &[FixRecord] {
+        &self.fixes
+    }
+
+    fn deliver(&mut self, arrival_s: f64, m: Measurement, thrust_cmd_n: [f32; 3]) {
+        let e = &mut self.estimator;
+        match m {
+            Measurement::Imu(s) => {
+                if e.predict(&s, thrust_cmd_n) == Err(Refusal::ImuGap) {
+                    e.resume_at(s.t_us);
+                }
+            }
+            Measurement::Depth(f) => {
+                let _ = e.fuse_depth(&f);
+            }
+            Measurement::Heading(f) => {
+                let _ = e.fuse_heading(&f);
+            }
+            Measurement::Dvl(f) => {
+                let _ = e.fuse_dvl(&f);
+            }
+            Measurement::Position(f, outlier) => {
+                let r = e.fuse_position(&f);
+                self.fixes.push(FixRecord {
+                    t_valid_s: f.t_us as f64 * 1e-6,
+                    t_arrival_s: arrival_s,
+                    pos_m: [f64::from(f.north_m), f64::from(f.east_m)],
+                    outlier,
+                    refused: r.err(),
+                });
+            }
+        }
+    }
+
+    /// Position NEES on the plane's axes, and its degrees of freedom.
+    fn nees(&self, nav: &NavState) -> Option<(f64, usize)> {
+        let p = self.estimator.position_covariance();
+        let est = [nav.x_m, nav.y_m, nav.z_m];
+        let idx: Vec<usize> = (0..3).filter(|&i| self.axes[i]).collect();
+        let e: Vec<f64> = idx
+            .iter()
+            .map(|&i| f64::from(est[i]) - self.truth.eta[i])
+            .collect();
+        let m: Vec<Vec<f64>> = idx
+            .iter()
+            .map(|&i| idx.iter().map(|&j| f64::from(p[i][j])).collect())
+            .collect();
+        let v = quad_inverse(&m, &e)?;
+        Some((v, idx.len()))
+    }
+}
+
+/// `e^T M^-1 e` for a 1x1, 2x2 or 3x3 symmetric positive-definite `M` (None otherwise).
+fn quad_inverse(m: &[Vec<f64>], e: &[f64]) -> Option<f64> {
+    match e.len() {
+        1 => (m[0][0] > 0.0).then(|| e[0] * e[0] / m[0][0]),
+        2 => {
+            let det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
+            (det > 0.0).then(|| {
+                (e[0] * e[0] * m[1][1] - 2.0 * e[0] * e[1] * m[0][1] + e[1] * e[1] * m[0][0]) / det
+            })
+        }
+        3 => {
+            // Adjugate of a symmetric 3x3.
+            let (a, b, c) = (m[0][0], m[0][1], m[0][2]);
+            let (d, f, i) = (m[1][1], m[1][2], m[2][2]);
+            let c00 = d * i - f * f;
+            let c01 = c * f - b * i;
+            let c02 = b * f - c * d;
+            let c11 = a * i - c * c;
+            let c12 = b * c - a * f;
+            let c22 = a * d - b * b;
+            let det = a * c00 + b * c01 + c * c02;
+            (det > 0.0).then(|| {
+                (e[0] * (c00 * e[0] + c01 * e[1] + c02 * e[2])
+                    + e[1] * (c01 * e[0] + c11 * e[1] + c12 * e[2])
+                    + e[2] * (c02 * e[0] + c12 * e[1] + c22 * e[2]))
+                    / det
+            })
+        }
+        _ => None,
+    }
+}
+
+impl Navigation for EstimatorNav {
+    fn observe(&mut self, t_s: f64, truth: &PlantState) {
+        self.sensors.sample(t_s, truth, &mut self.pending);
+        self.truth = *truth;
+    }
+
+    fn estimate(&mut self, t_s: f64, thrust_cmd_n: [f64; 3]) -> NavState {
+        // Stable: measurements with the same arrival keep the order they were made in.
+        self.pending.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let n_due = self.pending.partition_point(|(arr, _)| *arr <= t_s + 1e-9);
+        let due: Vec<_> = self.pending.drain(..n_due).collect();
+        let cmd = thrust_cmd_n.map(|f| f as f32);
+        for (arrival, m) in due {
+            self.deliver(arrival, m, cmd);
+        }
+        let nav = self.estimator.state();
+        if let Some((nees, dof)) = self.nees(&nav) {
+            self.nees_n += 1;
+            if nees <= CHI2_95[dof - 1] {
+                self.nees_in += 1;
+            }
+        }
+        nav
+    }
+
+    fn report(&self) -> NavReport {
+        NavReport {
+            source: "estimator".into(),
+            nees_in_bounds_fraction: (self.nees_n > 0)
+                .then(|| self.nees_in as f64 / self.nees_n as f64),
+            usbl_outliers_injected: self.sensors.usbl_outliers_injected,
+            usbl_fixes_rejected: u64::from(self.estimator.health().position_outliers),
+        }
+    }
+}
+
+/// The navigation stage a scenario asks for: the truth path (`source = "truth"`) or the
+/// estimator on the simulated sensors. `seed` replaces the scenario's noise seed (Monte Carlo).
+pub fn navigation_for(sc: &Scenario, seed: Option<u64>) -> Result<Box<dyn Navigation>> {
+    Ok(match sc.navigation.source {
+        NavSource::Truth => Box::new(TruthNav::for_scenario(sc, seed)),
+        NavSource::Estimator => Box::new(EstimatorNav::for_scenario(
+            sc,
+            seed.unwrap_or(sc.disturbance.noise_seed),
+        )?),
+    })
+}

@@ -1,0 +1,560 @@
+//! Simulated sensors and the scenario keys that fit them: `[navigation]` and `[sensors.*]`.
+//!
+//! Each sensor samples the plant's *true* state at its rate and adds what the real one adds.
+//! A table present in the scenario means the sensor is fitted; every key has a default:
+//!
+//! | sensor | default | source of the default |
+//! |---|---|---|
+//! | `imu` | 100 Hz; gyro 4.9e-5 rad/s/sqrt(Hz), bias 0.005 rad/s, walk 1e-5 rad/s/sqrt(s); accelerometer 6.9e-4 m/s^2/sqrt(Hz), bias 0.02 m/s^2, walk 1e-4 m/s^2/sqrt(s) | TDK ICM-42688-P datasheet (Pixhawk 6 class): 2.8 mdps/sqrt(Hz), 70 ug/sqrt(Hz), offsets after a power-on calibration |
+//! | `depth` | 10 Hz, 5 mm, no bias | TE MS5837-30BA: 0.2 mbar resolution at OSR 8192 (2 mm of water) |
+//! | `compass` | 10 Hz, 0.02 rad, no bias | a calibrated 3-axis magnetometer near thrusters, about 1 degree |
+//! | `dvl` | 5 Hz, 0.01 m/s | Water Linked DVL A50: 2-15 Hz, long-term accuracy 0.1 %, noise about 1 cm/s at ROV speeds |
+//! | `usbl` | 1 Hz, 0.3 m, 0.5 s latency, no outliers | Water Linked Underwater GPS G2 / Blueprint SeaTrac X150: about 1 Hz, 1 % of slant range plus a few decimetres, 0.3-1 s of latency |
+//!
+//! - The IMU's constant biases (`gyro_bias_rad_s`, `accel_bias_m_s2`) are the standard
+//!   deviations of a per-axis draw made once per run (Monte Carlo draws each run's own), plus a
+//!   random walk. The compass `bias_rad` and depth `bias_m` are fixed offsets (a calibration
+//!   error), the same in every run.
+//! - White noise of a density `n` is sampled at rate `f` as `n sqrt(f)` per sample.
+//! - A USBL fix carries the time of its ping (its time of validity) and arrives `latency_s`
+//!   later. An outlier (`outlier_fraction` of the fixes) is the true position moved by a
+//!   distance drawn uniformly in `[outlier_m, 2 outlier_m]`, in a random direction (multipath).
+//! - `dropouts_s = [[t0, t1], ...]`: no samples with `t0 <= t < t1`.
+
+use crate::plant::PlantState;
+use crate::sim_loop::{body_to_inertial, gauss};
+use anyhow::{bail, Result};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+/// Where the laws' state comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum NavSource {
+    /// The plant's state (delayed and noisy per `[disturbance]`): today's behaviour.
+    #[default]
+    Truth,
+    /// The core's estimator on the simulated sensors.
+    Estimator,
+}
+
+/// `[navigation]`.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NavigationSpec {
+    /// `"truth"` (default) or `"estimator"`.
+    pub source: NavSource,
+}
+
+/// `[sensors.imu]`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ImuSpec {
+    /// Sample rate (Hz).
+    pub rate_hz: f64,
+    /// Gyro white noise density (rad/s/sqrt(Hz)).
+    pub gyro_noise_rad_s_sqrt_hz: f64,
+    /// Standard deviation of the per-axis constant gyro bias drawn per run (rad/s).
+    pub gyro_bias_rad_s: f64,
+    /// Gyro bias random walk (rad/s/sqrt(s)).
+    pub gyro_bias_walk_rad_s_sqrt_s: f64,
+    /// Accelerometer white noise density (m/s^2/sqrt(Hz)).
+    pub accel_noise_m_s2_sqrt_hz: f64,
+    /// Standard deviation of the per-axis constant accelerometer bias drawn per run (m/s^2).
+    pub accel_bias_m_s2: f64,
+    /// Accelerometer bias random walk (m/s^2/sqrt(s)).
+    pub accel_bias_walk_m_s2_sqrt_s: f64,
+}
+
+impl Default for ImuSpec {
+    fn default() -> Self {
+        Self {
+            rate_hz: 100.0,
+            gyro_noise_rad_s_sqrt_hz: 4.9e-5,
+            gyro_bias_rad_s: 0.005,
+            gyro_bias_walk_rad_s_sqrt_s: 1.0e-5,
+            accel_noise_m_s2_sqrt_hz: 6.9e-4,
+            accel_bias_m_s2: 0.02,
+            accel_bias_walk_m_s2_sqrt_s: 1.0e-4,
+        }
+    }
+}
+
+/// `[sensors.depth]`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DepthSpec {
+    /// Sample rate (Hz).
+    pub rate_hz: f64,
+    /// Noise standard deviation (m).
+    pub noise_m: f64,
+    /// Fixed offset (m).
+    pub bias_m: f64,
+}
+
+impl Default for DepthSpec {
+    fn default() -> Self {
+        Self {
+            rate_hz: 10.0,
+            noise_m: 0.005,
+            bias_m: 0.0,
+        }
+    }
+}
+
+/// `[sensors.compass]`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CompassSpec {
+    /// Sample rate (Hz).
+    pub rate_hz: f64,
+    /// Noise standard deviation (rad).
+    pub noise_rad: f64,
+    /// Fixed offset (rad).
+    pub bias_rad: f64,
+}
+
+impl Default for CompassSpec {
+    fn default() -> Self {
+        Self {
+            rate_hz: 10.0,
+            noise_rad: 0.02,
+            bias_rad: 0.0,
+        }
+    }
+}
+
+/// `[sensors.dvl]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DvlSpec {
+    /// Sample rate (Hz).
+    pub rate_hz: f64,
+    /// Noise standard deviation of each component (m/s).
+    pub noise_m_s: f64,
+    /// Intervals without bottom lock `[[t0, t1], ...]` (s).
+    pub dropouts_s: Vec<[f64; 2]>,
+}
+
+impl Default for DvlSpec {
+    fn default() -> Self {
+        Self {
+            rate_hz: 5.0,
+            noise_m_s: 0.01,
+            dropouts_s: Vec::new(),
+        }
+    }
+}
+
+/// `[sensors.usbl]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct UsblSpec {
+    /// Fix rate (Hz).
+    pub rate_hz: f64,
+    /// Noise standard deviation of each horizontal component (m).
+    pub noise_m: f64,
+    /// Time from the ping to the fix's arrival on board (s).
+    pub latency_s: f64,
+    /// Share of fixes replaced by multipath outliers, in [0, 1].
+    pub outlier_fraction: f64,
+    /// Smallest distance of an outlier from the truth (m); the largest is twice this.
+    pub outlier_m: f64,
+    /// Intervals without fixes `[[t0, t1], ...]` (s).
+    pub dropouts_s: Vec<[f64; 2]>,
+}
+
+impl Default for UsblSpec {
+    fn default() -> Self {
+        Self {
+            rate_hz: 1.0,
+            noise_m: 0.3,
+            latency_s: 0.5,
+            outlier_fraction: 0.0,
+            outlier_m: 10.0,
+            dropouts_s: Vec::new(),
+        }
+    }
+}
+
+/// `[sensors]`: a table present = the sensor is fitted.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SensorsSpec {
+    /// Gyro and accelerometer.
+    pub imu: Option<ImuSpec>,
+    /// Pressure depth.
+    pub depth: Option<DepthSpec>,
+    /// Compass heading.
+    pub compass: Option<CompassSpec>,
+    /// Doppler velocity log.
+    pub dvl: Option<DvlSpec>,
+    /// Acoustic position fixes.
+    pub usbl: Option<UsblSpec>,
+}
+
+fn finite(key: &str, v: f64) -> Result<()> {
+    if !v.is_finite() {
+        bail!("{key} must be a finite number (got {v})");
+    }
+    Ok(())
+}
+
+fn rate(key: &str, v: f64) -> Result<()> {
+    finite(key, v)?;
+    if v <= 0.0 || v > 10_000.0 {
+        bail!("{key} must be > 0 and <= 10000 Hz (got {v})");
+    }
+    Ok(())
+}
+
+fn noise(key: &str, v: f64) -> Result<()> {
+    finite(key, v)?;
+    if v < 0.0 {
+        bail!("{key} must be >= 0 (got {v})");
+    }
+    Ok(())
+}
+
+fn dropouts(key: &str, d: &[[f64; 2]]) -> Result<()> {
+    for (i, [a, b]) in d.iter().enumerate() {
+        finite(&format!("{key}[{i}][0]"), *a)?;
+        finite(&format!("{key}[{i}][1]"), *b)?;
+        if b < a {
+            bail!("{key}[{i}] must be [start, end] with start <= end (got [{a}, {b}])");
+        }
+    }
+    Ok(())
+}
+
+impl SensorsSpec {
+    /// Check every key; the error names it.
+    pub fn validate(&self) -> Result<()> {
+        if let Some(s) = &self.imu {
+            rate("sensors.imu.rate_hz", s.rate_hz)?;
+            noise(
+                "sensors.imu.gyro_noise_rad_s_sqrt_hz",
+                s.gyro_noise_rad_s_sqrt_hz,
+            )?;
+            noise("sensors.imu.gyro_bias_rad_s", s.gyro_bias_rad_s)?;
+            noise(
+                "sensors.imu.gyro_bias_walk_rad_s_sqrt_s",
+                s.gyro_bias_walk_rad_s_sqrt_s,
+            )?;
+            noise(
+                "sensors.imu.accel_noise_m_s2_sqrt_hz",
+                s.accel_noise_m_s2_sqrt_hz,
+            )?;
+            noise("sensors.imu.accel_bias_m_s2", s.accel_bias_m_s2)?;
+            noise(
+                "sensors.imu.accel_bias_walk_m_s2_sqrt_s",
+                s.accel_bias_walk_m_s2_sqrt_s,
+            )?;
+        }
+        if let Some(s) = &self.depth {
+            rate("sensors.depth.rate_hz", s.rate_hz)?;
+            noise("sensors.depth.noise_m", s.noise_m)?;
+            finite("sensors.depth.bias_m", s.bias_m)?;
+        }
+        if let Some(s) = &self.compass {
+            rate("sensors.compass.rate_hz", s.rate_hz)?;
+            noise("sensors.compass.noise_rad", s.noise_rad)?;
+            finite("sensors.compass.bias_rad", s.bias_rad)?;
+        }
+        if let Some(s) = &self.dvl {
+            rate("sensors.dvl.rate_hz", s.rate_hz)?;
+            noise("sensors.dvl.noise_m_s", s.noise_m_s)?;
+            dropouts("sensors.dvl.dropouts_s", &s.dropouts_s)?;
+        }
+        if let Some(s) = &self.usbl {
+            rate("sensors.usbl.rate_hz", s.rate_hz)?;
+            noise("sensors.usbl.noise_m", s.noise_m)?;
+            noise("sensors.usbl.latency_s", s.latency_s)?;
+            if s.latency_s >= 10.0 {
+                bail!(
+                    "sensors.usbl.latency_s must be < 10 s (got {})",
+                    s.latency_s
+                );
+            }
+            finite("sensors.usbl.outlier_fraction", s.outlier_fraction)?;
+            if !(0.0..=1.0).contains(&s.outlier_fraction) {
+                bail!(
+                    "sensors.usbl.outlier_fraction must be in [0, 1] (got {})",
+                    s.outlier_fraction
+                );
+            }
+            noise("sensors.usbl.outlier_m", s.outlier_m)?;
+            dropouts("sensors.usbl.dropouts_s", &s.dropouts_s)?;
+        }
+        Ok(())
+    }
+
+    /// What `source = "estimator"` lacks, if anything: IMU, depth, compass and at least one of
+    /// DVL and USBL.
+    pub fn missing_for_estimator(&self) -> Option<String> {
+        let mut missing = Vec::new();
+        if self.imu.is_none() {
+            missing.push("[sensors.imu]");
+        }
+        if self.depth.is_none() {
+            missing.push("[sensors.depth]");
+        }
+        if self.compass.is_none() {
+            missing.push("[sensors.compass]");
+        }
+        if self.dvl.is_none() && self.usbl.is_none() {
+            missing.push("[sensors.dvl] or [sensors.usbl]");
+        }
+        (!missing.is_empty()).then(|| missing.join(", "))
+    }
+
+    /// A short name of the suite for tables: `imu+depth+compass+dvl+usbl`.
+    pub fn suite_name(&self) -> String {
+        let mut parts = Vec::new();
+        for (fitted, name) in [
+            (self.imu.is_some(), "imu"),
+            (self.depth.is_some(), "depth"),
+            (self.compass.is_some(), "compass"),
+            (self.dvl.is_some(), "dvl"),
+            (self.usbl.is_some(), "usbl"),
+        ] {
+            if fitted {
+                parts.push(name);
+            }
+        }
+        parts.join("+")
+    }
+}
+
+/// A measurement as it reaches the vehicle, in the core's `f32` types.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Measurement {
+    /// Gyro and accelerometer.
+    Imu(controller_core::nav::ImuSample),
+    /// Pressure depth.
+    Depth(controller_core::nav::DepthFix),
+    /// Compass.
+    Heading(controller_core::nav::HeadingFix),
+    /// DVL.
+    Dvl(controller_core::nav::DvlFix),
+    /// USBL (with `true` when this fix is an injected outlier).
+    Position(controller_core::nav::PositionFix, bool),
+}
+
+/// When a sensor samples next.
+#[derive(Debug, Clone, Copy)]
+struct Clock {
+    period_s: f64,
+    next_s: f64,
+}
+
+impl Clock {
+    fn new(rate_hz: f64) -> Self {
+        Self {
+            period_s: 1.0 / rate_hz,
+            next_s: 1.0 / rate_hz,
+        }
+    }
+
+    /// True once per period, at the first plant step at or after the sample time.
+    fn due(&mut self, t_s: f64) -> bool {
+        if t_s + 1e-9 >= self.next_s {
+            self.next_s += self.period_s;
+            if self.next_s <= t_s {
+                self.next_s = t_s + self.period_s;
+            }
+            true
+        } else {
+            false
+        }
+    }
+}
+
+fn in_dropout(d: &[[f64; 2]], t: f64) -> bool {
+    d.iter().any(|[a, b]| t >= *a && t < *b)
+}
+
+fn micros(t_s: f64) -> u64 {
+    (t_s * 1.0e6).round().max(0.0) as u64
+}
+
+/// The simulated sensors of a scenario: they see every plant step and emit measurements
+/// with their arrival times.
+#[derive(Debug)]
+pub struct SensorSuite {
+    spec: SensorsSpec,
+    rng: ChaCha8Rng,
+    imu_clock: Option<Clock>,
+    depth_clock: Option<Clock>,
+    compass_clock: Option<Clock>,
+    dvl_clock: Option<Clock>,
+    usbl_clock: Option<Clock>,
+    gyro_bias: [f64; 3],
+    accel_bias: [f64; 3],
+    prev: Option<(f64, [f64; 3])>,
+    /// Usbl fixes injected as outliers.
+    pub usbl_outliers_injected: u64,
+}
+
+impl SensorSuite {
+    /// The sensors of `spec`, with their noise and biases drawn from `seed`'s stream.
+    pub fn new(spec: &SensorsSpec, seed: u64) -> Self {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut draw3 = |sd: f64| [0; 3].map(|_| sd * gauss(&mut rng));
+        let (gyro_bias, accel_bias) = match &spec.imu {
+            Some(s) => (draw3(s.gyro_bias_rad_s), draw3(s.accel_bias_m_s2)),
+            None => ([0.0; 3], [0.0; 3]),
+        };
+        Self {
+            imu_clock: spec.imu.as_ref().map(|s| Clock::new(s.rate_hz)),
+            depth_clock: spec.depth.as_ref().map(|s| Clock::new(s.rate_hz)),
+            compass_clock: spec.compass.as_ref().map(|s| Clock::new(s.rate_hz)),
+            dvl_clock: spec.dvl.as_ref().map(|s| Clock::new(s.rate_hz)),
+            usbl_clock: spec.usbl.as_ref().map(|s| Clock::new(s.rate_hz)),
+            spec: spec.clone(),
+            rng,
+            gyro_bias,
+            accel_bias,
+            prev: None,
+            usbl_outliers_injected: 0,
+        }
+    }
+
+    /// The drawn constant IMU biases `(gyro, accel)`.
+    pub fn imu_biases(&self) -> ([f64; 3], [f64; 3]) {
+        (self.gyro_bias, self.accel_bias)
+    }
+
+    /// Sample the sensors due at `t_s` on the true state; push `(arrival_s, measurement)`.
+    pub fn sample(&mut self, t_s: f64, truth: &PlantState, out: &mut Vec<(f64, Measurement)>) {
+        let vel = body_to_inertial(&truth.eta, [truth.nu[0], truth.nu[1], truth.nu[2]]);
+        let accel_inertial = match self.prev {
+            Some((t0, v0)) if t_s > t0 => [0, 1, 2].map(|i| (vel[i] - v0[i]) / (t_s - t0)),
+            _ => [0.0; 3],
+        };
+        let dt_prev = self.prev.map_or(0.0, |(t0, _)| t_s - t0);
+        self.prev = Some((t_s, vel));
+        let t_us = micros(t_s);
+        let rng = &mut self.rng;
+
+        if let (Some(s), Some(c)) = (&self.spec.imu, &mut self.imu_clock) {
+            // The random walks advance every plant step.
+            if dt_prev > 0.0 {
+                for b in &mut self.gyro_bias {
+                    *b += s.gyro_bias_walk_rad_s_sqrt_s * dt_prev.sqrt() * gauss(rng);
+                }
+                for b in &mut self.accel_bias {
+                    *b += s.accel_bias_walk_m_s2_sqrt_s * dt_prev.sqrt() * gauss(rng);
+                }
+            }
+            if c.due(t_s) {
+                let sq = s.rate_hz.sqrt();
+                // Specific force in body axes: R^T (a - g), g = [0, 0, 9.80665] (z down).
+                let f_inertial = [
+                    accel_inertial[0],
+                    accel_inertial[1],
+                    accel_inertial[2] - 9.806_65,
+                ];
+                let f_body = inertial_to_body(&truth.eta, f_inertial);
+                let gyro = [0, 1, 2].map(|i| {
+                    truth.nu[3 + i]
+                        + self.gyro_bias[i]
+                        + s.gyro_noise_rad_s_sqrt_hz * sq * gauss(rng)
+                });
+                let accel = [0, 1, 2].map(|i| {
+                    f_body[i] + self.accel_bias[i] + s.accel_noise_m_s2_sqrt_hz * sq * gauss(rng)
+                });
+                out.push((
+                    t_s,
+                    Measurement::Imu(controller_core::nav::ImuSample {
+                        t_us,
+                        gyro_rad_s: gyro.map(|v| v as f32),
+                        accel_m_s2: accel.map(|v| v as f32),
+                    }),
+                ));
+            }
+        }
+        if let (Some(s), Some(c)) = (&self.spec.depth, &mut self.depth_clock) {
+            if c.due(t_s) {
+                let z = truth.eta[2] + s.bias_m + s.noise_m * gauss(rng);
+                out.push((
+                    t_s,
+                    Measurement::Depth(controller_core::nav::DepthFix {
+                        t_us,
+                        depth_m: z as f32,
+                        std_m: s.noise_m.max(1e-4) as f32,
+                    }),
+                ));
+            }
+        }
+        if let (Some(s), Some(c)) = (&self.spec.compass, &mut self.compass_clock) {
+            if c.due(t_s) {
+                let psi = truth.eta[5] + s.bias_rad + s.noise_rad * gauss(rng);
+                let psi = (psi + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                    - std::f64::consts::PI;
+                out.push((
+                    t_s,
+                    Measurement::Heading(controller_core::nav::HeadingFix {
+                        t_us,
+                        yaw_rad: psi as f32,
+                        std_rad: s.noise_rad.max(1e-4) as f32,
+                    }),
+                ));
+            }
+        }
+        if let (Some(s), Some(c)) = (&self.spec.dvl, &mut self.dvl_clock) {
+            if c.due(t_s) && !in_dropout(&s.dropouts_s, t_s) {
+                let v = [0, 1].map(|i| truth.nu[i] + s.noise_m_s * gauss(rng));
+                out.push((
+                    t_s,
+                    Measurement::Dvl(controller_core::nav::DvlFix {
+                        t_us,
+                        velocity_m_s: v.map(|x| x as f32),
+                        std_m_s: s.noise_m_s.max(1e-4) as f32,
+                    }),
+                ));
+            }
+        }
+        if let (Some(s), Some(c)) = (&self.spec.usbl, &mut self.usbl_clock) {
+            if c.due(t_s) && !in_dropout(&s.dropouts_s, t_s) {
+                let outlier = rng.random::<f64>() < s.outlier_fraction;
+                let (n, e) = if outlier {
+                    self.usbl_outliers_injected += 1;
+                    let d = s.outlier_m * (1.0 + rng.random::<f64>());
+                    let a = std::f64::consts::TAU * rng.random::<f64>();
+                    (truth.eta[0] + d * a.cos(), truth.eta[1] + d * a.sin())
+                } else {
+                    (
+                        truth.eta[0] + s.noise_m * gauss(rng),
+                        truth.eta[1] + s.noise_m * gauss(rng),
+                    )
+                };
+                out.push((
+                    t_s + s.latency_s,
+                    Measurement::Position(
+                        controller_core::nav::PositionFix {
+                            t_us,
+                            north_m: n as f32,
+                            east_m: e as f32,
+                            std_m: s.noise_m.max(1e-3) as f32,
+                        },
+                        outlier,
+                    ),
+                ));
+            }
+        }
+    }
+}
+
+/// Rotation inertial -> body (the transpose of [`body_to_inertial`]).
+pub fn inertial_to_body(eta: &[f64; 6], v: [f64; 3]) -> [f64; 3] {
+    let (sf, cf) = eta[3].sin_cos();
+    let (st, ct) = eta[4].sin_cos();
+    let (sp, cp) = eta[5].sin_cos();
+    [
+        cp * ct * v[0] + sp * ct * v[1] - st * v[2],
+        (cp * st * sf - sp * cf) * v[0] + (sp * st * sf + cp * cf) * v[1] + ct * sf * v[2],
+        (cp * st * cf + sp * sf) * v[0] + (sp * st * cf - cp * sf) * v[1] + ct * cf * v[2],
+    ]
+}
