@@ -46,15 +46,26 @@ pub struct EstimatorNav {
     fixes: Vec<FixRecord>,
 }
 
-/// The estimator's process noise for a sensor suite: the IMU figures are the datasheet's
-/// (what the simulated IMU uses); the start-up bias uncertainties are the IMU's bias spreads.
+/// The estimator's process noise for a sensor suite: the simulated IMU's figures, floored by
+/// the defaults of [`NavConfig`]; the start-up bias uncertainties are the IMU's bias spreads.
 pub fn nav_config(spec: &SensorsSpec) -> NavConfig {
     let mut cfg = NavConfig::default();
     if let Some(s) = &spec.imu {
-        cfg.gyro_noise_rad_s_sqrt_hz = s.gyro_noise_rad_s_sqrt_hz as f32;
-        cfg.gyro_bias_walk_rad_s_sqrt_s = s.gyro_bias_walk_rad_s_sqrt_s as f32;
-        cfg.accel_noise_m_s2_sqrt_hz = s.accel_noise_m_s2_sqrt_hz as f32;
-        cfg.accel_bias_walk_m_s2_sqrt_s = s.accel_bias_walk_m_s2_sqrt_s as f32;
+        // The filter's process noise is the IMU's or, where larger, the default's (which
+        // carries what the decoupled filters neglect).
+        let at_least = |spec: f64, floor: f32| (spec as f32).max(floor);
+        cfg.gyro_noise_rad_s_sqrt_hz =
+            at_least(s.gyro_noise_rad_s_sqrt_hz, cfg.gyro_noise_rad_s_sqrt_hz);
+        cfg.gyro_bias_walk_rad_s_sqrt_s = at_least(
+            s.gyro_bias_walk_rad_s_sqrt_s,
+            cfg.gyro_bias_walk_rad_s_sqrt_s,
+        );
+        cfg.accel_noise_m_s2_sqrt_hz =
+            at_least(s.accel_noise_m_s2_sqrt_hz, cfg.accel_noise_m_s2_sqrt_hz);
+        cfg.accel_bias_walk_m_s2_sqrt_s = at_least(
+            s.accel_bias_walk_m_s2_sqrt_s,
+            cfg.accel_bias_walk_m_s2_sqrt_s,
+        );
         cfg.initial_gyro_bias_std_rad_s = s.gyro_bias_rad_s.max(1e-4) as f32;
         cfg.initial_accel_bias_std_m_s2 = s.accel_bias_m_s2.max(1e-3) as f32;
     }
@@ -201,6 +212,11 @@ impl Navigation for EstimatorNav {
             }
         }
         nav
+    }
+
+    fn position_std_m(&self) -> Option<[f64; 3]> {
+        let p = self.estimator.position_covariance();
+        Some([0, 1, 2].map(|i| f64::from(p[i][i]).sqrt()))
     }
 
     fn report(&self) -> NavReport {

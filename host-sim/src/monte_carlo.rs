@@ -96,7 +96,14 @@ pub struct McRun {
     pub diverged: bool,
     /// NaN seen.
     pub nan_detected: bool,
+    /// RMS of the navigation position against the truth after 10 s (the estimator's error,
+    /// or the truth path's noise).
+    #[serde(with = "json_f64")]
+    pub rms_estimation_error_m: f64,
 }
+
+/// An estimation error RMS above this (or not finite) counts as a diverged filter (m).
+pub const FILTER_DIVERGED_M: f64 = 1.0;
 
 /// Percentiles of a batch figure.
 #[derive(Debug, Clone, Copy, Serialize, PartialEq)]
@@ -180,6 +187,10 @@ pub struct McSummary {
     pub nan_runs: usize,
     /// Runs that diverged.
     pub diverged_runs: usize,
+    /// Runs whose navigation error RMS is over [`FILTER_DIVERGED_M`] or not finite.
+    pub diverged_filters: usize,
+    /// RMS navigation (estimation) error of each run after its first 10 s.
+    pub rms_estimation_error_m: Percentiles,
     /// RMS position error over each run.
     pub rms_position_error_m: Percentiles,
     /// RMS position error over the last 80 % of each run.
@@ -323,6 +334,7 @@ pub fn run_batch(
                 saturated_fraction: s.saturated_fraction,
                 diverged: s.diverged,
                 nan_detected: s.nan_detected,
+                rms_estimation_error_m: s.rms_estimation_error_m,
             })
         })
         .collect();
@@ -380,6 +392,13 @@ pub fn summarize(campaign: &Campaign, runs: &[McRun]) -> McSummary {
         current_magnitude_m_s: campaign.current_magnitude_m_s,
         nan_runs: runs.iter().filter(|r| r.nan_detected).count(),
         diverged_runs: runs.iter().filter(|r| r.diverged).count(),
+        diverged_filters: runs
+            .iter()
+            .filter(|r| {
+                r.rms_estimation_error_m.is_nan() || r.rms_estimation_error_m > FILTER_DIVERGED_M
+            })
+            .count(),
+        rms_estimation_error_m: percentiles(&col(|r| r.rms_estimation_error_m)),
         rms_position_error_m: percentiles(&col(|r| r.rms_position_error_m)),
         rms_position_error_last80_m: percentiles(&col(|r| r.rms_position_error_last80_m)),
         final_position_error_m: percentiles(&col(|r| r.final_position_error_m)),
@@ -459,11 +478,11 @@ pub fn write_batch(dir: &Path, summary: &McSummary, shard: &ShardRuns) -> Result
     )?;
     let runs = &shard.runs;
     let mut csv = String::from(
-        "index,cx_m_s,cy_m_s,cz_m_s,rms_position_error_m,rms_position_error_last80_m,final_position_error_m,max_abs_thruster_force_n,saturated_fraction,diverged,nan_detected\n",
+        "index,cx_m_s,cy_m_s,cz_m_s,rms_position_error_m,rms_position_error_last80_m,final_position_error_m,max_abs_thruster_force_n,saturated_fraction,diverged,nan_detected,rms_estimation_error_m\n",
     );
     for r in runs {
         csv.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{}\n",
             r.index,
             r.current_m_s[0],
             r.current_m_s[1],
@@ -474,7 +493,8 @@ pub fn write_batch(dir: &Path, summary: &McSummary, shard: &ShardRuns) -> Result
             r.max_abs_thruster_force_n,
             r.saturated_fraction,
             r.diverged,
-            r.nan_detected
+            r.nan_detected,
+            r.rms_estimation_error_m
         ));
     }
     std::fs::write(dir.join("runs.csv"), csv)?;

@@ -55,6 +55,12 @@ pub const CSV_COLUMNS: &[&str] = &[
     "pwm2_us",
     "pwm3_us",
     "saturated",
+    "nav_x_m",
+    "nav_y_m",
+    "nav_z_m",
+    "nav_x_std_m",
+    "nav_y_std_m",
+    "nav_z_std_m",
 ];
 
 fn row(s: &Sample) -> Vec<f64> {
@@ -78,6 +84,8 @@ fn row(s: &Sample) -> Vec<f64> {
     v.extend_from_slice(&s.thrust_n);
     v.extend_from_slice(&s.pulse_us);
     v.push(if s.saturated { 1.0 } else { 0.0 });
+    v.extend_from_slice(&s.nav_pos_m);
+    v.extend_from_slice(&s.nav_pos_std_m.unwrap_or([f64::NAN; 3]));
     v
 }
 

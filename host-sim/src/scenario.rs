@@ -490,6 +490,12 @@ pub const BUILT_IN: &[BuiltIn] = &[
     builtin!("helix-3d"),
     builtin!("current-3d"),
     builtin!("mc-circle-3d"),
+    builtin!("nav-circle-3d"),
+    builtin!("nav-lawnmower-3d"),
+    builtin!("nav-usbl-circle-3d"),
+    builtin!("nav-usbl-current-3d"),
+    builtin!("nav-usbl-outliers-3d"),
+    builtin!("nav-usbl-dropout-3d"),
 ];
 
 impl Scenario {

@@ -62,6 +62,8 @@ pub struct Sample {
     pub state: PlantState,
     /// Position the controller was given (the navigation stage's output).
     pub nav_pos_m: [f64; 3],
+    /// Standard deviation of that position per axis, when the stage reports one.
+    pub nav_pos_std_m: Option<[f64; 3]>,
     /// Reference position.
     pub ref_pos_m: [f64; 3],
     /// Reference velocity (inertial).
@@ -187,6 +189,10 @@ pub trait Navigation {
     fn estimate(&mut self, t_s: f64, thrust_cmd_n: [f64; 3]) -> NavState;
     /// Figures for `summary.json`.
     fn report(&self) -> NavReport;
+    /// Standard deviation of the position estimate `[x, y, z]` (m), if the stage has one.
+    fn position_std_m(&self) -> Option<[f64; 3]> {
+        None
+    }
 }
 
 /// The truth path: the plant state `delay` plant steps old (the initial state until enough
@@ -602,6 +608,7 @@ pub fn run_closed_loop(
             t_s: t,
             state: truth,
             nav_pos_m: nav_pos,
+            nav_pos_std_m: nav.position_std_m(),
             ref_pos_m: ref_pos,
             ref_vel_m_s: ref_vel,
             pos_err_m: pe,

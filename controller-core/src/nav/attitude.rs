@@ -130,6 +130,12 @@ impl Heading {
         self.kf.propagate(&phi, &[n * n * dt, w * w * dt]);
     }
 
+    /// Heading to the fix, its variance to the fix's, its correlations cleared.
+    pub(super) fn reset(&mut self, yaw_rad: f32, std_rad: f32) {
+        self.kf
+            .reset_state(PSI, wrap_angle(yaw_rad), std_rad * std_rad);
+    }
+
     pub(super) fn fuse(&mut self, yaw_rad: f32, std_rad: f32) -> Result<(), Refusal> {
         let nu = wrap_angle(yaw_rad - self.kf.x[PSI]);
         let r = std_rad * std_rad;

@@ -196,6 +196,30 @@ impl Horizontal {
         self.correction[1] += self.kf.x[E] - before[1];
     }
 
+    /// Velocity through the water to the DVL's velocity less the current estimate.
+    pub(super) fn reset_velocity(&mut self, yaw_rad: f32, velocity_m_s: [f32; 2], std_m_s: f32) {
+        let (s, c) = sin_cos(yaw_rad);
+        let (cn, ce) = (self.kf.x[CN], self.kf.x[CE]);
+        let var = std_m_s * std_m_s;
+        self.kf
+            .reset_state(U, velocity_m_s[0] - (c * cn + s * ce), var);
+        self.kf
+            .reset_state(V, velocity_m_s[1] - (-s * cn + c * ce), var);
+    }
+
+    /// Position to the fix (moved on by the displacement since its time of validity).
+    pub(super) fn reset_position(&mut self, t_us: u64, now_us: u64, fix: [f32; 2], std_m: f32) {
+        let Some(past) = self.past_position(t_us, now_us) else {
+            return;
+        };
+        let var = std_m * std_m;
+        let now = self.position();
+        self.corrected(|kf| {
+            kf.reset_state(N, fix[0] + (now[0] - past[0]), var);
+            kf.reset_state(E, fix[1] + (now[1] - past[1]), var);
+        });
+    }
+
     pub(super) fn fuse_dvl(
         &mut self,
         yaw_rad: f32,

@@ -110,6 +110,21 @@ impl<const N: usize> Kf<N> {
         true
     }
 
+    /// Set state `i` to `value` with variance `var` and no correlation with the others.
+    pub fn reset_state(&mut self, i: usize, value: f32, var: f32) {
+        if let Some(x) = self.x.get_mut(i) {
+            *x = value;
+        }
+        for (r, row) in self.p.iter_mut().enumerate() {
+            for (c, o) in row.iter_mut().enumerate() {
+                if r == i || c == i {
+                    *o = if r == c { var } else { 0.0 };
+                }
+            }
+        }
+        self.floor();
+    }
+
     /// Variance of state `i`.
     pub fn var(&self, i: usize) -> f32 {
         at(&self.p, i, i)

@@ -61,6 +61,11 @@ impl Vertical {
             .propagate(&phi, &[0.25 * n * n * dt * dt * dt, n * n * dt, w * w * dt]);
     }
 
+    /// Depth to the fix, its variance to the fix's, its correlations cleared.
+    pub(super) fn reset_depth(&mut self, depth_m: f32, std_m: f32) {
+        self.kf.reset_state(Z, depth_m, std_m * std_m);
+    }
+
     pub(super) fn fuse_depth(&mut self, depth_m: f32, std_m: f32) -> Result<(), Refusal> {
         let nu = depth_m - self.kf.x[Z];
         let r = std_m * std_m;
