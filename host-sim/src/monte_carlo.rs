@@ -100,6 +100,9 @@ pub struct McRun {
     /// or the truth path's noise).
     #[serde(with = "json_f64")]
     pub rms_estimation_error_m: f64,
+    /// Share of ticks with the position NEES inside its 95 % bound (NaN on the truth path).
+    #[serde(with = "json_f64")]
+    pub nees_in_bounds_fraction: f64,
 }
 
 /// An estimation error RMS above this (or not finite) counts as a diverged filter (m).
@@ -335,6 +338,7 @@ pub fn run_batch(
                 diverged: s.diverged,
                 nan_detected: s.nan_detected,
                 rms_estimation_error_m: s.rms_estimation_error_m,
+                nees_in_bounds_fraction: s.navigation.nees_in_bounds_fraction.unwrap_or(f64::NAN),
             })
         })
         .collect();
@@ -478,11 +482,11 @@ pub fn write_batch(dir: &Path, summary: &McSummary, shard: &ShardRuns) -> Result
     )?;
     let runs = &shard.runs;
     let mut csv = String::from(
-        "index,cx_m_s,cy_m_s,cz_m_s,rms_position_error_m,rms_position_error_last80_m,final_position_error_m,max_abs_thruster_force_n,saturated_fraction,diverged,nan_detected,rms_estimation_error_m\n",
+        "index,cx_m_s,cy_m_s,cz_m_s,rms_position_error_m,rms_position_error_last80_m,final_position_error_m,max_abs_thruster_force_n,saturated_fraction,diverged,nan_detected,rms_estimation_error_m,nees_in_bounds_fraction\n",
     );
     for r in runs {
         csv.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             r.index,
             r.current_m_s[0],
             r.current_m_s[1],
@@ -494,7 +498,8 @@ pub fn write_batch(dir: &Path, summary: &McSummary, shard: &ShardRuns) -> Result
             r.saturated_fraction,
             r.diverged,
             r.nan_detected,
-            r.rms_estimation_error_m
+            r.rms_estimation_error_m,
+            r.nees_in_bounds_fraction
         ));
     }
     std::fs::write(dir.join("runs.csv"), csv)?;

@@ -385,6 +385,9 @@ fn micros(t_s: f64) -> u64 {
 pub struct SensorSuite {
     spec: SensorsSpec,
     rng: ChaCha8Rng,
+    /// Outliers draw from a stream of their own, so that a run with outliers has the same
+    /// noise on every other fix as the run without.
+    outlier_rng: ChaCha8Rng,
     imu_clock: Option<Clock>,
     depth_clock: Option<Clock>,
     compass_clock: Option<Clock>,
@@ -401,6 +404,8 @@ impl SensorSuite {
     /// The sensors of `spec`, with their noise and biases drawn from `seed`'s stream.
     pub fn new(spec: &SensorsSpec, seed: u64) -> Self {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut outlier_rng = ChaCha8Rng::seed_from_u64(seed);
+        outlier_rng.set_stream(1);
         let mut draw3 = |sd: f64| [0; 3].map(|_| sd * gauss(&mut rng));
         let (gyro_bias, accel_bias) = match &spec.imu {
             Some(s) => (draw3(s.gyro_bias_rad_s), draw3(s.accel_bias_m_s2)),
@@ -414,6 +419,7 @@ impl SensorSuite {
             usbl_clock: spec.usbl.as_ref().map(|s| Clock::new(s.rate_hz)),
             spec: spec.clone(),
             rng,
+            outlier_rng,
             gyro_bias,
             accel_bias,
             prev: None,
@@ -518,17 +524,19 @@ impl SensorSuite {
         }
         if let (Some(s), Some(c)) = (&self.spec.usbl, &mut self.usbl_clock) {
             if c.due(t_s) && !in_dropout(&s.dropouts_s, t_s) {
-                let outlier = rng.random::<f64>() < s.outlier_fraction;
+                let noisy = (
+                    truth.eta[0] + s.noise_m * gauss(rng),
+                    truth.eta[1] + s.noise_m * gauss(rng),
+                );
+                let orng = &mut self.outlier_rng;
+                let outlier = orng.random::<f64>() < s.outlier_fraction;
                 let (n, e) = if outlier {
                     self.usbl_outliers_injected += 1;
-                    let d = s.outlier_m * (1.0 + rng.random::<f64>());
-                    let a = std::f64::consts::TAU * rng.random::<f64>();
+                    let d = s.outlier_m * (1.0 + orng.random::<f64>());
+                    let a = std::f64::consts::TAU * orng.random::<f64>();
                     (truth.eta[0] + d * a.cos(), truth.eta[1] + d * a.sin())
                 } else {
-                    (
-                        truth.eta[0] + s.noise_m * gauss(rng),
-                        truth.eta[1] + s.noise_m * gauss(rng),
-                    )
+                    noisy
                 };
                 out.push((
                     t_s + s.latency_s,

@@ -1,7 +1,7 @@
-//! Attitude: roll and pitch from a complementary filter, heading from a Kalman filter.
+//! Tilt: roll and pitch from a complementary filter (the heading is a state of the
+//! horizontal filter, `horizontal.rs`).
 
-use super::kf::{unit, Kf};
-use super::{NavConfig, Refusal, GATE_CHI2_1DOF, GRAVITY_M_S2};
+use super::{NavConfig, GRAVITY_M_S2};
 use crate::math::{atan2, clamp, sin_cos, sqrt, wrap_angle};
 
 /// Largest |pitch| the Euler kinematics are integrated at (rad); the Observer is passively
@@ -41,14 +41,7 @@ impl Tilt {
     }
 
     /// `rates` are bias-corrected `[p, q, r]`, `accel` the specific force.
-    pub(super) fn predict(
-        &mut self,
-        cfg: &NavConfig,
-        rates: [f32; 3],
-        accel: [f32; 3],
-        _yaw_rad: f32,
-        dt: f32,
-    ) {
+    pub(super) fn predict(&mut self, cfg: &NavConfig, rates: [f32; 3], accel: [f32; 3], dt: f32) {
         let [p, q, r] = rates;
         let (sr, cr) = sin_cos(self.roll_rad);
         let (sp, cp) = sin_cos(self.pitch_rad);
@@ -75,76 +68,5 @@ impl Tilt {
         );
         self.bias_p_rad_s -= ki * e_roll * dt;
         self.bias_q_rad_s -= ki * e_pitch * dt;
-    }
-}
-
-/// Heading and the yaw-gyro bias, `[psi, b_r]`: propagated with the Euler kinematics
-/// `psi_dot = (sin(phi) q + cos(phi) (r_m - b_r)) / cos(theta)`, updated by the compass.
-#[derive(Debug, Clone, Copy)]
-pub(super) struct Heading {
-    kf: Kf<2>,
-}
-
-const PSI: usize = 0;
-const BIAS: usize = 1;
-
-impl Heading {
-    pub(super) fn new(yaw_rad: f32, cfg: &NavConfig) -> Self {
-        let s_psi = cfg.initial_heading_std_rad;
-        let s_b = cfg.initial_gyro_bias_std_rad_s;
-        Self {
-            kf: Kf::new([yaw_rad, 0.0], [s_psi * s_psi, s_b * s_b]),
-        }
-    }
-
-    pub(super) fn yaw(&self) -> f32 {
-        self.kf.x[PSI]
-    }
-
-    pub(super) fn bias(&self) -> f32 {
-        self.kf.x[BIAS]
-    }
-
-    pub(super) fn variance(&self) -> f32 {
-        self.kf.var(PSI)
-    }
-
-    /// `q` is bias-corrected, `r_m` the raw yaw-axis gyro.
-    pub(super) fn predict(
-        &mut self,
-        cfg: &NavConfig,
-        roll_rad: f32,
-        pitch_rad: f32,
-        q: f32,
-        r_m: f32,
-        dt: f32,
-    ) {
-        let (sr, cr) = sin_cos(roll_rad);
-        let (_, cp) = sin_cos(pitch_rad);
-        let inv_cp = 1.0 / cp;
-        let psi_dot = (sr * q + cr * (r_m - self.kf.x[BIAS])) * inv_cp;
-        self.kf.x[PSI] = wrap_angle(self.kf.x[PSI] + psi_dot * dt);
-        let phi = [[1.0, -cr * inv_cp * dt], [0.0, 1.0]];
-        let n = cfg.gyro_noise_rad_s_sqrt_hz;
-        let w = cfg.gyro_bias_walk_rad_s_sqrt_s;
-        self.kf.propagate(&phi, &[n * n * dt, w * w * dt]);
-    }
-
-    /// Heading to the fix, its variance to the fix's, its correlations cleared.
-    pub(super) fn reset(&mut self, yaw_rad: f32, std_rad: f32) {
-        self.kf
-            .reset_state(PSI, wrap_angle(yaw_rad), std_rad * std_rad);
-    }
-
-    pub(super) fn fuse(&mut self, yaw_rad: f32, std_rad: f32) -> Result<(), Refusal> {
-        let nu = wrap_angle(yaw_rad - self.kf.x[PSI]);
-        let r = std_rad * std_rad;
-        let s = self.kf.var(PSI) + r;
-        if nu * nu > GATE_CHI2_1DOF * s {
-            return Err(Refusal::Outlier);
-        }
-        self.kf.update(&unit(PSI), nu, r);
-        self.kf.x[PSI] = wrap_angle(self.kf.x[PSI]);
-        Ok(())
     }
 }

@@ -11,22 +11,22 @@
 //! | DVL ([`DvlFix`]): velocity over the bottom, body axes | 5 Hz, optional | velocity, current |
 //! | USBL ([`PositionFix`]): north/east, late by its latency | 1 Hz, optional | position, current |
 //!
-//! It is four small filters, each linear or nearly so, because the couplings between them are
-//! weak on a slow, passively stable vehicle (roll and pitch stay within a few degrees):
+//! It is three filters, because the couplings between them are weak on a slow, passively
+//! stable vehicle (roll and pitch stay within a few degrees); the one strong coupling, the
+//! heading's into the position, is kept inside one filter:
 //!
 //! - **tilt** (roll, pitch and their gyro biases): a complementary filter with an integral
 //!   term (Mahony's), gyro-propagated through the Euler kinematics and pulled slowly toward the
 //!   gravity direction the accelerometer sees (`attitude.rs`);
-//! - **heading** `[psi, b_r]`: a Kalman filter propagated with the gyro, updated by the compass
-//!   (`attitude.rs`);
 //! - **vertical** `[z, z_dot, b_a]`: a Kalman filter driven by the accelerometer rotated to the
 //!   vertical, updated by the pressure depth (`vertical.rs`);
-//! - **horizontal** `[N, E, u_r, v_r, c_N, c_E]`: an extended Kalman filter whose prediction is
+//! - **horizontal** `[N, E, u_r, v_r, c_N, c_E, psi, b_r]`: an extended Kalman filter whose prediction is
 //!   the vehicle's own horizontal model (eq. (34), `crate::model::xy`) driven by the surge
 //!   thrust command through the thrusters' first-order lag: `u_r, v_r` are the velocity
 //!   through the water, `c_N, c_E` the ocean current. This is what makes it *model-aided*: with
 //!   USBL and no DVL the velocity still comes from the thrust the vehicle is making, and the
-//!   current is what the position fixes say the model misses (`horizontal.rs`).
+//!   current is what the position fixes say the model misses. The heading and the yaw-gyro
+//!   bias are propagated with the gyro and updated by the compass (`horizontal.rs`).
 //!
 //! A USBL fix arrives `latency` after the acoustic ping it measures. It is compared with the
 //! estimate *at its time of validity*: the filter keeps a short history of its position
@@ -52,7 +52,7 @@ use crate::error::{non_negative, positive, Error};
 use crate::math::wrap_angle;
 use crate::params::Vehicle;
 use crate::state::NavState;
-use attitude::{Heading, Tilt};
+use attitude::Tilt;
 use horizontal::Horizontal;
 use vertical::Vertical;
 
@@ -335,7 +335,6 @@ pub struct Estimator {
     cfg: NavConfig,
     t_us: u64,
     tilt: Tilt,
-    heading: Heading,
     vertical: Vertical,
     horizontal: Horizontal,
     /// Thrust `[F1x, F2x, F3z]` after the thrusters' lag (N).
@@ -364,7 +363,6 @@ impl Estimator {
             cfg,
             t_us,
             tilt: Tilt::new(initial.roll_rad, initial.pitch_rad),
-            heading: Heading::new(initial.yaw_rad, &cfg),
             vertical: Vertical::new(initial, &cfg),
             horizontal: Horizontal::new(initial, &cfg, t_us),
             thrust_n: [0.0; 3],
@@ -393,7 +391,7 @@ impl Estimator {
     /// `[F1x, F2x, F3z]` (N) held since the last sample.
     pub fn predict(&mut self, imu: &ImuSample, thrust_cmd_n: [f32; 3]) -> Result<(), Refusal> {
         let r = self.check_imu(imu, thrust_cmd_n);
-        self.count(r, |_| {});
+        self.count(r, |h| h.imu_samples += 1);
         r?;
         let dt = (imu.t_us - self.t_us) as f32 * 1.0e-6;
         self.t_us = imu.t_us;
@@ -406,20 +404,18 @@ impl Estimator {
         let [p_m, q_m, r_m] = imu.gyro_rad_s;
         let (bp, bq) = self.tilt.bias();
         let (p, q) = (p_m - bp, q_m - bq);
-        let r = r_m - self.heading.bias();
+        let r = r_m - self.horizontal.gyro_bias_r();
         self.rates_rad_s = [p, q, r];
-        self.tilt
-            .predict(&self.cfg, [p, q, r], imu.accel_m_s2, self.heading.yaw(), dt);
+        self.tilt.predict(&self.cfg, [p, q, r], imu.accel_m_s2, dt);
         let (roll, pitch) = self.tilt.angles();
-        self.heading.predict(&self.cfg, roll, pitch, q, r_m, dt);
         self.vertical
             .predict(&self.cfg, roll, pitch, imu.accel_m_s2, dt);
         let surge_n = self.thrust_n[0] + self.thrust_n[1];
         self.horizontal.predict(
             &self.vehicle,
             &self.cfg,
-            self.heading.yaw(),
-            r,
+            (roll, pitch, q),
+            r_m,
             surge_n,
             dt,
             self.t_us,
@@ -506,13 +502,13 @@ impl Estimator {
             .and_then(|()| check_value(m.yaw_rad, -10.0, 10.0))
             .and_then(|()| self.check_time(m.t_us))
             .and_then(|()| {
-                let h = &mut self.heading;
-                let fused = h.fuse(m.yaw_rad, m.std_rad);
+                let h = &mut self.horizontal;
+                let fused = h.fuse_heading(m.yaw_rad, m.std_rad);
                 gated(
                     &mut self.streaks.heading,
                     &mut self.health.resets,
                     fused,
-                    || h.reset(m.yaw_rad, m.std_rad),
+                    || h.reset_heading(m.yaw_rad, m.std_rad),
                 )
             });
         self.count(r, |h| h.heading_fused += 1);
@@ -527,14 +523,13 @@ impl Estimator {
             .and_then(|()| check_value(v, -MAX_SPEED_M_S, MAX_SPEED_M_S))
             .and_then(|()| self.check_time(m.t_us))
             .and_then(|()| {
-                let yaw = self.heading.yaw();
                 let h = &mut self.horizontal;
-                let fused = h.fuse_dvl(yaw, [u, v], m.std_m_s);
+                let fused = h.fuse_dvl([u, v], m.std_m_s);
                 gated(
                     &mut self.streaks.dvl,
                     &mut self.health.resets,
                     fused,
-                    || h.reset_velocity(yaw, [u, v], m.std_m_s),
+                    || h.reset_velocity([u, v], m.std_m_s),
                 )
             });
         self.count(r, |h| h.dvl_fused += 1);
@@ -570,9 +565,9 @@ impl Estimator {
     /// (through-the-water velocity plus the current), bias-corrected rates.
     pub fn state(&self) -> NavState {
         let (roll, pitch) = self.tilt.angles();
-        let yaw = wrap_angle(self.heading.yaw());
+        let yaw = wrap_angle(self.horizontal.yaw());
         let [n, e] = self.horizontal.position();
-        let [u, v] = self.horizontal.velocity_over_ground(self.heading.yaw());
+        let [u, v] = self.horizontal.velocity_over_ground();
         let z = self.vertical.depth();
         let z_dot = self.vertical.depth_rate();
         // Body heave from the vertical rate: z_dot = -s_theta u + c_theta s_phi v + c_theta c_phi w.
@@ -616,7 +611,7 @@ impl Estimator {
 
     /// Standard deviation of the heading (rad).
     pub fn heading_std_rad(&self) -> f32 {
-        crate::math::sqrt(self.heading.variance())
+        crate::math::sqrt(self.horizontal.yaw_variance())
     }
 }
 
