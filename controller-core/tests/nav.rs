@@ -1,5 +1,11 @@
 //! The estimator's contract: what it refuses leaves it unchanged and is counted; a late
 //! USBL fix is compared with the estimate at its time of validity; gates and resets.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
 
 use controller_core::nav::{
     DepthFix, DvlFix, Estimator, HeadingFix, ImuSample, NavConfig, PositionFix, Refusal,
