@@ -628,6 +628,7 @@ pub fn run_all<P: Platform>(p: &P) -> bool {
         );
     }
 
+    crate::nav_bench::run_nav(&b, p);
     crate::loop_bench::run_loop(&b, p);
 
     if let Some(hw) = p.stack_high_water() {

@@ -9,6 +9,7 @@
 
 mod bench;
 mod loop_bench;
+mod nav_bench;
 mod plant;
 
 #[cfg(target_os = "none")]
