@@ -10,7 +10,7 @@
 use crate::plant::PlantState;
 use crate::scenario::Scenario;
 use crate::sensors::{Measurement, NavSource, SensorSuite, SensorsSpec};
-use crate::sim_loop::{to_nav, NavReport, Navigation, TruthNav};
+use crate::sim_loop::{to_nav, FixRecord, NavReport, Navigation, TruthNav};
 use anyhow::{anyhow, bail, Result};
 use controller_core::nav::{Estimator, NavConfig, Refusal};
 use controller_core::params::Vehicle;
@@ -18,21 +18,6 @@ use controller_core::state::NavState;
 
 /// 95 % quantile of the chi-square distribution with 1, 2 and 3 degrees of freedom.
 pub const CHI2_95: [f64; 3] = [3.841, 5.991, 7.815];
-
-/// One USBL fix as the estimator saw it, for plots and logs.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FixRecord {
-    /// Time of validity (s).
-    pub t_valid_s: f64,
-    /// Arrival (s).
-    pub t_arrival_s: f64,
-    /// North, east (m).
-    pub pos_m: [f64; 2],
-    /// Injected as an outlier.
-    pub outlier: bool,
-    /// Fused (false: refused, with the reason).
-    pub refused: Option<Refusal>,
-}
 
 /// The estimator on simulated sensors.
 pub struct EstimatorNav {
@@ -217,6 +202,10 @@ impl Navigation for EstimatorNav {
     fn position_std_m(&self) -> Option<[f64; 3]> {
         let p = self.estimator.position_covariance();
         Some([0, 1, 2].map(|i| f64::from(p[i][i]).sqrt()))
+    }
+
+    fn usbl_fixes(&self) -> Vec<FixRecord> {
+        self.fixes.clone()
     }
 
     fn report(&self) -> NavReport {

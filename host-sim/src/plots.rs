@@ -42,6 +42,8 @@ pub struct Series {
     pub pts: Vec<(f64, f64)>,
     /// Dashed (references) or solid.
     pub dashed: bool,
+    /// Dots (measurements) instead of a line.
+    pub dots: bool,
 }
 
 impl Series {
@@ -50,10 +52,15 @@ impl Series {
             name: name.into(),
             pts,
             dashed: false,
+            dots: false,
         }
     }
     fn dashed(mut self) -> Self {
         self.dashed = true;
+        self
+    }
+    fn dots(mut self) -> Self {
+        self.dots = true;
         self
     }
 }
@@ -143,7 +150,10 @@ pub fn chart(
         let c = COLORS[i % COLORS.len()];
         let pts = thin(&s.pts, 3000);
         let style = c.stroke_width(2);
-        let anno = if s.dashed {
+        let anno = if s.dots {
+            ch.draw_series(pts.iter().map(|p| Circle::new(*p, 3, c.filled())))
+                .map_err(|x| e(x.to_string()))?
+        } else if s.dashed {
             ch.draw_series(DashedLineSeries::new(pts, 8, 5, style))
                 .map_err(|x| e(x.to_string()))?
         } else {
@@ -472,7 +482,68 @@ pub fn run_plots(dir: &Path, out: &RunOutput) -> Result<()> {
         1,
         thruster_panels(log),
     )?;
+    if out.summary.navigation.source == "estimator" {
+        navigation_plot(&dir.join("fig_navigation.png"), out, &head)?;
+    }
     Ok(())
+}
+
+/// `fig_navigation.png`: the estimate beside the truth with the USBL fixes (accepted and
+/// refused) in the horizontal plane, and the estimation error of x and y against time with
+/// the estimator's own 2-sigma bounds.
+fn navigation_plot(path: &Path, out: &RunOutput, head: &str) -> Result<()> {
+    let log = &out.log;
+    let fixes = |refused: bool| -> Vec<(f64, f64)> {
+        out.usbl_fixes
+            .iter()
+            .filter(|f| f.refused.is_some() == refused)
+            .map(|f| (f.pos_m[0], f.pos_m[1]))
+            .collect()
+    };
+    let n = &out.summary.navigation;
+    let title = format!(
+        "Navigation: {head} - estimation RMS {}, NEES in 95 % bound {:.2}, USBL outliers {} injected / {} rejected",
+        fmt_len(out.summary.rms_estimation_error_m),
+        n.nees_in_bounds_fraction.unwrap_or(f64::NAN),
+        n.usbl_outliers_injected,
+        n.usbl_fixes_rejected
+    );
+    let std = |s: &Sample, i: usize| s.nav_pos_std_m.map_or(f64::NAN, |v| v[i]);
+    figure(
+        path,
+        (1200, 1300),
+        &title,
+        2,
+        1,
+        vec![
+            (
+                "XY: truth, estimate and USBL fixes".to_string(),
+                "x (m)".to_string(),
+                "y (m)".to_string(),
+                vec![
+                    Series::new("true", xy(log, |s| (s.state.eta[0], s.state.eta[1]))),
+                    Series::new("estimate", xy(log, |s| (s.nav_pos_m[0], s.nav_pos_m[1]))).dashed(),
+                    Series::new("USBL fix (fused)", fixes(false)).dots(),
+                    Series::new("USBL fix (refused)", fixes(true)).dots(),
+                ],
+                true,
+                false,
+            ),
+            (
+                "Estimation error and the estimator's 2-sigma".to_string(),
+                "t (s)".to_string(),
+                "m".to_string(),
+                vec![
+                    Series::new("x error", ts(log, |s| s.nav_pos_m[0] - s.state.eta[0])),
+                    Series::new("y error", ts(log, |s| s.nav_pos_m[1] - s.state.eta[1])),
+                    Series::new("+2 sigma x", ts(log, move |s| 2.0 * std(s, 0))).dashed(),
+                    Series::new("-2 sigma x", ts(log, move |s| -2.0 * std(s, 0))).dashed(),
+                ],
+                false,
+                false,
+            ),
+        ],
+    )
 }
 
 /// Side-by-side figure: the paper law (left) and the tracking law (right) on the same

@@ -492,6 +492,7 @@ pub const BUILT_IN: &[BuiltIn] = &[
     builtin!("mc-circle-3d"),
     builtin!("nav-circle-3d"),
     builtin!("nav-lawnmower-3d"),
+    builtin!("nav-current-3d"),
     builtin!("nav-usbl-circle-3d"),
     builtin!("nav-usbl-current-3d"),
     builtin!("nav-usbl-outliers-3d"),

@@ -171,6 +171,21 @@ pub struct Summary {
     pub final_state: Vec<f64>,
 }
 
+/// One USBL fix as the estimator saw it, for plots and logs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FixRecord {
+    /// Time of validity (s).
+    pub t_valid_s: f64,
+    /// Arrival (s).
+    pub t_arrival_s: f64,
+    /// North, east (m).
+    pub pos_m: [f64; 2],
+    /// Injected as an outlier.
+    pub outlier: bool,
+    /// Why the estimator refused it, if it did.
+    pub refused: Option<controller_core::nav::Refusal>,
+}
+
 /// The result of one run.
 #[derive(Debug, Clone, Default)]
 pub struct RunOutput {
@@ -178,6 +193,8 @@ pub struct RunOutput {
     pub summary: Summary,
     /// Per-tick log (empty unless `record`).
     pub log: Vec<Sample>,
+    /// The USBL fixes of an estimator run (empty unless `record`).
+    pub usbl_fixes: Vec<FixRecord>,
 }
 
 /// The navigation stage: what the controller is told about the vehicle.
@@ -192,6 +209,10 @@ pub trait Navigation {
     /// Standard deviation of the position estimate `[x, y, z]` (m), if the stage has one.
     fn position_std_m(&self) -> Option<[f64; 3]> {
         None
+    }
+    /// The USBL fixes so far, if the stage has any.
+    fn usbl_fixes(&self) -> Vec<FixRecord> {
+        Vec::new()
     }
 }
 
@@ -700,5 +721,14 @@ pub fn run_closed_loop(
     let fs = last.state;
     s.final_state = fs.eta.iter().chain(fs.nu.iter()).copied().collect();
     s.wall_time_s = wall.elapsed().as_secs_f64();
-    Ok(RunOutput { summary: s, log })
+    let usbl_fixes = if opts.record {
+        nav.usbl_fixes()
+    } else {
+        Vec::new()
+    };
+    Ok(RunOutput {
+        summary: s,
+        log,
+        usbl_fixes,
+    })
 }

@@ -101,7 +101,9 @@ pub fn run_nav<P: Platform>(b: &Bench<'_, P>, p: &P) {
         Estimator::new(Vehicle::observer(), NavConfig::default(), &start, 0),
         Controller::new(Vehicle::observer(), Gains::default()),
     ) else {
-        p.print(format_args!("mcu-bench: Estimator::new or Controller::new failed"));
+        p.print(format_args!(
+            "mcu-bench: Estimator::new or Controller::new failed"
+        ));
         return;
     };
     let reference = Reference::Circle {
