@@ -8,6 +8,7 @@
 //!   tether; [`qemu`]: the emulated board.
 //! - [`sensors`]: simulated IMU, depth, compass, DVL and USBL; [`estimator_nav`]: the core's
 //!   estimator on them as the navigation stage.
+//! - [`topside`]: the surface side: MAVLink 2 to ground stations, the tether to the vehicle.
 //! - [`output`], [`plots`]: what a run writes.
 //! - [`monte_carlo`]: perturbed-parameter runs in parallel.
 
@@ -25,3 +26,4 @@ pub mod runner;
 pub mod scenario;
 pub mod sensors;
 pub mod sim_loop;
+pub mod topside;

@@ -90,6 +90,8 @@ enum Command {
     Hil(host_sim::hil::HilArgs),
     /// Topside console: arm, disarm, mode, reference; telemetry to CSV with a status line.
     Link(host_sim::link::LinkArgs),
+    /// The surface side: MAVLink 2 to QGroundControl / MAVProxy / pymavlink, the tether to the vehicle (`--sim SCENARIO`: simulated, with the firmware library in process)
+    Topside(host_sim::topside::TopsideArgs),
 }
 
 fn print_table(rows: &[&RunOutput]) {
@@ -202,6 +204,7 @@ fn main() -> Result<()> {
     match cli.command {
         Some(Command::Hil(a)) => host_sim::hil::main(a),
         Some(Command::Link(a)) => host_sim::link::main(a),
+        Some(Command::Topside(a)) => host_sim::topside::main(a),
         None => run_all(Path::new("out")),
         Some(Command::All { out }) => run_all(&out),
         Some(Command::Merge { dirs, out }) => {

@@ -1,0 +1,629 @@
+//! `host-sim topside`: the program at the surface. One side speaks the tether to the vehicle,
+//! the other MAVLink 2 to ground stations (QGroundControl, MAVProxy, pymavlink), with
+//! ArduSub's conventions so that existing tools map the vehicle's modes and sticks.
+//!
+//! The vehicle side today is `--sim SCENARIO`: the scenario's plant and navigation stage with
+//! the firmware library's `App` in this process, reached through the tether protocol (the
+//! same frames, state machine and failsafes as the image), run in real time or `--speedup K`
+//! faster. The modes run on the vehicle: the topside translates.
+//!
+//! | MAVLink in | tether out |
+//! |---|---|
+//! | `COMMAND_LONG` `MAV_CMD_COMPONENT_ARM_DISARM` | `Arm` / `Disarm`, answered by `COMMAND_ACK` (`DENIED` + `STATUSTEXT` with the firmware's reason) |
+//! | `SET_MODE`, `COMMAND_LONG` `MAV_CMD_DO_SET_MODE` (ArduSub custom modes) | MANUAL (19): `SetMode(Manual)`; POSHOLD (16): `SetMode(Hold)`; GUIDED (4): hold the current point, then `SET_POSITION_TARGET_LOCAL_NED` targets |
+//! | `MANUAL_CONTROL` (x surge, r yaw in -1000..1000; z heave 0..1000, 500 neutral, above 500 up; y sway ignored: no thruster) | `ManualThrust` every control period while in MANUAL |
+//! | `SET_POSITION_TARGET_LOCAL_NED` (position, NED) | `SetReference(Hold)` in GUIDED |
+//!
+//! STABILIZE (0), ALT_HOLD (2) and AUTO (3) are refused with `COMMAND_ACK` `DENIED` and a
+//! `STATUSTEXT` saying so: the vehicle does not have them yet (issue 13). Any other message is
+//! ignored and counted.
+//!
+//! Out: `HEARTBEAT` at 1 Hz (`MAV_TYPE_SUBMARINE`, `MAV_AUTOPILOT_ARDUPILOTMEGA`, the armed
+//! flag, `custom_mode` = the mode), `SYS_STATUS` at 1 Hz, and at 10 Hz `ATTITUDE`,
+//! `LOCAL_POSITION_NED`, `VFR_HUD` (heading, depth as negative altitude) and `SERVO_OUTPUT_RAW`
+//! (the three pulse widths the ESCs see); a `STATUSTEXT` for every failsafe the firmware
+//! raises or clears and every refusal.
+//!
+//! Every MAVLink message sent or received goes to a `.tlog` (each a big-endian 64-bit
+//! microsecond UNIX time stamp followed by the MAVLink frame: what QGroundControl, MAVExplorer
+//! and pymavlink read).
+
+use crate::estimator_nav::navigation_for;
+use crate::in_process::InProcessFirmware;
+use crate::link::Link;
+use crate::plant::Plant;
+use crate::scenario::Scenario;
+use crate::sim_loop::{make_plant, nominal_plant_params, Navigation};
+use anyhow::{anyhow, bail, Context, Result};
+use controller_core::alloc::PwmMap;
+use controller_core::params::Vehicle;
+use controller_core::reference::Reference;
+use controller_core::state::NavState;
+use firmware::protocol::{
+    fault, Command, Law, ManualThrust, Mode, NackReason, NavSample, Plane, Reply, Telemetry,
+};
+use mavlink::dialects::ardupilotmega::{
+    MavAutopilot, MavCmd, MavMessage, MavModeFlag, MavResult, MavSeverity, MavState,
+    MavSysStatusSensor, MavType, ATTITUDE_DATA, COMMAND_ACK_DATA, HEARTBEAT_DATA,
+    LOCAL_POSITION_NED_DATA, SERVO_OUTPUT_RAW_DATA, STATUSTEXT_DATA, SYS_STATUS_DATA, VFR_HUD_DATA,
+};
+use mavlink::{MavConnection, MavHeader};
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::PathBuf;
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+/// ArduSub's custom mode numbers (`ArduSub/mode.h`).
+pub mod ardusub_mode {
+    /// Heading hold with the yaw stick centred.
+    pub const STABILIZE: u32 = 0;
+    /// Depth hold with the pilot steering.
+    pub const ALT_HOLD: u32 = 2;
+    /// The uploaded mission.
+    pub const AUTO: u32 = 3;
+    /// Go to and hold a point.
+    pub const GUIDED: u32 = 4;
+    /// Hold the position.
+    pub const POSHOLD: u32 = 16;
+    /// Sticks straight to the thrusters.
+    pub const MANUAL: u32 = 19;
+}
+
+/// `host-sim topside` options.
+#[derive(clap::Args, Debug, Clone)]
+pub struct TopsideArgs {
+    /// The simulated vehicle: a built-in scenario or a .toml file (its plant, navigation and
+    /// start; the reference is not used: the ground station commands).
+    #[arg(long)]
+    pub sim: String,
+    /// MAVLink address: udpout:HOST:PORT (to a ground station listening, QGroundControl's
+    /// default 14550), udpin:HOST:PORT, tcpin:HOST:PORT, tcpout:HOST:PORT.
+    #[arg(long, default_value = "udpout:127.0.0.1:14550")]
+    pub mavlink: String,
+    /// Run the simulated vehicle this many times faster than real time.
+    #[arg(long, default_value_t = 1.0)]
+    pub speedup: f64,
+    /// Stop after this much simulated time (s); default: run until stopped.
+    #[arg(long)]
+    pub duration: Option<f64>,
+    /// Where the .tlog goes.
+    #[arg(long, default_value = "out/topside.tlog")]
+    pub tlog: PathBuf,
+    /// MAVLink system id of the vehicle.
+    #[arg(long, default_value_t = 1)]
+    pub system_id: u8,
+}
+
+/// Counters of the MAVLink side.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct GcsStats {
+    /// Messages received and understood.
+    pub handled: u64,
+    /// Messages received that the topside does not act on (ignored, counted).
+    pub ignored: u64,
+    /// Frames that failed to parse.
+    pub malformed: u64,
+    /// Messages sent.
+    pub sent: u64,
+}
+
+/// The ground-station side: the MAVLink connection, the sequence number, the .tlog.
+struct Gcs {
+    conn: mavlink::Connection<MavMessage>,
+    system_id: u8,
+    seq: u8,
+    tlog: BufWriter<File>,
+    stats: GcsStats,
+}
+
+fn unix_us() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| d.as_micros() as u64)
+}
+
+impl Gcs {
+    fn log(&mut self, header: MavHeader, msg: &MavMessage) -> Result<()> {
+        let mut frame = Vec::with_capacity(300);
+        mavlink::write_v2_msg(&mut frame, header, msg).map_err(|e| anyhow!("tlog: {e:?}"))?;
+        self.tlog.write_all(&unix_us().to_be_bytes())?;
+        self.tlog.write_all(&frame)?;
+        Ok(())
+    }
+
+    fn send(&mut self, msg: MavMessage) -> Result<()> {
+        let header = MavHeader {
+            system_id: u32::from(self.system_id),
+            component_id: 1,
+            sequence: self.seq,
+        };
+        self.seq = self.seq.wrapping_add(1);
+        self.log(header, &msg)?;
+        // A ground station that is not there yet (udpout before it listens) is not an error.
+        if self.conn.send(&header, &msg).is_ok() {
+            self.stats.sent += 1;
+        }
+        Ok(())
+    }
+
+    fn text(&mut self, severity: MavSeverity, text: &str) -> Result<()> {
+        let clipped: String = text.chars().take(50).collect();
+        self.send(MavMessage::STATUSTEXT(STATUSTEXT_DATA {
+            severity,
+            text: clipped.as_str().into(),
+        }))
+    }
+
+    fn ack(&mut self, command: MavCmd, result: MavResult) -> Result<()> {
+        self.send(MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
+            command,
+            result,
+        }))
+    }
+
+    /// Everything that has arrived, without waiting.
+    fn poll(&mut self) -> Result<Vec<MavMessage>> {
+        let mut out = Vec::new();
+        loop {
+            match self.conn.try_recv() {
+                Ok((header, msg)) => {
+                    self.log(header, &msg)?;
+                    out.push(msg);
+                }
+                Err(mavlink::error::MessageReadError::Io(e))
+                    if matches!(
+                        e.kind(),
+                        std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                    ) =>
+                {
+                    return Ok(out)
+                }
+                Err(mavlink::error::MessageReadError::Io(e))
+                    if e.kind() == std::io::ErrorKind::ConnectionRefused =>
+                {
+                    // udpout to a port nobody listens on yet.
+                    return Ok(out);
+                }
+                Err(mavlink::error::MessageReadError::Io(e)) => {
+                    return Err(anyhow!("MAVLink connection: {e}"))
+                }
+                Err(_) => self.stats.malformed += 1,
+            }
+        }
+    }
+}
+
+/// The vehicle side: plant, navigation and the firmware `App` behind the tether.
+struct SimVehicle {
+    plant: Box<dyn Plant>,
+    nav: Box<dyn Navigation>,
+    link: Link,
+    pwm: PwmMap,
+    t_s: f64,
+    period_s: f64,
+    plant_dt_s: f64,
+    steps_per_period: usize,
+    held_n: [f64; 3],
+    state: NavState,
+    tel: Telemetry,
+}
+
+const TETHER_TIMEOUT: Duration = Duration::from_millis(500);
+
+/// A `MANUAL_CONTROL` older than this (wall clock) is no longer forwarded.
+pub const MANUAL_CONTROL_TIMEOUT: Duration = Duration::from_millis(500);
+
+fn us(t_s: f64) -> u64 {
+    (t_s * 1e6).round().max(0.0) as u64
+}
+
+impl SimVehicle {
+    fn new(sc: &Scenario) -> Result<Self> {
+        let params = nominal_plant_params(sc);
+        let plant = make_plant(
+            sc.plane,
+            &params,
+            crate::plant::Environment {
+                current_m_s: sc.disturbance.current_m_s,
+            },
+            sc.thrusters.saturate,
+            sc.initial.to_plant(),
+        )?;
+        let nav = navigation_for(sc, None)?;
+        let mut link = Link::new(Box::new(InProcessFirmware::new()?), None);
+        link.wait_for(
+            Duration::from_secs(2),
+            |r| matches!(r, Reply::Hello { .. }).then_some(()),
+            |_| {},
+        )?
+        .ok_or_else(|| anyhow!("no Hello from the in-process firmware"))?;
+        let n = sc.plant_steps_per_control().max(1);
+        let mut v = Self {
+            plant,
+            nav,
+            link,
+            pwm: PwmMap::for_vehicle(&Vehicle::observer()),
+            t_s: 0.0,
+            period_s: sc.plant_dt_s * n as f64,
+            plant_dt_s: sc.plant_dt_s,
+            steps_per_period: n,
+            held_n: [0.0; 3],
+            state: NavState::default(),
+            tel: Telemetry::default(),
+        };
+        v.step()?;
+        Ok(v)
+    }
+
+    /// A command answered by `Ack` / `Nack`.
+    fn command(&mut self, cmd: &Command) -> Result<std::result::Result<(), NackReason>> {
+        self.link.command(cmd, TETHER_TIMEOUT, 3, |_| {})
+    }
+
+    /// One control period: heartbeat and navigation to the firmware, its telemetry back, the
+    /// plant through the period with the thrust of the pulse widths.
+    fn step(&mut self) -> Result<()> {
+        let t_us = us(self.t_s);
+        self.state = self.nav.estimate(self.t_s, self.held_n);
+        self.link.send(&Command::Heartbeat { t_us })?;
+        let nav_seq = self.link.send(&Command::Nav(NavSample {
+            t_us,
+            state: self.state,
+        }))?;
+        let tel = self
+            .link
+            .wait_for(
+                TETHER_TIMEOUT,
+                |r| match r {
+                    Reply::Telemetry(tl) if tl.nav_seq == nav_seq => Some(*tl),
+                    _ => None,
+                },
+                |_| {},
+            )?
+            .ok_or_else(|| anyhow!("tether: no Telemetry at t = {:.2} s", self.t_s))?;
+        self.tel = tel;
+        let applied = tel
+            .pulse_us
+            .map(|p| f64::from(self.pwm.thrust_n(f32::from(p))));
+        for i in 0..self.steps_per_period {
+            self.plant.step(applied, self.plant_dt_s);
+            self.nav.observe(
+                self.t_s + (i + 1) as f64 * self.plant_dt_s,
+                &self.plant.state(),
+            );
+        }
+        self.held_n = tel.thrust_n.map(f64::from);
+        self.t_s += self.period_s;
+        Ok(())
+    }
+}
+
+/// The ArduSub mode a firmware mode is shown as.
+fn custom_mode_of(mode: Mode, guided: bool) -> u32 {
+    match mode {
+        Mode::Manual => ardusub_mode::MANUAL,
+        Mode::Hold => ardusub_mode::POSHOLD,
+        Mode::Track { .. } if guided => ardusub_mode::GUIDED,
+        Mode::Track { .. } => ardusub_mode::AUTO,
+        Mode::Idle => ardusub_mode::MANUAL,
+    }
+}
+
+/// `MANUAL_CONTROL` to normalized thrust, ArduSub's conventions: x forward and r clockwise in
+/// -1000..1000, z 0..1000 with 500 neutral and above 500 up (our heave is positive down); y
+/// (sway) has no thruster.
+pub fn manual_thrust(x: i16, z: i16, r: i16) -> ManualThrust {
+    let norm = |v: f32| (v / 1000.0).clamp(-1.0, 1.0);
+    ManualThrust {
+        surge: norm(f32::from(x)),
+        yaw: norm(f32::from(r)),
+        heave: -((f32::from(z) - 500.0) / 500.0).clamp(-1.0, 1.0),
+    }
+}
+
+/// Names of the fault flags, for `STATUSTEXT`.
+const FAULT_NAMES: [(u16, &str); 7] = [
+    (
+        fault::HEARTBEAT_LOST,
+        "tether heartbeat lost: thrusters neutral",
+    ),
+    (fault::LINK_DISARMED, "tether lost: disarmed"),
+    (fault::NAV_STALE, "navigation stale: thrusters neutral"),
+    (fault::MANUAL_STALE, "pilot input lost: thrusters neutral"),
+    (fault::PWM_ERROR, "PWM output error"),
+    (fault::SERIAL_ERROR, "tether serial error"),
+    (fault::OVERRUN, "control loop overrun"),
+];
+
+/// Run the topside until `--duration` (or forever).
+pub fn main(a: TopsideArgs) -> Result<()> {
+    let sc = Scenario::load(&a.sim)?;
+    if !(a.speedup.is_finite() && a.speedup > 0.0) {
+        bail!("--speedup must be > 0 (got {})", a.speedup);
+    }
+    let conn = mavlink::connect::<MavMessage>(&a.mavlink)
+        .with_context(|| format!("MAVLink address {:?}", a.mavlink))?;
+    if let Some(dir) = a.tlog.parent() {
+        if !dir.as_os_str().is_empty() {
+            std::fs::create_dir_all(dir)?;
+        }
+    }
+    let tlog = BufWriter::new(
+        File::create(&a.tlog).with_context(|| format!("create {}", a.tlog.display()))?,
+    );
+    let mut gcs = Gcs {
+        conn,
+        system_id: a.system_id,
+        seq: 0,
+        tlog,
+        stats: GcsStats::default(),
+    };
+    let mut v = SimVehicle::new(&sc)?;
+    eprintln!(
+        "topside: simulated vehicle {:?} ({}), MAVLink on {}, tlog {}",
+        sc.name,
+        sc.plane.as_str(),
+        a.mavlink,
+        a.tlog.display()
+    );
+
+    let wall0 = Instant::now();
+    let mut manual = ManualThrust::default();
+    // Wall time of the latest MANUAL_CONTROL: the pilot's stream is real time.
+    let mut manual_at: Option<Instant> = None;
+    let mut guided = false;
+    let mut last_faults = 0u16;
+    let mut k: u64 = 0;
+    let per_second = (1.0 / v.period_s).round().max(1.0) as u64;
+    let per_tenth = (per_second / 10).max(1);
+    loop {
+        if let Some(d) = a.duration {
+            if v.t_s >= d {
+                break;
+            }
+        }
+        // Pace: simulated time runs `speedup` times the wall clock.
+        let due = wall0 + Duration::from_secs_f64(v.t_s / a.speedup);
+        if let Some(wait) = due.checked_duration_since(Instant::now()) {
+            std::thread::sleep(wait);
+        }
+
+        for msg in gcs.poll()? {
+            if matches!(msg, MavMessage::MANUAL_CONTROL(_)) {
+                manual_at = Some(Instant::now());
+            }
+            handle(&mut gcs, &mut v, &mut manual, &mut guided, msg)?;
+        }
+        let fresh = manual_at.is_some_and(|at| at.elapsed() < MANUAL_CONTROL_TIMEOUT);
+        if v.tel.mode == Mode::Manual && v.tel.armed && fresh {
+            // Forwarded every period while the pilot's stream lives; when it stops, nothing
+            // is forwarded and the firmware's MANUAL_STALE failsafe neutralizes the thrusters.
+            v.link.send(&Command::ManualThrust(manual))?;
+        }
+        v.step()?;
+
+        let faults = v.tel.faults & !fault::SATURATED;
+        for (bit, name) in FAULT_NAMES {
+            if faults & bit != 0 && last_faults & bit == 0 {
+                gcs.text(
+                    MavSeverity::MAV_SEVERITY_CRITICAL,
+                    &format!("Failsafe: {name}"),
+                )?;
+            } else if faults & bit == 0 && last_faults & bit != 0 {
+                gcs.text(MavSeverity::MAV_SEVERITY_INFO, &format!("Cleared: {name}"))?;
+            }
+        }
+        last_faults = faults;
+
+        if k.is_multiple_of(per_second) {
+            send_heartbeat(&mut gcs, &v, guided)?;
+        }
+        if k.is_multiple_of(per_tenth) {
+            send_state(&mut gcs, &v)?;
+        }
+        k += 1;
+        if let Err(e) = gcs.tlog.flush() {
+            bail!("tlog: {e}");
+        }
+    }
+    let s = gcs.stats;
+    eprintln!(
+        "topside: {:.1} s simulated; MAVLink {} sent, {} handled, {} ignored, {} malformed",
+        v.t_s, s.sent, s.handled, s.ignored, s.malformed
+    );
+    Ok(())
+}
+
+fn refuse(gcs: &mut Gcs, cmd: MavCmd, why: &str) -> Result<()> {
+    gcs.text(MavSeverity::MAV_SEVERITY_WARNING, why)?;
+    gcs.ack(cmd, MavResult::MAV_RESULT_DENIED)
+}
+
+fn set_mode(gcs: &mut Gcs, v: &mut SimVehicle, guided: &mut bool, custom: u32) -> Result<()> {
+    let cmd = MavCmd::MAV_CMD_DO_SET_MODE;
+    let (firmware_mode, reference) = match custom {
+        ardusub_mode::MANUAL => (Mode::Manual, None),
+        ardusub_mode::POSHOLD => (Mode::Hold, None),
+        ardusub_mode::GUIDED => (
+            Mode::Track {
+                plane: Plane::ThreeD,
+                law: Law::Tracking,
+            },
+            Some(Reference::Hold {
+                pos_m: [v.state.x_m, v.state.y_m, v.state.z_m],
+            }),
+        ),
+        ardusub_mode::STABILIZE | ardusub_mode::ALT_HOLD | ardusub_mode::AUTO => {
+            return refuse(gcs, cmd, &format!("Mode {custom} not on this vehicle yet"));
+        }
+        other => return refuse(gcs, cmd, &format!("Unknown mode {other}")),
+    };
+    if let Some(reference) = reference {
+        if let Err(why) = v.command(&Command::SetReference {
+            reference,
+            start_us: None,
+        })? {
+            return refuse(gcs, cmd, &format!("Reference refused: {why:?}"));
+        }
+    }
+    match v.command(&Command::SetMode(firmware_mode))? {
+        Ok(()) => {
+            *guided = custom == ardusub_mode::GUIDED;
+            gcs.ack(cmd, MavResult::MAV_RESULT_ACCEPTED)
+        }
+        Err(why) => refuse(gcs, cmd, &format!("Mode refused: {why:?}")),
+    }
+}
+
+// `SET_MODE` is deprecated in favour of `MAV_CMD_DO_SET_MODE`, but pymavlink's `set_mode` and
+// MAVProxy's `mode` still send it, so both are obeyed.
+#[allow(deprecated)]
+fn handle(
+    gcs: &mut Gcs,
+    v: &mut SimVehicle,
+    manual: &mut ManualThrust,
+    guided: &mut bool,
+    msg: MavMessage,
+) -> Result<()> {
+    match msg {
+        MavMessage::COMMAND_LONG(c) => {
+            gcs.stats.handled += 1;
+            match c.command {
+                MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => {
+                    let cmd = if c.param1 >= 0.5 {
+                        Command::Arm
+                    } else {
+                        Command::Disarm
+                    };
+                    match v.command(&cmd)? {
+                        Ok(()) => gcs.ack(c.command, MavResult::MAV_RESULT_ACCEPTED)?,
+                        Err(why) => refuse(gcs, c.command, &format!("Arming refused: {why:?}"))?,
+                    }
+                }
+                MavCmd::MAV_CMD_DO_SET_MODE => set_mode(gcs, v, guided, c.param2 as u32)?,
+                other => {
+                    gcs.ack(other, MavResult::MAV_RESULT_UNSUPPORTED)?;
+                }
+            }
+        }
+        MavMessage::SET_MODE(m) => {
+            gcs.stats.handled += 1;
+            set_mode(gcs, v, guided, m.custom_mode)?;
+        }
+        MavMessage::MANUAL_CONTROL(m) => {
+            gcs.stats.handled += 1;
+            *manual = manual_thrust(m.x, m.z, m.r);
+        }
+        MavMessage::SET_POSITION_TARGET_LOCAL_NED(p) => {
+            gcs.stats.handled += 1;
+            let pos = [p.x, p.y, p.z];
+            if !*guided {
+                gcs.text(
+                    MavSeverity::MAV_SEVERITY_WARNING,
+                    "Position target ignored: not in GUIDED",
+                )?;
+            } else if pos.iter().all(|x| x.is_finite()) {
+                if let Err(why) = v.command(&Command::SetReference {
+                    reference: Reference::Hold { pos_m: pos },
+                    start_us: None,
+                })? {
+                    gcs.text(
+                        MavSeverity::MAV_SEVERITY_WARNING,
+                        &format!("Target refused: {why:?}"),
+                    )?;
+                }
+            } else {
+                gcs.text(
+                    MavSeverity::MAV_SEVERITY_WARNING,
+                    "Target refused: not finite",
+                )?;
+            }
+        }
+        _ => gcs.stats.ignored += 1,
+    }
+    Ok(())
+}
+
+fn send_heartbeat(gcs: &mut Gcs, v: &SimVehicle, guided: bool) -> Result<()> {
+    let mut base = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
+    if v.tel.armed {
+        base |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
+    }
+    gcs.send(MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        custom_mode: custom_mode_of(v.tel.mode, guided),
+        mavtype: MavType::MAV_TYPE_SUBMARINE,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+        base_mode: base,
+        system_status: if v.tel.armed {
+            MavState::MAV_STATE_ACTIVE
+        } else {
+            MavState::MAV_STATE_STANDBY
+        },
+        mavlink_version: 3,
+    }))?;
+    let sensors = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO
+        | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_ACCEL
+        | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_MAG
+        | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
+        | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS;
+    let mut healthy = sensors;
+    if v.tel.faults & fault::NAV_STALE != 0 {
+        healthy &= !(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO
+            | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE);
+    }
+    if v.tel.faults & fault::PWM_ERROR != 0 {
+        healthy &= !MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS;
+    }
+    let drops = v.link.stats.frames_dropped.min(u64::from(u16::MAX)) as u16;
+    gcs.send(MavMessage::SYS_STATUS(SYS_STATUS_DATA {
+        onboard_control_sensors_present: sensors,
+        onboard_control_sensors_enabled: sensors,
+        onboard_control_sensors_health: healthy,
+        errors_comm: drops,
+        battery_remaining: -1,
+        ..Default::default()
+    }))
+}
+
+fn send_state(gcs: &mut Gcs, v: &SimVehicle) -> Result<()> {
+    let s = &v.state;
+    let time_boot_ms = (v.t_s * 1000.0) as u32;
+    let (sp, cp) = s.yaw_rad.sin_cos();
+    let vn = cp * s.u_m_s - sp * s.v_m_s;
+    let ve = sp * s.u_m_s + cp * s.v_m_s;
+    gcs.send(MavMessage::ATTITUDE(ATTITUDE_DATA {
+        time_boot_ms,
+        roll: s.roll_rad,
+        pitch: s.pitch_rad,
+        yaw: s.yaw_rad,
+        rollspeed: s.p_rad_s,
+        pitchspeed: s.q_rad_s,
+        yawspeed: s.r_rad_s,
+    }))?;
+    gcs.send(MavMessage::LOCAL_POSITION_NED(LOCAL_POSITION_NED_DATA {
+        time_boot_ms,
+        x: s.x_m,
+        y: s.y_m,
+        z: s.z_m,
+        vx: vn,
+        vy: ve,
+        vz: s.w_m_s,
+    }))?;
+    let heading_deg = s.yaw_rad.to_degrees().rem_euclid(360.0);
+    gcs.send(MavMessage::VFR_HUD(VFR_HUD_DATA {
+        airspeed: s.u_m_s.abs(),
+        groundspeed: (vn * vn + ve * ve).sqrt(),
+        alt: -s.z_m,
+        climb: -s.w_m_s,
+        heading: heading_deg.round() as i16,
+        throttle: 0,
+    }))?;
+    let [p1, p2, p3] = v.tel.pulse_us;
+    gcs.send(MavMessage::SERVO_OUTPUT_RAW(SERVO_OUTPUT_RAW_DATA {
+        time_usec: (v.t_s * 1e6) as u32,
+        servo1_raw: p1,
+        servo2_raw: p2,
+        servo3_raw: p3,
+        ..Default::default()
+    }))
+}

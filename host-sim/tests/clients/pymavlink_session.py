@@ -1,0 +1,115 @@
+"""A pymavlink ground station flies `host-sim topside --sim` (issue 13, real clients).
+
+Usage: pymavlink_session.py PORT. Listens on udpin:127.0.0.1:PORT for the topside (which
+sends to udpout:127.0.0.1:PORT). Exits 0 and prints PASS lines, or raises.
+"""
+import sys
+import time
+
+from pymavlink import mavutil
+
+MANUAL, STABILIZE, POSHOLD = 19, 0, 16
+mav = mavutil.mavlink
+
+
+def expect(cond, what):
+    if not cond:
+        raise SystemExit(f"FAIL: {what}")
+    print(f"PASS: {what}", flush=True)
+
+
+def wait(m, kind, timeout=10.0, cond=lambda msg: True):
+    end = time.time() + timeout
+    while time.time() < end:
+        msg = m.recv_match(type=kind, blocking=True, timeout=max(0.05, end - time.time()))
+        if msg is not None and cond(msg):
+            return msg
+    return None
+
+
+def ack_of(m, command, timeout=10.0):
+    return wait(m, "COMMAND_ACK", timeout, lambda a: a.command == command)
+
+
+def sticks(m, seconds, x=0, z=500, r=0):
+    """Send the sticks at 20 Hz; return what arrived meanwhile, by type."""
+    seen = {}
+    end = time.time() + seconds
+    while time.time() < end:
+        m.mav.manual_control_send(m.target_system, x, 0, z, r, 0)
+        stop = time.time() + 0.05
+        while time.time() < stop:
+            msg = m.recv_match(blocking=True, timeout=0.01)
+            if msg is not None:
+                seen.setdefault(msg.get_type(), []).append(msg)
+    return seen
+
+
+def main():
+    port = int(sys.argv[1])
+    m = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=255)
+    hb = m.wait_heartbeat(timeout=30)
+    expect(hb is not None, "a HEARTBEAT arrives")
+    expect(hb.type == mav.MAV_TYPE_SUBMARINE, "the vehicle is a MAV_TYPE_SUBMARINE")
+    expect(hb.autopilot == mav.MAV_AUTOPILOT_ARDUPILOTMEGA, "ArduPilot conventions")
+    for kind in ["ATTITUDE", "LOCAL_POSITION_NED", "VFR_HUD", "SERVO_OUTPUT_RAW", "SYS_STATUS"]:
+        expect(wait(m, kind) is not None, f"{kind} streams")
+
+    # MANUAL through SET_MODE (what pymavlink's set_mode sends).
+    m.mav.set_mode_send(m.target_system, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, MANUAL)
+    a = ack_of(m, mav.MAV_CMD_DO_SET_MODE)
+    expect(a is not None and a.result == mav.MAV_RESULT_ACCEPTED, "MANUAL accepted")
+
+    m.mav.command_long_send(m.target_system, m.target_component,
+                            mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
+    a = ack_of(m, mav.MAV_CMD_COMPONENT_ARM_DISARM)
+    expect(a is not None and a.result == mav.MAV_RESULT_ACCEPTED, "arming accepted")
+    hb = wait(m, "HEARTBEAT", 5, lambda h: h.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
+    expect(hb is not None and hb.custom_mode == MANUAL, "HEARTBEAT says armed, MANUAL")
+
+    seen = sticks(m, 4.0, x=600)  # 60 % forward
+    pos = seen.get("LOCAL_POSITION_NED", [])
+    servo = seen.get("SERVO_OUTPUT_RAW", [])
+    expect(len(pos) > 5 and len(servo) > 5, "telemetry keeps streaming while flying")
+    s1 = max(s.servo1_raw for s in servo)
+    s2 = max(s.servo2_raw for s in servo)
+    expect(s1 > 1550 and s2 > 1550, f"both horizontal thrusters push forward ({s1}, {s2} us)")
+    dx = pos[-1].x - pos[0].x
+    expect(dx > 0.3, f"the vehicle moved forward {dx:.2f} m on the sticks")
+
+    # The pilot's stream stops: the vehicle's failsafe makes the thrusters neutral.
+    t = wait(m, "STATUSTEXT", 10, lambda s: "pilot input lost" in s.text)
+    expect(t is not None, f"failsafe STATUSTEXT: {t.text if t else None!r}")
+    servo = wait(m, "SERVO_OUTPUT_RAW", 5, lambda s: s.servo1_raw == 1500 and s.servo2_raw == 1500)
+    expect(servo is not None, "thrusters neutral after the stream stopped")
+
+    # A mode the vehicle does not have yet is refused, with a reason.
+    m.mav.command_long_send(m.target_system, m.target_component,
+                            mav.MAV_CMD_DO_SET_MODE, 0,
+                            mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, STABILIZE, 0, 0, 0, 0, 0)
+    a = ack_of(m, mav.MAV_CMD_DO_SET_MODE)
+    expect(a is not None and a.result == mav.MAV_RESULT_DENIED, "STABILIZE refused (DENIED)")
+
+    m.mav.command_long_send(m.target_system, m.target_component,
+                            mav.MAV_CMD_DO_SET_MODE, 0,
+                            mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, POSHOLD, 0, 0, 0, 0, 0)
+    a = ack_of(m, mav.MAV_CMD_DO_SET_MODE)
+    expect(a is not None and a.result == mav.MAV_RESULT_ACCEPTED, "POSHOLD accepted")
+    hb = wait(m, "HEARTBEAT", 5, lambda h: h.custom_mode == POSHOLD)
+    expect(hb is not None, "HEARTBEAT says POSHOLD")
+
+    m.mav.command_long_send(m.target_system, m.target_component,
+                            mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, 0, 0, 0, 0, 0, 0, 0)
+    a = ack_of(m, mav.MAV_CMD_COMPONENT_ARM_DISARM)
+    expect(a is not None and a.result == mav.MAV_RESULT_ACCEPTED, "disarming accepted")
+    hb = wait(m, "HEARTBEAT", 5, lambda h: not h.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
+    expect(hb is not None, "HEARTBEAT says disarmed")
+
+    # Garbage on the MAVLink port is ignored, not a crash.
+    for address in list(m.clients):
+        m.port.sendto(b"\xfd\x09garbage-not-mavlink" * 4, address)
+    expect(wait(m, "HEARTBEAT", 5) is not None, "still alive after garbage")
+
+
+if __name__ == "__main__":
+    main()
