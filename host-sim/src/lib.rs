@@ -18,6 +18,7 @@ pub mod in_process;
 pub mod link;
 pub mod monte_carlo;
 pub mod output;
+pub mod params;
 pub mod plant;
 pub mod plots;
 pub mod port;

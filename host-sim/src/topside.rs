@@ -31,11 +31,13 @@
 use crate::estimator_nav::navigation_for;
 use crate::in_process::InProcessFirmware;
 use crate::link::Link;
+use crate::params::{self, Group, PARAMS};
 use crate::plant::Plant;
 use crate::scenario::Scenario;
 use crate::sim_loop::{make_plant, nominal_plant_params, Navigation};
 use anyhow::{anyhow, bail, Context, Result};
 use controller_core::alloc::PwmMap;
+use controller_core::controller::Gains;
 use controller_core::params::Vehicle;
 use controller_core::reference::Reference;
 use controller_core::state::NavState;
@@ -43,9 +45,10 @@ use firmware::protocol::{
     fault, Command, Law, ManualThrust, Mode, NackReason, NavSample, Plane, Reply, Telemetry,
 };
 use mavlink::dialects::ardupilotmega::{
-    MavAutopilot, MavCmd, MavMessage, MavModeFlag, MavResult, MavSeverity, MavState,
+    MavAutopilot, MavCmd, MavMessage, MavModeFlag, MavParamType, MavResult, MavSeverity, MavState,
     MavSysStatusSensor, MavType, ATTITUDE_DATA, COMMAND_ACK_DATA, HEARTBEAT_DATA,
-    LOCAL_POSITION_NED_DATA, SERVO_OUTPUT_RAW_DATA, STATUSTEXT_DATA, SYS_STATUS_DATA, VFR_HUD_DATA,
+    LOCAL_POSITION_NED_DATA, PARAM_VALUE_DATA, SERVO_OUTPUT_RAW_DATA, STATUSTEXT_DATA,
+    SYS_STATUS_DATA, VFR_HUD_DATA,
 };
 use mavlink::{MavConnection, MavHeader};
 use std::fs::File;
@@ -92,6 +95,10 @@ pub struct TopsideArgs {
     /// MAVLink system id of the vehicle.
     #[arg(long, default_value_t = 1)]
     pub system_id: u8,
+    /// The parameters set from the ground station: restored from this file at start, saved
+    /// to it after every accepted `PARAM_SET`.
+    #[arg(long, default_value = "out/topside-params.json")]
+    pub params: PathBuf,
 }
 
 /// Counters of the MAVLink side.
@@ -206,6 +213,8 @@ struct SimVehicle {
     held_n: [f64; 3],
     state: NavState,
     tel: Telemetry,
+    /// The gains in force on the vehicle (as last accepted).
+    gains: Gains,
 }
 
 const TETHER_TIMEOUT: Duration = Duration::from_millis(500);
@@ -250,9 +259,36 @@ impl SimVehicle {
             held_n: [0.0; 3],
             state: NavState::default(),
             tel: Telemetry::default(),
+            gains: Gains::default(),
         };
         v.step()?;
         Ok(v)
+    }
+
+    /// Send one group of gains; on a refusal nothing changes, here or on the vehicle.
+    fn set_gains(
+        &mut self,
+        gains: Gains,
+        group: Group,
+    ) -> Result<std::result::Result<(), NackReason>> {
+        let cmd = match group {
+            Group::Tracking => Command::SetTrackingGains(gains.tracking),
+            Group::Paper => Command::SetPaperGains {
+                xz: gains.paper_xz,
+                xy: gains.paper_xy,
+            },
+        };
+        let r = self.command(&cmd)?;
+        if r.is_ok() {
+            match group {
+                Group::Tracking => self.gains.tracking = gains.tracking,
+                Group::Paper => {
+                    self.gains.paper_xz = gains.paper_xz;
+                    self.gains.paper_xy = gains.paper_xy;
+                }
+            }
+        }
+        Ok(r)
     }
 
     /// A command answered by `Ack` / `Nack`.
@@ -359,6 +395,18 @@ pub fn main(a: TopsideArgs) -> Result<()> {
         stats: GcsStats::default(),
     };
     let mut v = SimVehicle::new(&sc)?;
+    if a.params.exists() {
+        let saved = params::load(&a.params)?;
+        for group in [Group::Tracking, Group::Paper] {
+            if let Err(why) = v.set_gains(saved, group)? {
+                bail!(
+                    "the vehicle refused the saved parameters of {}: {why:?}",
+                    a.params.display()
+                );
+            }
+        }
+        eprintln!("topside: parameters restored from {}", a.params.display());
+    }
     eprintln!(
         "topside: simulated vehicle {:?} ({}), MAVLink on {}, tlog {}",
         sc.name,
@@ -392,7 +440,7 @@ pub fn main(a: TopsideArgs) -> Result<()> {
             if matches!(msg, MavMessage::MANUAL_CONTROL(_)) {
                 manual_at = Some(Instant::now());
             }
-            handle(&mut gcs, &mut v, &mut manual, &mut guided, msg)?;
+            handle(&mut gcs, &mut v, &mut manual, &mut guided, &a.params, msg)?;
         }
         let fresh = manual_at.is_some_and(|at| at.elapsed() < MANUAL_CONTROL_TIMEOUT);
         if v.tel.mode == Mode::Manual && v.tel.armed && fresh {
@@ -483,9 +531,55 @@ fn handle(
     v: &mut SimVehicle,
     manual: &mut ManualThrust,
     guided: &mut bool,
+    params_file: &std::path::Path,
     msg: MavMessage,
 ) -> Result<()> {
     match msg {
+        MavMessage::PARAM_REQUEST_LIST(_) => {
+            gcs.stats.handled += 1;
+            for i in 0..PARAMS.len() {
+                send_param(gcs, &v.gains, i)?;
+            }
+        }
+        MavMessage::PARAM_REQUEST_READ(r) => {
+            gcs.stats.handled += 1;
+            let index = if r.param_index >= 0 {
+                Some(r.param_index as usize).filter(|&i| i < PARAMS.len())
+            } else {
+                params::find(param_name(&r.param_id).as_str()).map(|(i, _)| i)
+            };
+            match index {
+                Some(i) => send_param(gcs, &v.gains, i)?,
+                None => gcs.text(MavSeverity::MAV_SEVERITY_WARNING, "No such parameter")?,
+            }
+        }
+        MavMessage::PARAM_SET(p) => {
+            gcs.stats.handled += 1;
+            let name = param_name(&p.param_id);
+            let Some((i, param)) = params::find(&name) else {
+                gcs.text(
+                    MavSeverity::MAV_SEVERITY_WARNING,
+                    &format!("No parameter {name}"),
+                )?;
+                return Ok(());
+            };
+            let mut proposed = v.gains;
+            (param.set)(&mut proposed, p.param_value);
+            // The core's validation first (a clear reason), then the vehicle's.
+            let refusal = match proposed.validate() {
+                Err(e) => Some(format!("{name} refused: {e}")),
+                Ok(()) => match v.set_gains(proposed, params::group(param))? {
+                    Ok(()) => None,
+                    Err(why) => Some(format!("{name} refused by the vehicle: {why:?}")),
+                },
+            };
+            match refusal {
+                Some(text) => gcs.text(MavSeverity::MAV_SEVERITY_WARNING, &text)?,
+                None => params::save(params_file, &v.gains)?,
+            }
+            // The answer is the value in force: the new one, or the old one on a refusal.
+            send_param(gcs, &v.gains, i)?;
+        }
         MavMessage::COMMAND_LONG(c) => {
             gcs.stats.handled += 1;
             match c.command {
@@ -542,6 +636,27 @@ fn handle(
         _ => gcs.stats.ignored += 1,
     }
     Ok(())
+}
+
+/// A `param_id` as text (NUL-padded to 16 bytes on the wire).
+fn param_name(id: &mavlink::types::CharArray<16>) -> String {
+    id.iter()
+        .take_while(|&&b| b != 0)
+        .map(|&b| char::from(b))
+        .collect()
+}
+
+fn send_param(gcs: &mut Gcs, gains: &Gains, index: usize) -> Result<()> {
+    let Some(p) = PARAMS.get(index) else {
+        return Ok(());
+    };
+    gcs.send(MavMessage::PARAM_VALUE(PARAM_VALUE_DATA {
+        param_value: (p.get)(gains),
+        param_count: PARAMS.len() as u16,
+        param_index: index as u16,
+        param_id: p.name.into(),
+        param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
+    }))
 }
 
 fn send_heartbeat(gcs: &mut Gcs, v: &SimVehicle, guided: bool) -> Result<()> {

@@ -106,6 +106,73 @@ fn pymavlink_flies_the_simulated_vehicle_and_reads_the_tlog() {
     assert!(count("STATUSTEXT") >= 2);
 }
 
+fn topside(port: u16, tlog: &std::path::Path, params: &std::path::Path) -> std::process::Child {
+    Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args([
+            "topside",
+            "--sim",
+            "circle-3d",
+            "--mavlink",
+            &format!("udpout:127.0.0.1:{port}"),
+            "--speedup",
+            "2",
+            "--duration",
+            "300",
+            "--tlog",
+        ])
+        .arg(tlog)
+        .arg("--params")
+        .arg(params)
+        .spawn()
+        .unwrap()
+}
+
+fn client(args: &[&str]) -> String {
+    let script = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/clients/pymavlink_params.py"
+    );
+    let out = Command::new("python3")
+        .arg(script)
+        .args(args)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+    println!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "pymavlink_params.py {args:?} failed");
+    stdout
+}
+
+#[test]
+fn pymavlink_changes_a_gain_which_survives_a_restart_and_a_bad_one_is_refused() {
+    if !pymavlink_or_skip() {
+        return;
+    }
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("topside-params");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let params = dir.join("params.json");
+    let tlog = dir.join("p.tlog");
+
+    let port = free_udp_port();
+    let mut first = topside(port, &tlog, &params);
+    let out = client(&[&port.to_string(), "set"]);
+    let _ = first.kill();
+    let _ = first.wait();
+    let value = out
+        .lines()
+        .find_map(|l| l.strip_prefix("VALUE="))
+        .expect("the client printed the value it set")
+        .to_string();
+    assert!(params.exists(), "the accepted change was saved");
+
+    let port = free_udp_port();
+    let mut second = topside(port, &tlog, &params);
+    client(&[&port.to_string(), "check", &value]);
+    let _ = second.kill();
+    let _ = second.wait();
+}
+
 #[test]
 fn manual_control_follows_ardusub_conventions() {
     use host_sim::topside::manual_thrust;

@@ -1,0 +1,86 @@
+"""pymavlink reads and writes the topside's parameters (issue 13, item 5).
+
+Usage: pymavlink_params.py PORT set        -> lists, changes TRK_XY_KP, tries a bad value
+       pymavlink_params.py PORT check V    -> TRK_XY_KP reads back V (after a restart)
+"""
+import sys
+import time
+
+from pymavlink import mavutil
+
+mav = mavutil.mavlink
+
+
+def expect(cond, what):
+    if not cond:
+        raise SystemExit(f"FAIL: {what}")
+    print(f"PASS: {what}", flush=True)
+
+
+def wait(m, kind, timeout=10.0, cond=lambda msg: True):
+    end = time.time() + timeout
+    while time.time() < end:
+        msg = m.recv_match(type=kind, blocking=True, timeout=max(0.05, end - time.time()))
+        if msg is not None and cond(msg):
+            return msg
+    return None
+
+
+def read(m, name):
+    m.mav.param_request_read_send(m.target_system, m.target_component, name.encode(), -1)
+    return wait(m, "PARAM_VALUE", 10, lambda p: p.param_id == name)
+
+
+def main():
+    port, what = int(sys.argv[1]), sys.argv[2]
+    m = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=255)
+    expect(m.wait_heartbeat(timeout=30) is not None, "a HEARTBEAT arrives")
+    if what == "check":
+        want = float(sys.argv[3])
+        p = read(m, "TRK_XY_KP")
+        expect(p is not None and abs(p.param_value - want) < 1e-5,
+               f"TRK_XY_KP restored after the restart: {p.param_value if p else None} == {want}")
+        return
+
+    m.mav.param_request_list_send(m.target_system, m.target_component)
+    seen = {}
+    end = time.time() + 10
+    while time.time() < end:
+        p = m.recv_match(type="PARAM_VALUE", blocking=True, timeout=1)
+        if p is not None:
+            seen[p.param_id] = p
+            if len(seen) == p.param_count:
+                break
+    count = next(iter(seen.values())).param_count if seen else 0
+    expect(count >= 30 and len(seen) == count, f"the whole list arrives ({len(seen)} of {count})")
+    expect("TRK_XY_KP" in seen and "PXZ_C1" in seen, "tracking and paper gains are listed")
+
+    old = seen["TRK_XY_KP"].param_value
+    new = round(old * 1.25, 4)
+    m.mav.param_set_send(m.target_system, m.target_component, b"TRK_XY_KP", new,
+                         mav.MAV_PARAM_TYPE_REAL32)
+    p = wait(m, "PARAM_VALUE", 10, lambda p: p.param_id == "TRK_XY_KP")
+    expect(p is not None and abs(p.param_value - new) < 1e-5, f"TRK_XY_KP set to {new}")
+
+    m.mav.param_set_send(m.target_system, m.target_component, b"TRK_XY_KP", -1.0,
+                         mav.MAV_PARAM_TYPE_REAL32)
+    p = t = None
+    end = time.time() + 10
+    while time.time() < end and (p is None or t is None):
+        msg = m.recv_match(type=["PARAM_VALUE", "STATUSTEXT"], blocking=True, timeout=1)
+        if msg is None:
+            continue
+        if msg.get_type() == "PARAM_VALUE" and msg.param_id == "TRK_XY_KP":
+            p = msg
+        elif msg.get_type() == "STATUSTEXT" and "TRK_XY_KP refused" in msg.text:
+            t = msg
+    expect(p is not None and abs(p.param_value - new) < 1e-5,
+           "an invalid value is answered with the value in force")
+    expect(t is not None, f"and a STATUSTEXT says why: {t.text if t else None!r}")
+    p = read(m, "TRK_XY_KP")
+    expect(p is not None and abs(p.param_value - new) < 1e-5, "reading it back gives the new value")
+    print(f"VALUE={new}")
+
+
+if __name__ == "__main__":
+    main()
