@@ -4,8 +4,9 @@
 //!
 //! The vehicle side today is `--sim SCENARIO`: the scenario's plant and navigation stage with
 //! the firmware library's `App` in this process, reached through the tether protocol (the
-//! same frames, state machine and failsafes as the image), run in real time or `--speedup K`
-//! faster. The modes run on the vehicle: the topside translates.
+//! same frames, state machine and failsafes as the image), or with `--emulated` the firmware
+//! image itself in QEMU; in real time or `--speedup K` faster. The modes run on the vehicle:
+//! the topside translates.
 //!
 //! | MAVLink in | tether out |
 //! |---|---|
@@ -33,6 +34,7 @@ use crate::in_process::InProcessFirmware;
 use crate::link::Link;
 use crate::params::{self, Group, PARAMS};
 use crate::plant::Plant;
+use crate::qemu::{qemu_firmware_image, start_qemu_link, workspace_root, FirmwareImage};
 use crate::scenario::Scenario;
 use crate::sim_loop::{make_plant, nominal_plant_params, Navigation};
 use anyhow::{anyhow, bail, Context, Result};
@@ -95,6 +97,13 @@ pub struct TopsideArgs {
     /// MAVLink system id of the vehicle.
     #[arg(long, default_value_t = 1)]
     pub system_id: u8,
+    /// Run the vehicle's firmware image in QEMU (the emulated STM32F405, lock-step) instead of
+    /// the firmware library in process; the plant stays simulated here.
+    #[arg(long)]
+    pub emulated: bool,
+    /// With --emulated: this image (default: the workspace's `qemu` image, built if needed).
+    #[arg(long, value_name = "ELF", requires = "emulated")]
+    pub qemu: Option<PathBuf>,
     /// The parameters set from the ground station: restored from this file at start, saved
     /// to it after every accepted `PARAM_SET`.
     #[arg(long, default_value = "out/topside-params.json")]
@@ -227,7 +236,9 @@ fn us(t_s: f64) -> u64 {
 }
 
 impl SimVehicle {
-    fn new(sc: &Scenario) -> Result<Self> {
+    /// The scenario's plant and navigation with the firmware behind `port`, waiting up to
+    /// `hello_wait` for its `Hello`.
+    fn new(sc: &Scenario, port: Box<dyn crate::port::Port>, hello_wait: Duration) -> Result<Self> {
         let params = nominal_plant_params(sc);
         let plant = make_plant(
             sc.plane,
@@ -239,13 +250,13 @@ impl SimVehicle {
             sc.initial.to_plant(),
         )?;
         let nav = navigation_for(sc, None)?;
-        let mut link = Link::new(Box::new(InProcessFirmware::new()?), None);
+        let mut link = Link::new(port, None);
         link.wait_for(
-            Duration::from_secs(2),
+            hello_wait,
             |r| matches!(r, Reply::Hello { .. }).then_some(()),
             |_| {},
         )?
-        .ok_or_else(|| anyhow!("no Hello from the in-process firmware"))?;
+        .ok_or_else(|| anyhow!("no Hello from the firmware"))?;
         let n = sc.plant_steps_per_control().max(1);
         let mut v = Self {
             plant,
@@ -394,7 +405,33 @@ pub fn main(a: TopsideArgs) -> Result<()> {
         tlog,
         stats: GcsStats::default(),
     };
-    let mut v = SimVehicle::new(&sc)?;
+    // The QEMU child lives as long as this guard.
+    let mut _qemu = None;
+    let (port, hello_wait, firmware): (Box<dyn crate::port::Port>, _, _) = if a.emulated {
+        let elf = match a.qemu.clone() {
+            Some(elf) => elf,
+            None => match qemu_firmware_image(&workspace_root())? {
+                FirmwareImage::Ready(elf) => elf,
+                FirmwareImage::Unavailable(why) => {
+                    bail!("the emulated board cannot run here: {why}")
+                }
+            },
+        };
+        let (q, p) = start_qemu_link("qemu-system-arm", &elf, None, false)?;
+        _qemu = Some(q);
+        (
+            p,
+            Duration::from_secs(30),
+            format!("firmware image {} in QEMU", elf.display()),
+        )
+    } else {
+        (
+            Box::new(InProcessFirmware::new()?),
+            Duration::from_secs(2),
+            "firmware library in process".to_string(),
+        )
+    };
+    let mut v = SimVehicle::new(&sc, port, hello_wait)?;
     if a.params.exists() {
         let saved = params::load(&a.params)?;
         for group in [Group::Tracking, Group::Paper] {
@@ -408,7 +445,7 @@ pub fn main(a: TopsideArgs) -> Result<()> {
         eprintln!("topside: parameters restored from {}", a.params.display());
     }
     eprintln!(
-        "topside: simulated vehicle {:?} ({}), MAVLink on {}, tlog {}",
+        "topside: simulated vehicle {:?} ({}), {firmware}, MAVLink on {}, tlog {}",
         sc.name,
         sc.plane.as_str(),
         a.mavlink,

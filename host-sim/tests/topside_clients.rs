@@ -43,7 +43,25 @@ fn pymavlink_flies_the_simulated_vehicle_and_reads_the_tlog() {
     if !pymavlink_or_skip() {
         return;
     }
-    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("topside-pymavlink");
+    fly_session("in-process", &["--speedup", "2"]);
+}
+
+/// The same session against the firmware image in QEMU (the emulated STM32F405).
+#[test]
+fn pymavlink_flies_the_emulated_board() {
+    if !pymavlink_or_skip() {
+        return;
+    }
+    let Some(elf) = host_sim::qemu::image_or_skip().unwrap() else {
+        return;
+    };
+    let elf = elf.to_string_lossy().to_string();
+    fly_session("emulated", &["--emulated", "--qemu", &elf]);
+}
+
+fn fly_session(name: &str, extra: &[&str]) {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("topside-{name}"));
+    let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let tlog = dir.join("session.tlog");
     let port = free_udp_port();
@@ -54,13 +72,14 @@ fn pymavlink_flies_the_simulated_vehicle_and_reads_the_tlog() {
             "circle-3d",
             "--mavlink",
             &format!("udpout:127.0.0.1:{port}"),
-            "--speedup",
-            "2",
             "--duration",
             "300",
             "--tlog",
         ])
         .arg(&tlog)
+        .arg("--params")
+        .arg(dir.join("params.json"))
+        .args(extra)
         .spawn()
         .unwrap();
     let script = concat!(
@@ -77,8 +96,11 @@ fn pymavlink_flies_the_simulated_vehicle_and_reads_the_tlog() {
     let _ = topside.wait();
     let stdout = String::from_utf8_lossy(&out.stdout);
     println!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
-    assert!(out.status.success(), "the pymavlink session failed");
-    assert!(t0.elapsed() < Duration::from_secs(120));
+    assert!(
+        out.status.success(),
+        "the pymavlink session failed ({name})"
+    );
+    assert!(t0.elapsed() < Duration::from_secs(180));
     assert_eq!(stdout.matches("PASS:").count(), 22, "every check ran");
 
     // The .tlog, read by pymavlink: what was sent and what was received.
