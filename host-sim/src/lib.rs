@@ -23,6 +23,7 @@ pub mod plant;
 pub mod plots;
 pub mod port;
 pub mod qemu;
+pub mod replay;
 pub mod runner;
 pub mod scenario;
 pub mod sensors;

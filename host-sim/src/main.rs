@@ -92,6 +92,8 @@ enum Command {
     Link(host_sim::link::LinkArgs),
     /// The surface side: MAVLink 2 to QGroundControl / MAVProxy / pymavlink, the tether to the vehicle (`--sim SCENARIO`: simulated, with the firmware library in process)
     Topside(host_sim::topside::TopsideArgs),
+    /// Draw the figures of a run from a recorded dive (.tlog)
+    Replay(host_sim::replay::ReplayArgs),
 }
 
 fn print_table(rows: &[&RunOutput]) {
@@ -205,6 +207,7 @@ fn main() -> Result<()> {
         Some(Command::Hil(a)) => host_sim::hil::main(a),
         Some(Command::Link(a)) => host_sim::link::main(a),
         Some(Command::Topside(a)) => host_sim::topside::main(a),
+        Some(Command::Replay(a)) => host_sim::replay::main(a),
         None => run_all(Path::new("out")),
         Some(Command::All { out }) => run_all(&out),
         Some(Command::Merge { dirs, out }) => {

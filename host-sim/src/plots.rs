@@ -148,7 +148,18 @@ pub fn chart(
         .map_err(|x| e(x.to_string()))?;
     for (i, s) in series.iter().enumerate() {
         let c = COLORS[i % COLORS.len()];
-        let pts = thin(&s.pts, 3000);
+        // Non-finite points (a recorded dive has no reference) are left out; a series with
+        // none left is not drawn.
+        let finite: Vec<(f64, f64)> = s
+            .pts
+            .iter()
+            .copied()
+            .filter(|(x, y)| x.is_finite() && y.is_finite())
+            .collect();
+        if finite.is_empty() {
+            continue;
+        }
+        let pts = thin(&finite, 3000);
         let style = c.stroke_width(2);
         let anno = if s.dots {
             ch.draw_series(pts.iter().map(|p| Circle::new(*p, 3, c.filled())))
@@ -263,6 +274,9 @@ pub fn run_plots(dir: &Path, out: &RunOutput) -> Result<()> {
     let head = format!("{} ({} law, {})", s.scenario, s.controller, s.plane);
     let verdict = if s.nan_detected || s.diverged {
         format!(" - {}", s.stop_reason)
+    } else if !s.final_position_error_m.is_finite() {
+        // No reference (a recorded dive): the summary's own words.
+        format!(" - {}", s.verdict)
     } else {
         format!(" - final error {}", fmt_len(s.final_position_error_m))
     };

@@ -126,6 +126,30 @@ fn fly_session(name: &str, extra: &[&str]) {
     assert!(count("MANUAL_CONTROL") >= 20);
     assert!(count("COMMAND_ACK") >= 5);
     assert!(count("STATUSTEXT") >= 2);
+
+    // The dive drawn from its log: the same files as a simulated run.
+    let replay_dir = dir.join("replay");
+    let out = host_sim::replay::replay(&tlog, &replay_dir).unwrap();
+    println!(
+        "replay: {} / {}",
+        out.summary.stop_reason, out.summary.verdict
+    );
+    for f in [
+        "summary.json",
+        "timeseries.csv",
+        "fig_xy.png",
+        "fig_thrusters.png",
+    ] {
+        assert!(replay_dir.join(f).is_file(), "{f}");
+    }
+    let first = out.log.first().unwrap().state.eta[0];
+    let north = out
+        .log
+        .iter()
+        .map(|s| s.state.eta[0] - first)
+        .fold(0.0, f64::max);
+    assert!(north > 0.3, "the replay shows the dash forward: {north} m");
+    assert!(out.log.iter().any(|s| s.pulse_us[0] > 1550.0));
 }
 
 fn topside(port: u16, tlog: &std::path::Path, params: &std::path::Path) -> std::process::Child {
