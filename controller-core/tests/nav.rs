@@ -37,12 +37,14 @@ fn imu(t_us: u64) -> ImuSample {
     }
 }
 
-/// Run at rest for `n` IMU samples, with the compass and depth every 10th.
-fn settle(e: &mut Estimator, n: u64) {
+/// `n` IMU samples (100 Hz) with both surge thrusters at `thrust_each_n` (0: at rest), the
+/// compass (north) and the depth (2 m) every 10th.
+fn fly(e: &mut Estimator, n: u64, thrust_each_n: f32) {
     let t0 = e.time_us();
     for k in 1..=n {
         let t = t0 + k * DT_US;
-        e.predict(&imu(t), [0.0; 3]).unwrap();
+        e.predict(&imu(t), [thrust_each_n, thrust_each_n, 0.0])
+            .unwrap();
         if k % 10 == 0 {
             e.fuse_depth(&DepthFix {
                 t_us: t,
@@ -64,7 +66,7 @@ fn settle(e: &mut Estimator, n: u64) {
 fn at_rest_the_estimate_stays_put_and_the_horizontal_uncertainty_grows_without_fixes() {
     let mut e = at_rest();
     let p0 = e.position_covariance()[0][0];
-    settle(&mut e, 500);
+    fly(&mut e, 500, 0.0);
     let s = e.state();
     assert!(s.x_m.abs() < 1e-3 && s.y_m.abs() < 1e-3, "{s:?}");
     assert!((s.z_m - 2.0).abs() < 1e-3, "{s:?}");
@@ -81,7 +83,7 @@ fn at_rest_the_estimate_stays_put_and_the_horizontal_uncertainty_grows_without_f
 #[test]
 fn non_finite_absurd_and_badly_timed_measurements_are_refused_and_change_nothing() {
     let mut e = at_rest();
-    settle(&mut e, 100);
+    fly(&mut e, 100, 0.0);
     let before = (e.state(), e.position_covariance());
     let now = e.time_us();
     let fix = |t_us, north_m, std_m| PositionFix {
@@ -158,7 +160,7 @@ fn non_finite_absurd_and_badly_timed_measurements_are_refused_and_change_nothing
 fn a_fix_older_than_the_history_is_refused() {
     let mut e = at_rest();
     let span_s = (HISTORY_LEN as u64 * HISTORY_STEP_US) as f32 * 1e-6;
-    settle(&mut e, (span_s / 0.01) as u64 + 100);
+    fly(&mut e, (span_s / 0.01) as u64 + 100, 0.0);
     let r = e.fuse_position(&PositionFix {
         t_us: e.time_us() - (HISTORY_LEN as u64 + 5) * HISTORY_STEP_US,
         north_m: 0.0,
@@ -168,25 +170,6 @@ fn a_fix_older_than_the_history_is_refused() {
     assert_eq!(r, Err(Refusal::TooOld));
 }
 
-/// Drive north at a steady surge speed with the thrust that holds it.
-fn cruise(e: &mut Estimator, seconds: f32, thrust_each_n: f32) {
-    let n = (seconds / 0.01) as u64;
-    let t0 = e.time_us();
-    for k in 1..=n {
-        let t = t0 + k * DT_US;
-        e.predict(&imu(t), [thrust_each_n, thrust_each_n, 0.0])
-            .unwrap();
-        if k % 10 == 0 {
-            e.fuse_heading(&HeadingFix {
-                t_us: t,
-                yaw_rad: 0.0,
-                std_rad: 0.02,
-            })
-            .unwrap();
-        }
-    }
-}
-
 #[test]
 fn a_late_fix_is_compared_with_the_estimate_at_its_time_of_validity() {
     // Two identical estimators cruise north; each gets a fix 1 m ahead of where it was at
@@ -194,7 +177,7 @@ fn a_late_fix_is_compared_with_the_estimate_at_its_time_of_validity() {
     // estimate of 0.5 s ago changes nothing; the same numbers stamped "now" would pull the
     // estimate back by the distance run in 0.5 s.
     let mut a = at_rest();
-    cruise(&mut a, 20.0, 3.0);
+    fly(&mut a, 2000, 3.0);
     let speed = a.state().u_m_s;
     assert!(speed > 0.2, "cruise speed {speed}");
     let t_then = a.time_us() - 500_000;
@@ -230,7 +213,7 @@ fn a_late_fix_is_compared_with_the_estimate_at_its_time_of_validity() {
 #[test]
 fn an_outlier_is_gated_and_counted_and_a_run_of_them_resets_the_position() {
     let mut e = at_rest();
-    settle(&mut e, 200);
+    fly(&mut e, 200, 0.0);
     let fix = |t_us| PositionFix {
         t_us,
         north_m: 15.0,
@@ -242,14 +225,14 @@ fn an_outlier_is_gated_and_counted_and_a_run_of_them_resets_the_position() {
     assert_eq!(e.state(), before);
     assert_eq!(e.health().position_outliers, 1);
     for k in 1..RESET_AFTER_REJECTS - 1 {
-        settle(&mut e, 100);
+        fly(&mut e, 100, 0.0);
         assert_eq!(
             e.fuse_position(&fix(e.time_us())),
             Err(Refusal::Outlier),
             "{k}"
         );
     }
-    settle(&mut e, 100);
+    fly(&mut e, 100, 0.0);
     // The fifth in a row: the estimate, not the sensor, is wrong.
     assert_eq!(e.fuse_position(&fix(e.time_us())), Ok(()));
     assert!((e.state().x_m - 15.0).abs() < 0.01, "{:?}", e.state());
@@ -276,7 +259,7 @@ fn usbl_fixes_pull_a_wrong_start_toward_the_truth_within_the_fixes_accuracy() {
     .unwrap();
     let noise = [0.3f32, -0.2, 0.1, -0.35, 0.25, -0.05];
     for k in 0..60usize {
-        settle(&mut e, 100);
+        fly(&mut e, 100, 0.0);
         e.fuse_position(&PositionFix {
             t_us: e.time_us() - 500_000,
             north_m: noise[k % 6],

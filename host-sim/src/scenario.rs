@@ -680,7 +680,7 @@ impl Scenario {
     }
 }
 
-fn fin(key: &str, v: f64) -> Result<()> {
+pub(crate) fn fin(key: &str, v: f64) -> Result<()> {
     if !v.is_finite() {
         bail!("{key} must be a finite number (got {v})");
     }
@@ -695,7 +695,7 @@ fn pos(key: &str, v: f64) -> Result<()> {
     Ok(())
 }
 
-fn nonneg(key: &str, v: f64) -> Result<()> {
+pub(crate) fn nonneg(key: &str, v: f64) -> Result<()> {
     fin(key, v)?;
     if v < 0.0 {
         bail!("{key} must be >= 0 (got {v})");

@@ -22,6 +22,7 @@
 //! - `dropouts_s = [[t0, t1], ...]`: no samples with `t0 <= t < t1`.
 
 use crate::plant::PlantState;
+use crate::scenario::{fin as finite, nonneg as noise};
 use crate::sim_loop::{body_to_inertial, gauss};
 use anyhow::{bail, Result};
 use rand::{Rng, SeedableRng};
@@ -194,25 +195,10 @@ pub struct SensorsSpec {
     pub usbl: Option<UsblSpec>,
 }
 
-fn finite(key: &str, v: f64) -> Result<()> {
-    if !v.is_finite() {
-        bail!("{key} must be a finite number (got {v})");
-    }
-    Ok(())
-}
-
 fn rate(key: &str, v: f64) -> Result<()> {
     finite(key, v)?;
     if v <= 0.0 || v > 10_000.0 {
         bail!("{key} must be > 0 and <= 10000 Hz (got {v})");
-    }
-    Ok(())
-}
-
-fn noise(key: &str, v: f64) -> Result<()> {
-    finite(key, v)?;
-    if v < 0.0 {
-        bail!("{key} must be >= 0 (got {v})");
     }
     Ok(())
 }

@@ -65,23 +65,7 @@ fn fly_session(name: &str, extra: &[&str]) {
     std::fs::create_dir_all(&dir).unwrap();
     let tlog = dir.join("session.tlog");
     let port = free_udp_port();
-    let mut topside = Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .args([
-            "topside",
-            "--sim",
-            "circle-3d",
-            "--mavlink",
-            &format!("udpout:127.0.0.1:{port}"),
-            "--duration",
-            "300",
-            "--tlog",
-        ])
-        .arg(&tlog)
-        .arg("--params")
-        .arg(dir.join("params.json"))
-        .args(extra)
-        .spawn()
-        .unwrap();
+    let mut topside = topside(port, &tlog, &dir.join("params.json"), extra);
     let script = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/tests/clients/pymavlink_session.py"
@@ -152,7 +136,13 @@ fn fly_session(name: &str, extra: &[&str]) {
     assert!(out.log.iter().any(|s| s.pulse_us[0] > 1550.0));
 }
 
-fn topside(port: u16, tlog: &std::path::Path, params: &std::path::Path) -> std::process::Child {
+/// `host-sim topside --sim circle-3d` to `udpout:127.0.0.1:PORT`, with `extra` options.
+fn topside(
+    port: u16,
+    tlog: &std::path::Path,
+    params: &std::path::Path,
+    extra: &[&str],
+) -> std::process::Child {
     Command::new(env!("CARGO_BIN_EXE_host-sim"))
         .args([
             "topside",
@@ -160,8 +150,6 @@ fn topside(port: u16, tlog: &std::path::Path, params: &std::path::Path) -> std::
             "circle-3d",
             "--mavlink",
             &format!("udpout:127.0.0.1:{port}"),
-            "--speedup",
-            "2",
             "--duration",
             "300",
             "--tlog",
@@ -169,6 +157,7 @@ fn topside(port: u16, tlog: &std::path::Path, params: &std::path::Path) -> std::
         .arg(tlog)
         .arg("--params")
         .arg(params)
+        .args(extra)
         .spawn()
         .unwrap()
 }
@@ -201,7 +190,7 @@ fn pymavlink_changes_a_gain_which_survives_a_restart_and_a_bad_one_is_refused() 
     let tlog = dir.join("p.tlog");
 
     let port = free_udp_port();
-    let mut first = topside(port, &tlog, &params);
+    let mut first = topside(port, &tlog, &params, &["--speedup", "2"]);
     let out = client(&[&port.to_string(), "set"]);
     let _ = first.kill();
     let _ = first.wait();
@@ -213,7 +202,7 @@ fn pymavlink_changes_a_gain_which_survives_a_restart_and_a_bad_one_is_refused() 
     assert!(params.exists(), "the accepted change was saved");
 
     let port = free_udp_port();
-    let mut second = topside(port, &tlog, &params);
+    let mut second = topside(port, &tlog, &params, &["--speedup", "2"]);
     client(&[&port.to_string(), "check", &value]);
     let _ = second.kill();
     let _ = second.wait();

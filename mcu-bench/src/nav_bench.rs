@@ -20,6 +20,9 @@ use controller_core::reference::Reference;
 use controller_core::state::NavState;
 
 const DT_US: u64 = 10_000;
+
+/// One of the estimator's updates, on the cruise.
+type Update = fn(&mut Cruise);
 const SPEED_M_S: f32 = 0.25;
 const RADIUS_M: f32 = 5.0;
 
@@ -49,10 +52,16 @@ impl Cruise {
         }
     }
 
-    fn advance(&mut self) {
-        self.t_us += DT_US;
+    /// The IMU sample at the current time.
+    fn predict(&mut self) {
         let imu = self.imu();
         let _ = self.est.predict(&imu, [2.0, 2.0, 0.0]);
+    }
+
+    /// One sample later.
+    fn advance(&mut self) {
+        self.t_us += DT_US;
+        self.predict();
     }
 
     fn depth(&self) -> DepthFix {
@@ -127,64 +136,38 @@ pub fn run_nav<P: Platform>(b: &Bench<'_, P>, p: &P) {
         CALLS,
         &mut c,
         |c, _| c.t_us += DT_US,
-        |c| {
-            let imu = c.imu();
-            let _ = c.est.predict(&imu, [2.0, 2.0, 0.0]);
-        },
+        |c| c.predict(),
         |_| {},
     );
-    b.run_state(
-        "nav.fuse_depth",
-        CALLS,
-        &mut c,
-        |c, _| c.advance(),
-        |c| {
+    let updates: [(&str, Update); 4] = [
+        ("nav.fuse_depth", |c| {
             let m = c.depth();
             let _ = c.est.fuse_depth(&m);
-        },
-        |_| {},
-    );
-    b.run_state(
-        "nav.fuse_heading",
-        CALLS,
-        &mut c,
-        |c, _| c.advance(),
-        |c| {
+        }),
+        ("nav.fuse_heading", |c| {
             let m = c.heading();
             let _ = c.est.fuse_heading(&m);
-        },
-        |_| {},
-    );
-    b.run_state(
-        "nav.fuse_dvl",
-        CALLS,
-        &mut c,
-        |c, _| c.advance(),
-        |c| {
+        }),
+        ("nav.fuse_dvl", |c| {
             let m = c.dvl();
             let _ = c.est.fuse_dvl(&m);
-        },
-        |_| {},
-    );
-    b.run_state(
-        "nav.fuse_position",
-        CALLS,
-        &mut c,
-        |c, _| c.advance(),
-        |c| {
+        }),
+        ("nav.fuse_position", |c| {
             let m = c.usbl();
             let _ = c.est.fuse_position(&m);
-        },
-        |_| {},
-    );
+        }),
+    ];
+    // Each update after a predict (untimed).
+    for (name, update) in updates {
+        b.run_state(name, CALLS, &mut c, |c, _| c.advance(), update, |_| {});
+    }
     b.run_state(
         "nav.step_worst",
         CALLS,
         &mut c,
         |c, _| c.t_us += DT_US,
         |c| {
-            let imu = c.imu();
-            let _ = c.est.predict(&imu, [2.0, 2.0, 0.0]);
+            c.predict();
             let (d, h, v, u) = (c.depth(), c.heading(), c.dvl(), c.usbl());
             let _ = c.est.fuse_depth(&d);
             let _ = c.est.fuse_heading(&h);

@@ -8,23 +8,10 @@ import time
 
 from pymavlink import mavutil
 
+from gcs import expect, wait
+
 MANUAL, STABILIZE, POSHOLD = 19, 0, 16
 mav = mavutil.mavlink
-
-
-def expect(cond, what):
-    if not cond:
-        raise SystemExit(f"FAIL: {what}")
-    print(f"PASS: {what}", flush=True)
-
-
-def wait(m, kind, timeout=10.0, cond=lambda msg: True):
-    end = time.time() + timeout
-    while time.time() < end:
-        msg = m.recv_match(type=kind, blocking=True, timeout=max(0.05, end - time.time()))
-        if msg is not None and cond(msg):
-            return msg
-    return None
 
 
 def ack_of(m, command, timeout=10.0):
