@@ -15,13 +15,16 @@
 
 use crate::autopilot::{Autopilot, Failsafe, StepOutput};
 use crate::protocol::{
-    encode, encode_telemetry, fault, Board, Command, Decoded, DropReason, EncodeError,
-    FrameDecoder, LinkStats, NackReason, Reply, Status, Telemetry, MAX_FRAME_LEN,
+    encode, fault, Board, Command, Decoded, DropReason, EncodeError, FrameDecoder, LinkStats,
+    NackReason, Reply, Status, Telemetry, MAX_FRAME_LEN,
 };
 use controller_core::alloc::PwmMap;
 use controller_core::controller::Controller;
 use embedded_hal::pwm::SetDutyCycle;
 use embedded_io::{Read, ReadReady, Write};
+
+/// Bytes read from the serial port at a time (on the stack, then to the decoder).
+const RX_CHUNK: usize = 64;
 
 /// A monotonic clock.
 pub trait Monotonic {
@@ -323,10 +326,10 @@ where
                     break;
                 }
             }
-            // The port writes straight into the decoder's buffer (no copy in between).
-            let serial = &mut self.serial;
-            let n = match self.decoder.fill(budget, |buf| serial.read(buf)) {
-                Ok(n) => n,
+            let mut chunk = [0u8; RX_CHUNK];
+            let want = chunk.get_mut(..budget.min(RX_CHUNK)).unwrap_or_default();
+            let n = match self.serial.read(want) {
+                Ok(n) => n.min(want.len()),
                 Err(_) => {
                     self.io_faults |= fault::SERIAL_ERROR;
                     break;
@@ -336,10 +339,7 @@ where
                 break;
             }
             budget = budget.saturating_sub(n);
-            while self.decoder.has_unscanned() {
-                let d = self.decoder.poll();
-                self.on_decoded(d);
-            }
+            self.on_bytes(chunk.get(..n).unwrap_or_default());
         }
         if let Timing::FixedRate {
             control_period_us,
@@ -526,7 +526,7 @@ where
         let t = self.telemetry(now);
         let seq = self.next_tx_seq();
         // The same bytes as `encode(seq, &Reply::Telemetry(t), ..)`, written by hand.
-        let frame = encode_telemetry(seq, &t, &mut self.tx_buf);
+        let frame = encode(seq, &Reply::Telemetry(t), &mut self.tx_buf);
         write_frame(&mut self.serial, frame, &mut self.io_faults, &mut self.link);
     }
 

@@ -7,16 +7,13 @@
 //!
 //! - [`protocol`]: messages, framing (postcard + CRC-32 + COBS) and the streaming decoder;
 //! - [`autopilot`]: arming, modes, failsafes and the control step, no I/O;
-//! - [`app`]: the loop: serial in, control, PWM out, telemetry;
-//! - `wire`: the per-step messages (`Nav` in, `Telemetry` out) in postcard's format, by hand.
+//! - [`app`]: the loop: serial in, control, PWM out, telemetry.
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
 
 pub mod app;
 pub mod autopilot;
-mod crc32;
 pub mod protocol;
 pub mod ring;
-mod wire;
 
 #[cfg(target_os = "none")]
 pub mod board;

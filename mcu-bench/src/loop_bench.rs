@@ -18,8 +18,8 @@ use controller_core::reference::{PaperPolynomial, Reference};
 use controller_core::state::{BodyForces, NavState};
 use core::convert::Infallible;
 use firmware::protocol::{
-    encode, encode_telemetry, Board, Command, Decoded, FrameDecoder, Law, Mode, NavSample, Plane,
-    Reply, Telemetry, MAX_FRAME_LEN,
+    encode, Board, Command, Decoded, FrameDecoder, Law, Mode, NavSample, Plane, Reply, Telemetry,
+    MAX_FRAME_LEN,
 };
 use firmware::{App, Config, Monotonic};
 
@@ -209,23 +209,12 @@ pub fn run_loop<P: Platform>(b: &Bench<'_, P>, p: &P) {
             (out, n)
         },
         |(buf, n)| {
-            // As the loop reads it: the port writes the frame into the decoder's buffer (one
-            // copy, here from `buf`), `poll` scans and decodes.
+            // As the loop reads it: the bytes of the frame handed to the decoder.
             let mut got = None;
-            let src = buf.get(..*n).unwrap_or(&[]);
-            let filled = dec.fill(src.len(), |dst: &mut [u8]| {
-                let k = dst.len().min(src.len());
-                if let (Some(d), Some(s)) = (dst.get_mut(..k), src.get(..k)) {
-                    d.copy_from_slice(s);
-                }
-                Ok::<usize, Infallible>(k)
-            });
-            if filled.is_ok() {
-                while dec.has_unscanned() {
-                    let d = dec.poll();
-                    if d.is_some() {
-                        got = d;
-                    }
+            let mut src = buf.get(..*n).unwrap_or(&[]);
+            while !src.is_empty() {
+                if let Some(d) = dec.push_slice(&mut src) {
+                    got = Some(d);
                 }
             }
             if let Some(Decoded::Frame { .. }) = got {
@@ -260,7 +249,7 @@ pub fn run_loop<P: Platform>(b: &Bench<'_, P>, p: &P) {
         |t| {
             let mut out = [0u8; MAX_FRAME_LEN];
             seq = seq.wrapping_add(1);
-            encode_telemetry(seq, t, &mut out)
+            encode(seq, &Reply::Telemetry(*t), &mut out)
                 .map(|f| f.len())
                 .unwrap_or(0)
         },

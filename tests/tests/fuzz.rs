@@ -5,9 +5,8 @@
 //! no panic; the frames accepted are exactly the valid frames, in order (every valid frame
 //! recovered, no corrupted frame accepted); oversize runs are counted as overflows; the
 //! application fed the same streams keeps its pulses within 1100-1900 us. The decoder is
-//! fuzzed byte by byte (`push`), in uneven slices (`push_slice`) and in reads of uneven sizes
-//! straight into its buffer (`fill` and `poll`, the firmware loop's path), which must agree
-//! exactly.
+//! fuzzed byte by byte (`push`) and in uneven slices (`push_slice`, the firmware loop's path),
+//! which must agree exactly.
 //!
 //! `cargo test` runs 256 inputs per property. The long run (the figure in docs/protocol.md):
 //! `FUZZ_CASES=1000000 cargo test -p rov-tests --release --test fuzz -- --nocapture`.
@@ -206,32 +205,6 @@ fn decoder_recovers_every_valid_frame_and_accepts_nothing_else() {
         prop_assert_eq!(&got_s, &valid);
         prop_assert_eq!(s.dropped, d.dropped);
         prop_assert_eq!(s.frames, d.frames);
-        // The read-in-place path (what the firmware's loop uses: the port writes into the
-        // decoder's buffer, `poll` scans), in reads of uneven sizes.
-        let mut f = FrameDecoder::<Command>::new();
-        let mut got_f = Vec::new();
-        let mut pos = 0;
-        let mut k = segs.len();
-        while pos < bytes.len() {
-            k = (k * 13 + 5) % 97;
-            let want = 1 + k;
-            let n = f
-                .fill(want, |buf: &mut [u8]| {
-                    let n = buf.len().min(bytes.len() - pos);
-                    buf[..n].copy_from_slice(&bytes[pos..pos + n]);
-                    Ok::<usize, ()>(n)
-                })
-                .unwrap();
-            pos += n;
-            while f.has_unscanned() {
-                if let Some(Decoded::Frame { seq, msg }) = f.poll() {
-                    got_f.push((seq, msg));
-                }
-            }
-        }
-        prop_assert_eq!(&got_f, &valid);
-        prop_assert_eq!(f.dropped, d.dropped);
-        prop_assert_eq!(f.frames, d.frames);
         let (i, f, v, dr) = stats.get();
         stats.set((
             i + 1,

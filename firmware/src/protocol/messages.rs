@@ -1,0 +1,301 @@
+//! The tether's messages: what the topside sends ([`Command`]) and what the ROV answers
+//! ([`Reply`]), with the types they carry. Serialized by postcard (varints, `f32` as four
+//! little-endian bytes, enums by variant index) inside an [`Envelope`](super::Envelope).
+//! `docs/protocol.md` has the table.
+
+use super::decoder::DropCounters;
+use controller_core::law::paper_xy::PaperXyGains;
+use controller_core::law::paper_xz::PaperXzGains;
+use controller_core::law::tracking::TrackingGains;
+use controller_core::reference::Reference;
+use controller_core::state::{BodyForces, NavState, TrackingErrors};
+use serde::{Deserialize, Serialize};
+
+/// Plane of a tracking mode.
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Plane {
+    /// Vertical plane (surge and heave; x and depth).
+    Xz,
+    /// Horizontal plane (surge and yaw; x and y).
+    Xy,
+    /// 3-D: horizontal plane plus depth.
+    ThreeD,
+}
+
+/// Which control law tracks.
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Law {
+    /// The paper's backstepping laws (XZ and XY only).
+    Paper,
+    /// The tracking laws.
+    Tracking,
+}
+
+/// Operating mode of the vehicle.
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum Mode {
+    /// No thrust (neutral pulses), armed or not.
+    #[default]
+    Idle,
+    /// Open-loop thrust from [`Command::ManualThrust`].
+    Manual,
+    /// Follow the reference set by [`Command::SetReference`].
+    Track {
+        /// Plane.
+        plane: Plane,
+        /// Law.
+        law: Law,
+    },
+    /// Hold the position of the latest `NavState` when the mode was entered
+    /// (3-D tracking law on a fixed point).
+    Hold,
+}
+
+/// A time-stamped navigation state (the state estimate sent by the topside or the plant).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct NavSample {
+    /// Time of the estimate on the sender's clock, microseconds. In lock-step mode this is
+    /// the firmware's clock.
+    pub t_us: u64,
+    /// The state.
+    pub state: NavState,
+}
+
+/// Open-loop thrust, each component normalized to `[-1, 1]` of what the vehicle can make.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct ManualThrust {
+    /// Surge force, fraction of the largest surge force.
+    pub surge: f32,
+    /// Yaw moment, fraction of the largest yaw moment.
+    pub yaw: f32,
+    /// Heave force, fraction of the largest heave force (positive down).
+    pub heave: f32,
+}
+
+impl ManualThrust {
+    /// True when every component is finite and within `[-1, 1]`.
+    pub fn is_valid(&self) -> bool {
+        [self.surge, self.yaw, self.heave]
+            .iter()
+            .all(|v| v.is_finite() && (-1.0..=1.0).contains(v))
+    }
+}
+
+/// Topside -> ROV messages.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum Command {
+    /// Keep-alive. `t_us` is the sender's clock (used as the firmware's clock in lock-step).
+    Heartbeat {
+        /// Sender's time, microseconds.
+        t_us: u64,
+    },
+    /// Arm the thrusters (needs a fresh heartbeat and a fresh `NavState`).
+    Arm,
+    /// Disarm: neutral pulses at once.
+    Disarm,
+    /// Change the mode (resets the laws' integrators).
+    SetMode(Mode),
+    /// Set the reference to track.
+    SetReference {
+        /// The reference (validated by the core).
+        reference: Reference,
+        /// Firmware time at which the reference's `t = 0` is, microseconds; `None` = now.
+        start_us: Option<u64>,
+    },
+    /// Replace both paper laws' gains (validated with the rest of the set; unchanged on
+    /// error). Version 2: the gains travel as two messages, so that the largest `Command`
+    /// (what every move of a decoded command copies) is 80 bytes, not 144.
+    SetPaperGains {
+        /// Paper XZ law.
+        xz: PaperXzGains,
+        /// Paper XY law.
+        xy: PaperXyGains,
+    },
+    /// A navigation state. In lock-step mode it runs one control step and is answered by
+    /// `Telemetry`.
+    Nav(NavSample),
+    /// Open-loop thrust for `Mode::Manual`.
+    ManualThrust(ManualThrust),
+    /// Replace the tracking laws' gains (validated with the rest of the set; unchanged on
+    /// error).
+    SetTrackingGains(TrackingGains),
+}
+
+/// Why a command was refused.
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[non_exhaustive]
+pub enum NackReason {
+    /// The frame's protocol version is not [`PROTOCOL_VERSION`](super::PROTOCOL_VERSION).
+    UnsupportedVersion,
+    /// CRC was right but the payload did not decode as a command.
+    Malformed,
+    /// A number was NaN or infinite.
+    NonFinite,
+    /// A number was outside its range.
+    OutOfRange,
+    /// A value that must be positive was not.
+    NotPositive,
+    /// A value that must not be negative was.
+    Negative,
+    /// Parameters that describe no physical vehicle.
+    NonPhysical,
+    /// Arming refused: no heartbeat within the arming window.
+    NoHeartbeat,
+    /// Arming or hold refused: no fresh `NavState`.
+    NavStale,
+    /// A tracking mode without a reference.
+    NoReference,
+    /// A combination the firmware does not offer (e.g. the paper law in 3-D).
+    Unsupported,
+}
+
+impl From<controller_core::Error> for NackReason {
+    fn from(e: controller_core::Error) -> Self {
+        use controller_core::Error as E;
+        match e {
+            E::NonFinite(_) => NackReason::NonFinite,
+            E::NotPositive(_) => NackReason::NotPositive,
+            E::Negative(_) => NackReason::Negative,
+            E::NonPhysical(_) => NackReason::NonPhysical,
+            _ => NackReason::OutOfRange,
+        }
+    }
+}
+
+/// Fault flags in [`Telemetry::faults`] (a bit set).
+pub mod fault {
+    /// No heartbeat for the neutral timeout: thrust is neutral.
+    pub const HEARTBEAT_LOST: u16 = 1 << 0;
+    /// No heartbeat for the disarm timeout: the vehicle disarmed itself (sticky until armed).
+    pub const LINK_DISARMED: u16 = 1 << 1;
+    /// `NavState` too old while tracking or holding: thrust is neutral.
+    pub const NAV_STALE: u16 = 1 << 2;
+    /// Manual command too old: thrust is neutral.
+    pub const MANUAL_STALE: u16 = 1 << 3;
+    /// A PWM output reported an error.
+    pub const PWM_ERROR: u16 = 1 << 4;
+    /// The serial port reported an error.
+    pub const SERIAL_ERROR: u16 = 1 << 5;
+    /// The allocation saturated at least one thruster in the latest step.
+    pub const SATURATED: u16 = 1 << 6;
+    /// A control period was missed (fixed-rate mode).
+    pub const OVERRUN: u16 = 1 << 7;
+}
+
+/// Link statistics, as counted by the firmware.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct LinkStats {
+    /// Frames accepted (CRC and decoding good).
+    pub rx_frames: u32,
+    /// Frames dropped, by reason.
+    pub dropped: DropCounters,
+    /// Frames sent.
+    pub tx_frames: u32,
+    /// Nacks sent.
+    pub nacks: u32,
+}
+
+/// What the ROV reports every control step (lock-step: the answer to each `NavState`) or
+/// at the telemetry rate (fixed-rate mode). Version 3 keeps here what changes every step;
+/// the link counters and other slow figures are in [`Status`], the answer to each
+/// heartbeat.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Telemetry {
+    /// Firmware time, microseconds.
+    pub t_us: u64,
+    /// Mode.
+    pub mode: Mode,
+    /// Armed.
+    pub armed: bool,
+    /// Sequence number of the latest `NavState` used (lock-step: the one this answers).
+    pub nav_seq: u16,
+    /// Tracking errors of the latest control step.
+    pub errors: TrackingErrors,
+    /// Generalized forces the law (or the manual command) asked for.
+    pub requested: BodyForces,
+    /// Generalized forces the commanded thrusts make.
+    pub achieved: BodyForces,
+    /// Thruster forces `[F1x, F2x, F3z]` commanded (zero when neutral).
+    pub thrust_n: [f32; 3],
+    /// Pulse widths actually written to the three PWM outputs, microseconds (read back from
+    /// the duty cycles: what the ESCs see).
+    pub pulse_us: [u16; 3],
+    /// Fault flags ([`fault`]).
+    pub faults: u16,
+    /// Duration of the latest control iteration in clock ticks (microseconds on the
+    /// STM32F4 board; instructions on the emulated board under `-icount shift=0`).
+    pub loop_ticks: u32,
+}
+
+/// The slow half of the report: link counters and health, sent as the answer to each
+/// accepted `Heartbeat` (so the topside sets its rate, and each one proves a round trip).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Status {
+    /// Firmware time, microseconds.
+    pub t_us: u64,
+    /// Sequence number of the heartbeat this answers.
+    pub heartbeat_seq: u16,
+    /// Time stamp of the latest accepted `NavState` (0 before the first).
+    pub nav_t_us: u64,
+    /// Link counters.
+    pub link: LinkStats,
+    /// Control steps run since boot.
+    pub steps: u32,
+    /// Largest `Telemetry::loop_ticks` since boot.
+    pub loop_ticks_max: u32,
+    /// Control periods missed (fixed-rate mode).
+    pub overruns: u32,
+    /// Fault flags now ([`fault`]).
+    pub faults: u16,
+}
+
+/// Which board sent a [`Reply::Hello`].
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Board {
+    /// STM32F405 hardware.
+    Stm32f4,
+    /// QEMU `netduinoplus2`.
+    QemuNetduinoPlus2,
+    /// Host-side test double.
+    Host,
+}
+
+/// ROV -> topside messages.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum Reply {
+    /// Sent once at boot: the host waits for it before sending (the emulated USART drops
+    /// bytes that arrive before it is enabled).
+    Hello {
+        /// [`PROTOCOL_VERSION`](super::PROTOCOL_VERSION) (also in the envelope).
+        protocol: u8,
+        /// Which board.
+        board: Board,
+        /// True when the control step runs on each `NavState` (lock-step).
+        lockstep: bool,
+        /// Control period (fixed-rate) in microseconds; 0 in lock-step.
+        control_period_us: u32,
+        /// PWM frequency, hertz.
+        pwm_hz: u16,
+    },
+    /// Telemetry.
+    Telemetry(Telemetry),
+    /// A command was accepted.
+    Ack {
+        /// Sequence number of the command.
+        seq: u16,
+    },
+    /// A command was refused; nothing changed.
+    Nack {
+        /// Sequence number of the command.
+        seq: u16,
+        /// Why.
+        reason: NackReason,
+    },
+    /// The answer to a `Heartbeat` (version 3).
+    Status(Status),
+}

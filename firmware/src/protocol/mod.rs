@@ -1,0 +1,39 @@
+//! The tether protocol: [`messages`], [`framing`] and the streaming [`decoder`].
+//!
+//! A frame on the wire is
+//!
+//! ```text
+//! 0x00 ++ COBS( postcard(Envelope { version: u8, seq: u16, msg }) ++ CRC-32/ISO-HDLC(le) ) ++ 0x00
+//! ```
+//!
+//! - `postcard` gives a compact, stable serde encoding (varints, `f32` as 4 bytes LE,
+//!   enums by variant index);
+//! - the CRC-32 covers the whole postcard payload (the version and sequence number too) and is
+//!   appended little-endian;
+//! - COBS removes every zero byte so `0x00` only ever ends a frame: a receiver that loses
+//!   bytes or joins mid-stream resynchronizes on the next zero. Frames start with a zero
+//!   too, so a frame that follows garbage or a truncated frame is never glued to it (the
+//!   decoder ignores the empty frame between two zeros).
+//!
+//! A payload is at most [`MAX_PAYLOAD_LEN`] bytes, so a frame is at most [`MAX_FRAME_LEN`]
+//! bytes including its delimiters; both are compile-time constants and every message type is
+//! tested to fit. Postcard's serde path writes and reads the payload, the `crc` crate checks
+//! it, the `cobs` crate frames it: no part of the format is written by hand. The decoder ([`FrameDecoder`]) drops anything else and counts why
+//! ([`DropCounters`]). Every message carries a sequence number so `Ack` / `Nack` (and the
+//! lock-step `Telemetry`) can name the command they answer.
+//!
+//! `docs/protocol.md` has the message table and how the emulated board is driven.
+
+pub mod decoder;
+pub mod framing;
+pub mod messages;
+
+pub use decoder::{decode_frame, Decoded, DropCounters, DropReason, FrameDecoder};
+pub use framing::{
+    encode, encode_with_version, EncodeError, Envelope, Header, CRC, CRC_LEN, MAX_ENCODED_LEN,
+    MAX_FRAME_LEN, MAX_PAYLOAD_LEN, PROTOCOL_VERSION,
+};
+pub use messages::*;
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,191 @@
+//! The protocol's own tests: the bytes on the wire, round trips, the decoder's drops.
+#![allow(clippy::unwrap_used, clippy::panic, clippy::indexing_slicing)]
+
+use super::*;
+use controller_core::reference::Reference;
+use controller_core::state::NavState;
+
+fn frame(seq: u16, cmd: &Command) -> Vec<u8> {
+    let mut out = [0u8; MAX_FRAME_LEN];
+    encode(seq, cmd, &mut out).unwrap().to_vec()
+}
+
+#[test]
+fn the_bytes_are_postcard_then_crc32_then_cobs_as_in_version_3() {
+    // Computed independently (Python: zlib.crc32 and a textbook COBS) from the postcard
+    // payloads [3, 7, 1] (version 3, seq 7, `Arm` = variant 1) and [3, 42, 0, 0xE8, 0x07]
+    // (seq 42, `Heartbeat` = variant 0, t_us = 1000 as a varint): the same bytes as the
+    // hand-written encoder of version 3 sent, so the version stays 3.
+    assert_eq!(
+        frame(7, &Command::Arm),
+        [0, 8, 3, 7, 1, 26, 193, 65, 197, 0]
+    );
+    assert_eq!(
+        frame(42, &Command::Heartbeat { t_us: 1000 }),
+        [0, 3, 3, 42, 7, 232, 7, 208, 46, 206, 70, 0]
+    );
+}
+
+#[test]
+fn every_command_and_reply_round_trips_and_fits() {
+    let nav = NavState {
+        x_m: 1.5,
+        yaw_rad: -3.0,
+        r_rad_s: f32::MAX,
+        ..NavState::default()
+    };
+    let commands = [
+        Command::Heartbeat { t_us: u64::MAX },
+        Command::Arm,
+        Command::Disarm,
+        Command::SetMode(Mode::Track {
+            plane: Plane::ThreeD,
+            law: Law::Tracking,
+        }),
+        Command::SetReference {
+            reference: Reference::Lawnmower {
+                start_m: [1.0, 2.0, 3.0],
+                heading_rad: 0.5,
+                leg_length_m: 15.0,
+                spacing_m: 5.0,
+                legs: u16::MAX,
+                speed_m_s: 0.25,
+            },
+            start_us: Some(u64::MAX),
+        },
+        Command::Nav(NavSample {
+            t_us: u64::MAX,
+            state: nav,
+        }),
+        Command::ManualThrust(ManualThrust {
+            surge: 1.0,
+            yaw: -1.0,
+            heave: 0.5,
+        }),
+        Command::SetTrackingGains(Default::default()),
+        Command::SetPaperGains {
+            xz: Default::default(),
+            xy: Default::default(),
+        },
+    ];
+    for (i, cmd) in commands.iter().enumerate() {
+        let f = frame(u16::MAX - i as u16, cmd);
+        assert!(f.len() <= MAX_FRAME_LEN);
+        assert_eq!(f.iter().filter(|&&b| b == 0).count(), 2, "{cmd:?}");
+        match decode_frame::<Command>(&f) {
+            Some(Decoded::Frame { seq, msg }) => {
+                assert_eq!((seq, msg), (u16::MAX - i as u16, *cmd));
+            }
+            other => panic!("{cmd:?}: {other:?}"),
+        }
+    }
+    let mut out = [0u8; MAX_FRAME_LEN];
+    let t = Reply::Telemetry(Telemetry {
+        t_us: u64::MAX,
+        loop_ticks: u32::MAX,
+        faults: u16::MAX,
+        ..Telemetry::default()
+    });
+    let f = encode(1, &t, &mut out).unwrap().to_vec();
+    assert_eq!(
+        decode_frame::<Reply>(&f),
+        Some(Decoded::Frame { seq: 1, msg: t })
+    );
+}
+
+#[test]
+fn garbage_truncation_and_corruption_are_dropped_and_counted() {
+    let good = frame(5, &Command::Arm);
+    let mut d = FrameDecoder::<Command>::new();
+    let mut stream = vec![0x11, 0x22, 0x33]; // garbage before a frame
+    stream.extend(&good);
+    stream.extend(&good[..5]); // a truncated frame, then a whole one
+    stream.extend(&good);
+    let mut bad_crc = good.clone();
+    bad_crc[3] ^= 0x40;
+    stream.extend(&bad_crc);
+    stream.extend([0, 1, 0]); // COBS of nothing: too short
+    stream.extend(std::iter::repeat_n(7u8, 300)); // over-long
+    stream.push(0);
+    let mut other_version = [0u8; MAX_FRAME_LEN];
+    stream.extend(encode_with_version(9, 77, &Command::Arm, &mut other_version).unwrap());
+    let got: Vec<_> = stream.iter().filter_map(|&b| d.push(b)).collect();
+    let frames = got
+        .iter()
+        .filter(|x| {
+            matches!(
+                x,
+                Decoded::Frame {
+                    seq: 5,
+                    msg: Command::Arm
+                }
+            )
+        })
+        .count();
+    assert_eq!(frames, 2);
+    assert_eq!(d.frames, 2);
+    // The garbage and the truncated frame are not even valid COBS (their first code byte
+    // points past their end); the flipped bit is.
+    assert_eq!(d.dropped.cobs, 2, "{:?}", d.dropped);
+    assert_eq!(d.dropped.crc, 1);
+    assert_eq!(d.dropped.too_short, 1);
+    assert_eq!(d.dropped.overflow, 1);
+    assert_eq!(d.dropped.version, 1);
+    assert!(got.contains(&Decoded::Dropped {
+        reason: DropReason::Version,
+        seq: Some(77)
+    }));
+    assert_eq!(d.dropped.total(), 6);
+}
+
+#[test]
+fn a_good_crc_on_a_bad_payload_is_malformed_with_its_sequence_number() {
+    // Version 3, seq 9, variant 200 (no such command), with a correct CRC.
+    let payload = [3u8, 9, 200, 1];
+    let mut body = payload.to_vec();
+    body.extend(CRC.checksum(&payload).to_le_bytes());
+    let mut f = vec![0u8; 32];
+    let n = cobs::encode(&body, &mut f[1..]);
+    f.truncate(n + 2);
+    f[n + 1] = 0;
+    assert_eq!(
+        decode_frame::<Command>(&f),
+        Some(Decoded::Dropped {
+            reason: DropReason::Malformed,
+            seq: Some(9)
+        })
+    );
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(500))]
+
+    /// Slices of any size give the same results and counts as byte by byte.
+    #[test]
+    fn push_slice_equals_push(
+        chunks in proptest::collection::vec(proptest::collection::vec(0u8..4, 0..40), 0..20),
+        cut in 1usize..50,
+    ) {
+        let good = frame(3, &Command::Disarm);
+        let mut stream = Vec::new();
+        for c in &chunks {
+            stream.extend(c);
+            stream.extend(&good);
+        }
+        let mut a = FrameDecoder::<Command>::new();
+        let want: Vec<_> = stream.iter().filter_map(|&b| a.push(b)).collect();
+        let mut b = FrameDecoder::<Command>::new();
+        let mut got = Vec::new();
+        for part in stream.chunks(cut) {
+            let mut rest = part;
+            while !rest.is_empty() {
+                if let Some(x) = b.push_slice(&mut rest) {
+                    got.push(x);
+                }
+            }
+        }
+        proptest::prop_assert_eq!(got, want);
+        proptest::prop_assert_eq!(a.frames, b.frames);
+        proptest::prop_assert_eq!(a.dropped, b.dropped);
+    }
+}
