@@ -14,9 +14,13 @@
 #    comparison (that image does contain soft f64, by design) and each law alone (`law.*`,
 #    closed loop; the allocation, PWM map and anti-windup untimed).
 # 4. Prints flash and static RAM of the STM32F4 firmware image (`llvm-size`), if it builds.
-# 5. Compares with the targets of issue 5: control step <= 1,000 instructions, loop iteration
-#    <= 5,000, flash <= 48 KiB, RAM incl. stack <= 8 KiB. Over-budget figures are reported
-#    as OVER; with MCU_COST_STRICT=1 they also make the script fail.
+# 5. Compares with the budgets (issues 11, 12, 15): a loop iteration <= 30,000 instructions
+#    (mean and max), the estimator's worst step (predict + every update + the control step)
+#    <= 30,000, and their sum, the loop with the estimator, <= 30,000; flash <= 96 KiB; RAM
+#    (static + measured stack) <= 24 KiB. Over-budget figures are reported as OVER; with
+#    MCU_COST_STRICT=1 they also make the script fail. Below a budget the clearest code wins:
+#    the control steps' figures are printed, not judged (the 1,000-instruction target of
+#    issue 5 is withdrawn).
 #
 # Honors CARGO_TARGET_DIR. Needs qemu-system-arm (Debian package) and, for nm/size, the
 # rustup component llvm-tools (named in rust-toolchain.toml) or binutils.
@@ -179,40 +183,42 @@ if [ -f "$QEMU_ELF" ]; then
   fi
 fi
 
-# ---- 5. against the targets ----------------------------------------------------------------
+# ---- 5. against the budgets ----------------------------------------------------------------
 echo
-echo "== against the targets of issue 5"
+echo "== against the budgets (loop and estimator <= 30,000 instructions, flash <= 96 KiB, RAM <= 24 KiB)"
 over=0
 check() { # LABEL VALUE LIMIT UNIT
   local v=${2%.*}
   if [ "$v" -le "$3" ]; then echo "  ok    $1: $2 $4 (<= $3)"; else echo "  OVER  $1: $2 $4 (> $3)"; over=1; fi
 }
 field() { sed -n "s/.* $1=\([0-9.]*\).*/\1/p"; }
-while read -r line; do
-  name=$(echo "$line" | awk '{print $2}')
-  check "$name (mean)" "$(echo "$line" | field mean)" 1000 instructions
-  check "$name (max)" "$(echo "$line" | field max)" 1000 instructions
-done < <(grep -E '^BENCH (control_step|control_step_random)\.' "$OUT/bench.log")
-while read -r line; do
-  name=$(echo "$line" | awk '{print $2}')
-  check "$name (mean, the law alone)" "$(echo "$line" | field mean)" 1000 instructions
-  check "$name (max, the law alone)" "$(echo "$line" | field max)" 1000 instructions
-done < <(grep '^BENCH law\.' "$OUT/bench-libm.log")
+BUDGET=30000
 LOOP_STACK=""
+LOOP_MAX=0
 while read -r line; do
   name=$(echo "$line" | awk '{print $2}')
-  check "$name (mean)" "$(echo "$line" | field mean)" 5000 instructions
-  check "$name (max)" "$(echo "$line" | field max)" 5000 instructions
+  check "$name (mean)" "$(echo "$line" | field mean)" $BUDGET instructions
+  check "$name (max)" "$(echo "$line" | field max)" $BUDGET instructions
+  m=$(echo "$line" | field max); [ "${m%.*}" -gt "$LOOP_MAX" ] && LOOP_MAX=${m%.*}
   LOOP_STACK=$(echo "$line" | field stack)
 done < <(grep '^BENCH loop\.' "$OUT/bench.log")
+NAV=$(grep '^BENCH nav.step_worst' "$OUT/bench.log" || true)
+if [ -n "$NAV" ]; then
+  check "nav.step_worst (mean)" "$(echo "$NAV" | field mean)" $BUDGET instructions
+  check "nav.step_worst (max)" "$(echo "$NAV" | field max)" $BUDGET instructions
+  nav_max=$(echo "$NAV" | field max)
+  # The estimator does not run in the firmware's loop yet (issue 12): the loop with it is
+  # bounded by the two worst cases added (the control step is counted twice).
+  check "loop with the estimator (upper bound: worst loop + nav.step_worst)" "$((LOOP_MAX + ${nav_max%.*}))" $BUDGET instructions
+fi
 HW=$(sed -n 's/^STACK high_water=\([0-9]*\).*/\1/p' "$OUT/bench.log")
 echo "  stack: whole bench program high-water $HW B${LOOP_STACK:+, loop iteration $LOOP_STACK B below its caller}"
 if [ -n "$FW_FLASH" ]; then
-  check "firmware flash" "$FW_FLASH" $((48 * 1024)) B
+  check "firmware flash" "$FW_FLASH" $((96 * 1024)) B
   if [ -n "$FW_STACK" ]; then
-    check "firmware RAM (stm32f4 static $FW_RAM + measured firmware stack $FW_STACK)" "$((FW_RAM + FW_STACK))" $((8 * 1024)) B
+    check "firmware RAM (stm32f4 static $FW_RAM + measured firmware stack $FW_STACK)" "$((FW_RAM + FW_STACK))" $((24 * 1024)) B
   else
-    check "firmware RAM (static $FW_RAM + bench stack high-water $HW, an upper bound)" "$((FW_RAM + HW))" $((8 * 1024)) B
+    check "firmware RAM (static $FW_RAM + bench stack high-water $HW, an upper bound)" "$((FW_RAM + HW))" $((24 * 1024)) B
   fi
 fi
 [ "$NM_OK" = 1 ] && echo "  ok    no soft f64 in the control path" || echo "  FAIL  soft f64 in the control path"
