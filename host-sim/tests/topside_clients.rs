@@ -10,6 +10,7 @@
 
 use std::net::UdpSocket;
 use std::path::PathBuf;
+use std::os::unix::process::CommandExt;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -76,8 +77,7 @@ fn fly_session(name: &str, extra: &[&str]) {
         .arg(port.to_string())
         .output()
         .unwrap();
-    let _ = topside.kill();
-    let _ = topside.wait();
+    stop(topside);
     let stdout = String::from_utf8_lossy(&out.stdout);
     println!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
     assert!(
@@ -158,8 +158,20 @@ fn topside(
         .arg("--params")
         .arg(params)
         .args(extra)
+        // A process group of its own, so that `stop` ends QEMU with it.
+        .process_group(0)
         .spawn()
         .unwrap()
+}
+
+/// Stop a topside and what it started (the emulator of `--emulated`): a killed process runs
+/// no destructors, so its whole process group is killed.
+fn stop(mut child: std::process::Child) {
+    let _ = Command::new("kill")
+        .args(["-KILL", "--", &format!("-{}", child.id())])
+        .status();
+    let _ = child.kill();
+    let _ = child.wait();
 }
 
 fn client(args: &[&str]) -> String {
@@ -192,8 +204,7 @@ fn pymavlink_changes_a_gain_which_survives_a_restart_and_a_bad_one_is_refused() 
     let port = free_udp_port();
     let mut first = topside(port, &tlog, &params, &["--speedup", "2"]);
     let out = client(&[&port.to_string(), "set"]);
-    let _ = first.kill();
-    let _ = first.wait();
+    stop(first);
     let value = out
         .lines()
         .find_map(|l| l.strip_prefix("VALUE="))
@@ -204,8 +215,7 @@ fn pymavlink_changes_a_gain_which_survives_a_restart_and_a_bad_one_is_refused() 
     let port = free_udp_port();
     let mut second = topside(port, &tlog, &params, &["--speedup", "2"]);
     client(&[&port.to_string(), "check", &value]);
-    let _ = second.kill();
-    let _ = second.wait();
+    stop(second);
 }
 
 #[test]
