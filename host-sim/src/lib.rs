@@ -12,6 +12,7 @@
 //! - [`output`], [`plots`]: what a run writes.
 //! - [`monte_carlo`]: perturbed-parameter runs in parallel.
 
+pub mod checks;
 pub mod estimator_nav;
 pub mod hil;
 pub mod in_process;

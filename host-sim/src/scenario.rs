@@ -3,6 +3,7 @@
 //! Parsing is strict: unknown keys are rejected (`deny_unknown_fields`) and every number is
 //! checked by [`Scenario::validate`] before a run starts, with an error that names the key.
 
+use crate::checks::{fin, nonneg, pos, vec3};
 pub use crate::sensors::{NavSource, NavigationSpec, SensorsSpec};
 use anyhow::{anyhow, bail, Context, Result};
 use controller_core::controller::ControlMode;
@@ -678,34 +679,4 @@ impl Scenario {
         let c = self.disturbance.current_m_s;
         (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()
     }
-}
-
-pub(crate) fn fin(key: &str, v: f64) -> Result<()> {
-    if !v.is_finite() {
-        bail!("{key} must be a finite number (got {v})");
-    }
-    Ok(())
-}
-
-fn pos(key: &str, v: f64) -> Result<()> {
-    fin(key, v)?;
-    if v <= 0.0 {
-        bail!("{key} must be > 0 (got {v})");
-    }
-    Ok(())
-}
-
-pub(crate) fn nonneg(key: &str, v: f64) -> Result<()> {
-    fin(key, v)?;
-    if v < 0.0 {
-        bail!("{key} must be >= 0 (got {v})");
-    }
-    Ok(())
-}
-
-fn vec3(key: &str, v: [f64; 3]) -> Result<()> {
-    for (i, x) in v.iter().enumerate() {
-        fin(&format!("{key}[{i}]"), *x)?;
-    }
-    Ok(())
 }

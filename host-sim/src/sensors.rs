@@ -21,8 +21,8 @@
 //!   distance drawn uniformly in `[outlier_m, 2 outlier_m]`, in a random direction (multipath).
 //! - `dropouts_s = [[t0, t1], ...]`: no samples with `t0 <= t < t1`.
 
+use crate::checks::{fin as finite, nonneg as noise};
 use crate::plant::PlantState;
-use crate::scenario::{fin as finite, nonneg as noise};
 use crate::sim_loop::{body_to_inertial, gauss};
 use anyhow::{bail, Result};
 use rand::{Rng, SeedableRng};

@@ -9,8 +9,8 @@
 //! `ROV_REQUIRE_PYMAVLINK=1` (set by `.ci/run`) it fails instead.
 
 use std::net::UdpSocket;
-use std::path::PathBuf;
 use std::os::unix::process::CommandExt;
+use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -66,7 +66,7 @@ fn fly_session(name: &str, extra: &[&str]) {
     std::fs::create_dir_all(&dir).unwrap();
     let tlog = dir.join("session.tlog");
     let port = free_udp_port();
-    let mut topside = topside(port, &tlog, &dir.join("params.json"), extra);
+    let topside = topside(port, &tlog, &dir.join("params.json"), extra);
     let script = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/tests/clients/pymavlink_session.py"
@@ -202,7 +202,7 @@ fn pymavlink_changes_a_gain_which_survives_a_restart_and_a_bad_one_is_refused() 
     let tlog = dir.join("p.tlog");
 
     let port = free_udp_port();
-    let mut first = topside(port, &tlog, &params, &["--speedup", "2"]);
+    let first = topside(port, &tlog, &params, &["--speedup", "2"]);
     let out = client(&[&port.to_string(), "set"]);
     stop(first);
     let value = out
@@ -213,7 +213,7 @@ fn pymavlink_changes_a_gain_which_survives_a_restart_and_a_bad_one_is_refused() 
     assert!(params.exists(), "the accepted change was saved");
 
     let port = free_udp_port();
-    let mut second = topside(port, &tlog, &params, &["--speedup", "2"]);
+    let second = topside(port, &tlog, &params, &["--speedup", "2"]);
     client(&[&port.to_string(), "check", &value]);
     stop(second);
 }

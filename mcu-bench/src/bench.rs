@@ -416,14 +416,17 @@ pub const MODES: [(&str, ControlMode); 5] = [
     ("tracking_3d", ControlMode::Tracking3d),
 ];
 
-/// Run every measurement. Returns false if the controller could not be built.
-pub fn run_all<P: Platform>(p: &P) -> bool {
-    let b = Bench::new(p);
-    p.print(format_args!(
-        "mcu-bench: {CALLS} calls per item, counter overhead {} ticks subtracted",
-        b.overhead
-    ));
+/// The counter overhead subtracted from every figure.
+impl<P: Platform> Bench<'_, P> {
+    /// Ticks of two back-to-back counter reads.
+    pub fn overhead(&self) -> u32 {
+        self.overhead
+    }
+}
 
+/// The maths, the control steps and the laws. Returns false if the controller could not be
+/// built.
+pub fn run_core<P: Platform>(b: &Bench<'_, P>, p: &P) -> bool {
     // Maths.
     let mut g = Lcg(1);
     b.run(
@@ -628,14 +631,6 @@ pub fn run_all<P: Platform>(p: &P) -> bool {
         );
     }
 
-    crate::nav_bench::run_nav(&b, p);
-    crate::loop_bench::run_loop(&b, p);
-
-    if let Some(hw) = p.stack_high_water() {
-        p.print(format_args!(
-            "STACK high_water={hw} (from the top of RAM, whole bench program incl. its own frames)"
-        ));
-    }
     true
 }
 

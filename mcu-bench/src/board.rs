@@ -4,7 +4,7 @@
 //! The only module with `unsafe`: register and linker-symbol accesses, each with its reason.
 #![allow(unsafe_code)]
 
-use crate::bench::{self, Platform};
+use crate::bench::Platform;
 use core::fmt;
 use core::ptr::{addr_of, read_volatile, write_volatile};
 use cortex_m_rt::{entry, exception, ExceptionFrame};
@@ -143,7 +143,7 @@ fn main() -> ! {
     };
     // Paint once from reset depth, so the absolute high-water covers the whole program.
     q.paint_stack();
-    let ok = bench::run_all(&q);
+    let ok = crate::run_all(&q);
     debug::exit(if ok {
         debug::EXIT_SUCCESS
     } else {
