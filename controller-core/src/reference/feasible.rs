@@ -21,7 +21,7 @@
 //! conditions needs the pitch `theta = -asin(a / g)` (`u1_dot = -g sin(theta)`, MODEL_NOTES
 //! section 3): [`pitch_for_accel`].
 
-use crate::math::{asin, asin_sin_cos, atan2, clamp_keep_nan, clamp_sin_cos_small, max, sqrt};
+use crate::math::{asin, asin_sin_cos, atan2, clamp_sin_cos_small, max, sqrt};
 use crate::params::{XyCoeffs, XzCoeffs};
 use crate::reference::RefSample;
 
@@ -188,9 +188,9 @@ fn finite_slip(b: f32, advance: f32) -> Sideslip {
 }
 
 /// Solve `g(beta) = 0` for the course `c` (see the module docs): three Newton steps from the
-/// root of `g` linearized at 0, each iterate clamped to +-[`SIDESLIP_MAX_RAD`]. Out of line:
-/// the law takes it only at a start (or where [`sideslip_step`] cannot step).
-#[inline(never)]
+/// root of `g` linearized at 0, each iterate clamped to +-[`SIDESLIP_MAX_RAD`]. The law solves
+/// it in full every step: a warm start from the last step would save instructions, not
+/// accuracy.
 pub fn sideslip(xy: &XyCoeffs, c: &Course) -> Sideslip {
     let Some(eq) = SlipEquation::of(xy, c) else {
         return Sideslip::default();
@@ -201,30 +201,6 @@ pub fn sideslip(xy: &XyCoeffs, c: &Course) -> Sideslip {
     }
     let (b, (s, co)) = clamp_sin_cos_small(b, SIDESLIP_MAX_RAD);
     finite_slip(b, eq.advance(co, eq.deriv(s, co).0))
-}
-
-/// The real-time form of [`sideslip`]: one Newton step from `beta_prev`, the solution of the
-/// previous control step. The root moves little in one step (on a circle at constant speed
-/// not at all), so the step keeps it to the accuracy of the full solve: after one step the
-/// error is about `|g''/(2 g')| delta^2` for a root that moved by `delta` (1e-3 rad in a
-/// 10 ms step gives ~1e-6 rad; tested against [`sideslip`] along references). Should the
-/// root jump (a new reference), the step is clamped like every iterate and the following
-/// steps converge quadratically. `T_adv` is evaluated at `beta_prev` (one sine and cosine a
-/// step instead of four; it differs by `O(delta)` relative). Where `g'` is at or below the
-/// solver's floor the step is not a Newton step, and the full solve is taken instead.
-pub fn sideslip_step(xy: &XyCoeffs, c: &Course, beta_prev: f32) -> Sideslip {
-    let Some(eq) = SlipEquation::of(xy, c) else {
-        return Sideslip::default();
-    };
-    let (b, co, d, floored) = eq.newton(beta_prev);
-    if floored {
-        // `g' <= 0` here (a hard deceleration makes `U_dot / U + beta1` negative near 0): the
-        // floored step is no Newton step and can walk away from the root the full solve
-        // picks from its linearization; take the full solve.
-        return sideslip(xy, c);
-    }
-    let b = clamp_keep_nan(b, -SIDESLIP_MAX_RAD, SIDESLIP_MAX_RAD);
-    finite_slip(b, eq.advance(co, d))
 }
 
 /// Feasible pitch of an XZ reference, with two derivatives.
@@ -344,68 +320,6 @@ mod tests {
         let res = v.xy.m11 * u * 0.05 + (p.y_v + p.y_vv * vv.abs()) * vv;
         assert!(res.abs() < 1e-5, "residual {res}");
         assert!(s.beta_rad < -0.1 && s.beta_rad > -0.3, "{s:?}");
-    }
-
-    /// The one-step form follows the full solve along references whose course turns and
-    /// whose speed changes (a lawnmower's turns, the paper's polynomial), sampled every 10 ms.
-    #[test]
-    fn sideslip_step_follows_the_full_solve() {
-        let v = Vehicle::observer();
-        let refs = [
-            Reference::Lawnmower {
-                start_m: [0.0; 3],
-                heading_rad: 0.3,
-                leg_length_m: 10.0,
-                spacing_m: 2.0,
-                legs: 4,
-                speed_m_s: 0.5,
-            },
-            Reference::Paper(crate::reference::PaperPolynomial::PAPER),
-            Reference::Circle {
-                center_m: [0.0; 3],
-                radius_m: 2.0,
-                speed_m_s: 0.6,
-            },
-        ];
-        for r in refs {
-            // The last two solutions, for the start the law uses: the last one advanced by
-            // its rate (`beta_qs + beta_qs_dot dt`).
-            let mut prev: Option<(f32, f32)> = None;
-            let mut worst = 0.0f32;
-            let mut worst_adv = 0.0f32;
-            for i in 0..12_000 {
-                let Some(c) = course(&r.sample(i as f32 * 0.01)) else {
-                    prev = None;
-                    continue;
-                };
-                let full = sideslip(&v.xy, &c);
-                let s = match prev {
-                    Some((b1, b0)) => sideslip_step(&v.xy, &c, 2.0 * b1 - b0),
-                    None => full,
-                };
-                worst = worst.max((s.beta_rad - full.beta_rad).abs());
-                worst_adv = worst_adv.max((s.advance_s - full.advance_s).abs());
-                prev = Some((s.beta_rad, prev.map_or(s.beta_rad, |p| p.0)));
-            }
-            assert!(worst < 2e-6, "{r:?}: beta off by {worst}");
-            assert!(worst_adv < 5e-3, "{r:?}: advance off by {worst_adv}");
-        }
-        // From 0.2 rad off (a new reference), clamped and converging in a few steps.
-        let r = Reference::Circle {
-            center_m: [0.0; 3],
-            radius_m: 2.0,
-            speed_m_s: 0.6,
-        };
-        let c = course(&r.sample(5.0)).unwrap();
-        let full = sideslip(&v.xy, &c).beta_rad;
-        let mut b = full + 0.2;
-        for _ in 0..4 {
-            b = sideslip_step(&v.xy, &c, b).beta_rad;
-        }
-        assert!((b - full).abs() < 1e-5, "{b} vs {full}");
-        // A NaN start makes the derivative NaN: the full solve.
-        assert_eq!(sideslip_step(&v.xy, &c, f32::NAN), sideslip(&v.xy, &c));
-        assert!(sideslip_step(&v.xy, &c, 5.0).beta_rad.abs() <= SIDESLIP_MAX_RAD);
     }
 
     #[test]

@@ -151,12 +151,7 @@ impl Default for TrackingGains {
 pub(crate) struct HeadingRef {
     init: bool,
     chi: f32,
-    /// `beta_qs` is the solution of the last step (a course existed), so this step takes one
-    /// Newton step ([`crate::reference::feasible::sideslip_step`]) from it, advanced along
-    /// its last change `beta_qs - beta_qs_prev` (equal after a full solve).
-    slip_warm: bool,
     beta_qs: f32,
-    beta_qs_prev: f32,
     beta_qs_dot: f32,
     beta: f32,
     beta_dot: f32,

@@ -19,7 +19,7 @@
 use super::{integrate, sat2, HeadingRef, TrackingGains, TrackingState};
 use crate::math::{atan2, clamp, sin_cos, sqrt, wrap_angle};
 use crate::params::{Vehicle, XyCoeffs};
-use crate::reference::feasible::{course_of, sideslip, sideslip_step, Course};
+use crate::reference::feasible::{course_of, sideslip, Course};
 use crate::reference::RefSample;
 use crate::state::NavState;
 
@@ -60,14 +60,7 @@ impl HeadingRef {
     ) -> (f32, f32, f32) {
         let (chi, chi1, chi2, bqs, adv) = match course {
             Some(c) => {
-                // One Newton step from the last solution; the full solve after a start from
-                // rest (or at the very start).
-                let s = if self.init && self.slip_warm {
-                    let guess = 2.0 * self.beta_qs - self.beta_qs_prev;
-                    sideslip_step(xy, &c, guess)
-                } else {
-                    sideslip(xy, &c)
-                };
+                let s = sideslip(xy, &c);
                 (c.chi_rad, c.chi_dot, c.chi_ddot, s.beta_rad, s.advance_s)
             }
             None => (if self.init { self.chi } else { yaw }, 0.0, 0.0, 0.0, 0.0),
@@ -76,9 +69,7 @@ impl HeadingRef {
             *self = HeadingRef {
                 init: true,
                 chi,
-                slip_warm: false,
                 beta_qs: bqs,
-                beta_qs_prev: bqs,
                 beta_qs_dot: 0.0,
                 beta: bqs,
                 beta_dot: 0.0,
@@ -107,10 +98,7 @@ impl HeadingRef {
         }
         let k = filt_gain(dt);
         self.beta_qs_dot = filt(self.beta_qs, self.beta_qs_dot, bqs, dt, k);
-        // After a full solve (or none) the next start is not advanced.
-        self.beta_qs_prev = if self.slip_warm { self.beta_qs } else { bqs };
         self.beta_qs = bqs;
-        self.slip_warm = course.is_some();
         let beta = bqs + adv * self.beta_qs_dot;
         let beta_dot = filt(self.beta, self.beta_dot, beta, dt, k);
         self.beta_ddot = filt(self.beta_dot, self.beta_ddot, beta_dot, dt, k);
@@ -521,42 +509,6 @@ mod tests {
                 inv_drag(K1, K2, f)
             );
         }
-    }
-
-    /// A new reference (no reset: `SetReference` keeps the law's state) makes the sideslip
-    /// jump; the one-step solver is back on the full solve within a few steps.
-    #[test]
-    fn sideslip_recovers_after_the_reference_jumps() {
-        use crate::params::Vehicle;
-        use crate::reference::feasible::{course, sideslip};
-        use crate::reference::Reference;
-        let v = Vehicle::observer();
-        let tight = Reference::Circle {
-            center_m: [0.0; 3],
-            radius_m: 1.5,
-            speed_m_s: 0.8,
-        };
-        let other = Reference::Circle {
-            center_m: [0.0; 3],
-            radius_m: -3.0,
-            speed_m_s: 0.3,
-        };
-        let mut h = HeadingRef::default();
-        let mut steps_to_converge = 0;
-        for i in 0..400 {
-            let r = if i < 200 { &tight } else { &other };
-            let rs = r.sample(20.0 + i as f32 * 0.01);
-            let c = course(&rs);
-            let [vx, vy, _] = rs.vel_m_s;
-            h.update(&v.xy, c, [vx, vy], None, 0.0, 0.01);
-            let full = sideslip(&v.xy, &c.unwrap()).beta_rad;
-            if i >= 200 && (h.beta_qs - full).abs() > 1e-5 {
-                steps_to_converge = i - 199;
-            }
-            assert!(h.beta_qs.is_finite() && h.beta.is_finite());
-        }
-        // Measured: from the clamp (-0.8 rad) to 0.366 rad, within 1e-5 after 5 steps.
-        assert!(steps_to_converge <= 6, "{steps_to_converge} steps");
     }
 
     #[test]
