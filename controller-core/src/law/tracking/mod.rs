@@ -201,9 +201,6 @@ pub(crate) struct CurrentObserver {
     z: [f32; 2],
     /// Filtered current estimate, inertial `[cx, cy]`, m/s.
     pub(crate) vc: [f32; 2],
-    /// Unfiltered current of the last step, body `[surge, sway]`, m/s: the start of this
-    /// step's Newton step on the drag inverse.
-    cb: [f32; 2],
 }
 
 impl TrackingState {

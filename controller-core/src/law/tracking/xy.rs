@@ -209,8 +209,6 @@ pub const CURRENT_DEADZONE_M_S: f32 = 0.01;
 pub const CURRENT_TAU_S: f32 = 5.0;
 
 /// Solve `(k1 + k2 |x|) x = f` for `x` (odd, monotonic) in closed form (one square root).
-/// Kept out of line: only the rare fallback of [`inv_drag_step`] takes it.
-#[inline(never)]
 fn inv_drag(k1: f32, k2: f32, f: f32) -> f32 {
     let a = f.abs();
     let x = if k2 > 0.0 {
@@ -224,30 +222,6 @@ fn inv_drag(k1: f32, k2: f32, f: f32) -> f32 {
         x.copysign(f)
     } else {
         0.0
-    }
-}
-
-/// Largest Newton correction [`inv_drag_step`] accepts (m/s); a larger one (a start far from
-/// the root) is replaced by the closed form.
-pub const DRAG_NEWTON_MAX_STEP_M_S: f32 = 0.02;
-
-/// [`inv_drag`] by one Newton step from `x0`, the root of the last control step moved by the
-/// change of the measured velocity: `x1 = x0 - ((k1 + k2 |x0|) x0 - f) / (k1 + 2 k2 |x0|)`.
-/// The function is odd and increasing with `|f''| = 2 k2`, so the step lands within about
-/// `k2 (x0 - x)^2 / (k1 + 2 k2 |x0|)` of the root: at the accepted limit
-/// [`DRAG_NEWTON_MAX_STEP_M_S`] and the Observer's surge drag below 2e-3 m/s, shrinking
-/// quadratically on the next steps, and the observer low-passes the result over
-/// [`CURRENT_TAU_S`]. No square root in the common case (two a step, 36 instructions each).
-#[inline(always)]
-fn inv_drag_step(k1: f32, k2: f32, f: f32, x0: f32) -> f32 {
-    let a = x0.abs();
-    let d = k1 + 2.0 * k2 * a;
-    let step = ((k1 + k2 * a) * x0 - f) / d;
-    // Small and finite (false for NaN, or for d = 0: no drag at all).
-    if step.abs() <= DRAG_NEWTON_MAX_STEP_M_S {
-        x0 - step
-    } else {
-        inv_drag(k1, k2, f)
     }
 }
 
@@ -290,27 +264,18 @@ impl super::CurrentObserver {
         let dy = zy + l * my;
         let zx = zx - dt * l * (dx + fx);
         let zy = zy - dt * l * (dy + fy);
-        // d = D(nu) - D(nu - c)  =>  nu - c = D^-1(D(nu) - d), from the last step's current.
-        let [cbx0, cby0] = self.cb;
-        let cbx = u - inv_drag_step(p.x_u, p.x_uu, xd - dx, u - cbx0);
-        let cby = vv - inv_drag_step(p.y_v, p.y_vv, yd - dy, vv - cby0);
+        // d = D(nu) - D(nu - c)  =>  nu - c = D^-1(D(nu) - d).
+        let cbx = u - inv_drag(p.x_u, p.x_uu, xd - dx);
+        let cby = vv - inv_drag(p.y_v, p.y_vv, yd - dy);
         let cx = c * cbx - s * cby;
         let cy = s * cbx + c * cby;
         let k = dt / (CURRENT_TAU_S + dt);
         let [vx, vy] = self.vc;
         let nvx = vx + k * (cx - vx);
         let nvy = vy + k * (cy - vy);
-        // One finiteness test for the six in the common case (see `HeadingRef::update`).
-        if (zx + zy + nvx + nvy + cbx + cby).is_finite() {
-            self.z = [zx, zy];
-            self.vc = [nvx, nvy];
-            self.cb = [cbx, cby];
-        } else {
-            let fin = |a: f32| if a.is_finite() { a } else { 0.0 };
-            self.z = [fin(zx), fin(zy)];
-            self.vc = [fin(nvx), fin(nvy)];
-            self.cb = [fin(cbx), fin(cby)];
-        }
+        let fin = |a: f32| if a.is_finite() { a } else { 0.0 };
+        self.z = [fin(zx), fin(zy)];
+        self.vc = [fin(nvx), fin(nvy)];
     }
 }
 
@@ -481,39 +446,5 @@ mod tests {
         }
         assert_eq!(inv_drag(0.0, 0.0, 3.0), 0.0);
         assert_eq!(inv_drag(K1, K2, f32::NAN), 0.0);
-    }
-
-    // One Newton step from within the accepted distance lands within the quadratic bound
-    // `k2 d^2 / (k1 + 2 k2 |x0|)` of the root; from farther the closed form is taken.
-    proptest::proptest! {
-        #[test]
-        fn inv_drag_step_is_within_its_bound(
-            root in -1.5f32..1.5,
-            off in -DRAG_NEWTON_MAX_STEP_M_S..DRAG_NEWTON_MAX_STEP_M_S,
-        ) {
-            let f = drag(root);
-            let x0 = root + off;
-            let x1 = inv_drag_step(K1, K2, f, x0);
-            let bound = K2 * off * off / (K1 + 2.0 * K2 * x0.abs());
-            proptest::prop_assert!(
-                (x1 - root).abs() <= 1.01 * bound + 4e-6,
-                "root {} x0 {} x1 {} bound {}", root, x0, x1, bound
-            );
-        }
-
-        #[test]
-        fn inv_drag_step_from_far_is_the_closed_form(root in -1.5f32..1.5, off in 0.1f32..2.0) {
-            let f = drag(root);
-            proptest::prop_assert_eq!(
-                inv_drag_step(K1, K2, f, root + off),
-                inv_drag(K1, K2, f)
-            );
-        }
-    }
-
-    #[test]
-    fn inv_drag_step_without_drag_gives_zero() {
-        // d = 0 and a NaN step: the closed form, which has nothing to solve.
-        assert_eq!(inv_drag_step(0.0, 0.0, 1.0, 0.0), 0.0);
     }
 }
