@@ -1,3 +1,9 @@
+#!/usr/bin/env python3
+"""Module cycles of the workspace's crates: a pair of top-level modules of one crate that each
+`use crate::` the other. Prints `CYCLE` lines (none expected) and `checked`.
+
+    python3 scripts/modcycles.py    # from the workspace root
+"""
 import re,os,sys,itertools
 for crate in ['firmware/src','host-sim/src','mcu-bench/src','controller-core/src','sensor-drivers/src']:
     mods={}
