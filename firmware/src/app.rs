@@ -15,8 +15,8 @@
 
 use crate::autopilot::{Autopilot, Failsafe, StepOutput};
 use crate::protocol::{
-    encode, fault, Board, Command, Decoded, DropReason, EncodeError, FrameDecoder, LinkStats,
-    NackReason, Reply, Status, Telemetry, MAX_FRAME_LEN,
+    encode, fault, Board, Command, Decoded, DropReason, FrameDecoder, LinkStats, NackReason, Reply,
+    Status, Telemetry, MAX_FRAME_LEN,
 };
 use controller_core::alloc::PwmMap;
 use controller_core::controller::Controller;
@@ -84,10 +84,7 @@ impl Config {
     pub const fn lockstep(board: Board) -> Self {
         Self {
             timing: Timing::LockStep,
-            pwm_hz: 50,
-            failsafe: Failsafe::DEFAULT,
-            board,
-            max_rx_bytes_per_tick: 512,
+            ..Self::fixed_rate(board)
         }
     }
 
@@ -131,43 +128,25 @@ pub fn duty_for_pulse(
     period_us: u32,
     max_duty: u16,
 ) -> u16 {
-    // `math::clamp` (max then min), not `f32::clamp`: the bounds come from the PWM map at run
-    // time, and `f32::clamp`'s `min <= max` assertion would keep a panic path (and its `f32`
-    // `Debug` message formatting, ~20 KiB of flash) in the image.
+    // `math::clamp`, not `f32::clamp`: the bounds come from the PWM map at run time, and
+    // `f32::clamp` panics when `min > max`; the firmware has no panic path.
     let p = if pulse_us.is_nan() {
         neutral_us
     } else {
         controller_core::math::clamp(pulse_us, min_us, max_us)
     };
-    // `as` saturates; p is within [min_us, max_us] here.
-    let p = (p + 0.5) as u32;
-    let period = period_us.max(1);
-    let max = u32::from(max_duty);
-    if p >= period {
-        return max_duty;
-    }
-    // 32-bit arithmetic (hardware UDIV; a 64-bit division links ~1 KiB of compiler-builtins):
-    // exact whenever `p * max_duty` fits, i.e. for any pulse below 65.5 ms (PWM periods here
-    // are at most 20 ms). Beyond that, a float estimate.
-    let d = match p.checked_mul(max).and_then(|x| x.checked_add(period / 2)) {
-        Some(x) => x / period,
-        None => (p as f32 / period as f32 * max as f32 + 0.5) as u32,
-    };
-    d.min(max) as u16
+    // `as` saturates (a negative pulse is 0 us).
+    let p = u64::from((p + 0.5) as u32);
+    let period = u64::from(period_us.max(1));
+    let max = u64::from(max_duty);
+    ((p * max + period / 2) / period).min(max) as u16
 }
 
 /// Pulse width a duty gives, microseconds (what the ESC sees), rounded.
 pub fn pulse_for_duty(duty: u16, period_us: u32, max_duty: u16) -> u16 {
-    let m = u32::from(max_duty.max(1));
-    // 32-bit arithmetic, exact for periods up to 65.5 ms (see `duty_for_pulse`).
-    let p = match u32::from(duty)
-        .checked_mul(period_us)
-        .and_then(|x| x.checked_add(m / 2))
-    {
-        Some(x) => x / m,
-        None => (f32::from(duty) * period_us as f32 / m as f32 + 0.5) as u32,
-    };
-    p.min(u32::from(u16::MAX)) as u16
+    let m = u64::from(max_duty.max(1));
+    let p = (u64::from(duty) * u64::from(period_us) + m / 2) / m;
+    p.min(u64::from(u16::MAX)) as u16
 }
 
 /// The application.
@@ -366,15 +345,7 @@ where
         }
     }
 
-    /// Feed one received byte to the decoder and act on a completed frame.
-    pub fn on_byte(&mut self, byte: u8) {
-        let d = self.decoder.push(byte);
-        self.on_decoded(d);
-    }
-
-    /// Feed received bytes to the decoder and act on every completed frame, in order
-    /// (the same as [`on_byte`](Self::on_byte) for each byte, but the decoder takes each
-    /// frame's bytes in one copy).
+    /// Feed received bytes to the decoder and act on every completed frame, in order.
     pub fn on_bytes(&mut self, mut bytes: &[u8]) {
         while !bytes.is_empty() {
             let d = self.decoder.push_slice(&mut bytes);
@@ -458,8 +429,7 @@ where
     /// Run the control step at `now` and write the outputs.
     fn control(&mut self, now: u64) {
         let t0 = self.clock.ticks();
-        // The step writes its output where it is kept (no 76-byte copy of a returned one).
-        self.autopilot.step_into(now, &mut self.last);
+        self.last = self.autopilot.step(now);
         self.write_pwm(self.last.pulse_us);
         let dt = self.clock.ticks().wrapping_sub(t0);
         self.loop_ticks = dt;
@@ -524,10 +494,7 @@ where
 
     fn send_telemetry(&mut self, now: u64) {
         let t = self.telemetry(now);
-        let seq = self.next_tx_seq();
-        // The same bytes as `encode(seq, &Reply::Telemetry(t), ..)`, written by hand.
-        let frame = encode(seq, &Reply::Telemetry(t), &mut self.tx_buf);
-        write_frame(&mut self.serial, frame, &mut self.io_faults, &mut self.link);
+        self.send(&Reply::Telemetry(t));
     }
 
     fn nack(&mut self, seq: u16, reason: NackReason) {
@@ -535,10 +502,24 @@ where
         self.send(&Reply::Nack { seq, reason });
     }
 
+    /// Encode and write a reply (all of it), counting it; a port error or an encoding error
+    /// (never: every reply fits, tested) raises [`fault::SERIAL_ERROR`].
     fn send(&mut self, reply: &Reply) {
         let seq = self.next_tx_seq();
-        let frame = encode(seq, reply, &mut self.tx_buf);
-        write_frame(&mut self.serial, frame, &mut self.io_faults, &mut self.link);
+        let Ok(mut rest) = encode(seq, reply, &mut self.tx_buf) else {
+            self.io_faults |= fault::SERIAL_ERROR;
+            return;
+        };
+        while !rest.is_empty() {
+            match self.serial.write(rest) {
+                Ok(n) if n > 0 => rest = rest.get(n..).unwrap_or(&[]),
+                _ => {
+                    self.io_faults |= fault::SERIAL_ERROR;
+                    return;
+                }
+            }
+        }
+        self.link.tx_frames = self.link.tx_frames.wrapping_add(1);
     }
 
     fn next_tx_seq(&mut self) -> u16 {
@@ -572,28 +553,4 @@ where
         & pwm.1.set_duty_cycle(d2).is_ok()
         & pwm.2.set_duty_cycle(d3).is_ok();
     ([d1, d2, d3], ok)
-}
-
-/// Write a frame to the serial port (all of it), counting it; a port error or an encoding
-/// error (never: every reply fits, tested) raises [`fault::SERIAL_ERROR`].
-fn write_frame<S: embedded_io::Write>(
-    serial: &mut S,
-    frame: Result<&[u8], EncodeError>,
-    io_faults: &mut u16,
-    link: &mut LinkStats,
-) {
-    let Ok(mut rest) = frame else {
-        *io_faults |= fault::SERIAL_ERROR;
-        return;
-    };
-    while !rest.is_empty() {
-        match serial.write(rest) {
-            Ok(n) if n > 0 => rest = rest.get(n..).unwrap_or(&[]),
-            _ => {
-                *io_faults |= fault::SERIAL_ERROR;
-                return;
-            }
-        }
-    }
-    link.tx_frames = link.tx_frames.wrapping_add(1);
 }

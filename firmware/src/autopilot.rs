@@ -18,7 +18,7 @@
 use crate::protocol::{fault, Command, Law, ManualThrust, Mode, NackReason, NavSample, Plane};
 use controller_core::alloc::{allocate, Allocation};
 use controller_core::controller::{ControlMode, Controller};
-use controller_core::reference::{RefSample, Reference};
+use controller_core::reference::Reference;
 use controller_core::state::{BodyForces, NavState, TrackingErrors};
 
 /// Failsafe timeouts, microseconds of the firmware's clock.
@@ -65,42 +65,32 @@ pub mod nav_limits {
 /// Check a navigation state: every field finite and within [`nav_limits`].
 pub fn check_nav(s: &NavState) -> Result<(), NackReason> {
     use nav_limits::*;
-    // One comparison per field on the path of every good state (`|v| <= lim` is false for
-    // NaN and infinities too); the reason is worked out only for a refused one.
-    let within = |v: f32, lim: f32| v.abs() <= lim;
-    let ok = within(s.x_m, POSITION_M)
-        & within(s.y_m, POSITION_M)
-        & within(s.z_m, POSITION_M)
-        & within(s.roll_rad, ANGLE_RAD)
-        & within(s.pitch_rad, ANGLE_RAD)
-        & within(s.yaw_rad, ANGLE_RAD)
-        & within(s.u_m_s, SPEED_M_S)
-        & within(s.v_m_s, SPEED_M_S)
-        & within(s.w_m_s, SPEED_M_S)
-        & within(s.p_rad_s, RATE_RAD_S)
-        & within(s.q_rad_s, RATE_RAD_S)
-        & within(s.r_rad_s, RATE_RAD_S);
-    if ok {
-        Ok(())
-    } else if !s.is_finite() {
+    let fields = [
+        (s.x_m, POSITION_M),
+        (s.y_m, POSITION_M),
+        (s.z_m, POSITION_M),
+        (s.roll_rad, ANGLE_RAD),
+        (s.pitch_rad, ANGLE_RAD),
+        (s.yaw_rad, ANGLE_RAD),
+        (s.u_m_s, SPEED_M_S),
+        (s.v_m_s, SPEED_M_S),
+        (s.w_m_s, SPEED_M_S),
+        (s.p_rad_s, RATE_RAD_S),
+        (s.q_rad_s, RATE_RAD_S),
+        (s.r_rad_s, RATE_RAD_S),
+    ];
+    if !s.is_finite() {
         Err(NackReason::NonFinite)
-    } else {
+    } else if fields.iter().any(|&(v, lim)| v.abs() > lim) {
         Err(NackReason::OutOfRange)
+    } else {
+        Ok(())
     }
 }
 
 /// Seconds from `start_us` to `now_us` (0 before the start).
 fn seconds_since(now_us: u64, start_us: u64) -> f32 {
-    let d = now_us.saturating_sub(start_us);
-    // Below 2^32 us (71 minutes) through `u32`: the same f32 (both conversions round to
-    // nearest, ties to even), made by one VCVT instead of the soft `__aeabi_ul2f` (~30
-    // instructions, twice a step). `black_box` keeps LLVM from folding the two arms back
-    // into the one soft conversion.
-    let d = match u32::try_from(d) {
-        Ok(d) => d as f32,
-        Err(_) => core::hint::black_box(d) as f32,
-    };
-    d * 1e-6
+    now_us.saturating_sub(start_us) as f32 * 1e-6
 }
 
 /// What one step commands.
@@ -333,16 +323,6 @@ impl Autopilot {
     /// `no-panic` feature, docs/firmware.md).
     #[cfg_attr(feature = "no-panic", no_panic::no_panic)]
     pub fn step(&mut self, now_us: u64) -> StepOutput {
-        let mut out = StepOutput::default();
-        self.step_into(now_us, &mut out);
-        out
-    }
-
-    /// [`step`](Self::step), writing the output into `out`. The firmware's loop passes the
-    /// output it keeps: every branch builds its result right there, where a returned
-    /// `StepOutput` cost a 76-byte copy (~190 instructions on the Cortex-M4).
-    #[cfg_attr(feature = "no-panic", no_panic::no_panic)]
-    pub fn step_into(&mut self, now_us: u64, out: &mut StepOutput) {
         let fs = self.failsafe;
         let dt_s = match self.last_step_us {
             Some(t) => seconds_since(now_us, t).clamp(1e-4, 0.2),
@@ -362,96 +342,62 @@ impl Autopilot {
         }
         faults |= self.sticky;
         if !self.armed || faults & fault::HEARTBEAT_LOST != 0 {
-            *out = self.neutral(faults);
-            return;
+            return self.neutral(faults);
         }
-        match self.mode {
-            Mode::Idle => *out = self.neutral(faults),
-            Mode::Manual => match self.manual {
-                Some((t, m)) if now_us.saturating_sub(t) < fs.manual_stale_us => {
-                    *out = self.manual_output(&m, faults);
+        let (reference, start, cm) = match (self.mode, &self.reference, &self.hold) {
+            (Mode::Idle, ..) => return self.neutral(faults),
+            (Mode::Manual, ..) => {
+                return match self.manual {
+                    Some((t, m)) if now_us.saturating_sub(t) < fs.manual_stale_us => {
+                        self.manual_output(&m, faults)
+                    }
+                    _ => self.neutral(faults | fault::MANUAL_STALE),
                 }
-                _ => *out = self.neutral(faults | fault::MANUAL_STALE),
-            },
-            // The references are sampled where they are kept (no copy of a `Reference`).
-            Mode::Track { plane, law } => {
-                let (Some(cm), Some((r, start))) =
-                    (control_mode(plane, law), self.reference.as_ref())
-                else {
-                    *out = self.neutral(faults);
-                    return;
-                };
-                let sample = r.sample(seconds_since(now_us, *start));
-                self.track(now_us, cm, &sample, dt_s, faults, out);
             }
-            Mode::Hold => match self.hold.as_ref() {
-                Some((r, start)) => {
-                    let sample = r.sample(seconds_since(now_us, *start));
-                    self.track(now_us, ControlMode::Tracking3d, &sample, dt_s, faults, out);
-                }
-                None => *out = self.neutral(faults),
+            (Mode::Track { plane, law }, Some((r, start)), _) => match control_mode(plane, law) {
+                Some(cm) => (r, *start, cm),
+                None => return self.neutral(faults),
             },
-        }
-    }
-
-    fn track(
-        &mut self,
-        now_us: u64,
-        cm: ControlMode,
-        sample: &RefSample,
-        dt_s: f32,
-        faults: u16,
-        out: &mut StepOutput,
-    ) {
-        // The state is read where it is kept (no copy of it).
-        let fresh = self.nav_fresh(now_us);
-        let nav = match &self.nav {
-            Some(n) if fresh => n,
-            _ => {
-                *out = self.neutral(faults | fault::NAV_STALE);
-                return;
-            }
+            (Mode::Hold, _, Some((r, start))) => (r, *start, ControlMode::Tracking3d),
+            _ => return self.neutral(faults),
         };
-        let law = self.controller.step(cm, &nav.sample.state, sample, dt_s);
+        let sample = reference.sample(seconds_since(now_us, start));
+        let nav = match &self.nav {
+            Some(n) if self.nav_fresh(now_us) => n.sample.state,
+            _ => return self.neutral(faults | fault::NAV_STALE),
+        };
+        let law = self.controller.step(cm, &nav, &sample, dt_s);
         let sat = if law.allocation.saturated {
             fault::SATURATED
         } else {
             0
         };
-        out.requested = law.requested;
-        out.allocation = law.allocation;
-        out.pulse_us = law.pulse_us;
-        out.errors = law.errors;
-        out.faults = faults | sat;
-        out.law_ran = true;
+        StepOutput {
+            requested: law.requested,
+            allocation: law.allocation,
+            pulse_us: law.pulse_us,
+            errors: law.errors,
+            faults: faults | sat,
+            law_ran: true,
+        }
     }
 
     fn manual_output(&self, m: &ManualThrust, faults: u16) -> StepOutput {
         let lim = self.controller.limits();
-        // Largest forces in each direction; asymmetric thrusters, so scale by sign.
-        let surge_max = if m.surge >= 0.0 {
-            2.0 * lim.max_forward_n
-        } else {
-            2.0 * lim.max_reverse_n
-        };
-        let yaw_max = lim.lever_arm_m * (lim.max_forward_n + lim.max_reverse_n);
-        let heave_max = if m.heave >= 0.0 {
-            lim.max_forward_n
-        } else {
-            lim.max_reverse_n
+        // The largest force each way (the thrusters are asymmetric, so it depends on the sign).
+        let one_way = |x: f32| {
+            if x >= 0.0 {
+                lim.max_forward_n
+            } else {
+                lim.max_reverse_n
+            }
         };
         let requested = BodyForces {
-            surge_n: m.surge * surge_max,
-            yaw_n_m: m.yaw * yaw_max,
-            heave_n: m.heave * heave_max,
+            surge_n: m.surge * 2.0 * one_way(m.surge),
+            yaw_n_m: m.yaw * lim.lever_arm_m * (lim.max_forward_n + lim.max_reverse_n),
+            heave_n: m.heave * one_way(m.heave),
         };
         let allocation = allocate(&requested, lim);
-        let map = self.controller.pwm_map();
-        let pulse_us = [
-            map.pulse_us(allocation.thrust_n[0]),
-            map.pulse_us(allocation.thrust_n[1]),
-            map.pulse_us(allocation.thrust_n[2]),
-        ];
         let sat = if allocation.saturated {
             fault::SATURATED
         } else {
@@ -460,7 +406,9 @@ impl Autopilot {
         StepOutput {
             requested,
             allocation,
-            pulse_us,
+            pulse_us: allocation
+                .thrust_n
+                .map(|f| self.controller.pwm_map().pulse_us(f)),
             errors: TrackingErrors::default(),
             faults: faults | sat,
             law_ran: false,

@@ -14,11 +14,12 @@
 
 use crate::app::{App, Config, Monotonic, Timing};
 use crate::protocol::Board;
-use crate::ring::Ring;
 use controller_core::controller::{Controller, Gains};
 use controller_core::params::Vehicle;
 use core::cell::RefCell;
+use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::interrupt::Mutex;
+use heapless::Deque;
 use stm32f4xx_hal::{
     pac::{self, interrupt, TIM2, USART1},
     prelude::*,
@@ -43,13 +44,13 @@ pub const HSE_HZ: u32 = 8_000_000;
 pub const SYSCLK_HZ: u32 = 168_000_000;
 /// Tether baud rate.
 pub const BAUD: u32 = 115_200;
-/// ESC PWM frequency (50-400 Hz).
-pub const PWM_HZ: u16 = 50;
 /// Watchdog timeout, milliseconds.
 pub const WATCHDOG_MS: u32 = 250;
 
 /// Bytes received by the USART1 interrupt, waiting for the main loop.
-static RX_RING: Mutex<RefCell<Ring<1024>>> = Mutex::new(RefCell::new(Ring::new()));
+static RX_RING: Mutex<RefCell<Deque<u8, 1024>>> = Mutex::new(RefCell::new(Deque::new()));
+/// Bytes lost: the ring was full, or the USART reported an overrun or framing error.
+pub static RX_LOST: AtomicU32 = AtomicU32::new(0);
 /// The receiver, owned by the interrupt once started.
 static RX: Mutex<RefCell<Option<Rx<USART1>>>> = Mutex::new(RefCell::new(None));
 
@@ -69,10 +70,13 @@ fn USART1() {
             // Drain; an error (overrun, framing) is cleared by the read and the frame it hit
             // is dropped by the CRC.
             loop {
-                match rx.read() {
-                    Ok(b) => ring.push(b),
+                let lost = match rx.read() {
+                    Ok(b) => ring.push_back(b).is_err(),
                     Err(nb::Error::WouldBlock) => break,
-                    Err(nb::Error::Other(_)) => ring.overruns = ring.overruns.wrapping_add(1),
+                    Err(nb::Error::Other(_)) => true,
+                };
+                if lost {
+                    RX_LOST.fetch_add(1, Ordering::Relaxed);
                 }
             }
         }
@@ -113,10 +117,13 @@ impl embedded_io::ReadReady for Tether {
 impl embedded_io::Read for Tether {
     fn read(&mut self, buf: &mut [u8]) -> Result<usize, TetherError> {
         Ok(cortex_m::interrupt::free(|cs| {
-            RX_RING
-                .borrow(cs)
-                .try_borrow_mut()
-                .map_or(0, |mut ring| ring.pop_into(buf))
+            RX_RING.borrow(cs).try_borrow_mut().map_or(0, |mut ring| {
+                let n = buf.len().min(ring.len());
+                for b in buf.iter_mut().take(n) {
+                    *b = ring.pop_front().unwrap_or(0);
+                }
+                n
+            })
         }))
     }
 }
@@ -147,6 +154,21 @@ pub struct Tim2Clock<const FREQ: u32> {
 impl<const FREQ: u32> Tim2Clock<FREQ> {
     /// Auto-reload: the counter counts 0..=ARR.
     const ARR: u32 = u32::MAX - 1;
+
+    /// Start the counter free-running over its whole range (resets the MCU if it cannot).
+    fn start(mut counter: Counter<TIM2, FREQ>) -> Self {
+        if counter
+            .start(fugit::TimerDurationU32::<FREQ>::from_ticks(u32::MAX))
+            .is_err()
+        {
+            halt()
+        }
+        Self {
+            counter,
+            last: 0,
+            total: 0,
+        }
+    }
 
     fn raw(&self) -> u32 {
         self.counter.now().ticks()
@@ -213,9 +235,11 @@ pub fn run(variant: Variant) -> ! {
     let gpiob = dp.GPIOB.split(&mut rcc);
 
     // ESC PWM on TIM3, 1 us resolution.
-    let (_pwm, (ch1, ch2, ch3, _)) = dp
-        .TIM3
-        .pwm_us((1_000_000 / u32::from(PWM_HZ)).micros(), &mut rcc);
+    let config = match variant {
+        Variant::Stm32f4 => Config::fixed_rate(Board::Stm32f4),
+        Variant::Qemu => Config::lockstep(Board::QemuNetduinoPlus2),
+    };
+    let (_pwm, (ch1, ch2, ch3, _)) = dp.TIM3.pwm_us(config.pwm_period_us().micros(), &mut rcc);
     let mut ch1 = ch1.with(gpioa.pa6);
     let mut ch2 = ch2.with(gpioa.pa7);
     let mut ch3 = ch3.with(gpiob.pb0);
@@ -245,36 +269,25 @@ pub fn run(variant: Variant) -> ! {
 
     match variant {
         Variant::Stm32f4 => {
-            let mut counter = dp.TIM2.counter::<1_000_000>(&mut rcc);
-            if counter.start(u32::MAX.micros()).is_err() {
-                halt()
-            }
-            let clock = Tim2Clock {
-                counter,
-                last: 0,
-                total: 0,
-            };
-            let mut config = Config::fixed_rate(Board::Stm32f4);
-            config.pwm_hz = PWM_HZ;
-            main_loop((ch1, ch2, ch3), tether, clock, config, watchdog)
+            let counter = dp.TIM2.counter::<1_000_000>(&mut rcc);
+            main_loop(
+                (ch1, ch2, ch3),
+                tether,
+                Tim2Clock::start(counter),
+                config,
+                watchdog,
+            )
         }
         Variant::Qemu => {
             // Default clocks: the timer clock is 16 MHz, so the prescaler is 0.
-            let mut counter = dp.TIM2.counter::<16_000_000>(&mut rcc);
-            if counter
-                .start(fugit::TimerDurationU32::<16_000_000>::from_ticks(u32::MAX))
-                .is_err()
-            {
-                halt()
-            }
-            let clock = Tim2Clock {
-                counter,
-                last: 0,
-                total: 0,
-            };
-            let mut config = Config::lockstep(Board::QemuNetduinoPlus2);
-            config.pwm_hz = PWM_HZ;
-            main_loop((ch1, ch2, ch3), tether, clock, config, watchdog)
+            let counter = dp.TIM2.counter::<16_000_000>(&mut rcc);
+            main_loop(
+                (ch1, ch2, ch3),
+                tether,
+                Tim2Clock::start(counter),
+                config,
+                watchdog,
+            )
         }
     }
 }

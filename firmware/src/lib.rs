@@ -13,7 +13,6 @@
 pub mod app;
 pub mod autopilot;
 pub mod protocol;
-pub mod ring;
 
 #[cfg(target_os = "none")]
 pub mod board;

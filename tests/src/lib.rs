@@ -187,7 +187,7 @@ impl Topside {
     pub fn deliver(&mut self, app: &mut TestApp, cmd: &Command) -> (u16, Vec<Reply>) {
         let (seq, f) = self.frame(cmd);
         for b in f {
-            app.on_byte(b);
+            app.on_bytes(&[b]);
         }
         (seq, self.replies(app))
     }

@@ -44,6 +44,16 @@ pub struct DropCounters {
 }
 
 impl DropCounters {
+    /// No drops.
+    pub const ZERO: Self = Self {
+        overflow: 0,
+        cobs: 0,
+        too_short: 0,
+        crc: 0,
+        version: 0,
+        malformed: 0,
+    };
+
     /// Count one drop.
     pub fn count(&mut self, r: DropReason) {
         let c = match r {
@@ -59,16 +69,14 @@ impl DropCounters {
 
     /// All drops.
     pub fn total(&self) -> u32 {
-        [
+        let all = [
             self.overflow,
             self.cobs,
             self.too_short,
             self.crc,
             self.version,
-            self.malformed,
-        ]
-        .iter()
-        .fold(0u32, |a, &b| a.wrapping_add(b))
+        ];
+        all.iter().fold(self.malformed, |a, &b| a.wrapping_add(b))
     }
 }
 
@@ -130,14 +138,7 @@ impl<M> FrameDecoder<M> {
             raw: 0,
             lost: None,
             frames: 0,
-            dropped: DropCounters {
-                overflow: 0,
-                cobs: 0,
-                too_short: 0,
-                crc: 0,
-                version: 0,
-                malformed: 0,
-            },
+            dropped: DropCounters::ZERO,
             _m: core::marker::PhantomData,
         }
     }
