@@ -21,10 +21,14 @@ use crate::protocol::{
 use controller_core::alloc::PwmMap;
 use controller_core::controller::Controller;
 use embedded_hal::pwm::SetDutyCycle;
-use embedded_io::{Read, ReadReady, Write};
+use embedded_io::{Read, ReadReady, Write, WriteReady};
+use heapless::Deque;
 
 /// Bytes read from the serial port at a time (on the stack, then to the decoder).
 const RX_CHUNK: usize = 64;
+
+/// Bytes of whole frames waiting for the serial port: four of the largest frames.
+pub const TX_QUEUE_LEN: usize = 4 * MAX_FRAME_LEN;
 
 /// A monotonic clock.
 pub trait Monotonic {
@@ -160,6 +164,9 @@ pub struct App<P1, P2, P3, S, C> {
     tx_seq: u16,
     /// The frame being sent (kept here, not on the stack: not zeroed for every frame).
     tx_buf: [u8; MAX_FRAME_LEN],
+    /// Frames waiting for the port: the loop hands the port what it takes without waiting.
+    tx_queue: Deque<u8, TX_QUEUE_LEN>,
+    control_late_max_us: u32,
     link: LinkStats,
     host_time_us: u64,
     next_control_us: Option<u64>,
@@ -169,6 +176,10 @@ pub struct App<P1, P2, P3, S, C> {
     io_faults: u16,
     loop_ticks: u32,
     loop_ticks_max: u32,
+    /// Ticks of work (decoding, commands, sensors, control, telemetry) since the last control
+    /// step, and the start of the work segment in progress.
+    busy_ticks: u32,
+    work_t0: u32,
     overruns: u32,
 }
 
@@ -177,7 +188,7 @@ where
     P1: SetDutyCycle,
     P2: SetDutyCycle,
     P3: SetDutyCycle,
-    S: Read + ReadReady + Write,
+    S: Read + ReadReady + Write + WriteReady,
     C: Monotonic,
 {
     /// Check the settings, set the three outputs to neutral, boot disarmed.
@@ -225,6 +236,8 @@ where
             decoder: FrameDecoder::new(),
             tx_seq: 0,
             tx_buf: [0; MAX_FRAME_LEN],
+            tx_queue: Deque::new(),
+            control_late_max_us: 0,
             link: LinkStats::default(),
             host_time_us: 0,
             next_control_us: None,
@@ -234,6 +247,8 @@ where
             io_faults: if ok { 0 } else { fault::PWM_ERROR },
             loop_ticks: 0,
             loop_ticks_max: 0,
+            busy_ticks: 0,
+            work_t0: 0,
             overruns: 0,
         })
     }
@@ -295,6 +310,7 @@ where
     /// `max_rx_bytes_per_tick` bytes), then, in fixed-rate mode, run the control step and
     /// the telemetry when they are due.
     pub fn tick(&mut self) {
+        self.flush_tx();
         let mut budget = self.config.max_rx_bytes_per_tick;
         while budget > 0 {
             match self.serial.read_ready() {
@@ -318,18 +334,23 @@ where
                 break;
             }
             budget = budget.saturating_sub(n);
+            self.work_t0 = self.clock.ticks();
             self.on_bytes(chunk.get(..n).unwrap_or_default());
+            self.end_work();
         }
         if let Timing::FixedRate {
             control_period_us,
             telemetry_period_us,
         } = self.config.timing
         {
+            self.work_t0 = self.clock.ticks();
             let now = self.clock.now_us();
             let period = u64::from(control_period_us);
             let due = *self.next_control_us.get_or_insert(now);
             if now >= due {
                 let late = now - due;
+                let late_us = u32::try_from(late).unwrap_or(u32::MAX);
+                self.control_late_max_us = self.control_late_max_us.max(late_us);
                 if late >= period {
                     self.overruns = self.overruns.wrapping_add(1);
                     self.next_control_us = Some(now + period);
@@ -342,7 +363,14 @@ where
                 self.next_telemetry_us = now + u64::from(telemetry_period_us);
                 self.send_telemetry(now);
             }
+            self.end_work();
         }
+    }
+
+    /// Close a work segment (see [`Telemetry::loop_ticks`]).
+    fn end_work(&mut self) {
+        let dt = self.clock.ticks().wrapping_sub(self.work_t0);
+        self.busy_ticks = self.busy_ticks.wrapping_add(dt);
     }
 
     /// Feed received bytes to the decoder and act on every completed frame, in order.
@@ -376,14 +404,19 @@ where
             // The host's clock: the latest time stamp of an accepted Heartbeat or Nav (never
             // goes back; a refused command does not move it).
             let t = match cmd {
-                Command::Heartbeat { t_us } => *t_us,
+                Command::Heartbeat { t_us } | Command::Step { t_us } => *t_us,
+                Command::Pressure { t_us, .. } => *t_us,
                 Command::Nav(n) => n.t_us,
+                Command::Imu(s) => s.t_us,
                 _ => 0,
             };
             self.host_time_us.max(t)
         } else {
             self.clock.now_us()
         };
+        if matches!(cmd, Command::Step { .. }) && !lockstep {
+            return self.nack(seq, NackReason::Unsupported);
+        }
         match self.autopilot.handle(now, seq, cmd) {
             Err(reason) => self.nack(seq, reason),
             Ok(()) => match cmd {
@@ -394,12 +427,13 @@ where
                     let status = self.status(now, seq);
                     self.send(&Reply::Status(status));
                 }
-                Command::ManualThrust(_) => {
+                // High-rate inputs: no `Ack` (a refusal is still answered by a `Nack`).
+                Command::ManualThrust(_) | Command::Imu(_) | Command::Pressure { .. } => {
                     if lockstep {
                         self.host_time_us = now;
                     }
                 }
-                Command::Nav(_) => {
+                Command::Nav(_) | Command::Step { .. } => {
                     if lockstep {
                         self.host_time_us = now;
                         self.control(now);
@@ -427,11 +461,15 @@ where
     }
 
     /// Run the control step at `now` and write the outputs.
+    /// The loop iteration it ends is all the work since the previous step: the frames
+    /// decoded and handled (sensor readings and fixes into the estimator), this step, and the
+    /// telemetry sent in between; idle polling is not counted.
     fn control(&mut self, now: u64) {
-        let t0 = self.clock.ticks();
         self.last = self.autopilot.step(now);
         self.write_pwm(self.last.pulse_us);
-        let dt = self.clock.ticks().wrapping_sub(t0);
+        let t = self.clock.ticks();
+        let dt = self.busy_ticks.wrapping_add(t.wrapping_sub(self.work_t0));
+        (self.busy_ticks, self.work_t0) = (0, t);
         self.loop_ticks = dt;
         self.loop_ticks_max = self.loop_ticks_max.max(dt);
     }
@@ -468,6 +506,11 @@ where
             pulse_us,
             faults: self.faults(),
             loop_ticks: self.loop_ticks,
+            nav: self.autopilot.nav_state(),
+            nav_pos_std_m: self
+                .autopilot
+                .onboard_nav()
+                .map_or([0.0; 3], |o| o.position_std_m()),
         }
     }
 
@@ -488,7 +531,12 @@ where
             steps: self.autopilot.steps,
             loop_ticks_max: self.loop_ticks_max,
             overruns: self.overruns,
+            control_late_max_us: self.control_late_max_us,
             faults: self.faults(),
+            nav_health: self
+                .autopilot
+                .onboard_nav()
+                .map_or(Default::default(), |o| o.estimator().health()),
         }
     }
 
@@ -502,24 +550,54 @@ where
         self.send(&Reply::Nack { seq, reason });
     }
 
-    /// Encode and write a reply (all of it), counting it; a port error or an encoding error
-    /// (never: every reply fits, tested) raises [`fault::SERIAL_ERROR`].
+    /// Encode a reply and queue it whole, then hand the port what it takes now. A frame
+    /// that does not fit in the queue is dropped and counted (`tx_dropped`), never cut; an
+    /// encoding error (never: every reply fits, tested) raises [`fault::SERIAL_ERROR`].
     fn send(&mut self, reply: &Reply) {
         let seq = self.next_tx_seq();
-        let Ok(mut rest) = encode(seq, reply, &mut self.tx_buf) else {
+        let Ok(frame) = encode(seq, reply, &mut self.tx_buf) else {
             self.io_faults |= fault::SERIAL_ERROR;
             return;
         };
-        while !rest.is_empty() {
-            match self.serial.write(rest) {
-                Ok(n) if n > 0 => rest = rest.get(n..).unwrap_or(&[]),
+        if frame.len() > self.tx_queue.capacity() - self.tx_queue.len() {
+            self.link.tx_dropped = self.link.tx_dropped.wrapping_add(1);
+        } else {
+            for &b in frame {
+                // Cannot fail: the room was checked above.
+                let _ = self.tx_queue.push_back(b);
+            }
+            self.link.tx_frames = self.link.tx_frames.wrapping_add(1);
+        }
+        self.flush_tx();
+    }
+
+    /// Write queued bytes while the port is ready for them; never waits.
+    fn flush_tx(&mut self) {
+        loop {
+            let (front, _) = self.tx_queue.as_slices();
+            if front.is_empty() {
+                return;
+            }
+            match self.serial.write_ready() {
+                Ok(true) => {}
+                Ok(false) => return,
+                Err(_) => {
+                    self.io_faults |= fault::SERIAL_ERROR;
+                    return;
+                }
+            }
+            match self.serial.write(front) {
+                Ok(n) if n > 0 => {
+                    for _ in 0..n.min(front.len()) {
+                        self.tx_queue.pop_front();
+                    }
+                }
                 _ => {
                     self.io_faults |= fault::SERIAL_ERROR;
                     return;
                 }
             }
         }
-        self.link.tx_frames = self.link.tx_frames.wrapping_add(1);
     }
 
     fn next_tx_seq(&mut self) -> u16 {

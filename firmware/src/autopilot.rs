@@ -14,10 +14,17 @@
 //! | no heartbeat for `heartbeat_disarm_us` (1 s) | disarm, `LINK_DISARMED` until re-armed |
 //! | tracking / hold and `NavState` older than `nav_stale_us` (0.2 s) | neutral, `NAV_STALE` |
 //! | manual and `ManualThrust` older than `manual_stale_us` (0.5 s) | neutral, `MANUAL_STALE` |
+//! | on-board estimator: IMU or pressure quiet past its timeout (0.1 s / 0.5 s) | `SENSOR_LOST`; neutral when tracking / holding |
+//!
+//! Navigation has two sources: the surface's `Nav` (external, as in hardware in the loop on
+//! the truth), or the on-board estimator ([`OnboardNav`], started by `StartNav`) fed by the
+//! vehicle's IMU and pressure sensor and by the fixes that come down the tether.
 
 use crate::protocol::{fault, Command, Law, ManualThrust, Mode, NackReason, NavSample, Plane};
 use controller_core::alloc::{allocate, Allocation};
 use controller_core::controller::{ControlMode, Controller};
+use controller_core::nav::onboard::OnboardNav;
+use controller_core::nav::Refusal;
 use controller_core::reference::Reference;
 use controller_core::state::{BodyForces, NavState, TrackingErrors};
 
@@ -132,6 +139,11 @@ pub struct Autopilot {
     manual: Option<(u64, ManualThrust)>,
     sticky: u16,
     last_step_us: Option<u64>,
+    onboard: Option<OnboardNav>,
+    /// Sequence number of the latest command that fed or stepped the on-board estimator.
+    onboard_seq: u16,
+    /// Thrust commanded by the latest step `[F1x, F2x, F3z]` (N): the estimator's input.
+    thrust_cmd_n: [f32; 3],
     /// Control steps run.
     pub steps: u32,
 }
@@ -151,6 +163,9 @@ impl Autopilot {
             manual: None,
             sticky: 0,
             last_step_us: None,
+            onboard: None,
+            onboard_seq: 0,
+            thrust_cmd_n: [0.0; 3],
             steps: 0,
         }
     }
@@ -175,9 +190,26 @@ impl Autopilot {
         &self.failsafe
     }
 
-    /// Sequence number and time stamp of the latest accepted `NavState`.
+    /// Sequence number and time stamp of the latest accepted `NavState` (with the on-board
+    /// estimator: of the latest command that fed or stepped it, and the estimator's time).
     pub fn latest_nav(&self) -> Option<(u16, u64)> {
-        self.nav.map(|n| (n.seq, n.sample.t_us))
+        match &self.onboard {
+            Some(o) => Some((self.onboard_seq, o.estimator().time_us())),
+            None => self.nav.map(|n| (n.seq, n.sample.t_us)),
+        }
+    }
+
+    /// The on-board estimator, when it runs.
+    pub fn onboard_nav(&self) -> Option<&OnboardNav> {
+        self.onboard.as_ref()
+    }
+
+    /// The latest navigation state, fresh or not (zeros before the first).
+    pub fn nav_state(&self) -> NavState {
+        match &self.onboard {
+            Some(o) => o.estimator().state(),
+            None => self.nav.map(|n| n.sample.state).unwrap_or_default(),
+        }
     }
 
     /// Sticky fault flags (cleared by arming).
@@ -190,7 +222,23 @@ impl Autopilot {
     }
 
     fn nav_fresh(&self, now_us: u64) -> bool {
-        Self::age(now_us, self.nav.map(|n| n.rx_us)) <= self.failsafe.nav_stale_us
+        match &self.onboard {
+            Some(o) => o.sensors_fresh(now_us),
+            None => Self::age(now_us, self.nav.map(|n| n.rx_us)) <= self.failsafe.nav_stale_us,
+        }
+    }
+
+    /// Apply `f` to the on-board estimator (refused without one), recording `seq`.
+    fn feed(
+        &mut self,
+        seq: u16,
+        f: impl FnOnce(&mut OnboardNav, [f32; 3]) -> Result<(), Refusal>,
+    ) -> Result<(), NackReason> {
+        let thrust = self.thrust_cmd_n;
+        let o = self.onboard.as_mut().ok_or(NackReason::NavSource)?;
+        f(o, thrust).map_err(NackReason::NavRefused)?;
+        self.onboard_seq = seq;
+        Ok(())
     }
 
     /// Disarm now (neutral from the next step).
@@ -246,7 +294,39 @@ impl Autopilot {
                 g.tracking = *t;
                 self.controller.set_gains(g).map_err(NackReason::from)
             }
+            Command::StartNav {
+                t_us,
+                initial,
+                config,
+            } => {
+                check_nav(initial)?;
+                let vehicle = *self.controller.vehicle();
+                let o = OnboardNav::new(vehicle, *config, initial, *t_us, now_us)?;
+                self.onboard = Some(o);
+                self.onboard_seq = seq;
+                Ok(())
+            }
+            Command::StopNav => {
+                self.onboard = None;
+                Ok(())
+            }
+            Command::Imu(s) => self.feed(seq, |o, thrust| o.imu(now_us, s, thrust)),
+            Command::Pressure { t_us, pressure_pa } => {
+                self.feed(seq, |o, _| o.pressure(now_us, *t_us, *pressure_pa))
+            }
+            Command::UsblFix(f) => self.feed(seq, |o, _| o.position(f)),
+            Command::DvlFix(f) => self.feed(seq, |o, _| o.dvl(f)),
+            Command::Compass(f) => self.feed(seq, |o, _| o.heading(f)),
+            Command::Step { .. } => {
+                if self.onboard.is_some() {
+                    self.onboard_seq = seq;
+                }
+                Ok(())
+            }
             Command::Nav(sample) => {
+                if self.onboard.is_some() {
+                    return Err(NackReason::NavSource);
+                }
                 check_nav(&sample.state)?;
                 if let Some(prev) = self.nav {
                     if sample.t_us < prev.sample.t_us {
@@ -284,11 +364,10 @@ impl Autopilot {
                 }
             }
             Mode::Hold => {
-                let nav = match self.nav {
-                    Some(n) if self.nav_fresh(now_us) => n,
-                    _ => return Err(NackReason::NavStale),
-                };
-                let s = nav.sample.state;
+                if !self.nav_fresh(now_us) {
+                    return Err(NackReason::NavStale);
+                }
+                let s = self.nav_state();
                 self.hold = Some((
                     Reference::Hold {
                         pos_m: [s.x_m, s.y_m, s.z_m],
@@ -323,6 +402,12 @@ impl Autopilot {
     /// `no-panic` feature, docs/firmware.md).
     #[cfg_attr(feature = "no-panic", no_panic::no_panic)]
     pub fn step(&mut self, now_us: u64) -> StepOutput {
+        let out = self.step_inner(now_us);
+        self.thrust_cmd_n = out.allocation.thrust_n;
+        out
+    }
+
+    fn step_inner(&mut self, now_us: u64) -> StepOutput {
         let fs = self.failsafe;
         let dt_s = match self.last_step_us {
             Some(t) => seconds_since(now_us, t).clamp(1e-4, 0.2),
@@ -341,6 +426,10 @@ impl Autopilot {
             faults |= fault::HEARTBEAT_LOST;
         }
         faults |= self.sticky;
+        let nav_fresh = self.nav_fresh(now_us);
+        if self.onboard.is_some() && !nav_fresh {
+            faults |= fault::SENSOR_LOST;
+        }
         if !self.armed || faults & fault::HEARTBEAT_LOST != 0 {
             return self.neutral(faults);
         }
@@ -362,10 +451,10 @@ impl Autopilot {
             _ => return self.neutral(faults),
         };
         let sample = reference.sample(seconds_since(now_us, start));
-        let nav = match &self.nav {
-            Some(n) if self.nav_fresh(now_us) => n.sample.state,
-            _ => return self.neutral(faults | fault::NAV_STALE),
-        };
+        if !nav_fresh {
+            return self.neutral(faults | fault::NAV_STALE);
+        }
+        let nav = self.nav_state();
         let law = self.controller.step(cm, &nav, &sample, dt_s);
         let sat = if law.allocation.saturated {
             fault::SATURATED

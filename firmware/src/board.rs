@@ -8,8 +8,9 @@
 //!   `-icount shift=0`), lock-step on the host's time.
 //!
 //! Pins (both): TIM3 CH1/CH2/CH3 on PA6/PA7/PB0 drive the three ESCs (`F1x`, `F2x`, `F3z`);
-//! USART1 on PA9 (TX) / PA10 (RX) at 115 200 Bd is the tether (QEMU `-serial` 0). Receive is
-//! interrupt-driven into a 1 KiB ring buffer; transmit blocks per byte.
+//! USART1 on PA9 (TX) / PA10 (RX) at 115 200 Bd is the tether (QEMU `-serial` 0). Both ways
+//! are interrupt-driven: receive into a 1 KiB ring, transmit from a 256-byte ring that the
+//! application's frame queue fills as it empties (the loop never waits on the port).
 #![allow(unsafe_code)]
 
 use crate::app::{App, Config, Monotonic, Timing};
@@ -53,6 +54,10 @@ static RX_RING: Mutex<RefCell<Deque<u8, 1024>>> = Mutex::new(RefCell::new(Deque:
 pub static RX_LOST: AtomicU32 = AtomicU32::new(0);
 /// The receiver, owned by the interrupt once started.
 static RX: Mutex<RefCell<Option<Rx<USART1>>>> = Mutex::new(RefCell::new(None));
+/// Bytes the loop queued for sending, written to the data register by the interrupt.
+static TX_RING: Mutex<RefCell<Deque<u8, 256>>> = Mutex::new(RefCell::new(Deque::new()));
+/// The transmitter, owned by the interrupt once started.
+static TX: Mutex<RefCell<Option<Tx<USART1>>>> = Mutex::new(RefCell::new(None));
 
 #[interrupt]
 fn USART1() {
@@ -66,6 +71,14 @@ fn USART1() {
         ) else {
             return;
         };
+        if let (Ok(mut tx), Ok(mut out)) = (
+            TX.borrow(cs).try_borrow_mut(),
+            TX_RING.borrow(cs).try_borrow_mut(),
+        ) {
+            if let Some(tx) = tx.as_mut() {
+                send_queued(tx, &mut out);
+            }
+        }
         if let Some(rx) = rx.as_mut() {
             // Drain; an error (overrun, framing) is cleared by the read and the frame it hit
             // is dropped by the CRC.
@@ -83,10 +96,23 @@ fn USART1() {
     });
 }
 
-/// The tether: interrupt-fed receive ring, blocking transmit.
-pub struct Tether {
-    tx: Tx<USART1>,
+/// Move queued bytes to the data register while it is empty; stop the transmit interrupt
+/// when the queue is empty (the next `write` starts it again).
+fn send_queued(tx: &mut Tx<USART1>, out: &mut Deque<u8, 256>) {
+    while tx.is_tx_empty() {
+        let Some(b) = out.pop_front() else {
+            tx.unlisten();
+            return;
+        };
+        // Cannot block: the register is empty.
+        let _ = embedded_hal_nb::serial::Write::write(tx, b);
+    }
+    tx.listen();
 }
+
+/// The tether: interrupt-driven both ways. The loop never waits on the port: `write` queues
+/// what fits and the USART1 interrupt sends it, a byte each time the data register empties.
+pub struct Tether;
 
 /// Serial error (never produced: transmit blocks, receive errors are dropped by the CRC).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -128,15 +154,39 @@ impl embedded_io::Read for Tether {
     }
 }
 
+impl embedded_io::WriteReady for Tether {
+    fn write_ready(&mut self) -> Result<bool, TetherError> {
+        Ok(cortex_m::interrupt::free(|cs| {
+            TX_RING
+                .borrow(cs)
+                .try_borrow()
+                .is_ok_and(|out| !out.is_full())
+        }))
+    }
+}
+
 impl embedded_io::Write for Tether {
+    /// Queue what fits (at least one byte after `write_ready`) and start the interrupt.
     fn write(&mut self, buf: &[u8]) -> Result<usize, TetherError> {
-        for &b in buf {
-            // Blocks until the data register is free; errors cannot occur on transmit.
-            if nb::block!(embedded_hal_nb::serial::Write::write(&mut self.tx, b)).is_err() {
-                return Err(TetherError);
+        Ok(cortex_m::interrupt::free(|cs| {
+            let (Ok(mut tx), Ok(mut out)) = (
+                TX.borrow(cs).try_borrow_mut(),
+                TX_RING.borrow(cs).try_borrow_mut(),
+            ) else {
+                return 0;
+            };
+            let mut n = 0;
+            for &b in buf {
+                if out.push_back(b).is_err() {
+                    break;
+                }
+                n += 1;
             }
-        }
-        Ok(buf.len())
+            if let Some(tx) = tx.as_mut() {
+                send_queued(tx, &mut out);
+            }
+            n
+        }))
     }
 
     fn flush(&mut self) -> Result<(), TetherError> {
@@ -261,11 +311,15 @@ pub fn run(variant: Variant) -> ! {
         if let Ok(mut slot) = RX.borrow(cs).try_borrow_mut() {
             *slot = Some(rx);
         }
+        if let Ok(mut slot) = TX.borrow(cs).try_borrow_mut() {
+            *slot = Some(tx);
+        }
     });
-    // SAFETY: the handler above only touches `RX` and `RX_RING` inside critical sections,
-    // both initialized; unmasking cannot break a critical section in progress (there is none).
+    // SAFETY: the handler above only touches `RX`, `TX` and their rings inside critical
+    // sections, all initialized; unmasking cannot break a critical section in progress (there
+    // is none).
     unsafe { cortex_m::peripheral::NVIC::unmask(pac::Interrupt::USART1) };
-    let tether = Tether { tx };
+    let tether = Tether;
 
     match variant {
         Variant::Stm32f4 => {

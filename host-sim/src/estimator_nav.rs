@@ -12,6 +12,7 @@ use crate::scenario::Scenario;
 use crate::sensors::{Measurement, NavSource, SensorSuite, SensorsSpec};
 use crate::sim_loop::{to_nav, FixRecord, NavReport, Navigation, TruthNav};
 use anyhow::{anyhow, bail, Result};
+use controller_core::nav::onboard::{OnboardConfig, PressureDepth};
 use controller_core::nav::{Estimator, NavConfig, Refusal};
 use controller_core::params::Vehicle;
 use controller_core::state::NavState;
@@ -217,6 +218,101 @@ impl Navigation for EstimatorNav {
             usbl_fixes_rejected: u64::from(self.estimator.health().position_outliers),
         }
     }
+}
+
+/// The on-board estimator's settings for a scenario: the filters of [`nav_config`], sea water
+/// with the depth sensor's noise, the default sensor timeouts.
+pub fn onboard_config(sc: &Scenario) -> OnboardConfig {
+    let mut pressure = PressureDepth::SEA_WATER;
+    if let Some(d) = &sc.sensors.depth {
+        // The same accuracy the simulated sensor gives its fixes (`sensors.rs`).
+        pressure.std_m = d.noise_m.max(1e-4) as f32;
+    }
+    OnboardConfig {
+        nav: nav_config(&sc.sensors),
+        pressure,
+        ..OnboardConfig::default()
+    }
+}
+
+/// `source = "estimator"` with the estimator on the vehicle (hardware in the loop): the
+/// scenario's simulated sensors are delivered to the firmware as they arrive, and the
+/// firmware estimates; the loop scores the estimate the firmware reports.
+pub struct VehicleNav {
+    sensors: SensorSuite,
+    pending: Vec<(f64, Measurement)>,
+    initial: NavState,
+    fixes: Vec<FixRecord>,
+}
+
+impl VehicleNav {
+    /// The sensors of a scenario, drawing from `seed`'s stream (the same draws as
+    /// [`EstimatorNav::for_scenario`] with the same seed).
+    pub fn for_scenario(sc: &Scenario, seed: u64) -> Result<Self> {
+        if let Some(missing) = sc.sensors.missing_for_estimator() {
+            bail!("navigation.source = \"estimator\" needs {missing}");
+        }
+        Ok(Self {
+            sensors: SensorSuite::new(&sc.sensors, seed),
+            pending: Vec::new(),
+            initial: to_nav(&sc.initial.to_plant()),
+            fixes: Vec::new(),
+        })
+    }
+}
+
+impl Navigation for VehicleNav {
+    fn observe(&mut self, t_s: f64, truth: &PlantState) {
+        self.sensors.sample(t_s, truth, &mut self.pending);
+    }
+
+    /// The launch point (what the vehicle's estimator starts from); the loop uses the
+    /// vehicle's own estimate after that.
+    fn estimate(&mut self, _t_s: f64, _thrust_cmd_n: [f64; 3]) -> NavState {
+        self.initial
+    }
+
+    fn for_vehicle(&mut self, t_s: f64) -> Vec<Measurement> {
+        // The same order as `EstimatorNav::estimate`: by arrival, stable.
+        self.pending.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let n_due = self.pending.partition_point(|(arr, _)| *arr <= t_s + 1e-9);
+        let due: Vec<_> = self.pending.drain(..n_due).collect();
+        for (arrival, m) in &due {
+            if let Measurement::Position(f, outlier) = m {
+                self.fixes.push(FixRecord {
+                    t_valid_s: f.t_us as f64 * 1e-6,
+                    t_arrival_s: *arrival,
+                    pos_m: [f64::from(f.north_m), f64::from(f.east_m)],
+                    outlier: *outlier,
+                    // The firmware's verdict comes back as a Nack, counted by the endpoint.
+                    refused: None,
+                });
+            }
+        }
+        due.into_iter().map(|(_, m)| m).collect()
+    }
+
+    fn usbl_fixes(&self) -> Vec<FixRecord> {
+        self.fixes.clone()
+    }
+
+    fn report(&self) -> NavReport {
+        NavReport {
+            source: "estimator on the vehicle".into(),
+            nees_in_bounds_fraction: None,
+            usbl_outliers_injected: self.sensors.usbl_outliers_injected,
+            usbl_fixes_rejected: 0,
+        }
+    }
+}
+
+/// The navigation stage of hardware in the loop: the truth path, or the simulated sensors
+/// delivered to the firmware's estimator ([`VehicleNav`]).
+pub fn navigation_for_vehicle(sc: &Scenario) -> Result<Box<dyn Navigation>> {
+    Ok(match sc.navigation.source {
+        NavSource::Truth => Box::new(TruthNav::for_scenario(sc, None)),
+        NavSource::Estimator => Box::new(VehicleNav::for_scenario(sc, sc.disturbance.noise_seed)?),
+    })
 }
 
 /// The navigation stage a scenario asks for: the truth path (`source = "truth"`) or the

@@ -35,10 +35,13 @@ use crate::link::{open, Endpoint, HostLinkStats, Link, Noise, NoiseSpec, Port};
 use crate::output::write_run;
 use crate::qemu::{qemu_firmware_image, start_qemu_link, workspace_root, FirmwareImage};
 use crate::scenario::Scenario;
+use crate::sensors::Measurement;
+use crate::sensors::NavSource;
 use crate::sim_loop::{run_closed_loop, ControllerEndpoint, RunOptions, RunOutput, StepReply};
 use anyhow::{anyhow, bail, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::controller::ControlMode;
+use controller_core::nav::onboard::OnboardConfig;
 use controller_core::params::Vehicle;
 use controller_core::reference::{RefSample, Reference};
 use controller_core::state::NavState;
@@ -172,6 +175,13 @@ pub struct HilReport {
     pub neutral_after_s: Option<f64>,
     /// First time after the stop at which the firmware was disarmed, minus the stop (s).
     pub disarmed_after_s: Option<f64>,
+    /// The firmware ran the estimator on board (the scenario's `source = "estimator"`): the
+    /// host sent it sensor readings and fixes, not states.
+    pub onboard_estimator: bool,
+    /// Measurements the firmware's estimator refused (answered by a `Nack`).
+    pub measurements_refused: u64,
+    /// The on-board estimator's counters at the end of the run.
+    pub nav_health: Option<controller_core::nav::NavHealth>,
     /// Wall-clock time (s).
     pub wall_time_s: f64,
 }
@@ -221,6 +231,10 @@ pub struct TetherEndpoint {
     ticks_sum: u64,
     report: HilReport,
     telemetry: Vec<TelemetryRow>,
+    /// The on-board estimator's settings, when the firmware estimates.
+    onboard: Option<OnboardConfig>,
+    /// Sequence numbers of the measurements sent since the last step (their `Nack`s count).
+    sent_measurements: Vec<u16>,
 }
 
 impl TetherEndpoint {
@@ -275,9 +289,13 @@ impl TetherEndpoint {
                 target: target_name,
                 board,
                 heartbeat_stop_s: opts.heartbeat_stop_s,
+                onboard_estimator: sc.navigation.source == NavSource::Estimator,
                 ..HilReport::default()
             },
             telemetry: Vec::new(),
+            onboard: (sc.navigation.source == NavSource::Estimator)
+                .then(|| crate::estimator_nav::onboard_config(sc)),
+            sent_measurements: Vec::new(),
         })
     }
 
@@ -294,10 +312,11 @@ impl TetherEndpoint {
             },
             |_| {},
         )?;
-        let fw: LinkStats = end_status
-            .or(self.link.last_status)
-            .map(|st| st.link)
-            .unwrap_or_default();
+        let end_status = end_status.or(self.link.last_status);
+        if self.onboard.is_some() {
+            self.report.nav_health = end_status.map(|st| st.nav_health);
+        }
+        let fw: LinkStats = end_status.map(|st| st.link).unwrap_or_default();
         let rep = &mut self.report;
         rep.firmware_rx_frames = fw.rx_frames;
         rep.firmware_dropped_frames = fw.dropped.total();
@@ -317,7 +336,10 @@ impl TetherEndpoint {
     fn exchange(&mut self, t_s: f64, nav: &NavState) -> Result<Telemetry> {
         let t_us = us(t_s);
         let heartbeats = self.heartbeat_stop_s.is_none_or(|stop| t_s < stop);
-        let nav_cmd = Command::Nav(NavSample { t_us, state: *nav });
+        let nav_cmd = match self.onboard {
+            Some(_) => Command::Step { t_us },
+            None => Command::Nav(NavSample { t_us, state: *nav }),
+        };
         let hb_cmd = Command::Heartbeat { t_us };
         let hb_seq = self.link.next_seq();
         if heartbeats {
@@ -325,7 +347,9 @@ impl TetherEndpoint {
         }
         let nav_seq = self.link.send(&nav_cmd)?;
         let mut tries = 1;
+        let sent = std::mem::take(&mut self.sent_measurements);
         loop {
+            let refused = &mut self.report.measurements_refused;
             let got = self.link.wait_for(
                 self.reply_timeout,
                 |r| match r {
@@ -333,7 +357,11 @@ impl TetherEndpoint {
                     Reply::Nack { seq, reason } if *seq == nav_seq => Some(Err(*reason)),
                     _ => None,
                 },
-                |_| {},
+                |r| {
+                    if let Reply::Nack { seq, .. } = r {
+                        *refused += u64::from(sent.contains(seq));
+                    }
+                },
             )?;
             match got {
                 Some(Ok(tl)) => {
@@ -398,20 +426,35 @@ impl ControllerEndpoint for TetherEndpoint {
     fn start(&mut self, nav0: &NavState) -> Result<()> {
         let tmo = Duration::from_millis(500);
         self.link.send(&Command::Heartbeat { t_us: 0 })?;
-        let s0 = self.link.send(&Command::Nav(NavSample {
-            t_us: 0,
-            state: *nav0,
-        }))?;
-        self.link
-            .wait_for(
-                Duration::from_secs(5),
-                |r| match r {
-                    Reply::Telemetry(t) if t.nav_seq == s0 => Some(()),
-                    _ => None,
-                },
-                |_| {},
-            )?
-            .ok_or_else(|| anyhow!("no Telemetry for the first NavState"))?;
+        if let Some(config) = self.onboard {
+            // The estimator starts at the launch point; its sensors count as fresh from now.
+            let start = Command::StartNav {
+                t_us: 0,
+                initial: *nav0,
+                config,
+            };
+            if let Err(reason) = self
+                .link
+                .command(&start, Duration::from_secs(5), 5, |_| {})?
+            {
+                bail!("the firmware refused StartNav: {reason:?}");
+            }
+        } else {
+            let s0 = self.link.send(&Command::Nav(NavSample {
+                t_us: 0,
+                state: *nav0,
+            }))?;
+            self.link
+                .wait_for(
+                    Duration::from_secs(5),
+                    |r| match r {
+                        Reply::Telemetry(t) if t.nav_seq == s0 => Some(()),
+                        _ => None,
+                    },
+                    |_| {},
+                )?
+                .ok_or_else(|| anyhow!("no Telemetry for the first NavState"))?;
+        }
         let setup = [
             Command::SetReference {
                 reference: self.reference,
@@ -471,7 +514,33 @@ impl ControllerEndpoint for TetherEndpoint {
             pulse_us: tel.pulse_us.map(f64::from),
             errors: tel.errors,
             saturated: tel.faults & fault::SATURATED != 0,
+            estimate: self
+                .onboard
+                .map(|_| (tel.nav, tel.nav_pos_std_m.map(f64::from))),
         })
+    }
+
+    /// The measurements, as the commands the firmware takes; a depth travels as the pressure
+    /// the sensor would read (the firmware converts it back, as on the real board).
+    fn forward(&mut self, measurements: &[Measurement]) -> Result<()> {
+        let Some(cfg) = self.onboard else {
+            return Ok(());
+        };
+        for m in measurements {
+            let cmd = match *m {
+                Measurement::Imu(s) => Command::Imu(s),
+                Measurement::Depth(d) => Command::Pressure {
+                    t_us: d.t_us,
+                    pressure_pa: cfg.pressure.pressure_pa(d.depth_m),
+                },
+                Measurement::Heading(h) => Command::Compass(h),
+                Measurement::Dvl(d) => Command::DvlFix(d),
+                Measurement::Position(p, _) => Command::UsblFix(p),
+            };
+            let seq = self.link.send(&cmd)?;
+            self.sent_measurements.push(seq);
+        }
+        Ok(())
     }
 }
 
@@ -503,7 +572,7 @@ pub fn run_hil(sc: &Scenario, opts: &HilOptions, qemu_log: Option<&Path>) -> Res
     let link = Link::new(port, None);
     let mut endpoint =
         TetherEndpoint::connect(link, sc, opts, target_name, hello_wait, hello_required)?;
-    let mut nav = crate::estimator_nav::navigation_for(sc, None)?;
+    let mut nav = crate::estimator_nav::navigation_for_vehicle(sc)?;
     let run_opts = RunOptions {
         record: opts.record,
         duration_s: opts.duration_s,

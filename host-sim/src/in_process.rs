@@ -64,6 +64,13 @@ impl embedded_io::Read for SimSerial {
     }
 }
 
+impl embedded_io::WriteReady for SimSerial {
+    /// Always ready: this port takes every byte at once.
+    fn write_ready(&mut self) -> Result<bool, Infallible> {
+        Ok(true)
+    }
+}
+
 impl embedded_io::ReadReady for SimSerial {
     fn read_ready(&mut self) -> Result<bool, Infallible> {
         Ok(!self.rx.is_empty())

@@ -25,6 +25,7 @@ use crate::plant::xy::XyPlant;
 use crate::plant::xz::XzPlant;
 use crate::plant::{Environment, Plant, PlantState};
 use crate::scenario::{NoiseStd, Plane, Scenario};
+use crate::sensors::Measurement;
 use anyhow::{anyhow, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::controller::{ControlMode, Controller, Gains};
@@ -214,6 +215,11 @@ pub trait Navigation {
     fn usbl_fixes(&self) -> Vec<FixRecord> {
         Vec::new()
     }
+    /// At each control tick, before the step: the measurements that have arrived for an
+    /// estimator on the vehicle (empty when the stage estimates itself), in arrival order.
+    fn for_vehicle(&mut self, _t_s: f64) -> Vec<Measurement> {
+        Vec::new()
+    }
 }
 
 /// The truth path: the plant state `delay` plant steps old (the initial state until enough
@@ -316,6 +322,9 @@ pub struct StepReply {
     pub errors: TrackingErrors,
     /// The allocation clamped the request.
     pub saturated: bool,
+    /// The state the controller estimated itself (an on-board estimator), with the standard
+    /// deviation of its position; the loop then logs and scores it instead of the stage's.
+    pub estimate: Option<(NavState, [f64; 3])>,
 }
 
 /// The controller end of the loop: the core in process, the firmware library's `App` in
@@ -328,6 +337,16 @@ pub trait ControllerEndpoint {
     /// One control step at `t_s` on `nav`; `reference` is the loop's sample of the scenario's
     /// reference at `t_s` (a firmware samples its own).
     fn step(&mut self, t_s: f64, nav: &NavState, reference: &RefSample) -> Result<StepReply>;
+    /// Before the step: measurements for the endpoint's own estimator.
+    fn forward(&mut self, measurements: &[Measurement]) -> Result<()> {
+        if measurements.is_empty() {
+            Ok(())
+        } else {
+            Err(anyhow!(
+                "this controller endpoint has no on-board estimator"
+            ))
+        }
+    }
 }
 
 /// The core's [`Controller`] in process, stepped at the control period.
@@ -376,6 +395,7 @@ impl ControllerEndpoint for CoreEndpoint {
             pulse_us: cmd.map(|f| f64::from(self.pwm.pulse_us(f))),
             errors: out.errors,
             saturated: out.allocation.saturated,
+            estimate: None,
         })
     }
 }
@@ -597,7 +617,12 @@ pub fn run_closed_loop(
             endpoint.start(&nav_state)?;
         }
         let r: RefSample = reference.sample(t as f32);
+        endpoint.forward(&nav.for_vehicle(t))?;
         let out = endpoint.step(t, &nav_state, &r)?;
+        let (nav_state, nav_std) = match out.estimate {
+            Some((e, std)) => (e, Some(std)),
+            None => (nav_state, nav.position_std_m()),
+        };
 
         // Metrics on the true state.
         let ref_pos = r.pos_m.map(f64::from);
@@ -629,7 +654,7 @@ pub fn run_closed_loop(
             t_s: t,
             state: truth,
             nav_pos_m: nav_pos,
-            nav_pos_std_m: nav.position_std_m(),
+            nav_pos_std_m: nav_std,
             ref_pos_m: ref_pos,
             ref_vel_m_s: ref_vel,
             pos_err_m: pe,

@@ -170,3 +170,73 @@ fn hil_corrupted_bytes_do_not_lose_control() {
         clean.run.summary.rms_position_error_m
     );
 }
+
+/// The estimator on the emulated Cortex-M4F (issue 12): `nav-circle-3d` (IMU, depth,
+/// compass, DVL and 1 Hz USBL) with the sensor readings and fixes sent over the tether and
+/// the firmware estimating, against the same scenario with the estimator in software (the
+/// same sensor draws). 60 s of the 300 s scenario, to keep the test short.
+#[test]
+fn hil_estimator_on_the_mcu_matches_software_within_a_few_percent() {
+    let sc = Scenario::load("nav-circle-3d").unwrap();
+    let duration = 60.0;
+    let Some(h) = hil(
+        &sc,
+        |o| {
+            o.duration_s = Some(duration);
+            // The thrust the law commands, as in software (not that of the ESC pulses).
+            o.apply_pulses = false;
+        },
+        "hil-nav-circle-3d",
+    ) else {
+        return;
+    };
+    let sw = run(
+        &sc,
+        &RunOptions {
+            duration_s: Some(duration),
+            ..RunOptions::default()
+        },
+    )
+    .unwrap();
+    let (hs, ss) = (&h.run.summary, &sw.summary);
+    let health = h
+        .report
+        .nav_health
+        .expect("the firmware's estimator counters");
+    eprintln!(
+        "nav-circle-3d {duration} s: tracking RMS HIL {:.5} m, software {:.5} m; estimation RMS \
+         HIL {:.5} m, software {:.5} m; loop on the MCU {:.0} instructions mean, {} max; {health:?}",
+        hs.rms_position_error_m,
+        ss.rms_position_error_m,
+        hs.rms_estimation_error_m,
+        ss.rms_estimation_error_m,
+        h.report.loop_ticks_mean,
+        h.report.loop_ticks_max
+    );
+    assert!(h.report.onboard_estimator);
+    assert_eq!(h.report.steps_failsafe, 0, "a failsafe fired");
+    assert_eq!(health.imu_samples, (duration * 100.0) as u32);
+    assert!(health.position_fused >= 25, "{health:?}");
+    for (name, hil, soft) in [
+        (
+            "tracking RMS",
+            hs.rms_position_error_m,
+            ss.rms_position_error_m,
+        ),
+        (
+            "estimation RMS",
+            hs.rms_estimation_error_m,
+            ss.rms_estimation_error_m,
+        ),
+        (
+            "largest thrust",
+            hs.max_abs_thruster_force_n,
+            ss.max_abs_thruster_force_n,
+        ),
+    ] {
+        assert!(
+            (hil - soft).abs() <= 0.03 * soft,
+            "{name}: HIL {hil} vs software {soft} (more than 3 % apart)"
+        );
+    }
+}

@@ -81,6 +81,13 @@ impl embedded_io::Read for FakeSerial {
     }
 }
 
+impl embedded_io::WriteReady for FakeSerial {
+    /// Always ready: this port takes every byte at once.
+    fn write_ready(&mut self) -> Result<bool, Infallible> {
+        Ok(true)
+    }
+}
+
 impl embedded_io::ReadReady for FakeSerial {
     fn read_ready(&mut self) -> Result<bool, Infallible> {
         Ok(!self.rx.is_empty())

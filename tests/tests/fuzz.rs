@@ -20,6 +20,8 @@
 )]
 
 use controller_core::controller::Gains;
+use controller_core::nav::onboard::OnboardConfig;
+use controller_core::nav::{DvlFix, HeadingFix, ImuSample, NavHealth, PositionFix};
 use controller_core::reference::{PaperPolynomial, Reference};
 use controller_core::state::NavState;
 use firmware::protocol::{
@@ -102,6 +104,56 @@ fn command() -> impl Strategy<Value = Command> {
             t.xy_kp = k;
             Command::SetTrackingGains(t)
         }),
+        nav_commands(),
+    ]
+}
+
+/// The on-board estimator's messages (issue 12), with any values, NaN and infinities too.
+fn nav_commands() -> impl Strategy<Value = Command> {
+    let any_f = || any::<f32>();
+    prop_oneof![
+        (any::<u64>(), nav_state(), any_f()).prop_map(|(t_us, initial, n)| {
+            let mut config = OnboardConfig::default();
+            config.nav.gyro_noise_rad_s_sqrt_hz = n;
+            Command::StartNav {
+                t_us,
+                initial,
+                config,
+            }
+        }),
+        Just(Command::StopNav),
+        (any::<u64>(), proptest::array::uniform6(any_f())).prop_map(|(t_us, v)| {
+            Command::Imu(ImuSample {
+                t_us,
+                gyro_rad_s: [v[0], v[1], v[2]],
+                accel_m_s2: [v[3], v[4], v[5]],
+            })
+        }),
+        (any::<u64>(), any_f())
+            .prop_map(|(t_us, pressure_pa)| Command::Pressure { t_us, pressure_pa }),
+        (any::<u64>(), any_f(), any_f(), any_f()).prop_map(|(t_us, n, e, s)| {
+            Command::UsblFix(PositionFix {
+                t_us,
+                north_m: n,
+                east_m: e,
+                std_m: s,
+            })
+        }),
+        (any::<u64>(), any_f(), any_f(), any_f()).prop_map(|(t_us, u, v, s)| {
+            Command::DvlFix(DvlFix {
+                t_us,
+                velocity_m_s: [u, v],
+                std_m_s: s,
+            })
+        }),
+        (any::<u64>(), any_f(), any_f()).prop_map(|(t_us, y, s)| {
+            Command::Compass(HeadingFix {
+                t_us,
+                yaw_rad: y,
+                std_rad: s,
+            })
+        }),
+        any::<u64>().prop_map(|t_us| Command::Step { t_us }),
     ]
 }
 
@@ -273,20 +325,34 @@ fn largest_messages_fit() {
             plane: Plane::ThreeD,
             law: Law::Tracking,
         },
+        nav_pos_std_m: [f32::MAX; 3],
         ..Telemetry::default()
     };
     let big_status = Status {
+        nav_health: NavHealth {
+            imu_samples: u32::MAX,
+            depth_fused: u32::MAX,
+            heading_fused: u32::MAX,
+            dvl_fused: u32::MAX,
+            position_fused: u32::MAX,
+            position_outliers: u32::MAX,
+            other_outliers: u32::MAX,
+            invalid: u32::MAX,
+            resets: u32::MAX,
+        },
         t_us: u64::MAX,
         heartbeat_seq: u16::MAX,
         nav_t_us: u64::MAX,
         steps: u32::MAX,
         loop_ticks_max: u32::MAX,
         overruns: u32::MAX,
+        control_late_max_us: u32::MAX,
         faults: u16::MAX,
         link: firmware::protocol::LinkStats {
             rx_frames: u32::MAX,
             tx_frames: u32::MAX,
             nacks: u32::MAX,
+            tx_dropped: u32::MAX,
             dropped: firmware::protocol::DropCounters {
                 overflow: u32::MAX,
                 cobs: u32::MAX,
@@ -321,6 +387,15 @@ fn largest_messages_fit() {
             xy: Gains::default().paper_xy,
         },
         Command::SetTrackingGains(Gains::default().tracking),
+        Command::StartNav {
+            t_us: u64::MAX,
+            initial: NavState::default(),
+            config: OnboardConfig {
+                imu_timeout_us: u32::MAX,
+                pressure_timeout_us: u32::MAX,
+                ..OnboardConfig::default()
+            },
+        },
         Command::Nav(NavSample {
             t_us: u64::MAX,
             state: NavState::default(),

@@ -46,6 +46,7 @@
 mod attitude;
 mod horizontal;
 pub mod kf;
+pub mod onboard;
 mod vertical;
 
 use crate::error::{non_negative, positive, Error};
@@ -54,6 +55,7 @@ use crate::params::Vehicle;
 use crate::state::NavState;
 use attitude::Tilt;
 use horizontal::Horizontal;
+use serde::{Deserialize, Serialize};
 use vertical::Vertical;
 
 pub use horizontal::{HISTORY_LEN, HISTORY_STEP_US};
@@ -70,7 +72,7 @@ pub const GATE_CHI2_1DOF: f32 = 10.83;
 pub const GATE_CHI2_2DOF: f32 = 13.82;
 
 /// One IMU sample: body-axis angular rate and specific force, at `t_us`.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ImuSample {
     /// Time of the sample (us).
@@ -82,7 +84,7 @@ pub struct ImuSample {
 }
 
 /// A depth from the pressure sensor.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct DepthFix {
     /// Time of validity (us).
@@ -94,7 +96,7 @@ pub struct DepthFix {
 }
 
 /// A compass heading.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct HeadingFix {
     /// Time of validity (us).
@@ -106,7 +108,7 @@ pub struct HeadingFix {
 }
 
 /// A DVL velocity over the bottom, in body axes.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct DvlFix {
     /// Time of validity (us).
@@ -118,7 +120,7 @@ pub struct DvlFix {
 }
 
 /// An acoustic (USBL) position fix of the body origin.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct PositionFix {
     /// Time of validity: when the ping was made, not when the fix arrived (us).
@@ -132,7 +134,7 @@ pub struct PositionFix {
 }
 
 /// Why a measurement was not fused. The estimator's state is unchanged.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
 pub enum Refusal {
@@ -153,7 +155,7 @@ pub enum Refusal {
 }
 
 /// Counters of what the estimator fused and refused.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct NavHealth {
     /// IMU samples integrated.
@@ -221,7 +223,7 @@ fn gated(
 ///
 /// The sensor noise of each fix travels with the fix; these are the figures of the IMU and of
 /// the model that the prediction uses.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct NavConfig {
     /// Gyro white noise density (rad/s/sqrt(Hz)).

@@ -7,6 +7,8 @@ use super::decoder::DropCounters;
 use controller_core::law::paper_xy::PaperXyGains;
 use controller_core::law::paper_xz::PaperXzGains;
 use controller_core::law::tracking::TrackingGains;
+use controller_core::nav::onboard::OnboardConfig;
+use controller_core::nav::{DvlFix, HeadingFix, ImuSample, NavHealth, PositionFix, Refusal};
 use controller_core::reference::Reference;
 use controller_core::state::{BodyForces, NavState, TrackingErrors};
 use serde::{Deserialize, Serialize};
@@ -122,6 +124,39 @@ pub enum Command {
     /// Replace the tracking laws' gains (validated with the rest of the set; unchanged on
     /// error).
     SetTrackingGains(TrackingGains),
+    /// Start (or restart) the on-board estimator at the launch point `initial`, sensor time
+    /// `t_us`: from then on the laws fly on its estimate, and a `Nav` is refused (version 4).
+    StartNav {
+        /// Sensor time of `initial`, microseconds.
+        t_us: u64,
+        /// The launch point and attitude, as the surface knows them.
+        initial: NavState,
+        /// The filters' noise, pressure to depth, the sensor timeouts (validated).
+        config: OnboardConfig,
+    },
+    /// Stop the on-board estimator: the surface's `Nav` is the source again.
+    StopNav,
+    /// An IMU sample. Emulated board only: a real board reads its own IMU.
+    Imu(ImuSample),
+    /// A pressure reading. Emulated board only: a real board reads its own sensor.
+    Pressure {
+        /// Time of the reading, microseconds.
+        t_us: u64,
+        /// Absolute pressure, pascals.
+        pressure_pa: f32,
+    },
+    /// An acoustic (USBL) position fix, with its time of validity and accuracy.
+    UsblFix(PositionFix),
+    /// A DVL velocity over the bottom, with its time of validity and accuracy.
+    DvlFix(DvlFix),
+    /// A heading from a compass at the surface's end (when the vehicle's is not used).
+    Compass(HeadingFix),
+    /// Lock-step with the on-board estimator: run one control step at `t_us` on the latest
+    /// estimate; answered by `Telemetry` (what `Nav` does with an external source).
+    Step {
+        /// Host time, microseconds.
+        t_us: u64,
+    },
 }
 
 /// Why a command was refused.
@@ -151,6 +186,10 @@ pub enum NackReason {
     NoReference,
     /// A combination the firmware does not offer (e.g. the paper law in 3-D).
     Unsupported,
+    /// A `Nav` while the on-board estimator runs, or a sensor reading or fix without it.
+    NavSource,
+    /// The estimator refused the measurement (its state is unchanged).
+    NavRefused(Refusal),
 }
 
 impl From<controller_core::Error> for NackReason {
@@ -184,6 +223,9 @@ pub mod fault {
     pub const SATURATED: u16 = 1 << 6;
     /// A control period was missed (fixed-rate mode).
     pub const OVERRUN: u16 = 1 << 7;
+    /// The on-board IMU or pressure sensor stopped answering (or answers only refused
+    /// values): thrust is neutral in the modes that need navigation.
+    pub const SENSOR_LOST: u16 = 1 << 8;
 }
 
 /// Link statistics, as counted by the firmware.
@@ -193,10 +235,13 @@ pub struct LinkStats {
     pub rx_frames: u32,
     /// Frames dropped, by reason.
     pub dropped: DropCounters,
-    /// Frames sent.
+    /// Frames queued for sending.
     pub tx_frames: u32,
     /// Nacks sent.
     pub nacks: u32,
+    /// Frames not sent because the transmit queue was full (the port is slower than the
+    /// replies; version 4).
+    pub tx_dropped: u32,
 }
 
 /// What the ROV reports every control step (lock-step: the answer to each `NavState`) or
@@ -226,9 +271,16 @@ pub struct Telemetry {
     pub pulse_us: [u16; 3],
     /// Fault flags ([`fault`]).
     pub faults: u16,
-    /// Duration of the latest control iteration in clock ticks (microseconds on the
-    /// STM32F4 board; instructions on the emulated board under `-icount shift=0`).
+    /// Work of the latest loop iteration in clock ticks (microseconds on the STM32F4 board;
+    /// instructions on the emulated board under `-icount shift=0`): everything since the
+    /// previous control step (frames decoded and handled, sensor readings and fixes into the
+    /// estimator, telemetry sent) and the step itself; idle polling is not counted.
     pub loop_ticks: u32,
+    /// The navigation state the laws saw (the on-board estimate, or the latest `Nav`).
+    pub nav: NavState,
+    /// Standard deviation of the on-board position estimate `[x, y, z]` (m; zeros with an
+    /// external source).
+    pub nav_pos_std_m: [f32; 3],
 }
 
 /// The slow half of the report: link counters and health, sent as the answer to each
@@ -249,8 +301,13 @@ pub struct Status {
     pub loop_ticks_max: u32,
     /// Control periods missed (fixed-rate mode).
     pub overruns: u32,
+    /// Largest delay of a control step after its due time, microseconds (fixed-rate mode:
+    /// the loop's jitter).
+    pub control_late_max_us: u32,
     /// Fault flags now ([`fault`]).
     pub faults: u16,
+    /// The on-board estimator's counters (zeros when it does not run).
+    pub nav_health: NavHealth,
 }
 
 /// Which board sent a [`Reply::Hello`].

@@ -2,6 +2,7 @@
 #![allow(clippy::unwrap_used, clippy::panic, clippy::indexing_slicing)]
 
 use super::*;
+use controller_core::nav::{DvlFix, HeadingFix, ImuSample, PositionFix};
 use controller_core::reference::Reference;
 use controller_core::state::NavState;
 
@@ -11,18 +12,18 @@ fn frame(seq: u16, cmd: &Command) -> Vec<u8> {
 }
 
 #[test]
-fn the_bytes_are_postcard_then_crc32_then_cobs_as_in_version_3() {
+fn the_bytes_are_postcard_then_crc32_then_cobs_as_in_version_4() {
     // Computed independently (Python: zlib.crc32 and a textbook COBS) from the postcard
-    // payloads [3, 7, 1] (version 3, seq 7, `Arm` = variant 1) and [3, 42, 0, 0xE8, 0x07]
-    // (seq 42, `Heartbeat` = variant 0, t_us = 1000 as a varint): the same bytes as the
-    // hand-written encoder of version 3 sent, so the version stays 3.
+    // payloads [4, 7, 1] (version 4, seq 7, `Arm` = variant 1) and [4, 42, 0, 0xE8, 0x07]
+    // (seq 42, `Heartbeat` = variant 0, t_us = 1000 as a varint). Version 4 (the on-board
+    // estimator's messages) changed only the version byte of these two.
     assert_eq!(
         frame(7, &Command::Arm),
-        [0, 8, 3, 7, 1, 26, 193, 65, 197, 0]
+        [0, 8, 4, 7, 1, 159, 215, 14, 192, 0]
     );
     assert_eq!(
         frame(42, &Command::Heartbeat { t_us: 1000 }),
-        [0, 3, 3, 42, 7, 232, 7, 208, 46, 206, 70, 0]
+        [0, 3, 4, 42, 7, 232, 7, 192, 242, 238, 244, 0]
     );
 }
 
@@ -67,6 +68,38 @@ fn every_command_and_reply_round_trips_and_fits() {
             xz: Default::default(),
             xy: Default::default(),
         },
+        Command::StartNav {
+            t_us: u64::MAX,
+            initial: nav,
+            config: Default::default(),
+        },
+        Command::StopNav,
+        Command::Imu(ImuSample {
+            t_us: u64::MAX,
+            gyro_rad_s: [f32::MAX; 3],
+            accel_m_s2: [-9.8; 3],
+        }),
+        Command::Pressure {
+            t_us: u64::MAX,
+            pressure_pa: 101_325.0,
+        },
+        Command::UsblFix(PositionFix {
+            t_us: u64::MAX,
+            north_m: 1.0,
+            east_m: 2.0,
+            std_m: 0.3,
+        }),
+        Command::DvlFix(DvlFix {
+            t_us: u64::MAX,
+            velocity_m_s: [0.2, -0.1],
+            std_m_s: 0.01,
+        }),
+        Command::Compass(HeadingFix {
+            t_us: u64::MAX,
+            yaw_rad: 1.0,
+            std_rad: 0.02,
+        }),
+        Command::Step { t_us: u64::MAX },
     ];
     for (i, cmd) in commands.iter().enumerate() {
         let f = frame(u16::MAX - i as u16, cmd);
@@ -84,12 +117,31 @@ fn every_command_and_reply_round_trips_and_fits() {
         t_us: u64::MAX,
         loop_ticks: u32::MAX,
         faults: u16::MAX,
+        nav,
+        nav_pos_std_m: [f32::MAX; 3],
         ..Telemetry::default()
     });
     let f = encode(1, &t, &mut out).unwrap().to_vec();
     assert_eq!(
         decode_frame::<Reply>(&f),
         Some(Decoded::Frame { seq: 1, msg: t })
+    );
+    let mut st = Status {
+        t_us: u64::MAX,
+        nav_t_us: u64::MAX,
+        steps: u32::MAX,
+        ..Status::default()
+    };
+    st.nav_health.imu_samples = u32::MAX;
+    st.nav_health.resets = u32::MAX;
+    st.link.dropped.crc = u32::MAX;
+    let f = encode(2, &Reply::Status(st), &mut out).unwrap().to_vec();
+    assert_eq!(
+        decode_frame::<Reply>(&f),
+        Some(Decoded::Frame {
+            seq: 2,
+            msg: Reply::Status(st)
+        })
     );
 }
 
@@ -140,8 +192,8 @@ fn garbage_truncation_and_corruption_are_dropped_and_counted() {
 
 #[test]
 fn a_good_crc_on_a_bad_payload_is_malformed_with_its_sequence_number() {
-    // Version 3, seq 9, variant 200 (no such command), with a correct CRC.
-    let payload = [3u8, 9, 200, 1];
+    // This version, seq 9, variant 200 (no such command), with a correct CRC.
+    let payload = [PROTOCOL_VERSION, 9, 200, 1];
     let mut body = payload.to_vec();
     body.extend(CRC.checksum(&payload).to_le_bytes());
     let mut f = vec![0u8; 32];
