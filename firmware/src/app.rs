@@ -417,7 +417,16 @@ where
         if matches!(cmd, Command::Step { .. }) && !lockstep {
             return self.nack(seq, NackReason::Unsupported);
         }
-        match self.autopilot.handle(now, seq, cmd) {
+        let handled = match cmd {
+            Command::StartNav { .. }
+            | Command::Imu(_)
+            | Command::Pressure { .. }
+            | Command::UsblFix(_)
+            | Command::DvlFix(_)
+            | Command::Compass(_) => self.autopilot.handle_nav(now, seq, cmd),
+            _ => self.autopilot.handle(now, seq, cmd),
+        };
+        match handled {
             Err(reason) => self.nack(seq, reason),
             Ok(()) => match cmd {
                 Command::Heartbeat { .. } => {

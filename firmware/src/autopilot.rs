@@ -294,29 +294,16 @@ impl Autopilot {
                 g.tracking = *t;
                 self.controller.set_gains(g).map_err(NackReason::from)
             }
-            Command::StartNav {
-                t_us,
-                initial,
-                config,
-            } => {
-                check_nav(initial)?;
-                let vehicle = *self.controller.vehicle();
-                let o = OnboardNav::new(vehicle, *config, initial, *t_us, now_us)?;
-                self.onboard = Some(o);
-                self.onboard_seq = seq;
-                Ok(())
-            }
+            Command::StartNav { .. }
+            | Command::Imu(_)
+            | Command::Pressure { .. }
+            | Command::UsblFix(_)
+            | Command::DvlFix(_)
+            | Command::Compass(_) => Err(NackReason::Unsupported),
             Command::StopNav => {
                 self.onboard = None;
                 Ok(())
             }
-            Command::Imu(s) => self.feed(seq, |o, thrust| o.imu(now_us, s, thrust)),
-            Command::Pressure { t_us, pressure_pa } => {
-                self.feed(seq, |o, _| o.pressure(now_us, *t_us, *pressure_pa))
-            }
-            Command::UsblFix(f) => self.feed(seq, |o, _| o.position(f)),
-            Command::DvlFix(f) => self.feed(seq, |o, _| o.dvl(f)),
-            Command::Compass(f) => self.feed(seq, |o, _| o.heading(f)),
             Command::Step { .. } => {
                 if self.onboard.is_some() {
                     self.onboard_seq = seq;
@@ -351,6 +338,36 @@ impl Autopilot {
                 self.manual = Some((now_us, *m));
                 Ok(())
             }
+        }
+    }
+
+    /// Apply one of the on-board estimator's commands (`StartNav`, `Imu`, `Pressure`,
+    /// `UsblFix`, `DvlFix`, `Compass`); on `Err` nothing changed. Kept out of [`handle`]
+    /// (`Self::handle`) because the link-time no-panic proof does not hold through the
+    /// estimator: the `heapless` history ring it keeps leaves indexing paths the compiler
+    /// cannot remove. Its inputs are fuzzed instead (`tests/tests/fuzz.rs`).
+    pub fn handle_nav(&mut self, now_us: u64, seq: u16, cmd: &Command) -> Result<(), NackReason> {
+        match cmd {
+            Command::StartNav {
+                t_us,
+                initial,
+                config,
+            } => {
+                check_nav(initial)?;
+                let vehicle = *self.controller.vehicle();
+                let o = OnboardNav::new(vehicle, *config, initial, *t_us, now_us)?;
+                self.onboard = Some(o);
+                self.onboard_seq = seq;
+                Ok(())
+            }
+            Command::Imu(s) => self.feed(seq, |o, thrust| o.imu(now_us, s, thrust)),
+            Command::Pressure { t_us, pressure_pa } => {
+                self.feed(seq, |o, _| o.pressure(now_us, *t_us, *pressure_pa))
+            }
+            Command::UsblFix(f) => self.feed(seq, |o, _| o.position(f)),
+            Command::DvlFix(f) => self.feed(seq, |o, _| o.dvl(f)),
+            Command::Compass(f) => self.feed(seq, |o, _| o.heading(f)),
+            _ => self.handle(now_us, seq, cmd),
         }
     }
 
