@@ -20,6 +20,7 @@ use crate::protocol::{
 };
 use controller_core::alloc::PwmMap;
 use controller_core::controller::Controller;
+use controller_core::nav::ImuSample;
 use embedded_hal::pwm::SetDutyCycle;
 use embedded_io::{Read, ReadReady, Write, WriteReady};
 use heapless::Deque;
@@ -27,8 +28,8 @@ use heapless::Deque;
 /// Bytes read from the serial port at a time (on the stack, then to the decoder).
 const RX_CHUNK: usize = 64;
 
-/// Bytes of whole frames waiting for the serial port: four of the largest frames.
-pub const TX_QUEUE_LEN: usize = 4 * MAX_FRAME_LEN;
+/// Replies waiting for the serial port behind the frame being sent.
+pub const TX_QUEUE_LEN: usize = 4;
 
 /// A monotonic clock.
 pub trait Monotonic {
@@ -153,8 +154,34 @@ pub fn pulse_for_duty(duty: u16, period_us: u32, max_duty: u16) -> u16 {
     p.min(u64::from(u16::MAX)) as u16
 }
 
+/// The vehicle's own navigation sensors, read by the loop just before each control step
+/// (fixed-rate mode) while the on-board estimator runs.
+pub trait Sensors {
+    /// One IMU sample (body axes) made now, or `None` when the IMU did not answer or its
+    /// reading was refused (the estimator's `SENSOR_LOST` timeout then runs).
+    fn imu(&mut self, now_us: u64) -> Option<ImuSample>;
+    /// A new absolute pressure (Pa) when one is ready (the sensor's own rate), else `None`.
+    fn pressure_pa(&mut self, now_us: u64) -> Option<f32>;
+}
+
+/// No sensors on the MCU's buses: the emulated board and the host, where the readings come
+/// over the tether (`Imu`, `Pressure`).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct NoSensors;
+
+impl Sensors for NoSensors {
+    fn imu(&mut self, _now_us: u64) -> Option<ImuSample> {
+        None
+    }
+
+    fn pressure_pa(&mut self, _now_us: u64) -> Option<f32> {
+        None
+    }
+}
+
 /// The application.
-pub struct App<P1, P2, P3, S, C> {
+pub struct App<P1, P2, P3, S, C, N = NoSensors> {
+    sensors: N,
     pwm: (P1, P2, P3),
     serial: S,
     clock: C,
@@ -164,8 +191,11 @@ pub struct App<P1, P2, P3, S, C> {
     tx_seq: u16,
     /// The frame being sent (kept here, not on the stack: not zeroed for every frame).
     tx_buf: [u8; MAX_FRAME_LEN],
-    /// Frames waiting for the port: the loop hands the port what it takes without waiting.
-    tx_queue: Deque<u8, TX_QUEUE_LEN>,
+    /// Replies waiting for the port; the one being sent is encoded in `tx_buf`, of which
+    /// `tx_sent..tx_len` is still to go. The loop hands the port what it takes, never waits.
+    tx_queue: Deque<(u16, Reply), TX_QUEUE_LEN>,
+    tx_sent: usize,
+    tx_len: usize,
     control_late_max_us: u32,
     link: LinkStats,
     host_time_us: u64,
@@ -183,7 +213,7 @@ pub struct App<P1, P2, P3, S, C> {
     overruns: u32,
 }
 
-impl<P1, P2, P3, S, C> App<P1, P2, P3, S, C>
+impl<P1, P2, P3, S, C> App<P1, P2, P3, S, C, NoSensors>
 where
     P1: SetDutyCycle,
     P2: SetDutyCycle,
@@ -191,13 +221,36 @@ where
     S: Read + ReadReady + Write + WriteReady,
     C: Monotonic,
 {
-    /// Check the settings, set the three outputs to neutral, boot disarmed.
+    /// An application without sensors on its buses; see [`with_sensors`](Self::with_sensors).
     pub fn new(
         pwm: (P1, P2, P3),
         serial: S,
         clock: C,
         controller: Controller,
         config: Config,
+    ) -> Result<Self, ConfigError> {
+        Self::with_sensors(pwm, serial, clock, controller, config, NoSensors)
+    }
+}
+
+impl<P1, P2, P3, S, C, N> App<P1, P2, P3, S, C, N>
+where
+    P1: SetDutyCycle,
+    P2: SetDutyCycle,
+    P3: SetDutyCycle,
+    S: Read + ReadReady + Write + WriteReady,
+    C: Monotonic,
+    N: Sensors,
+{
+    /// Check the settings, set the three outputs to neutral, boot disarmed; `sensors` feed
+    /// the on-board estimator before each control step once the surface has started it.
+    pub fn with_sensors(
+        pwm: (P1, P2, P3),
+        serial: S,
+        clock: C,
+        controller: Controller,
+        config: Config,
+        sensors: N,
     ) -> Result<Self, ConfigError> {
         if !(50..=400).contains(&config.pwm_hz) {
             return Err(ConfigError::PwmFrequency);
@@ -232,11 +285,14 @@ where
             serial,
             clock,
             config,
+            sensors,
             autopilot: Autopilot::new(controller, config.failsafe),
             decoder: FrameDecoder::new(),
             tx_seq: 0,
             tx_buf: [0; MAX_FRAME_LEN],
             tx_queue: Deque::new(),
+            tx_sent: 0,
+            tx_len: 0,
             control_late_max_us: 0,
             link: LinkStats::default(),
             host_time_us: 0,
@@ -357,6 +413,7 @@ where
                 } else {
                     self.next_control_us = Some(due + period);
                 }
+                self.read_sensors(now);
                 self.control(now);
             }
             if telemetry_period_us > 0 && now >= self.next_telemetry_us {
@@ -364,6 +421,24 @@ where
                 self.send_telemetry(now);
             }
             self.end_work();
+        }
+    }
+
+    /// Feed the on-board estimator from the MCU's own sensors (when it runs). A missing or
+    /// refused reading changes nothing; the estimator's timeouts raise `SENSOR_LOST`.
+    fn read_sensors(&mut self, now: u64) {
+        if self.autopilot.onboard_nav().is_none() {
+            return;
+        }
+        if let Some(imu) = self.sensors.imu(now) {
+            let _ = self.autopilot.handle_nav(now, 0, &Command::Imu(imu));
+        }
+        if let Some(pressure_pa) = self.sensors.pressure_pa(now) {
+            let cmd = Command::Pressure {
+                t_us: now,
+                pressure_pa,
+            };
+            let _ = self.autopilot.handle_nav(now, 0, &cmd);
         }
     }
 
@@ -559,33 +634,33 @@ where
         self.send(&Reply::Nack { seq, reason });
     }
 
-    /// Encode a reply and queue it whole, then hand the port what it takes now. A frame
-    /// that does not fit in the queue is dropped and counted (`tx_dropped`), never cut; an
-    /// encoding error (never: every reply fits, tested) raises [`fault::SERIAL_ERROR`].
+    /// Queue a reply (with its sequence number, given now) and hand the port what it takes.
+    /// A reply that finds the queue full is dropped whole and counted (`tx_dropped`).
     fn send(&mut self, reply: &Reply) {
         let seq = self.next_tx_seq();
-        let Ok(frame) = encode(seq, reply, &mut self.tx_buf) else {
-            self.io_faults |= fault::SERIAL_ERROR;
-            return;
-        };
-        if frame.len() > self.tx_queue.capacity() - self.tx_queue.len() {
+        if self.tx_queue.push_back((seq, *reply)).is_err() {
             self.link.tx_dropped = self.link.tx_dropped.wrapping_add(1);
-        } else {
-            for &b in frame {
-                // Cannot fail: the room was checked above.
-                let _ = self.tx_queue.push_back(b);
-            }
-            self.link.tx_frames = self.link.tx_frames.wrapping_add(1);
         }
         self.flush_tx();
     }
 
-    /// Write queued bytes while the port is ready for them; never waits.
+    /// Write while the port is ready: the rest of the frame being sent, then the next reply,
+    /// encoded when its turn comes. Never waits. An encoding error (never: every reply fits,
+    /// tested) raises [`fault::SERIAL_ERROR`] and drops that reply.
     fn flush_tx(&mut self) {
         loop {
-            let (front, _) = self.tx_queue.as_slices();
-            if front.is_empty() {
-                return;
+            if self.tx_sent >= self.tx_len {
+                let Some((seq, reply)) = self.tx_queue.pop_front() else {
+                    return;
+                };
+                match encode(seq, &reply, &mut self.tx_buf) {
+                    Ok(frame) => (self.tx_sent, self.tx_len) = (0, frame.len()),
+                    Err(_) => {
+                        self.io_faults |= fault::SERIAL_ERROR;
+                        continue;
+                    }
+                }
+                self.link.tx_frames = self.link.tx_frames.wrapping_add(1);
             }
             match self.serial.write_ready() {
                 Ok(true) => {}
@@ -595,12 +670,12 @@ where
                     return;
                 }
             }
-            match self.serial.write(front) {
-                Ok(n) if n > 0 => {
-                    for _ in 0..n.min(front.len()) {
-                        self.tx_queue.pop_front();
-                    }
-                }
+            let rest = self
+                .tx_buf
+                .get(self.tx_sent..self.tx_len)
+                .unwrap_or_default();
+            match self.serial.write(rest) {
+                Ok(n) if n > 0 => self.tx_sent += n.min(rest.len()),
                 _ => {
                     self.io_faults |= fault::SERIAL_ERROR;
                     return;

@@ -7,20 +7,31 @@
 //!   RCC: a PLL request hangs), TIM2 at prescaler 0 (one tick per instruction under
 //!   `-icount shift=0`), lock-step on the host's time.
 //!
+//! Sensors (the real board only; QEMU models neither chip, the host sends readings over the
+//! tether): the ICM-42688-P IMU on SPI2 (SCK PB13, MISO PB14, MOSI PB15, chip select PB12,
+//! 8 MHz, mode 3), read at every control step; the MS5837-30BA on I2C1 (SCL PB8, SDA PB9,
+//! 400 kHz), one conversion step per control step (start D1 / read D1 and start D2 / read D2,
+//! then two idle passes: 10 Hz at OSR 8192, whose 18.08 ms fit in a 20 ms pass). A chip that
+//! does not answer at boot is left out (logged); one that stops answering or reads out of
+//! range gives no sample, and the estimator's timeouts raise `SENSOR_LOST` (neutral).
+//!
 //! Pins (both): TIM3 CH1/CH2/CH3 on PA6/PA7/PB0 drive the three ESCs (`F1x`, `F2x`, `F3z`);
 //! USART1 on PA9 (TX) / PA10 (RX) at 115 200 Bd is the tether (QEMU `-serial` 0). Both ways
 //! are interrupt-driven: receive into a 1 KiB ring, transmit from a 256-byte ring that the
 //! application's frame queue fills as it empties (the loop never waits on the port).
 #![allow(unsafe_code)]
 
-use crate::app::{App, Config, Monotonic, Timing};
+use crate::app::{App, Config, Monotonic, NoSensors, Sensors, Timing};
 use crate::protocol::Board;
 use controller_core::controller::{Controller, Gains};
+use controller_core::nav::ImuSample;
 use controller_core::params::Vehicle;
 use core::cell::RefCell;
 use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::interrupt::Mutex;
 use heapless::Deque;
+use sensor_drivers::icm42688::{self, Icm42688};
+use sensor_drivers::ms5837::{Conversion, Ms5837, Osr};
 use stm32f4xx_hal::{
     pac::{self, interrupt, TIM2, USART1},
     prelude::*,
@@ -194,6 +205,47 @@ impl embedded_io::Write for Tether {
     }
 }
 
+/// The board's IMU and pressure sensor, either of which may be absent (not found at boot).
+pub struct BoardSensors<S, I> {
+    imu: Option<Icm42688<S>>,
+    baro: Option<Ms5837<I>>,
+    /// Step of the pressure sensor's conversion cycle (0..5).
+    phase: u8,
+    d1: u32,
+}
+
+impl<S: embedded_hal::spi::SpiDevice, I: embedded_hal::i2c::I2c> Sensors for BoardSensors<S, I> {
+    /// The chip is mounted x forward, component side up: body axes (x forward, y right,
+    /// z down) are `(x, -y, -z)` of the chip's.
+    fn imu(&mut self, now_us: u64) -> Option<ImuSample> {
+        let s = self.imu.as_mut()?.read().ok()?;
+        let body = |v: [f32; 3]| [v[0], -v[1], -v[2]];
+        Some(ImuSample {
+            t_us: now_us,
+            gyro_rad_s: body(s.gyro_rad_s),
+            accel_m_s2: body(s.accel_m_s2),
+        })
+    }
+
+    fn pressure_pa(&mut self, _now_us: u64) -> Option<f32> {
+        let baro = self.baro.as_mut()?;
+        let phase = self.phase;
+        self.phase = (self.phase + 1) % 5;
+        match phase {
+            0 => baro.start(Conversion::Pressure).ok().and(None),
+            1 => {
+                self.d1 = baro.read_adc().ok()?;
+                baro.start(Conversion::Temperature).ok().and(None)
+            }
+            2 => {
+                let d2 = baro.read_adc().ok()?;
+                baro.reading(self.d1, d2).ok().map(|r| r.pressure_pa)
+            }
+            _ => None,
+        }
+    }
+}
+
 /// TIM2 as a free-running 32-bit counter at `FREQ` Hz, extended to 64 bits.
 pub struct Tim2Clock<const FREQ: u32> {
     counter: Counter<TIM2, FREQ>,
@@ -323,25 +375,41 @@ pub fn run(variant: Variant) -> ! {
 
     match variant {
         Variant::Stm32f4 => {
-            let counter = dp.TIM2.counter::<1_000_000>(&mut rcc);
-            main_loop(
-                (ch1, ch2, ch3),
-                tether,
-                Tim2Clock::start(counter),
-                config,
-                watchdog,
+            // The sensors: SPI2 + PB12 chip select for the IMU, I2C1 for the pressure sensor;
+            // TIM5 as the drivers' start-up delay.
+            let mut delay = dp.TIM5.delay_us(&mut rcc);
+            let spi = dp.SPI2.spi(
+                (Some(gpiob.pb13), Some(gpiob.pb14), Some(gpiob.pb15)),
+                embedded_hal::spi::MODE_3,
+                8.MHz(),
+                &mut rcc,
+            );
+            let imu = embedded_hal_bus::spi::ExclusiveDevice::new_no_delay(
+                spi,
+                gpiob.pb12.into_push_pull_output(),
             )
+            .ok()
+            .and_then(|dev| Icm42688::new(dev, &mut delay, icm42688::Config::default()).ok());
+            let i2c = dp.I2C1.i2c((gpiob.pb8, gpiob.pb9), 400.kHz(), &mut rcc);
+            let baro = Ms5837::new(i2c, &mut delay, Osr::Osr8192).ok();
+            defmt::info!(
+                "sensors: IMU {}, pressure {}",
+                imu.is_some(),
+                baro.is_some()
+            );
+            let sensors = BoardSensors {
+                imu,
+                baro,
+                phase: 0,
+                d1: 0,
+            };
+            let clock = Tim2Clock::start(dp.TIM2.counter::<1_000_000>(&mut rcc));
+            main_loop((ch1, ch2, ch3), tether, clock, config, sensors, watchdog)
         }
         Variant::Qemu => {
             // Default clocks: the timer clock is 16 MHz, so the prescaler is 0.
-            let counter = dp.TIM2.counter::<16_000_000>(&mut rcc);
-            main_loop(
-                (ch1, ch2, ch3),
-                tether,
-                Tim2Clock::start(counter),
-                config,
-                watchdog,
-            )
+            let clock = Tim2Clock::start(dp.TIM2.counter::<16_000_000>(&mut rcc));
+            main_loop((ch1, ch2, ch3), tether, clock, config, NoSensors, watchdog)
         }
     }
 }
@@ -355,32 +423,35 @@ pub fn run(variant: Variant) -> ! {
 /// in `run`'s. Here the temporaries are freed before the loop starts and the `App` is written
 /// straight into `main_loop`'s variable (docs/firmware.md, "Flash and RAM").
 #[inline(never)]
-fn build_app<P1, P2, P3, C>(
+fn build_app<P1, P2, P3, C, N>(
     pwm: (P1, P2, P3),
     tether: Tether,
     clock: C,
     config: Config,
-) -> App<P1, P2, P3, Tether, C>
+    sensors: N,
+) -> App<P1, P2, P3, Tether, C, N>
 where
     P1: embedded_hal::pwm::SetDutyCycle,
     P2: embedded_hal::pwm::SetDutyCycle,
     P3: embedded_hal::pwm::SetDutyCycle,
     C: Monotonic,
+    N: Sensors,
 {
     let Ok(controller) = Controller::new(Vehicle::observer(), Gains::default()) else {
         halt()
     };
-    match App::new(pwm, tether, clock, controller, config) {
+    match App::with_sensors(pwm, tether, clock, controller, config, sensors) {
         Ok(app) => app,
         Err(_) => halt(),
     }
 }
 
-fn main_loop<P1, P2, P3, C>(
+fn main_loop<P1, P2, P3, C, N>(
     pwm: (P1, P2, P3),
     tether: Tether,
     clock: C,
     config: Config,
+    sensors: N,
     mut watchdog: IndependentWatchdog,
 ) -> !
 where
@@ -388,8 +459,9 @@ where
     P2: embedded_hal::pwm::SetDutyCycle,
     P3: embedded_hal::pwm::SetDutyCycle,
     C: Monotonic,
+    N: Sensors,
 {
-    let mut app = build_app(pwm, tether, clock, config);
+    let mut app = build_app(pwm, tether, clock, config, sensors);
     app.hello();
     defmt::info!(
         "ready: {}, PWM {} Hz, duties {}",

@@ -17,5 +17,5 @@ pub mod protocol;
 #[cfg(target_os = "none")]
 pub mod board;
 
-pub use app::{App, Config, ConfigError, Monotonic, Timing};
+pub use app::{App, Config, ConfigError, Monotonic, NoSensors, Sensors, Timing};
 pub use autopilot::{Autopilot, Failsafe, StepOutput};

@@ -195,6 +195,15 @@ pub fn compensate(cal: &Calibration, d1: u32, d2: u32) -> (i32, i32) {
     (p as i32, (temp - ti) as i32)
 }
 
+/// Which conversion [`Ms5837::start`] starts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Conversion {
+    /// D1, the raw pressure.
+    Pressure,
+    /// D2, the raw temperature.
+    Temperature,
+}
+
 /// The driver: an I2C bus, the calibration read at `new`, the oversampling ratio.
 #[derive(Debug)]
 pub struct Ms5837<I> {
@@ -243,11 +252,23 @@ impl<I: I2c> Ms5837<I> {
         self.i2c
     }
 
-    fn convert(&mut self, cmd: u8, delay: &mut impl DelayNs) -> Result<u32, Error<I::Error>> {
+    /// Start a conversion without waiting: `Pressure` (D1) or `Temperature` (D2), at the
+    /// driver's oversampling. Read it with [`read_adc`](Self::read_adc) after
+    /// [`Osr::conversion_time_us`]: a loop that must not wait starts one, goes on, and reads
+    /// it on a later pass.
+    pub fn start(&mut self, what: Conversion) -> Result<(), Error<I::Error>> {
+        let cmd = match what {
+            Conversion::Pressure => CMD_CONVERT_D1,
+            Conversion::Temperature => CMD_CONVERT_D2,
+        };
         self.i2c
             .write(ADDRESS, &[cmd + self.osr.code()])
-            .map_err(Error::Bus)?;
-        delay.delay_us(self.osr.conversion_time_us());
+            .map_err(Error::Bus)
+    }
+
+    /// The result of the last conversion started; `NotConverted` when it was read too early
+    /// (the sensor answers 0).
+    pub fn read_adc(&mut self) -> Result<u32, Error<I::Error>> {
         let mut b = [0u8; 3];
         self.i2c
             .write_read(ADDRESS, &[CMD_ADC_READ], &mut b)
@@ -259,12 +280,10 @@ impl<I: I2c> Ms5837<I> {
         Ok(v)
     }
 
-    /// One compensated reading: a D1 and a D2 conversion (2 x the conversion time).
-    pub fn read(&mut self, delay: &mut impl DelayNs) -> Result<Reading, Error<I::Error>> {
-        let d1 = self.convert(CMD_CONVERT_D1, delay)?;
-        let d2 = self.convert(CMD_CONVERT_D2, delay)?;
+    /// A compensated reading from the raw pressure `d1` and temperature `d2`; a pressure or
+    /// temperature outside the sensor's range (0-30 bar, -20-85 degC, 10 % margin) is a fault.
+    pub fn reading(&self, d1: u32, d2: u32) -> Result<Reading, Error<I::Error>> {
         let (p, t) = compensate(&self.cal, d1, d2);
-        // 0..30 bar and -20..85 degC, with 10 % of margin: outside is a fault, not water.
         if !(-1_000..=330_000).contains(&p) || !(-4_000..=9_500).contains(&t) {
             return Err(Error::OutOfRange);
         }
@@ -273,5 +292,23 @@ impl<I: I2c> Ms5837<I> {
             temperature_c: t as f32 * 0.01,
             raw: (p, t),
         })
+    }
+
+    fn convert(
+        &mut self,
+        what: Conversion,
+        delay: &mut impl DelayNs,
+    ) -> Result<u32, Error<I::Error>> {
+        self.start(what)?;
+        delay.delay_us(self.osr.conversion_time_us());
+        self.read_adc()
+    }
+
+    /// One compensated reading, waiting for it: a D1 and a D2 conversion (2 x the
+    /// conversion time).
+    pub fn read(&mut self, delay: &mut impl DelayNs) -> Result<Reading, Error<I::Error>> {
+        let d1 = self.convert(Conversion::Pressure, delay)?;
+        let d2 = self.convert(Conversion::Temperature, delay)?;
+        self.reading(d1, d2)
     }
 }

@@ -11,7 +11,7 @@ use embedded_hal::i2c::ErrorKind;
 use embedded_hal_mock::eh1::delay::{CheckedDelay, NoopDelay, Transaction as D};
 use embedded_hal_mock::eh1::i2c::{Mock, Transaction as T};
 use sensor_drivers::ms5837::{
-    compensate, crc4, Calibration, DepthConfig, Error, Ms5837, Osr, ADDRESS,
+    compensate, crc4, Calibration, Conversion, DepthConfig, Error, Ms5837, Osr, ADDRESS,
 };
 
 /// The datasheet's example coefficients C1..C6.
@@ -176,4 +176,24 @@ fn depth_from_pressure_in_sea_and_fresh_water() {
     };
     assert!((fresh.depth_m(100_000.0 + 997.0 * 9.806_65 * 2.5) - 2.5).abs() < 1e-4);
     assert_eq!(fresh.depth_m(100_000.0), 0.0);
+}
+
+#[test]
+fn conversions_started_and_read_on_later_loop_passes_without_a_wait() {
+    // The loop's way: start D1, come back later, read it and start D2, come back, read D2.
+    let mut ex = prom_reads(WORD0);
+    ex.extend(adc(0x48, D1)); // D1 at OSR 4096
+    ex.extend(adc(0x58, D2)); // D2 at OSR 4096
+    let mut i2c = Mock::new(&ex);
+    // Only the reset's wait: the conversions are not waited for.
+    let mut delay = CheckedDelay::new(&[D::delay_us(2_800)]);
+    let mut s = Ms5837::new(i2c.clone(), &mut delay, Osr::Osr4096).unwrap();
+    delay.done();
+    s.start(Conversion::Pressure).unwrap();
+    let d1 = s.read_adc().unwrap();
+    s.start(Conversion::Temperature).unwrap();
+    let d2 = s.read_adc().unwrap();
+    assert_eq!((d1, d2), (D1, D2));
+    assert_eq!(s.reading(d1, d2).unwrap().raw, (39998, 1981));
+    i2c.done();
 }

@@ -255,3 +255,156 @@ fn a_quiet_imu_puts_the_thrusters_to_neutral_with_sensor_lost() {
     let lost_after_us = lost_at.expect("SENSOR_LOST raised");
     assert!(lost_after_us <= 120_000, "{lost_after_us}");
 }
+
+/// The board's own sensors, as the fixed-rate loop reads them: a level IMU and a pressure at
+/// 2 m, until the test makes the IMU stop answering or read absurd values.
+#[derive(Debug, Clone, Default)]
+struct FakeSensors(std::rc::Rc<std::cell::Cell<ImuState>>);
+
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+enum ImuState {
+    #[default]
+    Answers,
+    Silent,
+    Absurd,
+}
+
+impl firmware::Sensors for FakeSensors {
+    fn imu(&mut self, now_us: u64) -> Option<ImuSample> {
+        let accel_z = match self.0.get() {
+            ImuState::Answers => -GRAVITY_M_S2,
+            ImuState::Silent => return None,
+            ImuState::Absurd => 1.0e6,
+        };
+        Some(ImuSample {
+            t_us: now_us,
+            gyro_rad_s: [0.0; 3],
+            accel_m_s2: [0.0, 0.0, accel_z],
+        })
+    }
+
+    fn pressure_pa(&mut self, _now_us: u64) -> Option<f32> {
+        Some(PressureDepth::SEA_WATER.pressure_pa(2.0))
+    }
+}
+
+#[test]
+fn the_board_reads_its_own_sensors_and_a_quiet_or_absurd_imu_is_a_failsafe() {
+    use firmware::protocol::{Decoded, FrameDecoder};
+    use firmware::App;
+    use rov_tests::{controller, FakePwm, FakeSerial, PWM_MAX_DUTY};
+    let clock = FakeClock::default();
+    let sensors = FakeSensors::default();
+    let pwm = (
+        FakePwm::new(PWM_MAX_DUTY),
+        FakePwm::new(PWM_MAX_DUTY),
+        FakePwm::new(PWM_MAX_DUTY),
+    );
+    let mut a = App::with_sensors(
+        pwm,
+        FakeSerial::default(),
+        clock.clone(),
+        controller(),
+        Config::fixed_rate(Board::Host),
+        sensors.clone(),
+    )
+    .unwrap();
+    let mut top = Topside::default();
+    let mut decoder = FrameDecoder::<Reply>::new();
+    let mut send = |a: &mut App<_, _, _, FakeSerial, _, _>, cmd: &Command| {
+        let (_, f) = top.frame(cmd);
+        a.parts_mut().1.rx.extend(f);
+        a.tick();
+    };
+    let initial = NavState {
+        x_m: 1.0,
+        z_m: 2.0,
+        ..NavState::default()
+    };
+    send(&mut a, &Command::Heartbeat { t_us: 0 });
+    send(
+        &mut a,
+        &Command::StartNav {
+            t_us: 0,
+            initial,
+            config: OnboardConfig::default(),
+        },
+    );
+    for cmd in [Command::SetMode(Mode::Hold), Command::Arm] {
+        send(&mut a, &cmd);
+    }
+    // 2 s of 50 Hz loop passes with heartbeats; the estimator runs on the fake sensors.
+    let mut run = |a: &mut App<_, _, _, FakeSerial, _, _>, ms: u64| {
+        let mut faults_at = Vec::new();
+        for _ in 0..ms / 5 {
+            clock.advance_us(5_000);
+            if clock.get_us() % 100_000 == 0 {
+                send(
+                    a,
+                    &Command::Heartbeat {
+                        t_us: clock.get_us(),
+                    },
+                );
+            }
+            a.tick();
+            faults_at.push((
+                clock.get_us(),
+                a.last_output().faults,
+                a.last_output().pulse_us,
+            ));
+        }
+        faults_at
+    };
+    let faults_at = run(&mut a, 2_000);
+    let est = a.autopilot().nav_state();
+    assert!(a.autopilot().armed());
+    assert!(
+        (est.z_m - 2.0).abs() < 0.02 && (est.x_m - 1.0).abs() < 0.05,
+        "{est:?}"
+    );
+    let health = a.autopilot().onboard_nav().unwrap().estimator().health();
+    assert!(health.imu_samples >= 99, "{health:?}");
+    assert!(health.depth_fused >= 19, "{health:?}");
+    assert!(faults_at
+        .iter()
+        .all(|(_, f, _)| f & fault::SENSOR_LOST == 0));
+    for (state, name) in [(ImuState::Silent, "silent"), (ImuState::Absurd, "absurd")] {
+        sensors.0.set(state);
+        let t0 = clock.get_us();
+        let faults_at = run(&mut a, 500);
+        let lost = faults_at
+            .iter()
+            .find(|(_, f, _)| f & fault::SENSOR_LOST != 0)
+            .unwrap_or_else(|| panic!("{name} IMU: no SENSOR_LOST"));
+        assert!(
+            lost.0 - t0 <= 125_000,
+            "{name}: SENSOR_LOST after {} us",
+            lost.0 - t0
+        );
+        assert!(
+            lost.2.iter().all(|&p| p == NEUTRAL_US),
+            "{name}: {:?}",
+            lost.2
+        );
+        sensors.0.set(ImuState::Answers);
+        run(&mut a, 500);
+        assert_eq!(
+            a.last_output().faults & fault::SENSOR_LOST,
+            0,
+            "{name}: recovers"
+        );
+    }
+    // Every reply decodes (the fixed-rate telemetry carries the estimate).
+    let bytes = std::mem::take(&mut a.parts_mut().1.tx);
+    let mut tel = None;
+    for b in bytes {
+        if let Some(Decoded::Frame {
+            msg: Reply::Telemetry(t),
+            ..
+        }) = decoder.push(b)
+        {
+            tel = Some(t);
+        }
+    }
+    assert!((tel.unwrap().nav.z_m - 2.0).abs() < 0.05);
+}
