@@ -18,9 +18,9 @@ use crate::protocol::{
     encode, fault, Board, Command, Decoded, DropReason, FrameDecoder, LinkStats, NackReason, Reply,
     Status, Telemetry, MAX_FRAME_LEN,
 };
+use crate::sensors::{NoSensors, Sensors};
 use controller_core::alloc::PwmMap;
 use controller_core::controller::Controller;
-use controller_core::nav::ImuSample;
 use embedded_hal::pwm::SetDutyCycle;
 use embedded_io::{Read, ReadReady, Write, WriteReady};
 use heapless::Deque;
@@ -152,31 +152,6 @@ pub fn pulse_for_duty(duty: u16, period_us: u32, max_duty: u16) -> u16 {
     let m = u64::from(max_duty.max(1));
     let p = (u64::from(duty) * u64::from(period_us) + m / 2) / m;
     p.min(u64::from(u16::MAX)) as u16
-}
-
-/// The vehicle's own navigation sensors, read by the loop just before each control step
-/// (fixed-rate mode) while the on-board estimator runs.
-pub trait Sensors {
-    /// One IMU sample (body axes) made now, or `None` when the IMU did not answer or its
-    /// reading was refused (the estimator's `SENSOR_LOST` timeout then runs).
-    fn imu(&mut self, now_us: u64) -> Option<ImuSample>;
-    /// A new absolute pressure (Pa) when one is ready (the sensor's own rate), else `None`.
-    fn pressure_pa(&mut self, now_us: u64) -> Option<f32>;
-}
-
-/// No sensors on the MCU's buses: the emulated board and the host, where the readings come
-/// over the tether (`Imu`, `Pressure`).
-#[derive(Debug, Clone, Copy, Default)]
-pub struct NoSensors;
-
-impl Sensors for NoSensors {
-    fn imu(&mut self, _now_us: u64) -> Option<ImuSample> {
-        None
-    }
-
-    fn pressure_pa(&mut self, _now_us: u64) -> Option<f32> {
-        None
-    }
 }
 
 /// The application.

@@ -21,17 +21,17 @@
 //! application's frame queue fills as it empties (the loop never waits on the port).
 #![allow(unsafe_code)]
 
-use crate::app::{App, Config, Monotonic, NoSensors, Sensors, Timing};
+use crate::app::{App, Config, Monotonic, Timing};
 use crate::protocol::Board;
+use crate::sensors::{BusSensors, NoSensors, Sensors};
 use controller_core::controller::{Controller, Gains};
-use controller_core::nav::ImuSample;
 use controller_core::params::Vehicle;
 use core::cell::RefCell;
 use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::interrupt::Mutex;
 use heapless::Deque;
 use sensor_drivers::icm42688::{self, Icm42688};
-use sensor_drivers::ms5837::{Conversion, Ms5837, Osr};
+use sensor_drivers::ms5837::{Ms5837, Osr};
 use stm32f4xx_hal::{
     pac::{self, interrupt, TIM2, USART1},
     prelude::*,
@@ -205,47 +205,6 @@ impl embedded_io::Write for Tether {
     }
 }
 
-/// The board's IMU and pressure sensor, either of which may be absent (not found at boot).
-pub struct BoardSensors<S, I> {
-    imu: Option<Icm42688<S>>,
-    baro: Option<Ms5837<I>>,
-    /// Step of the pressure sensor's conversion cycle (0..5).
-    phase: u8,
-    d1: u32,
-}
-
-impl<S: embedded_hal::spi::SpiDevice, I: embedded_hal::i2c::I2c> Sensors for BoardSensors<S, I> {
-    /// The chip is mounted x forward, component side up: body axes (x forward, y right,
-    /// z down) are `(x, -y, -z)` of the chip's.
-    fn imu(&mut self, now_us: u64) -> Option<ImuSample> {
-        let s = self.imu.as_mut()?.read().ok()?;
-        let body = |v: [f32; 3]| [v[0], -v[1], -v[2]];
-        Some(ImuSample {
-            t_us: now_us,
-            gyro_rad_s: body(s.gyro_rad_s),
-            accel_m_s2: body(s.accel_m_s2),
-        })
-    }
-
-    fn pressure_pa(&mut self, _now_us: u64) -> Option<f32> {
-        let baro = self.baro.as_mut()?;
-        let phase = self.phase;
-        self.phase = (self.phase + 1) % 5;
-        match phase {
-            0 => baro.start(Conversion::Pressure).ok().and(None),
-            1 => {
-                self.d1 = baro.read_adc().ok()?;
-                baro.start(Conversion::Temperature).ok().and(None)
-            }
-            2 => {
-                let d2 = baro.read_adc().ok()?;
-                baro.reading(self.d1, d2).ok().map(|r| r.pressure_pa)
-            }
-            _ => None,
-        }
-    }
-}
-
 /// TIM2 as a free-running 32-bit counter at `FREQ` Hz, extended to 64 bits.
 pub struct Tim2Clock<const FREQ: u32> {
     counter: Counter<TIM2, FREQ>,
@@ -397,12 +356,7 @@ pub fn run(variant: Variant) -> ! {
                 imu.is_some(),
                 baro.is_some()
             );
-            let sensors = BoardSensors {
-                imu,
-                baro,
-                phase: 0,
-                d1: 0,
-            };
+            let sensors = BusSensors::new(imu, baro);
             let clock = Tim2Clock::start(dp.TIM2.counter::<1_000_000>(&mut rcc));
             main_loop((ch1, ch2, ch3), tether, clock, config, sensors, watchdog)
         }

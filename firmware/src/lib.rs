@@ -13,9 +13,11 @@
 pub mod app;
 pub mod autopilot;
 pub mod protocol;
+pub mod sensors;
 
 #[cfg(target_os = "none")]
 pub mod board;
 
-pub use app::{App, Config, ConfigError, Monotonic, NoSensors, Sensors, Timing};
+pub use app::{App, Config, ConfigError, Monotonic, Timing};
 pub use autopilot::{Autopilot, Failsafe, StepOutput};
+pub use sensors::{BusSensors, NoSensors, Sensors};

@@ -24,7 +24,7 @@ use firmware::protocol::{
 use firmware::{App, Config, Monotonic};
 
 /// A PWM output that keeps the duty (a timer channel at 1 MHz, 50 Hz: 20,000 counts).
-struct FakePwm(u16);
+pub(crate) struct FakePwm(pub(crate) u16);
 
 impl embedded_hal::pwm::ErrorType for FakePwm {
     type Error = Infallible;
@@ -41,7 +41,7 @@ impl embedded_hal::pwm::SetDutyCycle for FakePwm {
 }
 
 /// A serial port in RAM: bytes queued for the firmware, bytes it wrote.
-struct FakeSerial {
+pub(crate) struct FakeSerial {
     rx: [u8; 2 * MAX_FRAME_LEN],
     rx_len: usize,
     rx_pos: usize,
@@ -50,7 +50,7 @@ struct FakeSerial {
 }
 
 impl FakeSerial {
-    const fn new() -> Self {
+    pub(crate) const fn new() -> Self {
         Self {
             rx: [0; 2 * MAX_FRAME_LEN],
             rx_len: 0,
@@ -58,6 +58,26 @@ impl FakeSerial {
             tx: [0; 2 * MAX_FRAME_LEN],
             tx_len: 0,
         }
+    }
+
+    /// Add a frame behind those not read yet (the replies written so far are kept).
+    pub(crate) fn append(&mut self, frame: &[u8]) {
+        if self.rx_pos >= self.rx_len {
+            (self.rx_pos, self.rx_len) = (0, 0);
+        }
+        let end = (self.rx_len + frame.len()).min(self.rx.len());
+        if let (Some(d), Some(s)) = (
+            self.rx.get_mut(self.rx_len..end),
+            frame.get(..end - self.rx_len),
+        ) {
+            d.copy_from_slice(s);
+        }
+        self.rx_len = end;
+    }
+
+    /// Forget the bytes written.
+    pub(crate) fn clear_tx(&mut self) {
+        self.tx_len = 0;
     }
 
     /// Queue one frame for the firmware (replacing whatever was left).
@@ -136,7 +156,7 @@ type BenchApp<'a, P> = App<FakePwm, FakePwm, FakePwm, FakeSerial, Clock<'a, P>>;
 const PERIOD_US: u64 = 20_000;
 
 /// Frame of `cmd` into `buf`; empty if it does not fit (never for these commands).
-fn frame<'b>(seq: u16, cmd: &Command, buf: &'b mut [u8; MAX_FRAME_LEN]) -> &'b [u8] {
+pub(crate) fn frame<'b>(seq: u16, cmd: &Command, buf: &'b mut [u8; MAX_FRAME_LEN]) -> &'b [u8] {
     match encode(seq, cmd, buf) {
         Ok(f) => f,
         Err(_) => &[],

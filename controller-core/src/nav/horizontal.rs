@@ -326,36 +326,35 @@ impl Horizontal {
                 self.kf.x[E] - self.correction[1],
             ],
         };
-        let mut prev: Option<Past> = None;
-        for p in self
-            .history
-            .oldest_ordered()
-            .copied()
-            .chain(core::iter::once(now))
-        {
-            if p.t_us >= t_us {
-                let lo = prev.unwrap_or(p);
-                let span = p.t_us.saturating_sub(lo.t_us);
-                let a = if span == 0 {
-                    1.0
-                } else {
-                    (t_us - lo.t_us) as f32 / span as f32
-                };
+        if t_us > now.t_us {
+            return None;
+        }
+        // From the newest back: a fix is at most a few hundred milliseconds late, so this
+        // visits a few entries, not the whole 2.56 s.
+        let (older, newer) = self.history.as_slices();
+        let mut hi = now;
+        for &lo in newer.iter().rev().chain(older.iter().rev()) {
+            if lo.t_us < t_us {
+                // lo.t_us < t_us <= hi.t_us: interpolate.
+                let a = (t_us - lo.t_us) as f32 / (hi.t_us - lo.t_us) as f32;
                 let at = |i: usize| {
                     let (l, h) = (
                         lo.pos.get(i).copied().unwrap_or(0.0),
-                        p.pos.get(i).copied().unwrap_or(0.0),
+                        hi.pos.get(i).copied().unwrap_or(0.0),
                     );
                     l + a * (h - l)
                 };
-                if prev.is_none() && p.t_us > t_us {
-                    return None;
-                }
                 return Some([at(0) + self.correction[0], at(1) + self.correction[1]]);
             }
-            prev = Some(p);
+            hi = lo;
         }
-        None
+        // Every entry is at or after `t_us`: only an exact match with the oldest is inside.
+        (hi.t_us == t_us).then(|| {
+            [
+                hi.pos[0] + self.correction[0],
+                hi.pos[1] + self.correction[1],
+            ]
+        })
     }
 
     pub(super) fn fuse_position(
