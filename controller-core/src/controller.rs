@@ -10,6 +10,7 @@ use crate::alloc::{allocate, Allocation, PwmMap, ThrusterLimits};
 use crate::error::Error;
 use crate::law::paper_xy::{self, PaperXyGains};
 use crate::law::paper_xz::{self, PaperXzGains};
+use crate::law::pilot::{self, PilotHold, Sticks};
 use crate::law::tracking::{self, TrackingGains, TrackingState};
 use crate::law::LawOutput;
 use crate::params::Vehicle;
@@ -75,6 +76,7 @@ pub struct Controller {
     limits: ThrusterLimits,
     pwm: PwmMap,
     state: TrackingState,
+    pilot: PilotHold,
 }
 
 impl Controller {
@@ -87,6 +89,7 @@ impl Controller {
             limits: ThrusterLimits::of(&vehicle),
             pwm: PwmMap::for_vehicle(&vehicle),
             state: TrackingState::default(),
+            pilot: PilotHold::default(),
         })
     }
 
@@ -120,6 +123,7 @@ impl Controller {
     /// Clear integrators and filters (on arming or a mode change).
     pub fn reset(&mut self) {
         self.state = TrackingState::default();
+        self.pilot = PilotHold::default();
     }
 
     /// Run one control step of `dt_s` seconds.
@@ -145,6 +149,36 @@ impl Controller {
                 tracking::step_3d(v, &g.tracking, &mut self.state, nav, reference, dt_s)
             }
         };
+        self.finish(out)
+    }
+
+    /// One step of pilot-assisted flying ([`pilot`]): the sticks' forces, the heading held
+    /// while the yaw stick is centred and, with `hold_depth` (ALT_HOLD), the depth held while
+    /// the heave stick is centred. The targets are those at release; [`reset`](Self::reset)
+    /// forgets them.
+    pub fn pilot_step(
+        &mut self,
+        nav: &NavState,
+        sticks: &Sticks,
+        hold_depth: bool,
+        dt_s: f32,
+    ) -> ControlOutput {
+        let (forces, errors) = pilot::step(
+            &self.vehicle,
+            &self.gains.tracking,
+            &mut self.state,
+            &mut self.pilot,
+            &self.limits,
+            nav,
+            sticks,
+            hold_depth,
+            dt_s,
+        );
+        self.finish(LawOutput { forces, errors })
+    }
+
+    /// Allocate a law's forces, tell the law what was achieved, map to pulses.
+    fn finish(&mut self, out: LawOutput) -> ControlOutput {
         let allocation = allocate(&out.forces, &self.limits);
         self.state.on_allocation(&out.forces, &allocation.achieved);
         let pulse_us = self.pwm.pulses_us(allocation.thrust_n);

@@ -13,7 +13,8 @@
 //! | no heartbeat for `heartbeat_neutral_us` (0.5 s) | neutral, `HEARTBEAT_LOST` |
 //! | no heartbeat for `heartbeat_disarm_us` (1 s) | disarm, `LINK_DISARMED` until re-armed |
 //! | tracking / hold and `NavState` older than `nav_stale_us` (0.2 s) | neutral, `NAV_STALE` |
-//! | manual and `ManualThrust` older than `manual_stale_us` (0.5 s) | neutral, `MANUAL_STALE` |
+//! | manual, stabilize or depth hold and `ManualThrust` older than `manual_stale_us` (0.5 s) | neutral, `MANUAL_STALE` |
+//! | stabilize or depth hold and no fresh navigation | neutral, `NAV_STALE` |
 //! | on-board estimator: IMU or pressure quiet past its timeout (0.1 s / 0.5 s) | `SENSOR_LOST`; neutral when tracking / holding |
 //!
 //! Navigation has two sources: the surface's `Nav` (external, as in hardware in the loop on
@@ -22,7 +23,8 @@
 
 use crate::protocol::{fault, Command, Law, ManualThrust, Mode, NackReason, NavSample, Plane};
 use controller_core::alloc::{allocate, Allocation};
-use controller_core::controller::{ControlMode, Controller};
+use controller_core::controller::{ControlMode, ControlOutput, Controller};
+use controller_core::law::pilot::Sticks;
 use controller_core::nav::onboard::OnboardNav;
 use controller_core::nav::Refusal;
 use controller_core::reference::Reference;
@@ -374,6 +376,11 @@ impl Autopilot {
     fn set_mode(&mut self, now_us: u64, mode: Mode) -> Result<(), NackReason> {
         match mode {
             Mode::Idle | Mode::Manual => {}
+            Mode::Stabilize | Mode::DepthHold => {
+                if !self.nav_fresh(now_us) {
+                    return Err(NackReason::NavStale);
+                }
+            }
             Mode::Track { plane, law } => {
                 control_mode(plane, law).ok_or(NackReason::Unsupported)?;
                 if self.reference.is_none() {
@@ -397,7 +404,7 @@ impl Autopilot {
             self.controller.reset();
         }
         self.mode = mode;
-        if mode == Mode::Manual {
+        if matches!(mode, Mode::Manual | Mode::Stabilize | Mode::DepthHold) {
             // A manual command from before the mode change must not start the thrusters.
             self.manual = None;
         }
@@ -460,6 +467,24 @@ impl Autopilot {
                     _ => self.neutral(faults | fault::MANUAL_STALE),
                 }
             }
+            (Mode::Stabilize | Mode::DepthHold, ..) => {
+                let m = match self.manual {
+                    Some((t, m)) if now_us.saturating_sub(t) < fs.manual_stale_us => m,
+                    _ => return self.neutral(faults | fault::MANUAL_STALE),
+                };
+                if !nav_fresh {
+                    return self.neutral(faults | fault::NAV_STALE);
+                }
+                let nav = self.nav_state();
+                let sticks = Sticks {
+                    surge: m.surge,
+                    yaw: m.yaw,
+                    heave: m.heave,
+                };
+                let hold_depth = self.mode == Mode::DepthHold;
+                let law = self.controller.pilot_step(&nav, &sticks, hold_depth, dt_s);
+                return self.law_output(&law, faults, true);
+            }
             (Mode::Track { plane, law }, Some((r, start)), _) => match control_mode(plane, law) {
                 Some(cm) => (r, *start, cm),
                 None => return self.neutral(faults),
@@ -473,6 +498,10 @@ impl Autopilot {
         }
         let nav = self.nav_state();
         let law = self.controller.step(cm, &nav, &sample, dt_s);
+        self.law_output(&law, faults, true)
+    }
+
+    fn law_output(&self, law: &ControlOutput, faults: u16, law_ran: bool) -> StepOutput {
         let sat = if law.allocation.saturated {
             fault::SATURATED
         } else {
@@ -484,7 +513,7 @@ impl Autopilot {
             pulse_us: law.pulse_us,
             errors: law.errors,
             faults: faults | sat,
-            law_ran: true,
+            law_ran,
         }
     }
 

@@ -11,13 +11,12 @@
 //! | MAVLink in | tether out |
 //! |---|---|
 //! | `COMMAND_LONG` `MAV_CMD_COMPONENT_ARM_DISARM` | `Arm` / `Disarm`, answered by `COMMAND_ACK` (`DENIED` + `STATUSTEXT` with the firmware's reason) |
-//! | `SET_MODE`, `COMMAND_LONG` `MAV_CMD_DO_SET_MODE` (ArduSub custom modes) | MANUAL (19): `SetMode(Manual)`; POSHOLD (16): `SetMode(Hold)`; GUIDED (4): hold the current point, then `SET_POSITION_TARGET_LOCAL_NED` targets |
-//! | `MANUAL_CONTROL` (x surge, r yaw in -1000..1000; z heave 0..1000, 500 neutral, above 500 up; y sway ignored: no thruster) | `ManualThrust` every control period while in MANUAL |
+//! | `SET_MODE`, `COMMAND_LONG` `MAV_CMD_DO_SET_MODE` (ArduSub custom modes) | MANUAL (19): `SetMode(Manual)`; STABILIZE (0): `SetMode(Stabilize)` (heading held while the yaw stick is centred); ALT_HOLD (2): `SetMode(DepthHold)` (and the depth while the throttle is centred); POSHOLD (16): `SetMode(Hold)`; GUIDED (4): hold the current point, then `SET_POSITION_TARGET_LOCAL_NED` targets |
+//! | `MANUAL_CONTROL` (x surge, r yaw in -1000..1000; z heave 0..1000, 500 neutral, above 500 up; y sway ignored: no thruster) | `ManualThrust` every control period while in MANUAL, STABILIZE or ALT_HOLD |
 //! | `SET_POSITION_TARGET_LOCAL_NED` (position, NED) | `SetReference(Hold)` in GUIDED |
 //!
-//! STABILIZE (0), ALT_HOLD (2) and AUTO (3) are refused with `COMMAND_ACK` `DENIED` and a
-//! `STATUSTEXT` saying so: the vehicle does not have them yet (issue 13). Any other message is
-//! ignored and counted.
+//! AUTO (3) is refused with `COMMAND_ACK` `DENIED` and a `STATUSTEXT` saying so: the vehicle
+//! has no missions yet (issue 13). Any other message is ignored and counted.
 //!
 //! Out: `HEARTBEAT` at 1 Hz (`MAV_TYPE_SUBMARINE`, `MAV_AUTOPILOT_ARDUPILOTMEGA`, the armed
 //! flag, `custom_mode` = the mode), `SYS_STATUS` at 1 Hz, and at 10 Hz `ATTITUDE`,
@@ -349,6 +348,8 @@ impl SimVehicle {
 fn custom_mode_of(mode: Mode, guided: bool) -> u32 {
     match mode {
         Mode::Manual => ardusub_mode::MANUAL,
+        Mode::Stabilize => ardusub_mode::STABILIZE,
+        Mode::DepthHold => ardusub_mode::ALT_HOLD,
         Mode::Hold => ardusub_mode::POSHOLD,
         Mode::Track { .. } if guided => ardusub_mode::GUIDED,
         Mode::Track { .. } => ardusub_mode::AUTO,
@@ -480,7 +481,8 @@ pub fn main(a: TopsideArgs) -> Result<()> {
             handle(&mut gcs, &mut v, &mut manual, &mut guided, &a.params, msg)?;
         }
         let fresh = manual_at.is_some_and(|at| at.elapsed() < MANUAL_CONTROL_TIMEOUT);
-        if v.tel.mode == Mode::Manual && v.tel.armed && fresh {
+        let pilot_mode = matches!(v.tel.mode, Mode::Manual | Mode::Stabilize | Mode::DepthHold);
+        if pilot_mode && v.tel.armed && fresh {
             // Forwarded every period while the pilot's stream lives; when it stops, nothing
             // is forwarded and the firmware's MANUAL_STALE failsafe neutralizes the thrusters.
             v.link.send(&Command::ManualThrust(manual))?;
@@ -528,6 +530,8 @@ fn set_mode(gcs: &mut Gcs, v: &mut SimVehicle, guided: &mut bool, custom: u32) -
     let cmd = MavCmd::MAV_CMD_DO_SET_MODE;
     let (firmware_mode, reference) = match custom {
         ardusub_mode::MANUAL => (Mode::Manual, None),
+        ardusub_mode::STABILIZE => (Mode::Stabilize, None),
+        ardusub_mode::ALT_HOLD => (Mode::DepthHold, None),
         ardusub_mode::POSHOLD => (Mode::Hold, None),
         ardusub_mode::GUIDED => (
             Mode::Track {
@@ -538,8 +542,8 @@ fn set_mode(gcs: &mut Gcs, v: &mut SimVehicle, guided: &mut bool, custom: u32) -
                 pos_m: [v.state.x_m, v.state.y_m, v.state.z_m],
             }),
         ),
-        ardusub_mode::STABILIZE | ardusub_mode::ALT_HOLD | ardusub_mode::AUTO => {
-            return refuse(gcs, cmd, &format!("Mode {custom} not on this vehicle yet"));
+        ardusub_mode::AUTO => {
+            return refuse(gcs, cmd, "AUTO: no missions on this vehicle yet");
         }
         other => return refuse(gcs, cmd, &format!("Unknown mode {other}")),
     };

@@ -2,8 +2,9 @@
 //!
 //! The client (`tests/clients/pymavlink_session.py`) connects, checks the vehicle type and the
 //! telemetry streams, sets MANUAL, arms, flies forward on `MANUAL_CONTROL`, stops the stream
-//! and sees the vehicle's failsafe, is refused a mode the vehicle lacks, sets POSHOLD,
-//! disarms, and sends garbage. Then the `.tlog` is read back with pymavlink.
+//! and sees the vehicle's failsafe, flies ALT_HOLD (depth and heading held with the sticks
+//! centred, a climb on the throttle and the new depth held), sets STABILIZE, is refused AUTO
+//! (no missions yet), sets POSHOLD, disarms, and sends garbage. Then the `.tlog` is read back with pymavlink.
 //!
 //! Without Python 3 or pymavlink this test prints SKIPPED with the fix; with
 //! `ROV_REQUIRE_PYMAVLINK=1` (set by `.ci/run`) it fails instead.
@@ -85,7 +86,7 @@ fn fly_session(name: &str, extra: &[&str]) {
         "the pymavlink session failed ({name})"
     );
     assert!(t0.elapsed() < Duration::from_secs(180));
-    assert_eq!(stdout.matches("PASS:").count(), 22, "every check ran");
+    assert_eq!(stdout.matches("PASS:").count(), 32, "every check ran");
 
     // The .tlog, read by pymavlink: what was sent and what was received.
     let read = Command::new("python3")

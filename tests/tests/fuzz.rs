@@ -68,6 +68,8 @@ fn mode() -> impl Strategy<Value = Mode> {
         Just(Mode::Idle),
         Just(Mode::Manual),
         Just(Mode::Hold),
+        Just(Mode::Stabilize),
+        Just(Mode::DepthHold),
         (plane, law).prop_map(|(plane, law)| Mode::Track { plane, law }),
     ]
 }

@@ -548,3 +548,60 @@ fn timing_enum_is_reported() {
     ));
     assert_eq!(Config::lockstep(Board::Host).timing, Timing::LockStep);
 }
+
+/// STABILIZE / ALT_HOLD (issue 13): refused without a fresh nav; the pilot's thrust with the
+/// heading and depth held; neutral with `MANUAL_STALE` when the sticks stop, `NAV_STALE`
+/// when the navigation does.
+#[test]
+fn pilot_assisted_modes_need_nav_and_sticks() {
+    let (mut a, c, mut t) = fixed();
+    for mode in [Mode::Stabilize, Mode::DepthHold] {
+        let (s, r) = t.send(&mut a, &Command::SetMode(mode));
+        assert_eq!(nacked(&r, s), Some(NackReason::NavStale), "{mode:?}");
+    }
+    arm(&mut a, &c, &mut t);
+    let (s, r) = t.send(&mut a, &Command::SetMode(Mode::DepthHold));
+    assert!(acked(&r, s), "{r:?}");
+    // Sticks centred, a fresh nav 0.3 m below where the mode began, turned 0.2 rad: the hold
+    // pushes up and turns back.
+    let sticks = Command::ManualThrust(ManualThrust::default());
+    t.send(&mut a, &sticks);
+    c.advance_us(20_000);
+    t.send(&mut a, &nav(c.get_us()));
+    t.send(&mut a, &Command::Heartbeat { t_us: 0 });
+    let off = Command::Nav(NavSample {
+        t_us: c.get_us() + 1,
+        state: NavState {
+            z_m: 0.3,
+            yaw_rad: 0.2,
+            ..NavState::default()
+        },
+    });
+    t.send(&mut a, &off);
+    t.send(&mut a, &sticks);
+    c.advance_us(20_000);
+    t.send(&mut a, &Command::Heartbeat { t_us: 0 });
+    let out = *a.last_output();
+    assert!(out.law_ran && out.faults == 0, "{out:?}");
+    assert!(
+        out.requested.heave_n < 0.0 && out.requested.yaw_n_m < 0.0,
+        "{out:?}"
+    );
+    assert!((out.errors.z_m - 0.3).abs() < 1e-6 && (out.errors.yaw_rad - 0.2).abs() < 1e-6);
+    // The sticks stop: neutral after 0.5 s, with the flag.
+    for _ in 0..30 {
+        c.advance_us(20_000);
+        t.send(&mut a, &nav(c.get_us()));
+        t.send(&mut a, &Command::Heartbeat { t_us: 0 });
+    }
+    assert_ne!(a.last_output().faults & fault::MANUAL_STALE, 0);
+    assert_eq!(pulses_us(&mut a), [1500.0; 3]);
+    // Sticks again, but the navigation stops: neutral with NAV_STALE.
+    for _ in 0..15 {
+        c.advance_us(20_000);
+        t.send(&mut a, &sticks);
+        t.send(&mut a, &Command::Heartbeat { t_us: 0 });
+    }
+    assert_ne!(a.last_output().faults & fault::NAV_STALE, 0);
+    assert_eq!(pulses_us(&mut a), [1500.0; 3]);
+}

@@ -4,9 +4,11 @@
 //! - [`paper_xz`]: the paper's vertical-plane backstepping law, eqs. (6), (9), (12), (22), (24).
 //! - [`paper_xy`]: the paper's horizontal-plane law, eqs. (37), (39), (43), (54), (56).
 //! - [`tracking`]: laws that really track, in XZ, XY and 3-D.
+//! - [`pilot`]: pilot-assisted flying: the sticks' forces with heading and depth hold.
 
 pub mod paper_xy;
 pub mod paper_xz;
+pub mod pilot;
 pub mod tracking;
 
 use crate::state::{BodyForces, TrackingErrors};

@@ -54,6 +54,12 @@ pub enum Mode {
     /// Hold the position of the latest `NavState` when the mode was entered
     /// (3-D tracking law on a fixed point).
     Hold,
+    /// The pilot's `ManualThrust` with the heading held while the yaw stick is centred
+    /// (ArduSub's STABILIZE; version 4).
+    Stabilize,
+    /// [`Mode::Stabilize`] with the depth held while the heave stick is centred (ArduSub's
+    /// ALT_HOLD; version 4).
+    DepthHold,
 }
 
 /// A time-stamped navigation state (the state estimate sent by the topside or the plant).

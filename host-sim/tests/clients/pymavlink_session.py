@@ -10,7 +10,7 @@ from pymavlink import mavutil
 
 from gcs import expect, wait
 
-MANUAL, STABILIZE, POSHOLD = 19, 0, 16
+MANUAL, STABILIZE, ALT_HOLD, AUTO, POSHOLD = 19, 0, 2, 3, 16
 mav = mavutil.mavlink
 
 
@@ -70,12 +70,48 @@ def main():
     servo = wait(m, "SERVO_OUTPUT_RAW", 5, lambda s: s.servo1_raw == 1500 and s.servo2_raw == 1500)
     expect(servo is not None, "thrusters neutral after the stream stopped")
 
+    def set_mode(mode, name):
+        m.mav.command_long_send(m.target_system, m.target_component,
+                                mav.MAV_CMD_DO_SET_MODE, 0,
+                                mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, mode, 0, 0, 0, 0, 0)
+        return ack_of(m, mav.MAV_CMD_DO_SET_MODE)
+
+    # ALT_HOLD on the vehicle: the throttle centred holds the depth, the yaw stick centred
+    # holds the heading, the surge stick flies.
+    a = set_mode(ALT_HOLD, "ALT_HOLD")
+    expect(a is not None and a.result == mav.MAV_RESULT_ACCEPTED, "ALT_HOLD accepted")
+    hb = wait(m, "HEARTBEAT", 5, lambda h: h.custom_mode == ALT_HOLD)
+    expect(hb is not None, "HEARTBEAT says ALT_HOLD")
+    seen = sticks(m, 5.0, x=500)  # 50 % forward, throttle and yaw centred
+    pos = seen.get("LOCAL_POSITION_NED", [])
+    att = seen.get("ATTITUDE", [])
+    expect(len(pos) > 10 and len(att) > 10, "telemetry in ALT_HOLD")
+    z0, yaw0 = pos[0].z, att[0].yaw
+    dz = max(abs(p.z - z0) for p in pos)
+    dyaw = max(abs(a.yaw - yaw0) for a in att)
+    dx = pos[-1].x - pos[0].x
+    expect(dz < 0.1, f"ALT_HOLD holds the depth while flying forward (within {dz:.3f} m)")
+    expect(dyaw < 0.1, f"the centred yaw stick holds the heading (within {dyaw:.3f} rad)")
+    expect(dx > 0.3, f"the surge stick flies it forward ({dx:.2f} m)")
+    seen = sticks(m, 2.0, z=900)  # throttle up: climb
+    pos = seen.get("LOCAL_POSITION_NED", [])
+    climb = pos[0].z - pos[-1].z
+    expect(climb > 0.1, f"throttle up climbs ({climb:.2f} m)")
+    seen = sticks(m, 1.0)  # centred again: a new depth is captured ...
+    seen = sticks(m, 3.0)  # ... and held
+    pos = seen.get("LOCAL_POSITION_NED", [])
+    dz = max(p.z for p in pos) - min(p.z for p in pos)
+    expect(dz < 0.1, f"the new depth is held after the climb (spread {dz:.3f} m)")
+
+    a = set_mode(STABILIZE, "STABILIZE")
+    expect(a is not None and a.result == mav.MAV_RESULT_ACCEPTED, "STABILIZE accepted")
+    hb = wait(m, "HEARTBEAT", 5, lambda h: h.custom_mode == STABILIZE)
+    expect(hb is not None, "HEARTBEAT says STABILIZE")
+    sticks(m, 1.0)
+
     # A mode the vehicle does not have yet is refused, with a reason.
-    m.mav.command_long_send(m.target_system, m.target_component,
-                            mav.MAV_CMD_DO_SET_MODE, 0,
-                            mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, STABILIZE, 0, 0, 0, 0, 0)
-    a = ack_of(m, mav.MAV_CMD_DO_SET_MODE)
-    expect(a is not None and a.result == mav.MAV_RESULT_DENIED, "STABILIZE refused (DENIED)")
+    a = set_mode(AUTO, "AUTO")
+    expect(a is not None and a.result == mav.MAV_RESULT_DENIED, "AUTO refused (DENIED)")
 
     m.mav.command_long_send(m.target_system, m.target_component,
                             mav.MAV_CMD_DO_SET_MODE, 0,
