@@ -8,6 +8,7 @@ use crate::error::{finite, positive, Error};
 use serde::{Deserialize, Serialize};
 
 pub mod feasible;
+pub mod mission;
 pub mod path;
 
 /// Position and derivatives of the reference point at one instant (inertial, z down).
