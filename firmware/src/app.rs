@@ -566,6 +566,7 @@ where
             faults: self.faults(),
             loop_ticks: self.loop_ticks,
             nav: self.autopilot.nav_state(),
+            mission_reached: self.autopilot.mission_reached(now),
             nav_pos_std_m: self
                 .autopilot
                 .onboard_nav()

@@ -27,8 +27,10 @@ use controller_core::controller::{ControlMode, ControlOutput, Controller};
 use controller_core::law::pilot::Sticks;
 use controller_core::nav::onboard::OnboardNav;
 use controller_core::nav::Refusal;
+use controller_core::reference::mission::{MissionPath, MAX_WAYPOINTS};
 use controller_core::reference::Reference;
 use controller_core::state::{BodyForces, NavState, TrackingErrors};
+use heapless::Vec;
 
 /// Failsafe timeouts, microseconds of the firmware's clock.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -146,9 +148,30 @@ pub struct Autopilot {
     onboard_seq: u16,
     /// Thrust commanded by the latest step `[F1x, F2x, F3z]` (N): the estimator's input.
     thrust_cmd_n: [f32; 3],
+    /// The mission in use (waypoints, speed), the one being uploaded, and the path AUTO flies
+    /// with its start time.
+    mission: Mission,
+    upload: Mission,
+    auto: Option<(MissionPath, u64)>,
     /// Control steps run.
     pub steps: u32,
 }
+
+/// Waypoints in the local NED frame and the speed to fly them.
+#[derive(Debug, Clone, Default)]
+struct Mission {
+    waypoints: Vec<[f32; 3], MAX_WAYPOINTS>,
+    speed_m_s: f32,
+}
+
+/// Deepest waypoint accepted (m): the Observer's 150 m tether, with room for its catenary.
+pub const MAX_MISSION_DEPTH_M: f32 = 100.0;
+/// Farthest waypoint accepted from the origin, horizontally, each axis (m).
+pub const MAX_MISSION_RANGE_M: f32 = 1_000.0;
+/// Fastest mission speed accepted (m/s).
+pub const MAX_MISSION_SPEED_M_S: f32 = 1.0;
+/// Radius of the turns that join a mission's legs (m).
+pub const MISSION_TURN_RADIUS_M: f32 = 1.5;
 
 impl Autopilot {
     /// Boots disarmed, `Idle`, no reference.
@@ -168,6 +191,9 @@ impl Autopilot {
             onboard: None,
             onboard_seq: 0,
             thrust_cmd_n: [0.0; 3],
+            mission: Mission::default(),
+            upload: Mission::default(),
+            auto: None,
             steps: 0,
         }
     }
@@ -306,6 +332,20 @@ impl Autopilot {
                 self.onboard = None;
                 Ok(())
             }
+            Command::MissionItem {
+                index,
+                count,
+                pos_m,
+                speed_m_s,
+            } => self.mission_item(*index, *count, *pos_m, *speed_m_s),
+            Command::MissionClear => {
+                if self.mode == Mode::Auto {
+                    return Err(NackReason::Unsupported);
+                }
+                self.mission = Mission::default();
+                self.upload = Mission::default();
+                Ok(())
+            }
             Command::Step { .. } => {
                 if self.onboard.is_some() {
                     self.onboard_seq = seq;
@@ -373,6 +413,57 @@ impl Autopilot {
         }
     }
 
+    /// Take waypoint `index` of a mission of `count`; the mission in use changes only when
+    /// the last one arrives, and a refused item leaves it as it was.
+    fn mission_item(
+        &mut self,
+        index: u16,
+        count: u16,
+        pos_m: [f32; 3],
+        speed_m_s: f32,
+    ) -> Result<(), NackReason> {
+        let [x, y, z] = pos_m;
+        if !(x.is_finite() && y.is_finite() && z.is_finite() && speed_m_s.is_finite()) {
+            return Err(NackReason::NonFinite);
+        }
+        let far = x.abs() > MAX_MISSION_RANGE_M || y.abs() > MAX_MISSION_RANGE_M;
+        let too_many = usize::from(count) > MAX_WAYPOINTS || count == 0 || index >= count;
+        let speed_ok = speed_m_s > 0.0 && speed_m_s <= MAX_MISSION_SPEED_M_S;
+        if far || too_many || !(0.0..=MAX_MISSION_DEPTH_M).contains(&z) || !speed_ok {
+            return Err(NackReason::OutOfRange);
+        }
+        if index == 0 {
+            self.upload = Mission::default();
+        }
+        if usize::from(index) != self.upload.waypoints.len() {
+            return Err(NackReason::OutOfRange);
+        }
+        self.upload
+            .waypoints
+            .push(pos_m)
+            .map_err(|_| NackReason::OutOfRange)?;
+        self.upload.speed_m_s = speed_m_s;
+        if index + 1 == count {
+            self.mission = core::mem::take(&mut self.upload);
+        }
+        Ok(())
+    }
+
+    /// Waypoints of the mission AUTO flies that the reference has passed (0 outside AUTO).
+    pub fn mission_reached(&self, now_us: u64) -> u16 {
+        match (&self.auto, self.mode) {
+            (Some((path, start)), Mode::Auto) => {
+                u16::try_from(path.reached(seconds_since(now_us, *start))).unwrap_or(u16::MAX)
+            }
+            _ => 0,
+        }
+    }
+
+    /// Waypoints in the mission in use.
+    pub fn mission_len(&self) -> usize {
+        self.mission.waypoints.len()
+    }
+
     fn set_mode(&mut self, now_us: u64, mode: Mode) -> Result<(), NackReason> {
         match mode {
             Mode::Idle | Mode::Manual => {}
@@ -380,6 +471,22 @@ impl Autopilot {
                 if !self.nav_fresh(now_us) {
                     return Err(NackReason::NavStale);
                 }
+            }
+            Mode::Auto => {
+                if !self.nav_fresh(now_us) {
+                    return Err(NackReason::NavStale);
+                }
+                if self.mission.waypoints.is_empty() {
+                    return Err(NackReason::NoReference);
+                }
+                let s = self.nav_state();
+                let path = MissionPath::new(
+                    [s.x_m, s.y_m, s.z_m],
+                    &self.mission.waypoints,
+                    self.mission.speed_m_s,
+                    MISSION_TURN_RADIUS_M,
+                )?;
+                self.auto = Some((path, now_us));
             }
             Mode::Track { plane, law } => {
                 control_mode(plane, law).ok_or(NackReason::Unsupported)?;
@@ -457,7 +564,7 @@ impl Autopilot {
         if !self.armed || faults & fault::HEARTBEAT_LOST != 0 {
             return self.neutral(faults);
         }
-        let (reference, start, cm) = match (self.mode, &self.reference, &self.hold) {
+        let (sample, cm) = match (self.mode, &self.reference, &self.hold) {
             (Mode::Idle, ..) => return self.neutral(faults),
             (Mode::Manual, ..) => {
                 return match self.manual {
@@ -486,13 +593,22 @@ impl Autopilot {
                 return self.law_output(&law, faults, true);
             }
             (Mode::Track { plane, law }, Some((r, start)), _) => match control_mode(plane, law) {
-                Some(cm) => (r, *start, cm),
+                Some(cm) => (r.sample(seconds_since(now_us, *start)), cm),
                 None => return self.neutral(faults),
             },
-            (Mode::Hold, _, Some((r, start))) => (r, *start, ControlMode::Tracking3d),
+            (Mode::Hold, _, Some((r, start))) => (
+                r.sample(seconds_since(now_us, *start)),
+                ControlMode::Tracking3d,
+            ),
+            (Mode::Auto, ..) => match &self.auto {
+                Some((path, start)) => (
+                    path.sample(seconds_since(now_us, *start)),
+                    ControlMode::Tracking3d,
+                ),
+                None => return self.neutral(faults),
+            },
             _ => return self.neutral(faults),
         };
-        let sample = reference.sample(seconds_since(now_us, start));
         if !nav_fresh {
             return self.neutral(faults | fault::NAV_STALE);
         }

@@ -15,8 +15,14 @@
 //! | `MANUAL_CONTROL` (x surge, r yaw in -1000..1000; z heave 0..1000, 500 neutral, above 500 up; y sway ignored: no thruster) | `ManualThrust` every control period while in MANUAL, STABILIZE or ALT_HOLD |
 //! | `SET_POSITION_TARGET_LOCAL_NED` (position, NED) | `SetReference(Hold)` in GUIDED |
 //!
-//! AUTO (3) is refused with `COMMAND_ACK` `DENIED` and a `STATUSTEXT` saying so: the vehicle
-//! has no missions yet (issue 13). Any other message is ignored and counted.
+//! AUTO (3) flies the uploaded mission on the vehicle (`SetMode(Auto)`), refused without one.
+//! Missions: the standard protocol (`MISSION_COUNT` / `MISSION_REQUEST_INT` /
+//! `MISSION_ITEM_INT` / `MISSION_ACK`, download with `MISSION_REQUEST_LIST`,
+//! `MISSION_CLEAR_ALL`), `MAV_CMD_NAV_WAYPOINT` items in `MAV_FRAME_LOCAL_NED` (x, y in metres
+//! x 1e4, z the depth in metres), at most 32; a mission with another frame or command, a NaN,
+//! an unreachable depth or too many items is refused with `MISSION_ACK` and a `STATUSTEXT`, and
+//! the mission in use stays. In AUTO: `MISSION_ITEM_REACHED` for each waypoint passed and
+//! `MISSION_CURRENT` at 1 Hz. Any other message is ignored and counted.
 //!
 //! Out: `HEARTBEAT` at 1 Hz (`MAV_TYPE_SUBMARINE`, `MAV_AUTOPILOT_ARDUPILOTMEGA`, the armed
 //! flag, `custom_mode` = the mode), `SYS_STATUS` at 1 Hz, and at 10 Hz `ATTITUDE`,
@@ -46,9 +52,11 @@ use firmware::protocol::{
     fault, Command, Law, ManualThrust, Mode, NackReason, NavSample, Plane, Reply, Telemetry,
 };
 use mavlink::dialects::ardupilotmega::{
-    MavAutopilot, MavCmd, MavMessage, MavModeFlag, MavParamType, MavResult, MavSeverity, MavState,
-    MavSysStatusSensor, MavType, ATTITUDE_DATA, COMMAND_ACK_DATA, HEARTBEAT_DATA,
-    LOCAL_POSITION_NED_DATA, PARAM_VALUE_DATA, SERVO_OUTPUT_RAW_DATA, STATUSTEXT_DATA,
+    MavAutopilot, MavCmd, MavFrame, MavMessage, MavMissionResult, MavModeFlag, MavParamType,
+    MavResult, MavSeverity, MavState, MavSysStatusSensor, MavType, ATTITUDE_DATA, COMMAND_ACK_DATA,
+    HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_COUNT_DATA,
+    MISSION_CURRENT_DATA, MISSION_ITEM_INT_DATA, MISSION_ITEM_REACHED_DATA,
+    MISSION_REQUEST_INT_DATA, PARAM_VALUE_DATA, SERVO_OUTPUT_RAW_DATA, STATUSTEXT_DATA,
     SYS_STATUS_DATA, VFR_HUD_DATA,
 };
 use mavlink::{MavConnection, MavHeader};
@@ -107,6 +115,223 @@ pub struct TopsideArgs {
     /// to it after every accepted `PARAM_SET`.
     #[arg(long, default_value = "out/topside-params.json")]
     pub params: PathBuf,
+}
+
+/// Speed along a mission's path (m/s): the scenarios' survey speed (not a parameter yet).
+pub const MISSION_SPEED_M_S: f32 = 0.25;
+/// Most waypoints a mission may have (the vehicle's store).
+pub const MISSION_MAX_ITEMS: usize = controller_core::reference::mission::MAX_WAYPOINTS;
+/// An upload that waits this long for the next item asks again (5 times, then gives up).
+const MISSION_RETRY: Duration = Duration::from_secs(1);
+
+/// The mission protocol at the surface: uploads item by item to the vehicle, the mission in
+/// use for downloads, and the progress reported in AUTO.
+#[derive(Debug, Default)]
+struct Missions {
+    /// Upload in progress: items so far, the count announced, when the last request went and
+    /// how many times it went.
+    upload: Option<(Vec<MISSION_ITEM_INT_DATA>, u16, Instant, u32)>,
+    /// The mission the vehicle holds, as the ground station sent it.
+    items: Vec<MISSION_ITEM_INT_DATA>,
+    /// Waypoints reported reached in the current AUTO run.
+    reached: u16,
+}
+
+impl Missions {
+    fn request(gcs: &mut Gcs, seq: u16) -> Result<()> {
+        gcs.send(MavMessage::MISSION_REQUEST_INT(MISSION_REQUEST_INT_DATA {
+            seq,
+            target_system: 255,
+            target_component: 0,
+        }))
+    }
+
+    fn ack(gcs: &mut Gcs, result: MavMissionResult) -> Result<()> {
+        gcs.send(MavMessage::MISSION_ACK(MISSION_ACK_DATA {
+            target_system: 255,
+            target_component: 0,
+            mavtype: result,
+        }))
+    }
+
+    /// Refuse the upload in progress with `result` and say why; the mission in use stays.
+    fn refuse(&mut self, gcs: &mut Gcs, result: MavMissionResult, why: &str) -> Result<()> {
+        self.upload = None;
+        gcs.text(
+            MavSeverity::MAV_SEVERITY_WARNING,
+            &format!("Mission refused: {why}"),
+        )?;
+        Self::ack(gcs, result)
+    }
+
+    /// A mission message from the ground station; false if `msg` is not one. `MISSION_REQUEST`
+    /// is deprecated, but older ground stations still download with it: both are answered.
+    #[allow(deprecated)]
+    fn handle(&mut self, gcs: &mut Gcs, v: &mut SimVehicle, msg: &MavMessage) -> Result<bool> {
+        match msg {
+            MavMessage::MISSION_COUNT(c) => {
+                if usize::from(c.count) > MISSION_MAX_ITEMS {
+                    let why = format!("{} items, the vehicle holds {MISSION_MAX_ITEMS}", c.count);
+                    return self
+                        .refuse(gcs, MavMissionResult::MAV_MISSION_NO_SPACE, &why)
+                        .map(|_| true);
+                }
+                if c.count == 0 {
+                    return self.clear(gcs, v).map(|_| true);
+                }
+                self.upload = Some((Vec::new(), c.count, Instant::now(), 1));
+                Self::request(gcs, 0)?;
+            }
+            MavMessage::MISSION_ITEM_INT(item) => self.item(gcs, v, item)?,
+            MavMessage::MISSION_REQUEST_LIST(_) => {
+                gcs.send(MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
+                    count: self.items.len() as u16,
+                    target_system: 255,
+                    target_component: 0,
+                }))?;
+            }
+            MavMessage::MISSION_REQUEST_INT(MISSION_REQUEST_INT_DATA { seq, .. })
+            | MavMessage::MISSION_REQUEST(
+                mavlink::dialects::ardupilotmega::MISSION_REQUEST_DATA { seq, .. },
+            ) => match self.items.get(usize::from(*seq)) {
+                Some(item) => gcs.send(MavMessage::MISSION_ITEM_INT(item.clone()))?,
+                None => Self::ack(gcs, MavMissionResult::MAV_MISSION_INVALID_SEQUENCE)?,
+            },
+            MavMessage::MISSION_CLEAR_ALL(_) => self.clear(gcs, v)?,
+            // The end of a download.
+            MavMessage::MISSION_ACK(_) => {}
+            _ => return Ok(false),
+        }
+        gcs.stats.handled += 1;
+        Ok(true)
+    }
+
+    fn clear(&mut self, gcs: &mut Gcs, v: &mut SimVehicle) -> Result<()> {
+        self.upload = None;
+        match v.command(&Command::MissionClear)? {
+            Ok(()) => {
+                self.items.clear();
+                Self::ack(gcs, MavMissionResult::MAV_MISSION_ACCEPTED)
+            }
+            Err(why) => {
+                gcs.text(
+                    MavSeverity::MAV_SEVERITY_WARNING,
+                    &format!("Mission not cleared: {why:?} (leave AUTO first)"),
+                )?;
+                Self::ack(gcs, MavMissionResult::MAV_MISSION_DENIED)
+            }
+        }
+    }
+
+    /// One uploaded item: checked, kept; the last one sends the whole mission to the vehicle.
+    fn item(
+        &mut self,
+        gcs: &mut Gcs,
+        v: &mut SimVehicle,
+        item: &MISSION_ITEM_INT_DATA,
+    ) -> Result<()> {
+        let Some((items, count, at, tries)) = self.upload.as_mut() else {
+            return Ok(());
+        };
+        let count = *count;
+        if usize::from(item.seq) != items.len() {
+            // Out of order (a lost or repeated item): ask for the one expected.
+            *at = Instant::now();
+            *tries += 1;
+            return Self::request(gcs, items.len() as u16);
+        }
+        use MavMissionResult as R;
+        if item.frame != MavFrame::MAV_FRAME_LOCAL_NED {
+            let why = format!(
+                "item {}: frame {:?}, only MAV_FRAME_LOCAL_NED",
+                item.seq, item.frame
+            );
+            return self.refuse(gcs, R::MAV_MISSION_UNSUPPORTED_FRAME, &why);
+        }
+        if item.command != MavCmd::MAV_CMD_NAV_WAYPOINT {
+            let why = format!(
+                "item {}: {:?}, only MAV_CMD_NAV_WAYPOINT",
+                item.seq, item.command
+            );
+            return self.refuse(gcs, R::MAV_MISSION_UNSUPPORTED, &why);
+        }
+        if !item.z.is_finite() {
+            let why = format!("item {}: depth is not a number", item.seq);
+            return self.refuse(gcs, R::MAV_MISSION_INVALID_PARAM7, &why);
+        }
+        let max_depth = firmware::autopilot::MAX_MISSION_DEPTH_M;
+        if !(0.0..=max_depth).contains(&item.z) {
+            let why = format!(
+                "item {}: depth {} m is unreachable (0 to {max_depth} m)",
+                item.seq, item.z
+            );
+            return self.refuse(gcs, R::MAV_MISSION_INVALID_PARAM7, &why);
+        }
+        items.push(item.clone());
+        if items.len() < usize::from(count) {
+            *at = Instant::now();
+            *tries = 1;
+            return Self::request(gcs, items.len() as u16);
+        }
+        // Complete: to the vehicle, which replaces its mission only when the last one is in.
+        let items = std::mem::take(items);
+        for (i, it) in items.iter().enumerate() {
+            // Local frames carry x and y in metres x 1e4.
+            let cmd = Command::MissionItem {
+                index: i as u16,
+                count,
+                pos_m: [it.x as f32 * 1e-4, it.y as f32 * 1e-4, it.z],
+                speed_m_s: MISSION_SPEED_M_S,
+            };
+            if let Err(why) = v.command(&cmd)? {
+                let why = format!("item {i} refused by the vehicle: {why:?}");
+                return self.refuse(gcs, R::MAV_MISSION_INVALID, &why);
+            }
+        }
+        self.upload = None;
+        self.items = items;
+        gcs.text(
+            MavSeverity::MAV_SEVERITY_INFO,
+            &format!("Mission of {count} waypoints accepted"),
+        )?;
+        Self::ack(gcs, R::MAV_MISSION_ACCEPTED)
+    }
+
+    /// Every control period: ask again for a late item; in AUTO, report the waypoints reached.
+    fn tick(&mut self, gcs: &mut Gcs, tel: &Telemetry, every_second: bool) -> Result<()> {
+        if let Some((items, _, at, tries)) = self.upload.as_mut() {
+            if at.elapsed() > MISSION_RETRY {
+                if *tries >= 5 {
+                    return self.refuse(
+                        gcs,
+                        MavMissionResult::MAV_MISSION_OPERATION_CANCELLED,
+                        "no item for 5 s",
+                    );
+                }
+                *at = Instant::now();
+                *tries += 1;
+                let next = items.len() as u16;
+                Self::request(gcs, next)?;
+            }
+        }
+        if tel.mode != Mode::Auto {
+            self.reached = 0;
+            return Ok(());
+        }
+        while self.reached < tel.mission_reached {
+            gcs.send(MavMessage::MISSION_ITEM_REACHED(
+                MISSION_ITEM_REACHED_DATA { seq: self.reached },
+            ))?;
+            self.reached += 1;
+        }
+        if every_second {
+            let last = (self.items.len() as u16).saturating_sub(1);
+            gcs.send(MavMessage::MISSION_CURRENT(MISSION_CURRENT_DATA {
+                seq: self.reached.min(last),
+            }))?;
+        }
+        Ok(())
+    }
 }
 
 /// Counters of the MAVLink side.
@@ -349,6 +574,7 @@ fn custom_mode_of(mode: Mode, guided: bool) -> u32 {
     match mode {
         Mode::Manual => ardusub_mode::MANUAL,
         Mode::Stabilize => ardusub_mode::STABILIZE,
+        Mode::Auto => ardusub_mode::AUTO,
         Mode::DepthHold => ardusub_mode::ALT_HOLD,
         Mode::Hold => ardusub_mode::POSHOLD,
         Mode::Track { .. } if guided => ardusub_mode::GUIDED,
@@ -458,6 +684,7 @@ pub fn main(a: TopsideArgs) -> Result<()> {
     // Wall time of the latest MANUAL_CONTROL: the pilot's stream is real time.
     let mut manual_at: Option<Instant> = None;
     let mut guided = false;
+    let mut missions = Missions::default();
     let mut last_faults = 0u16;
     let mut k: u64 = 0;
     let per_second = (1.0 / v.period_s).round().max(1.0) as u64;
@@ -478,7 +705,9 @@ pub fn main(a: TopsideArgs) -> Result<()> {
             if matches!(msg, MavMessage::MANUAL_CONTROL(_)) {
                 manual_at = Some(Instant::now());
             }
-            handle(&mut gcs, &mut v, &mut manual, &mut guided, &a.params, msg)?;
+            if !missions.handle(&mut gcs, &mut v, &msg)? {
+                handle(&mut gcs, &mut v, &mut manual, &mut guided, &a.params, msg)?;
+            }
         }
         let fresh = manual_at.is_some_and(|at| at.elapsed() < MANUAL_CONTROL_TIMEOUT);
         let pilot_mode = matches!(v.tel.mode, Mode::Manual | Mode::Stabilize | Mode::DepthHold);
@@ -502,6 +731,7 @@ pub fn main(a: TopsideArgs) -> Result<()> {
         }
         last_faults = faults;
 
+        missions.tick(&mut gcs, &v.tel, k.is_multiple_of(per_second))?;
         if k.is_multiple_of(per_second) {
             send_heartbeat(&mut gcs, &v, guided)?;
         }
@@ -542,9 +772,7 @@ fn set_mode(gcs: &mut Gcs, v: &mut SimVehicle, guided: &mut bool, custom: u32) -
                 pos_m: [v.state.x_m, v.state.y_m, v.state.z_m],
             }),
         ),
-        ardusub_mode::AUTO => {
-            return refuse(gcs, cmd, "AUTO: no missions on this vehicle yet");
-        }
+        ardusub_mode::AUTO => (Mode::Auto, None),
         other => return refuse(gcs, cmd, &format!("Unknown mode {other}")),
     };
     if let Some(reference) = reference {

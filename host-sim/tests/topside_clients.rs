@@ -231,3 +231,41 @@ fn manual_control_follows_ardusub_conventions() {
     // Out-of-range sticks are clamped, never passed on.
     assert!(manual_thrust(i16::MAX, i16::MIN, i16::MIN).is_valid());
 }
+
+/// Missions (issue 13): pymavlink uploads a 3-waypoint mission through the standard protocol,
+/// downloads it back, has bad ones refused (too many items, a NaN or unreachable depth, a
+/// global frame) with the mission in use unchanged, flies it in AUTO on the vehicle (each
+/// `MISSION_ITEM_REACHED`, the end within 0.3 m of the last waypoint), and clears it.
+#[test]
+fn pymavlink_uploads_a_mission_and_flies_it_in_auto() {
+    if !pymavlink_or_skip() {
+        return;
+    }
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("topside-mission");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let port = free_udp_port();
+    let topside = topside(
+        port,
+        &dir.join("mission.tlog"),
+        &dir.join("params.json"),
+        &["--speedup", "8"],
+    );
+    let script = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/clients/pymavlink_mission.py"
+    );
+    let out = Command::new("python3")
+        .arg(script)
+        .arg(port.to_string())
+        .output()
+        .unwrap();
+    stop(topside);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    println!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "the pymavlink mission session failed");
+    assert!(
+        stdout.contains("PASS: AUTO without a mission refused"),
+        "the session ran to its last check"
+    );
+}

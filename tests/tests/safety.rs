@@ -605,3 +605,71 @@ fn pilot_assisted_modes_need_nav_and_sticks() {
     assert_ne!(a.last_output().faults & fault::NAV_STALE, 0);
     assert_eq!(pulses_us(&mut a), [1500.0; 3]);
 }
+
+/// Missions (issue 13): uploaded item by item, replaced only when complete, bad items refused
+/// with the mission in use unchanged, AUTO refused without one, flown and counted when given.
+#[test]
+fn missions_are_uploaded_whole_refused_with_a_reason_and_flown_in_auto() {
+    let (mut a, c, mut t) = fixed();
+    arm(&mut a, &c, &mut t);
+    let (s, r) = t.send(&mut a, &Command::SetMode(Mode::Auto));
+    assert_eq!(
+        nacked(&r, s),
+        Some(NackReason::NoReference),
+        "no mission yet"
+    );
+    let wp = |index: u16, pos_m: [f32; 3]| Command::MissionItem {
+        index,
+        count: 3,
+        pos_m,
+        speed_m_s: 0.25,
+    };
+    let square = [[5.0, 0.0, 1.0], [5.0, 5.0, 1.0], [0.0, 5.0, 1.0]];
+    for (i, p) in square.iter().enumerate() {
+        let (s, r) = t.send(&mut a, &wp(i as u16, *p));
+        assert!(acked(&r, s), "{r:?}");
+        assert_eq!(a.autopilot().mission_len(), if i == 2 { 3 } else { 0 });
+    }
+    // A second upload with a bad item: refused, the mission in use stays.
+    let bad = [
+        (wp(0, [f32::NAN, 0.0, 1.0]), NackReason::NonFinite),
+        (wp(0, [1.0, 0.0, 500.0]), NackReason::OutOfRange),
+        (wp(0, [1.0, 0.0, -1.0]), NackReason::OutOfRange),
+        (wp(2, [1.0, 0.0, 1.0]), NackReason::OutOfRange),
+        (
+            Command::MissionItem {
+                index: 0,
+                count: 40,
+                pos_m: [1.0, 0.0, 1.0],
+                speed_m_s: 0.25,
+            },
+            NackReason::OutOfRange,
+        ),
+    ];
+    for (cmd, why) in bad {
+        let (s, r) = t.send(&mut a, &cmd);
+        assert_eq!(nacked(&r, s), Some(why), "{cmd:?}");
+        assert_eq!(a.autopilot().mission_len(), 3);
+    }
+    // AUTO: the law flies the path; the count of reached waypoints climbs to 3.
+    t.send(&mut a, &nav(c.get_us()));
+    let (s, r) = t.send(&mut a, &Command::SetMode(Mode::Auto));
+    assert!(acked(&r, s), "{r:?}");
+    let (s, r) = t.send(&mut a, &Command::MissionClear);
+    assert_eq!(
+        nacked(&r, s),
+        Some(NackReason::Unsupported),
+        "not while flying it"
+    );
+    let mut reached = 0;
+    for _ in 0..5_000 {
+        c.advance_us(20_000);
+        t.send(&mut a, &nav(c.get_us()));
+        t.send(&mut a, &Command::Heartbeat { t_us: 0 });
+        let now = a.autopilot().mission_reached(c.get_us());
+        assert!(now >= reached);
+        reached = now;
+        assert!(a.last_output().law_ran);
+    }
+    assert_eq!(reached, 3);
+}

@@ -60,6 +60,9 @@ pub enum Mode {
     /// [`Mode::Stabilize`] with the depth held while the heave stick is centred (ArduSub's
     /// ALT_HOLD; version 4).
     DepthHold,
+    /// Fly the uploaded mission from where the vehicle is, with the 3-D tracking law, and hold
+    /// the last waypoint (ArduSub's AUTO; version 4).
+    Auto,
 }
 
 /// A time-stamped navigation state (the state estimate sent by the topside or the plant).
@@ -157,6 +160,20 @@ pub enum Command {
     DvlFix(DvlFix),
     /// A heading from a compass at the surface's end (when the vehicle's is not used).
     Compass(HeadingFix),
+    /// Waypoint `index` (from 0) of a mission of `count` (at most 32), local NED frame; the
+    /// mission in use is replaced when the last one arrives (version 4).
+    MissionItem {
+        /// This waypoint's place in the mission.
+        index: u16,
+        /// Waypoints in the mission.
+        count: u16,
+        /// `[north, east, down]` (m), depth 0..100 m, within 1 km of the origin.
+        pos_m: [f32; 3],
+        /// Speed along the path (m/s, at most 1); the last item's is used.
+        speed_m_s: f32,
+    },
+    /// Forget the mission (refused while AUTO flies it).
+    MissionClear,
     /// Lock-step with the on-board estimator: run one control step at `t_us` on the latest
     /// estimate; answered by `Telemetry` (what `Nav` does with an external source).
     Step {
@@ -287,6 +304,8 @@ pub struct Telemetry {
     /// Standard deviation of the on-board position estimate `[x, y, z]` (m; zeros with an
     /// external source).
     pub nav_pos_std_m: [f32; 3],
+    /// Waypoints of the mission the reference has passed, in AUTO (0 otherwise).
+    pub mission_reached: u16,
 }
 
 /// The slow half of the report: link counters and health, sent as the answer to each
