@@ -17,7 +17,8 @@
 //!
 //! AUTO (3) flies the uploaded mission on the vehicle (`SetMode(Auto)`), refused without one.
 //! Missions: the standard protocol (`MISSION_COUNT` / `MISSION_REQUEST_INT` /
-//! `MISSION_ITEM_INT` / `MISSION_ACK`, download with `MISSION_REQUEST_LIST`,
+//! `MISSION_ITEM_INT` (or the float `MISSION_ITEM`) / `MISSION_ACK`, download with
+//! `MISSION_REQUEST_LIST`,
 //! `MISSION_CLEAR_ALL`), `MAV_CMD_NAV_WAYPOINT` items in `MAV_FRAME_LOCAL_NED` (x, y in metres
 //! x 1e4, z the depth in metres), at most 32; a mission with another frame or command, a NaN,
 //! an unreachable depth or too many items is refused with `MISSION_ACK` and a `STATUSTEXT`, and
@@ -135,21 +136,24 @@ struct Missions {
     items: Vec<MISSION_ITEM_INT_DATA>,
     /// Waypoints reported reached in the current AUTO run.
     reached: u16,
+    /// The ground station of the latest mission exchange (system, component): requests and
+    /// acknowledgements are addressed to it, as ground stations check.
+    peer: (u8, u8),
 }
 
 impl Missions {
-    fn request(gcs: &mut Gcs, seq: u16) -> Result<()> {
+    fn request(peer: (u8, u8), gcs: &mut Gcs, seq: u16) -> Result<()> {
         gcs.send(MavMessage::MISSION_REQUEST_INT(MISSION_REQUEST_INT_DATA {
             seq,
-            target_system: 255,
-            target_component: 0,
+            target_system: peer.0,
+            target_component: peer.1,
         }))
     }
 
-    fn ack(gcs: &mut Gcs, result: MavMissionResult) -> Result<()> {
+    fn ack(peer: (u8, u8), gcs: &mut Gcs, result: MavMissionResult) -> Result<()> {
         gcs.send(MavMessage::MISSION_ACK(MISSION_ACK_DATA {
-            target_system: 255,
-            target_component: 0,
+            target_system: peer.0,
+            target_component: peer.1,
             mavtype: result,
         }))
     }
@@ -161,13 +165,29 @@ impl Missions {
             MavSeverity::MAV_SEVERITY_WARNING,
             &format!("Mission refused: {why}"),
         )?;
-        Self::ack(gcs, result)
+        Self::ack(self.peer, gcs, result)
     }
 
     /// A mission message from the ground station; false if `msg` is not one. `MISSION_REQUEST`
     /// is deprecated, but older ground stations still download with it: both are answered.
     #[allow(deprecated)]
-    fn handle(&mut self, gcs: &mut Gcs, v: &mut SimVehicle, msg: &MavMessage) -> Result<bool> {
+    fn handle(
+        &mut self,
+        gcs: &mut Gcs,
+        v: &mut SimVehicle,
+        from: MavHeader,
+        msg: &MavMessage,
+    ) -> Result<bool> {
+        if matches!(
+            msg,
+            MavMessage::MISSION_COUNT(_)
+                | MavMessage::MISSION_REQUEST_LIST(_)
+                | MavMessage::MISSION_CLEAR_ALL(_)
+        ) {
+            // (MAVLink system ids are 8 bits on the wire.)
+            let system = u8::try_from(from.system_id).unwrap_or(u8::MAX);
+            self.peer = (system, from.component_id);
+        }
         match msg {
             MavMessage::MISSION_COUNT(c) => {
                 if usize::from(c.count) > MISSION_MAX_ITEMS {
@@ -180,14 +200,43 @@ impl Missions {
                     return self.clear(gcs, v).map(|_| true);
                 }
                 self.upload = Some((Vec::new(), c.count, Instant::now(), 1));
-                Self::request(gcs, 0)?;
+                Self::request(self.peer, gcs, 0)?;
             }
             MavMessage::MISSION_ITEM_INT(item) => self.item(gcs, v, item)?,
+            // The float form, which MAVProxy sends to a vehicle that does not announce
+            // MISSION_INT in AUTOPILOT_VERSION: the same item, x and y in metres.
+            MavMessage::MISSION_ITEM(i) => {
+                let as_int = |m: f32| {
+                    let v = (f64::from(m) * 1e4).round();
+                    if v.is_finite() {
+                        v.clamp(f64::from(i32::MIN), f64::from(i32::MAX)) as i32
+                    } else {
+                        i32::MAX
+                    }
+                };
+                let item = MISSION_ITEM_INT_DATA {
+                    param1: i.param1,
+                    param2: i.param2,
+                    param3: i.param3,
+                    param4: i.param4,
+                    x: as_int(i.x),
+                    y: as_int(i.y),
+                    z: i.z,
+                    seq: i.seq,
+                    command: i.command,
+                    target_system: i.target_system,
+                    target_component: i.target_component,
+                    frame: i.frame,
+                    current: i.current,
+                    autocontinue: i.autocontinue,
+                };
+                self.item(gcs, v, &item)?
+            }
             MavMessage::MISSION_REQUEST_LIST(_) => {
                 gcs.send(MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
                     count: self.items.len() as u16,
-                    target_system: 255,
-                    target_component: 0,
+                    target_system: self.peer.0,
+                    target_component: self.peer.1,
                 }))?;
             }
             MavMessage::MISSION_REQUEST_INT(MISSION_REQUEST_INT_DATA { seq, .. })
@@ -195,7 +244,11 @@ impl Missions {
                 mavlink::dialects::ardupilotmega::MISSION_REQUEST_DATA { seq, .. },
             ) => match self.items.get(usize::from(*seq)) {
                 Some(item) => gcs.send(MavMessage::MISSION_ITEM_INT(item.clone()))?,
-                None => Self::ack(gcs, MavMissionResult::MAV_MISSION_INVALID_SEQUENCE)?,
+                None => Self::ack(
+                    self.peer,
+                    gcs,
+                    MavMissionResult::MAV_MISSION_INVALID_SEQUENCE,
+                )?,
             },
             MavMessage::MISSION_CLEAR_ALL(_) => self.clear(gcs, v)?,
             // The end of a download.
@@ -211,14 +264,14 @@ impl Missions {
         match v.command(&Command::MissionClear)? {
             Ok(()) => {
                 self.items.clear();
-                Self::ack(gcs, MavMissionResult::MAV_MISSION_ACCEPTED)
+                Self::ack(self.peer, gcs, MavMissionResult::MAV_MISSION_ACCEPTED)
             }
             Err(why) => {
                 gcs.text(
                     MavSeverity::MAV_SEVERITY_WARNING,
                     &format!("Mission not cleared: {why:?} (leave AUTO first)"),
                 )?;
-                Self::ack(gcs, MavMissionResult::MAV_MISSION_DENIED)
+                Self::ack(self.peer, gcs, MavMissionResult::MAV_MISSION_DENIED)
             }
         }
     }
@@ -238,7 +291,7 @@ impl Missions {
             // Out of order (a lost or repeated item): ask for the one expected.
             *at = Instant::now();
             *tries += 1;
-            return Self::request(gcs, items.len() as u16);
+            return Self::request(self.peer, gcs, items.len() as u16);
         }
         use MavMissionResult as R;
         if item.frame != MavFrame::MAV_FRAME_LOCAL_NED {
@@ -271,7 +324,7 @@ impl Missions {
         if items.len() < usize::from(count) {
             *at = Instant::now();
             *tries = 1;
-            return Self::request(gcs, items.len() as u16);
+            return Self::request(self.peer, gcs, items.len() as u16);
         }
         // Complete: to the vehicle, which replaces its mission only when the last one is in.
         let items = std::mem::take(items);
@@ -294,7 +347,7 @@ impl Missions {
             MavSeverity::MAV_SEVERITY_INFO,
             &format!("Mission of {count} waypoints accepted"),
         )?;
-        Self::ack(gcs, R::MAV_MISSION_ACCEPTED)
+        Self::ack(self.peer, gcs, R::MAV_MISSION_ACCEPTED)
     }
 
     /// Every control period: ask again for a late item; in AUTO, report the waypoints reached.
@@ -311,7 +364,7 @@ impl Missions {
                 *at = Instant::now();
                 *tries += 1;
                 let next = items.len() as u16;
-                Self::request(gcs, next)?;
+                Self::request(self.peer, gcs, next)?;
             }
         }
         if tel.mode != Mode::Auto {
@@ -322,6 +375,9 @@ impl Missions {
             gcs.send(MavMessage::MISSION_ITEM_REACHED(
                 MISSION_ITEM_REACHED_DATA { seq: self.reached },
             ))?;
+            // ArduPilot's words, which ground stations show.
+            let text = format!("Reached command #{}", self.reached);
+            gcs.text(MavSeverity::MAV_SEVERITY_INFO, &text)?;
             self.reached += 1;
         }
         if every_second {
@@ -402,13 +458,13 @@ impl Gcs {
     }
 
     /// Everything that has arrived, without waiting.
-    fn poll(&mut self) -> Result<Vec<MavMessage>> {
+    fn poll(&mut self) -> Result<Vec<(MavHeader, MavMessage)>> {
         let mut out = Vec::new();
         loop {
             match self.conn.try_recv() {
                 Ok((header, msg)) => {
                     self.log(header, &msg)?;
-                    out.push(msg);
+                    out.push((header, msg));
                 }
                 Err(mavlink::error::MessageReadError::Io(e))
                     if matches!(
@@ -615,8 +671,11 @@ pub fn main(a: TopsideArgs) -> Result<()> {
     if !(a.speedup.is_finite() && a.speedup > 0.0) {
         bail!("--speedup must be > 0 (got {})", a.speedup);
     }
-    let conn = mavlink::connect::<MavMessage>(&a.mavlink)
+    let mut conn = mavlink::connect::<MavMessage>(&a.mavlink)
         .with_context(|| format!("MAVLink address {:?}", a.mavlink))?;
+    // Send MAVLink 2, take 1 and 2: ground stations still send some messages in MAVLink 1
+    // (MAVProxy's mission items, for one).
+    conn.set_allow_recv_any_version(true);
     if let Some(dir) = a.tlog.parent() {
         if !dir.as_os_str().is_empty() {
             std::fs::create_dir_all(dir)?;
@@ -701,11 +760,11 @@ pub fn main(a: TopsideArgs) -> Result<()> {
             std::thread::sleep(wait);
         }
 
-        for msg in gcs.poll()? {
+        for (header, msg) in gcs.poll()? {
             if matches!(msg, MavMessage::MANUAL_CONTROL(_)) {
                 manual_at = Some(Instant::now());
             }
-            if !missions.handle(&mut gcs, &mut v, &msg)? {
+            if !missions.handle(&mut gcs, &mut v, header, &msg)? {
                 handle(&mut gcs, &mut v, &mut manual, &mut guided, &a.params, msg)?;
             }
         }

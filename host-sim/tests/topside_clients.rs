@@ -269,3 +269,52 @@ fn pymavlink_uploads_a_mission_and_flies_it_in_auto() {
         "the session ran to its last check"
     );
 }
+
+/// MAVProxy (PyPI), typed into as an operator would: ALT_HOLD, `wp load` of a QGC WPL file,
+/// arm, AUTO to the last waypoint, disarm. SKIPPED without `mavproxy.py` unless
+/// `ROV_REQUIRE_PYMAVLINK=1` (`.ci/run` installs both).
+#[test]
+fn mavproxy_flies_a_mission_it_loads_from_a_file() {
+    if !pymavlink_or_skip() {
+        return;
+    }
+    let have = Command::new("mavproxy.py")
+        .arg("--version")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    if !have {
+        let why = "mavproxy.py not found";
+        if std::env::var("ROV_REQUIRE_PYMAVLINK").is_ok_and(|v| v == "1") {
+            panic!("{why} and ROV_REQUIRE_PYMAVLINK=1; fix: python3 -m pip install MAVProxy");
+        }
+        println!("SKIPPED: {why}; fix: python3 -m pip install MAVProxy");
+        return;
+    }
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("topside-mavproxy");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let port = free_udp_port();
+    let topside = topside(
+        port,
+        &dir.join("mavproxy.tlog"),
+        &dir.join("params.json"),
+        &["--speedup", "8"],
+    );
+    let script = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/clients/mavproxy_session.py"
+    );
+    let out = Command::new("python3")
+        .arg(script)
+        .arg(port.to_string())
+        .arg(&dir)
+        .output()
+        .unwrap();
+    stop(topside);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    println!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "the MAVProxy session failed");
+    assert!(stdout.contains("PASS: `disarm`: DISARMED"));
+}

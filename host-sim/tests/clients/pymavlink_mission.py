@@ -116,9 +116,16 @@ def main():
             reached.append(r.seq)
     expect(reached == [0, 1, 2], f"MISSION_ITEM_REACHED for each waypoint, in order ({reached})")
     n, e, d = pts[-1]
-    for _ in range(8):  # the reference stops on the last waypoint; the vehicle settles
-        time.sleep(1)
-        p = position(m)
+    # The reference stops on the last waypoint; the vehicle settles. Read everything that
+    # comes meanwhile (a client that sleeps lets its socket overflow and loses messages).
+    p = None
+    for _ in range(8):
+        end = time.time() + 1.0
+        while time.time() < end:
+            msg = m.recv_match(blocking=True, timeout=0.1)
+            if msg is not None and msg.get_type() == "LOCAL_POSITION_NED":
+                p = msg
+        expect(p is not None, "LOCAL_POSITION_NED streams")
         print(f"  after the last waypoint: off by ({p.x - n:+.3f}, {p.y - e:+.3f}, "
               f"{p.z - d:+.3f}) m")
     off = math.sqrt((p.x - n) ** 2 + (p.y - e) ** 2 + (p.z - d) ** 2)
