@@ -147,15 +147,15 @@ struct CurveInv {
 }
 
 impl PwmMap {
-    /// 1100-1900 us, 1500 neutral, +-25 us deadband, with the vehicle's thrust limits.
+    /// The vehicle's pulse curve and thrust limits.
     pub fn for_vehicle(vehicle: &Vehicle) -> Self {
         let p = vehicle.params();
         Self {
-            min_us: 1100.0,
-            neutral_us: 1500.0,
-            max_us: 1900.0,
-            deadband_us: 25.0,
-            linear_fraction: 0.25,
+            min_us: p.pulse.min_us,
+            neutral_us: p.pulse.neutral_us,
+            max_us: p.pulse.max_us,
+            deadband_us: p.pulse.deadband_us,
+            linear_fraction: p.pulse.linear_fraction,
             max_forward_n: p.thrust_max_forward_n,
             max_reverse_n: p.thrust_max_reverse_n,
         }

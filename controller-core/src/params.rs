@@ -15,6 +15,7 @@ use serde::{Deserialize, Serialize};
 /// Raw physical parameters of the vehicle, SI units. Build a [`Vehicle`] from it with
 /// [`VehicleParams::validate`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct VehicleParams {
     /// Dry mass `m` (Table I).
     pub mass_kg: f32,
@@ -68,6 +69,65 @@ pub struct VehicleParams {
     pub thrust_max_reverse_n: f32,
     /// First-order spin-up time constant of a thruster (assumed; plant only).
     pub thruster_time_constant_s: f32,
+    /// The ESCs' pulse widths and the thrust curve between them.
+    pub pulse: PulseCurve,
+}
+
+/// The ESC pulse-width curve of the thrusters (all three alike): pulse widths from `min_us`
+/// to `max_us`, `neutral_us` at rest, no thrust within `deadband_us` of neutral, and beyond
+/// it thrust `F_max (k x + (1 - k) x^2)` of the normalized travel `x`, `k = linear_fraction`
+/// (see [`crate::alloc::PwmMap`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PulseCurve {
+    /// Shortest pulse (full reverse), microseconds.
+    pub min_us: f32,
+    /// Neutral pulse, microseconds.
+    pub neutral_us: f32,
+    /// Longest pulse (full forward), microseconds.
+    pub max_us: f32,
+    /// Half-width of the deadband around neutral, microseconds.
+    pub deadband_us: f32,
+    /// Linear share `k` of the thrust curve, in [0, 1].
+    pub linear_fraction: f32,
+}
+
+impl PulseCurve {
+    /// 1100-1900 us, 1500 neutral, +-25 us deadband, a quarter linear (common hobby ESCs
+    /// driving small ROV thrusters; assumed).
+    pub const STANDARD: Self = Self {
+        min_us: 1100.0,
+        neutral_us: 1500.0,
+        max_us: 1900.0,
+        deadband_us: 25.0,
+        linear_fraction: 0.25,
+    };
+
+    /// Within the servo-pulse range 500-2500 us, `min < neutral - deadband` and
+    /// `neutral + deadband < max`, `k` in [0, 1].
+    pub fn validate(&self) -> Result<(), Error> {
+        for (name, v) in [
+            ("pulse.min_us", self.min_us),
+            ("pulse.neutral_us", self.neutral_us),
+            ("pulse.max_us", self.max_us),
+        ] {
+            if !(500.0..=2500.0).contains(&finite(name, v)?) {
+                return Err(Error::OutOfRange(name));
+            }
+        }
+        non_negative("pulse.deadband_us", self.deadband_us)?;
+        if !(0.0..=1.0).contains(&finite("pulse.linear_fraction", self.linear_fraction)?) {
+            return Err(Error::OutOfRange("pulse.linear_fraction"));
+        }
+        if self.min_us >= self.neutral_us - self.deadband_us
+            || self.neutral_us + self.deadband_us >= self.max_us
+        {
+            return Err(Error::NonPhysical(
+                "pulse: min_us < neutral_us - deadband_us < neutral_us + deadband_us < max_us",
+            ));
+        }
+        Ok(())
+    }
 }
 
 impl VehicleParams {
@@ -99,6 +159,7 @@ impl VehicleParams {
         thrust_max_forward_n: 20.0,
         thrust_max_reverse_n: 15.0,
         thruster_time_constant_s: 0.1,
+        pulse: PulseCurve::STANDARD,
     };
 
     /// Check every value once and derive the model coefficients.
@@ -142,6 +203,7 @@ impl VehicleParams {
         ] {
             positive(name, v)?;
         }
+        p.pulse.validate()?;
         let weight = p.mass_kg * p.gravity_m_s2;
         if p.buoyancy_offset_n.abs() >= weight {
             return Err(Error::OutOfRange("buoyancy_offset_n"));
@@ -149,6 +211,31 @@ impl VehicleParams {
         let xz = XzCoeffs::derive(&p)?;
         let xy = XyCoeffs::derive(&p)?;
         Ok(Vehicle { params: p, xz, xy })
+    }
+}
+
+impl Vehicle {
+    /// What the firmware takes from the surface: a valid vehicle on which the laws stay safe.
+    /// Beyond [`VehicleParams::validate`], the vertical thruster must hold the net buoyancy
+    /// with half its smaller limit to spare (else depth hold saturates and a disturbance
+    /// wins), and the horizontal thrust limits must be within 10x of each other (the yaw
+    /// allocation splits between them).
+    pub fn check_flyable(&self) -> Result<(), Error> {
+        let p = &self.params;
+        let vertical = p.thrust_max_forward_n.min(p.thrust_max_reverse_n);
+        if p.buoyancy_offset_n.abs() > 0.5 * vertical {
+            return Err(Error::OutOfRange(
+                "buoyancy_offset_n: more than half the vertical thrust",
+            ));
+        }
+        if p.thrust_max_forward_n > 10.0 * p.thrust_max_reverse_n
+            || p.thrust_max_reverse_n > 10.0 * p.thrust_max_forward_n
+        {
+            return Err(Error::NonPhysical(
+                "thrust_max_forward_n and thrust_max_reverse_n more than 10x apart",
+            ));
+        }
+        Ok(())
     }
 }
 

@@ -21,6 +21,7 @@
 //! the truth), or the on-board estimator ([`OnboardNav`], started by `StartNav`) fed by the
 //! vehicle's IMU and pressure sensor and by the fixes that come down the tether.
 
+pub use crate::protocol::Failsafe;
 use crate::protocol::{fault, Command, Law, ManualThrust, Mode, NackReason, NavSample, Plane};
 use controller_core::alloc::{allocate, Allocation};
 use controller_core::controller::{ControlMode, ControlOutput, Controller};
@@ -31,35 +32,6 @@ use controller_core::reference::mission::{MissionPath, MAX_WAYPOINTS};
 use controller_core::reference::Reference;
 use controller_core::state::{BodyForces, NavState, TrackingErrors};
 use heapless::Vec;
-
-/// Failsafe timeouts, microseconds of the firmware's clock.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Failsafe {
-    /// Heartbeat age at which thrust goes neutral.
-    pub heartbeat_neutral_us: u64,
-    /// Heartbeat age at which the vehicle disarms.
-    pub heartbeat_disarm_us: u64,
-    /// `NavState` age at which tracking stops (neutral) and arming is refused.
-    pub nav_stale_us: u64,
-    /// `ManualThrust` age at which manual thrust goes neutral.
-    pub manual_stale_us: u64,
-}
-
-impl Failsafe {
-    /// The specified timeouts: 0.5 s, 1 s, 0.2 s, 0.5 s.
-    pub const DEFAULT: Self = Self {
-        heartbeat_neutral_us: 500_000,
-        heartbeat_disarm_us: 1_000_000,
-        nav_stale_us: 200_000,
-        manual_stale_us: 500_000,
-    };
-}
-
-impl Default for Failsafe {
-    fn default() -> Self {
-        Self::DEFAULT
-    }
-}
 
 /// Largest magnitudes accepted in a `NavState` (anything beyond is a broken estimator).
 pub mod nav_limits {
@@ -367,6 +339,23 @@ impl Autopilot {
                     seq,
                     sample: *sample,
                 });
+                Ok(())
+            }
+            Command::SetVehicle(params) => {
+                if self.armed {
+                    return Err(NackReason::Armed);
+                }
+                if self.onboard.is_some() {
+                    return Err(NackReason::NavSource);
+                }
+                let vehicle = params.validate()?;
+                vehicle.check_flyable()?;
+                self.controller = Controller::new(vehicle, *self.controller.gains())?;
+                Ok(())
+            }
+            Command::SetFailsafe(f) => {
+                f.validate()?;
+                self.failsafe = *f;
                 Ok(())
             }
             Command::ManualThrust(m) => {

@@ -14,7 +14,6 @@ use crate::sim_loop::{to_nav, FixRecord, NavReport, Navigation, TruthNav};
 use anyhow::{anyhow, bail, Result};
 use controller_core::nav::onboard::{OnboardConfig, PressureDepth};
 use controller_core::nav::{Estimator, NavConfig, Refusal};
-use controller_core::params::Vehicle;
 use controller_core::state::NavState;
 
 /// 95 % quantile of the chi-square distribution with 1, 2 and 3 degrees of freedom.
@@ -67,7 +66,7 @@ impl EstimatorNav {
         }
         let initial = sc.initial.to_plant();
         let estimator = Estimator::new(
-            Vehicle::observer(),
+            sc.vehicle_model()?,
             nav_config(&sc.sensors),
             &to_nav(&initial),
             0,

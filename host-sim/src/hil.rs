@@ -42,7 +42,7 @@ use anyhow::{anyhow, bail, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::controller::ControlMode;
 use controller_core::nav::onboard::OnboardConfig;
-use controller_core::params::Vehicle;
+use controller_core::params::VehicleParams;
 use controller_core::reference::{RefSample, Reference};
 use controller_core::state::NavState;
 use firmware::protocol::{
@@ -222,6 +222,8 @@ pub struct TetherEndpoint {
     reference: Reference,
     noise: Option<Noise>,
     pwm: PwmMap,
+    /// The scenario's vehicle, sent to the firmware at the start.
+    vehicle: VehicleParams,
     heartbeat_stop_s: Option<f64>,
     reply_timeout: Duration,
     max_tries: u32,
@@ -277,7 +279,8 @@ impl TetherEndpoint {
             mode: firmware_mode(sc.control_mode()?),
             reference: sc.reference.to_core(),
             noise: opts.noise.map(Noise::new),
-            pwm: PwmMap::for_vehicle(&Vehicle::observer()),
+            pwm: PwmMap::for_vehicle(&sc.vehicle_model()?),
+            vehicle: sc.vehicle_params,
             heartbeat_stop_s: opts.heartbeat_stop_s,
             reply_timeout: opts.reply_timeout,
             max_tries: opts.max_tries,
@@ -426,6 +429,11 @@ impl ControllerEndpoint for TetherEndpoint {
     fn start(&mut self, nav0: &NavState) -> Result<()> {
         let tmo = Duration::from_millis(500);
         self.link.send(&Command::Heartbeat { t_us: 0 })?;
+        // The scenario's vehicle (the firmware boots with the Observer's).
+        let set_vehicle = Command::SetVehicle(self.vehicle);
+        if let Err(reason) = self.link.command(&set_vehicle, tmo, 5, |_| {})? {
+            bail!("the firmware refused the scenario's vehicle: {reason:?}");
+        }
         if let Some(config) = self.onboard {
             // The estimator starts at the launch point; its sensors count as fresh from now.
             let start = Command::StartNav {

@@ -9,6 +9,7 @@
 //! - [`sensors`]: simulated IMU, depth, compass, DVL and USBL; [`estimator_nav`]: the core's
 //!   estimator on them as the navigation stage.
 //! - [`topside`]: the surface side: MAVLink 2 to ground stations, the tether to the vehicle.
+//! - [`vehicle`]: vehicle files (the Observer's is the default).
 //! - [`output`], [`plots`]: what a run writes.
 //! - [`monte_carlo`]: perturbed-parameter runs in parallel.
 
@@ -30,3 +31,4 @@ pub mod scenario;
 pub mod sensors;
 pub mod sim_loop;
 pub mod topside;
+pub mod vehicle;

@@ -134,6 +134,8 @@ pub struct Campaign {
     pub current_magnitude_m_s: f64,
     /// The scenario applies thruster limits.
     pub saturate: bool,
+    /// The larger thrust limit of the scenario's vehicle (N).
+    pub thrust_limit_n: f64,
 }
 
 /// `DIR/runs.json`: the campaign, which slice this is, and every run of it (full precision,
@@ -290,6 +292,11 @@ pub fn run_batch(
         perturb: cfg.perturb,
         current_magnitude_m_s: sc.current_magnitude_m_s(),
         saturate: sc.thrusters.saturate,
+        thrust_limit_n: f64::from(
+            sc.vehicle_params
+                .thrust_max_forward_n
+                .max(sc.vehicle_params.thrust_max_reverse_n),
+        ),
     };
     let mag = campaign.current_magnitude_m_s;
     let base = crate::runner::nominal_plant_params(sc);
@@ -379,12 +386,7 @@ pub fn summarize(campaign: &Campaign, runs: &[McRun]) -> McSummary {
         .iter()
         .map(|r| r.max_abs_thruster_force_n)
         .fold(0.0, f64::max);
-    let nominal = VehicleParams::OBSERVER;
-    let limit = f64::from(
-        nominal
-            .thrust_max_forward_n
-            .max(nominal.thrust_max_reverse_n),
-    );
+    let limit = campaign.thrust_limit_n;
     let within = runs
         .iter()
         .all(|r| r.max_abs_thruster_force_n <= limit + 1e-6);

@@ -1,25 +1,132 @@
-//! The ground station's parameter list (`PARAM_*`): every control-law gain, by a name of at
-//! most 16 characters, read and written through the tether's `SetTrackingGains` /
-//! `SetPaperGains` (the vehicle validates and refuses; nothing changes on a refusal), saved to
-//! a JSON file after every accepted change and restored at the next start.
+//! The ground station's parameter list (`PARAM_*`): every control-law gain, the failsafe
+//! timeouts and the vehicle's description, by names of at most 16 characters. A change is
+//! checked here first (the core's validation, the firmware's rules) and then sent to the
+//! vehicle (`SetTrackingGains` / `SetPaperGains` / `SetFailsafe` / `SetVehicle`), which checks
+//! again and may refuse; nothing changes on a refusal. Accepted changes are saved to a JSON
+//! file and restored at the next start.
 //!
-//! Names: `TRK_*` the tracking laws ([`TrackingGains`]), `PXZ_*` / `PXY_*` the paper's XZ / XY
-//! laws. The failsafe timeouts and the vehicle's description are not parameters yet (they are
-//! compiled into the firmware; issue 13).
+//! Names: `TRK_*` the tracking laws ([`TrackingGains`](controller_core::law::tracking::TrackingGains)),
+//! `PXZ_*` / `PXY_*` the paper's XZ / XY laws, `FS_*` the failsafe timeouts in seconds,
+//! `VEH_*` the vehicle ([`VehicleParams`], a vehicle file's keys; `VEH_PWM_*` its pulse curve).
 
 use anyhow::{anyhow, bail, Context, Result};
 use controller_core::controller::Gains;
+use controller_core::params::VehicleParams;
+use firmware::protocol::Failsafe;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-/// One parameter: its name and how to read and write it in a gain set.
+/// The failsafe timeouts in seconds, as a ground station shows them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FailsafeSeconds {
+    /// Heartbeat age at which thrust goes neutral.
+    pub heartbeat_neutral_s: f32,
+    /// Heartbeat age at which the vehicle disarms.
+    pub heartbeat_disarm_s: f32,
+    /// Navigation age at which the laws stop.
+    pub nav_stale_s: f32,
+    /// Pilot-input age at which manual thrust goes neutral.
+    pub pilot_stale_s: f32,
+}
+
+impl FailsafeSeconds {
+    /// The firmware's timeouts in seconds.
+    pub fn of(f: &Failsafe) -> Self {
+        let s = |us: u64| (us as f64 * 1e-6) as f32;
+        Self {
+            heartbeat_neutral_s: s(f.heartbeat_neutral_us),
+            heartbeat_disarm_s: s(f.heartbeat_disarm_us),
+            nav_stale_s: s(f.nav_stale_us),
+            pilot_stale_s: s(f.manual_stale_us),
+        }
+    }
+
+    /// The firmware's timeouts (microseconds), refused with a reason naming the parameter
+    /// where the firmware would refuse them ([`Failsafe::validate`]).
+    pub fn to_firmware(&self) -> Result<Failsafe> {
+        let us = |name: &str, s: f32, max_us: u64| -> Result<u64> {
+            let range = (Failsafe::MIN_US as f64 * 1e-6, max_us as f64 * 1e-6);
+            let v = (f64::from(s) * 1e6).round();
+            if s.is_finite() && (Failsafe::MIN_US as f64..=max_us as f64).contains(&v) {
+                Ok(v as u64)
+            } else {
+                bail!("{name} must be {}-{} s", range.0, range.1)
+            }
+        };
+        let f = Failsafe {
+            heartbeat_neutral_us: us(
+                "FS_HB_NEUTRAL",
+                self.heartbeat_neutral_s,
+                Failsafe::MAX_NEUTRAL_US,
+            )?,
+            heartbeat_disarm_us: us(
+                "FS_HB_DISARM",
+                self.heartbeat_disarm_s,
+                Failsafe::MAX_DISARM_US,
+            )?,
+            nav_stale_us: us("FS_NAV_STALE", self.nav_stale_s, Failsafe::MAX_NAV_STALE_US)?,
+            manual_stale_us: us(
+                "FS_PILOT_STALE",
+                self.pilot_stale_s,
+                Failsafe::MAX_NEUTRAL_US,
+            )?,
+        };
+        if f.heartbeat_neutral_us > f.heartbeat_disarm_us {
+            bail!("FS_HB_NEUTRAL must not exceed FS_HB_DISARM");
+        }
+        // The firmware's own rule, in case the two ever differ.
+        f.validate()
+            .map_err(|why| anyhow!("the firmware's check: {why:?}"))?;
+        Ok(f)
+    }
+}
+
+/// Everything the parameter list shows: what is in force on the vehicle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settings {
+    /// The laws' gains.
+    pub gains: Gains,
+    /// The failsafe timeouts.
+    pub failsafe: FailsafeSeconds,
+    /// The vehicle's description.
+    pub vehicle: VehicleParams,
+}
+
+impl Settings {
+    /// Default gains and timeouts on `vehicle`.
+    pub fn new(vehicle: VehicleParams) -> Self {
+        Self {
+            gains: Gains::default(),
+            failsafe: FailsafeSeconds::of(&Failsafe::DEFAULT),
+            vehicle,
+        }
+    }
+
+    /// The checks the vehicle will make, here first, with a reason naming the value.
+    pub fn check(&self, group: Group) -> Result<()> {
+        match group {
+            Group::Tracking | Group::Paper => {
+                self.gains.validate().map_err(|e| anyhow!("{e}"))?;
+            }
+            Group::Failsafe => {
+                self.failsafe.to_firmware()?;
+            }
+            Group::Vehicle => {
+                crate::vehicle::check(&self.vehicle)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One parameter: its name and how to read and write it.
 pub struct Param {
     /// MAVLink `param_id` (<= 16 characters).
     pub name: &'static str,
     /// Read it.
-    pub get: fn(&Gains) -> f32,
+    pub get: fn(&Settings) -> f32,
     /// Write it.
-    pub set: fn(&mut Gains, f32),
+    pub set: fn(&mut Settings, f32),
 }
 
 /// Which tether command carries a parameter.
@@ -29,54 +136,102 @@ pub enum Group {
     Tracking,
     /// `SetPaperGains`.
     Paper,
+    /// `SetFailsafe`.
+    Failsafe,
+    /// `SetVehicle` (refused by the vehicle while armed).
+    Vehicle,
 }
 
+/// The groups in the order a restart restores them: the vehicle first (the others are
+/// checked against it on board), then the timeouts and the gains.
+pub const GROUPS: [Group; 4] = [
+    Group::Vehicle,
+    Group::Failsafe,
+    Group::Tracking,
+    Group::Paper,
+];
+
 macro_rules! params {
-    ($($name:literal => $set:ident . $field:ident),* $(,)?) => {
+    ($($name:literal => $($field:ident).+),* $(,)?) => {
         &[$(Param {
             name: $name,
-            get: |g| g.$set.$field,
-            set: |g, v| g.$set.$field = v,
+            get: |s| s.$($field).+,
+            set: |s, v| s.$($field).+ = v,
         }),*]
     };
 }
 
 /// Every parameter, in the order of `PARAM_REQUEST_LIST`.
 pub const PARAMS: &[Param] = params![
-    "TRK_HAND_M" => tracking.hand_m,
-    "TRK_XY_KP" => tracking.xy_kp,
-    "TRK_XY_KD" => tracking.xy_kd,
-    "TRK_XY_KI" => tracking.xy_ki,
-    "TRK_XZ_KP" => tracking.xz_kp,
-    "TRK_XZ_KD" => tracking.xz_kd,
-    "TRK_XZ_KI" => tracking.xz_ki,
-    "TRK_PITCH_KP" => tracking.pitch_kp,
-    "TRK_PITCH_KD" => tracking.pitch_kd,
-    "TRK_PITCH_MAX" => tracking.pitch_max_rad,
-    "TRK_DEPTH_KP" => tracking.depth_kp,
-    "TRK_DEPTH_KD" => tracking.depth_kd,
-    "TRK_DEPTH_KI" => tracking.depth_ki,
-    "TRK_YAW_KP" => tracking.yaw_kp,
-    "TRK_YAW_KD" => tracking.yaw_kd,
-    "TRK_ERR_LIM_M" => tracking.error_limit_m,
-    "TRK_INT_LIM" => tracking.integral_limit_m_s2,
-    "TRK_CUR_OBS" => tracking.current_observer_rad_s,
-    "PXZ_K" => paper_xz.k,
-    "PXZ_C1W" => paper_xz.c1w,
-    "PXZ_C2W" => paper_xz.c2w,
-    "PXZ_C1Q" => paper_xz.c1q,
-    "PXZ_C2Q" => paper_xz.c2q,
-    "PXZ_CQ" => paper_xz.cq,
-    "PXZ_C1" => paper_xz.c1,
-    "PXZ_C2" => paper_xz.c2,
-    "PXY_K" => paper_xy.k,
-    "PXY_C1U" => paper_xy.c1u,
-    "PXY_C2U" => paper_xy.c2u,
-    "PXY_C1R" => paper_xy.c1r,
-    "PXY_C2R" => paper_xy.c2r,
-    "PXY_CR" => paper_xy.cr,
-    "PXY_C3" => paper_xy.c3,
-    "PXY_C4" => paper_xy.c4,
+    "TRK_HAND_M" => gains.tracking.hand_m,
+    "TRK_XY_KP" => gains.tracking.xy_kp,
+    "TRK_XY_KD" => gains.tracking.xy_kd,
+    "TRK_XY_KI" => gains.tracking.xy_ki,
+    "TRK_XZ_KP" => gains.tracking.xz_kp,
+    "TRK_XZ_KD" => gains.tracking.xz_kd,
+    "TRK_XZ_KI" => gains.tracking.xz_ki,
+    "TRK_PITCH_KP" => gains.tracking.pitch_kp,
+    "TRK_PITCH_KD" => gains.tracking.pitch_kd,
+    "TRK_PITCH_MAX" => gains.tracking.pitch_max_rad,
+    "TRK_DEPTH_KP" => gains.tracking.depth_kp,
+    "TRK_DEPTH_KD" => gains.tracking.depth_kd,
+    "TRK_DEPTH_KI" => gains.tracking.depth_ki,
+    "TRK_YAW_KP" => gains.tracking.yaw_kp,
+    "TRK_YAW_KD" => gains.tracking.yaw_kd,
+    "TRK_ERR_LIM_M" => gains.tracking.error_limit_m,
+    "TRK_INT_LIM" => gains.tracking.integral_limit_m_s2,
+    "TRK_CUR_OBS" => gains.tracking.current_observer_rad_s,
+    "PXZ_K" => gains.paper_xz.k,
+    "PXZ_C1W" => gains.paper_xz.c1w,
+    "PXZ_C2W" => gains.paper_xz.c2w,
+    "PXZ_C1Q" => gains.paper_xz.c1q,
+    "PXZ_C2Q" => gains.paper_xz.c2q,
+    "PXZ_CQ" => gains.paper_xz.cq,
+    "PXZ_C1" => gains.paper_xz.c1,
+    "PXZ_C2" => gains.paper_xz.c2,
+    "PXY_K" => gains.paper_xy.k,
+    "PXY_C1U" => gains.paper_xy.c1u,
+    "PXY_C2U" => gains.paper_xy.c2u,
+    "PXY_C1R" => gains.paper_xy.c1r,
+    "PXY_C2R" => gains.paper_xy.c2r,
+    "PXY_CR" => gains.paper_xy.cr,
+    "PXY_C3" => gains.paper_xy.c3,
+    "PXY_C4" => gains.paper_xy.c4,
+    "FS_HB_NEUTRAL" => failsafe.heartbeat_neutral_s,
+    "FS_HB_DISARM" => failsafe.heartbeat_disarm_s,
+    "FS_NAV_STALE" => failsafe.nav_stale_s,
+    "FS_PILOT_STALE" => failsafe.pilot_stale_s,
+    "VEH_MASS" => vehicle.mass_kg,
+    "VEH_XUDOT" => vehicle.x_udot_kg,
+    "VEH_YVDOT" => vehicle.y_vdot_kg,
+    "VEH_ZWDOT" => vehicle.z_wdot_kg,
+    "VEH_MQDOT" => vehicle.m_qdot_kg_m2,
+    "VEH_NRDOT" => vehicle.n_rdot_kg_m2,
+    "VEH_XU" => vehicle.x_u,
+    "VEH_YV" => vehicle.y_v,
+    "VEH_ZW" => vehicle.z_w,
+    "VEH_MQ" => vehicle.m_q,
+    "VEH_NR" => vehicle.n_r,
+    "VEH_XUU" => vehicle.x_uu,
+    "VEH_YVV" => vehicle.y_vv,
+    "VEH_ZWW" => vehicle.z_ww,
+    "VEH_MQQ" => vehicle.m_qq,
+    "VEH_NRR" => vehicle.n_rr,
+    "VEH_IX" => vehicle.i_x_kg_m2,
+    "VEH_IY" => vehicle.i_y_kg_m2,
+    "VEH_IZ" => vehicle.i_z_kg_m2,
+    "VEH_ZG" => vehicle.z_g_m,
+    "VEH_GRAVITY" => vehicle.gravity_m_s2,
+    "VEH_BUOY" => vehicle.buoyancy_offset_n,
+    "VEH_THR_ARM" => vehicle.thruster_lever_arm_m,
+    "VEH_THR_FWD" => vehicle.thrust_max_forward_n,
+    "VEH_THR_REV" => vehicle.thrust_max_reverse_n,
+    "VEH_THR_TAU" => vehicle.thruster_time_constant_s,
+    "VEH_PWM_MIN" => vehicle.pulse.min_us,
+    "VEH_PWM_NEUTRAL" => vehicle.pulse.neutral_us,
+    "VEH_PWM_MAX" => vehicle.pulse.max_us,
+    "VEH_PWM_DEADBAND" => vehicle.pulse.deadband_us,
+    "VEH_PWM_LINEAR" => vehicle.pulse.linear_fraction,
 ];
 
 /// A parameter by name, with its index.
@@ -86,23 +241,24 @@ pub fn find(name: &str) -> Option<(usize, &'static Param)> {
 
 /// The tether command group of a parameter.
 pub fn group(p: &Param) -> Group {
-    if p.name.starts_with("TRK_") {
-        Group::Tracking
-    } else {
-        Group::Paper
+    match p.name.split('_').next() {
+        Some("TRK") => Group::Tracking,
+        Some("FS") => Group::Failsafe,
+        Some("VEH") => Group::Vehicle,
+        _ => Group::Paper,
     }
 }
 
-/// The gains as a name -> value map (the saved file).
-pub fn to_map(g: &Gains) -> BTreeMap<String, f32> {
+/// The settings as a name -> value map (the saved file).
+pub fn to_map(s: &Settings) -> BTreeMap<String, f32> {
     PARAMS
         .iter()
-        .map(|p| (p.name.to_string(), (p.get)(g)))
+        .map(|p| (p.name.to_string(), (p.get)(s)))
         .collect()
 }
 
-/// Save the gains as JSON.
-pub fn save(path: &Path, g: &Gains) -> Result<()> {
+/// Save the settings as JSON.
+pub fn save(path: &Path, g: &Settings) -> Result<()> {
     if let Some(dir) = path.parent() {
         if !dir.as_os_str().is_empty() {
             std::fs::create_dir_all(dir)?;
@@ -112,13 +268,13 @@ pub fn save(path: &Path, g: &Gains) -> Result<()> {
     std::fs::write(path, text).with_context(|| format!("write {}", path.display()))
 }
 
-/// Load saved gains over the defaults; an unknown name, a non-finite value or a set the core
-/// refuses is an error naming it.
-pub fn load(path: &Path) -> Result<Gains> {
+/// Load saved values over `defaults`; an unknown name, a non-finite value or a set the
+/// checks refuse is an error naming it.
+pub fn load(path: &Path, defaults: Settings) -> Result<Settings> {
     let text = std::fs::read_to_string(path).with_context(|| format!("read {}", path.display()))?;
     let map: BTreeMap<String, f32> = serde_json::from_str(&text)
         .with_context(|| format!("{}: not a JSON object of numbers", path.display()))?;
-    let mut g = Gains::default();
+    let mut g = defaults;
     for (name, v) in map {
         let (_, p) =
             find(&name).ok_or_else(|| anyhow!("{}: unknown parameter {name}", path.display()))?;
@@ -127,8 +283,10 @@ pub fn load(path: &Path) -> Result<Gains> {
         }
         (p.set)(&mut g, v);
     }
-    g.validate()
-        .map_err(|e| anyhow!("{}: the saved gains are refused: {e}", path.display()))?;
+    for group in GROUPS {
+        g.check(group)
+            .map_err(|e| anyhow!("{}: the saved values are refused: {e}", path.display()))?;
+    }
     Ok(g)
 }
 
@@ -149,8 +307,26 @@ mod tests {
     }
 
     #[test]
+    fn defaults_pass_every_check_and_round_trip_the_failsafe() {
+        let s = Settings::new(VehicleParams::OBSERVER);
+        for group in GROUPS {
+            s.check(group).unwrap();
+        }
+        assert_eq!(s.failsafe.to_firmware().unwrap(), Failsafe::DEFAULT);
+        assert_eq!(
+            group(&PARAMS[find("VEH_PWM_MAX").unwrap().0]),
+            Group::Vehicle
+        );
+        assert_eq!(
+            group(&PARAMS[find("FS_NAV_STALE").unwrap().0]),
+            Group::Failsafe
+        );
+        assert_eq!(group(&PARAMS[find("PXY_C4").unwrap().0]), Group::Paper);
+    }
+
+    #[test]
     fn every_parameter_reads_back_what_was_written() {
-        let mut g = Gains::default();
+        let mut g = Settings::new(VehicleParams::OBSERVER);
         for (i, p) in PARAMS.iter().enumerate() {
             (p.set)(&mut g, 100.0 + i as f32);
         }
@@ -163,14 +339,25 @@ mod tests {
     fn a_saved_file_loads_back_and_a_bad_one_is_refused_by_name() {
         let dir = std::env::temp_dir().join(format!("rov-params-{}", std::process::id()));
         let path = dir.join("p.json");
-        let mut g = Gains::default();
-        g.tracking.xy_kp *= 1.5;
+        let defaults = Settings::new(VehicleParams::OBSERVER);
+        let mut g = defaults;
+        g.gains.tracking.xy_kp *= 1.5;
+        g.vehicle.mass_kg = 12.5;
+        g.failsafe.pilot_stale_s = 0.8;
         save(&path, &g).unwrap();
-        assert_eq!(load(&path).unwrap(), g);
+        assert_eq!(load(&path, defaults).unwrap(), g);
         std::fs::write(&path, r#"{"TRK_NOPE": 1.0}"#).unwrap();
-        assert!(format!("{:#}", load(&path).unwrap_err()).contains("TRK_NOPE"));
-        std::fs::write(&path, r#"{"TRK_XY_KP": -1.0}"#).unwrap();
-        assert!(format!("{:#}", load(&path).unwrap_err()).contains("refused"));
+        assert!(format!("{:#}", load(&path, defaults).unwrap_err()).contains("TRK_NOPE"));
+        for bad in [
+            r#"{"TRK_XY_KP": -1.0}"#,
+            r#"{"VEH_BUOY": 9.0}"#,
+            r#"{"FS_HB_NEUTRAL": 3.0}"#,
+            r#"{"FS_HB_DISARM": 0.3}"#,
+        ] {
+            std::fs::write(&path, bad).unwrap();
+            let e = format!("{:#}", load(&path, defaults).unwrap_err());
+            assert!(e.contains("refused"), "{bad}: {e}");
+        }
         let _ = std::fs::remove_dir_all(dir);
     }
 }

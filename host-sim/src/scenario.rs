@@ -7,6 +7,7 @@ use crate::checks::{fin, nonneg, pos, vec3};
 pub use crate::sensors::{NavSource, NavigationSpec, SensorsSpec};
 use anyhow::{anyhow, bail, Context, Result};
 use controller_core::controller::ControlMode;
+use controller_core::params::{Vehicle, VehicleParams};
 use controller_core::reference::{PaperPolynomial, Reference};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -458,6 +459,17 @@ pub struct Scenario {
     /// The sensors fitted (used by `navigation.source = "estimator"`).
     #[serde(default)]
     pub sensors: SensorsSpec,
+    /// The vehicle file (`vehicles/observer.toml`'s format); the Observer when absent. A
+    /// relative path is taken from the scenario file's folder, else the working directory.
+    #[serde(default)]
+    pub vehicle: Option<String>,
+    /// The vehicle's parameters: the file's, read by [`Scenario::load`], or the Observer.
+    #[serde(skip, default = "observer_params")]
+    pub vehicle_params: VehicleParams,
+}
+
+fn observer_params() -> VehicleParams {
+    VehicleParams::OBSERVER
 }
 
 /// A built-in scenario: its name and TOML text, embedded in the binary.
@@ -503,10 +515,26 @@ pub const BUILT_IN: &[BuiltIn] = &[
 impl Scenario {
     /// Parse and validate TOML text. `origin` names the source in error messages.
     pub fn from_toml(text: &str, origin: &str) -> Result<Self> {
-        let s: Scenario = toml::from_str(text)
+        Self::from_toml_in(text, origin, None)
+    }
+
+    /// As [`Self::from_toml`], with the folder a relative `vehicle` path is taken from.
+    fn from_toml_in(text: &str, origin: &str, dir: Option<&Path>) -> Result<Self> {
+        let mut s: Scenario = toml::from_str(text)
             .map_err(|e| anyhow!("scenario {origin}: {}", e.to_string().trim_end()))?;
+        if let Some(file) = &s.vehicle {
+            let beside = dir.map(|d| d.join(file)).filter(|p| p.exists());
+            let path = beside.unwrap_or_else(|| Path::new(file).to_path_buf());
+            s.vehicle_params = crate::vehicle::load(&path)
+                .with_context(|| format!("scenario {origin}: key `vehicle`"))?;
+        }
         s.validate().with_context(|| format!("scenario {origin}"))?;
         Ok(s)
+    }
+
+    /// The vehicle model of the scenario (validated when the scenario was loaded).
+    pub fn vehicle_model(&self) -> Result<Vehicle> {
+        crate::vehicle::check(&self.vehicle_params)
     }
 
     /// A built-in by name, or a `.toml` file by path.
@@ -518,7 +546,7 @@ impl Scenario {
         if path.exists() || name_or_path.ends_with(".toml") {
             let text = std::fs::read_to_string(path)
                 .with_context(|| format!("cannot read scenario file {}", path.display()))?;
-            return Self::from_toml(&text, &path.display().to_string());
+            return Self::from_toml_in(&text, &path.display().to_string(), path.parent());
         }
         let names: Vec<&str> = BUILT_IN.iter().map(|b| b.name).collect();
         bail!(
@@ -645,7 +673,7 @@ impl Scenario {
         let d = &self.disturbance;
         vec3("disturbance.current_m_s", d.current_m_s)?;
         fin("disturbance.buoyancy_offset_n", d.buoyancy_offset_n)?;
-        let nominal = controller_core::params::VehicleParams::OBSERVER;
+        let nominal = self.vehicle_params;
         let weight = f64::from(nominal.mass_kg) * f64::from(nominal.gravity_m_s2);
         if d.buoyancy_offset_n.abs() > 0.5 * weight {
             bail!(

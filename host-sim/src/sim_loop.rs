@@ -29,7 +29,7 @@ use crate::sensors::Measurement;
 use anyhow::{anyhow, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::controller::{ControlMode, Controller, Gains};
-use controller_core::params::{Vehicle, VehicleParams};
+use controller_core::params::VehicleParams;
 use controller_core::reference::RefSample;
 use controller_core::state::{BodyForces, NavState, TrackingErrors};
 use rand::{Rng, SeedableRng};
@@ -361,7 +361,7 @@ impl CoreEndpoint {
     /// The controller of a scenario: the nominal Observer and default gains, with
     /// unlimited thrusters when the scenario says `saturate = false` (the paper's setting).
     pub fn for_scenario(sc: &Scenario) -> Result<Self> {
-        let mut p = VehicleParams::OBSERVER;
+        let mut p = sc.vehicle_params;
         if !sc.thrusters.saturate {
             p.thrust_max_forward_n = 1.0e6;
             p.thrust_max_reverse_n = 1.0e6;
@@ -375,7 +375,7 @@ impl CoreEndpoint {
             controller,
             mode: sc.control_mode()?,
             period_s: (sc.plant_dt_s * sc.plant_steps_per_control().max(1) as f64) as f32,
-            pwm: PwmMap::for_vehicle(&Vehicle::observer()),
+            pwm: PwmMap::for_vehicle(&sc.vehicle_model()?),
         })
     }
 }
@@ -452,10 +452,11 @@ pub fn gauss(rng: &mut ChaCha8Rng) -> f64 {
     (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }
 
-/// The nominal plant parameters of a scenario: the Observer with the scenario's buoyancy offset.
+/// The nominal plant parameters of a scenario: its vehicle (the Observer unless the key
+/// `vehicle` names another) with the scenario's buoyancy offset added to the vehicle's.
 pub fn nominal_plant_params(sc: &Scenario) -> VehicleParams {
-    let mut p = VehicleParams::OBSERVER;
-    p.buoyancy_offset_n = sc.disturbance.buoyancy_offset_n as f32;
+    let mut p = sc.vehicle_params;
+    p.buoyancy_offset_n += sc.disturbance.buoyancy_offset_n as f32;
     p
 }
 
@@ -555,7 +556,7 @@ pub fn run_closed_loop(
     sc.validate()?;
     let wall = Instant::now();
     let saturate = sc.thrusters.saturate;
-    let nominal = Vehicle::observer();
+    let nominal = sc.vehicle_model()?;
     let (lim_fwd, lim_rev) = (
         f64::from(nominal.params().thrust_max_forward_n),
         f64::from(nominal.params().thrust_max_reverse_n),

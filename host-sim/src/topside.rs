@@ -38,15 +38,13 @@
 use crate::estimator_nav::navigation_for;
 use crate::in_process::InProcessFirmware;
 use crate::link::Link;
-use crate::params::{self, Group, PARAMS};
+use crate::params::{self, Group, Settings, PARAMS};
 use crate::plant::Plant;
 use crate::qemu::{qemu_firmware_image, start_qemu_link, workspace_root, FirmwareImage};
 use crate::scenario::Scenario;
 use crate::sim_loop::{make_plant, nominal_plant_params, Navigation};
 use anyhow::{anyhow, bail, Context, Result};
 use controller_core::alloc::PwmMap;
-use controller_core::controller::Gains;
-use controller_core::params::Vehicle;
 use controller_core::reference::Reference;
 use controller_core::state::NavState;
 use firmware::protocol::{
@@ -116,6 +114,10 @@ pub struct TopsideArgs {
     /// to it after every accepted `PARAM_SET`.
     #[arg(long, default_value = "out/topside-params.json")]
     pub params: PathBuf,
+    /// The vehicle's description (a vehicle file, `vehicles/observer.toml`'s format): sent
+    /// to the vehicle at start, and the simulated vehicle's body. Default: the scenario's.
+    #[arg(long)]
+    pub vehicle: Option<PathBuf>,
 }
 
 /// Speed along a mission's path (m/s): the scenarios' survey speed (not a parameter yet).
@@ -502,8 +504,8 @@ struct SimVehicle {
     held_n: [f64; 3],
     state: NavState,
     tel: Telemetry,
-    /// The gains in force on the vehicle (as last accepted).
-    gains: Gains,
+    /// The gains, timeouts and description in force on the vehicle (as last accepted).
+    settings: Settings,
 }
 
 const TETHER_TIMEOUT: Duration = Duration::from_millis(500);
@@ -542,7 +544,7 @@ impl SimVehicle {
             plant,
             nav,
             link,
-            pwm: PwmMap::for_vehicle(&Vehicle::observer()),
+            pwm: PwmMap::for_vehicle(&sc.vehicle_model()?),
             t_s: 0.0,
             period_s: sc.plant_dt_s * n as f64,
             plant_dt_s: sc.plant_dt_s,
@@ -550,33 +552,46 @@ impl SimVehicle {
             held_n: [0.0; 3],
             state: NavState::default(),
             tel: Telemetry::default(),
-            gains: Gains::default(),
+            settings: Settings::new(sc.vehicle_params),
         };
+        // The firmware boots with the Observer's description: send the scenario's.
+        let vehicle = v.settings;
+        if let Err(why) = v.apply(vehicle, Group::Vehicle)? {
+            bail!("the vehicle refused the vehicle description: {why:?}");
+        }
         v.step()?;
         Ok(v)
     }
 
-    /// Send one group of gains; on a refusal nothing changes, here or on the vehicle.
-    fn set_gains(
+    /// Send one group of settings; on a refusal nothing changes, here or on the vehicle.
+    fn apply(
         &mut self,
-        gains: Gains,
+        proposed: Settings,
         group: Group,
     ) -> Result<std::result::Result<(), NackReason>> {
         let cmd = match group {
-            Group::Tracking => Command::SetTrackingGains(gains.tracking),
+            Group::Tracking => Command::SetTrackingGains(proposed.gains.tracking),
             Group::Paper => Command::SetPaperGains {
-                xz: gains.paper_xz,
-                xy: gains.paper_xy,
+                xz: proposed.gains.paper_xz,
+                xy: proposed.gains.paper_xy,
             },
+            Group::Failsafe => match proposed.failsafe.to_firmware() {
+                Ok(f) => Command::SetFailsafe(f),
+                Err(_) => return Ok(Err(NackReason::OutOfRange)),
+            },
+            Group::Vehicle => Command::SetVehicle(proposed.vehicle),
         };
         let r = self.command(&cmd)?;
         if r.is_ok() {
+            let s = &mut self.settings;
             match group {
-                Group::Tracking => self.gains.tracking = gains.tracking,
+                Group::Tracking => s.gains.tracking = proposed.gains.tracking,
                 Group::Paper => {
-                    self.gains.paper_xz = gains.paper_xz;
-                    self.gains.paper_xy = gains.paper_xy;
+                    s.gains.paper_xz = proposed.gains.paper_xz;
+                    s.gains.paper_xy = proposed.gains.paper_xy;
                 }
+                Group::Failsafe => s.failsafe = proposed.failsafe,
+                Group::Vehicle => s.vehicle = proposed.vehicle,
             }
         }
         Ok(r)
@@ -667,7 +682,10 @@ const FAULT_NAMES: [(u16, &str); 7] = [
 
 /// Run the topside until `--duration` (or forever).
 pub fn main(a: TopsideArgs) -> Result<()> {
-    let sc = Scenario::load(&a.sim)?;
+    let mut sc = Scenario::load(&a.sim)?;
+    if let Some(file) = &a.vehicle {
+        sc.vehicle_params = crate::vehicle::load(file)?;
+    }
     if !(a.speedup.is_finite() && a.speedup > 0.0) {
         bail!("--speedup must be > 0 (got {})", a.speedup);
     }
@@ -719,9 +737,9 @@ pub fn main(a: TopsideArgs) -> Result<()> {
     };
     let mut v = SimVehicle::new(&sc, port, hello_wait)?;
     if a.params.exists() {
-        let saved = params::load(&a.params)?;
-        for group in [Group::Tracking, Group::Paper] {
-            if let Err(why) = v.set_gains(saved, group)? {
+        let saved = params::load(&a.params, v.settings)?;
+        for group in params::GROUPS {
+            if let Err(why) = v.apply(saved, group)? {
                 bail!(
                     "the vehicle refused the saved parameters of {}: {why:?}",
                     a.params.display()
@@ -866,7 +884,7 @@ fn handle(
         MavMessage::PARAM_REQUEST_LIST(_) => {
             gcs.stats.handled += 1;
             for i in 0..PARAMS.len() {
-                send_param(gcs, &v.gains, i)?;
+                send_param(gcs, &v.settings, i)?;
             }
         }
         MavMessage::PARAM_REQUEST_READ(r) => {
@@ -877,7 +895,7 @@ fn handle(
                 params::find(param_name(&r.param_id).as_str()).map(|(i, _)| i)
             };
             match index {
-                Some(i) => send_param(gcs, &v.gains, i)?,
+                Some(i) => send_param(gcs, &v.settings, i)?,
                 None => gcs.text(MavSeverity::MAV_SEVERITY_WARNING, "No such parameter")?,
             }
         }
@@ -891,22 +909,23 @@ fn handle(
                 )?;
                 return Ok(());
             };
-            let mut proposed = v.gains;
+            let mut proposed = v.settings;
             (param.set)(&mut proposed, p.param_value);
-            // The core's validation first (a clear reason), then the vehicle's.
-            let refusal = match proposed.validate() {
-                Err(e) => Some(format!("{name} refused: {e}")),
-                Ok(()) => match v.set_gains(proposed, params::group(param))? {
+            let group = params::group(param);
+            // The checks the vehicle makes, here first (a clear reason), then the vehicle's.
+            let refusal = match proposed.check(group) {
+                Err(e) => Some(format!("{name} refused: {e:#}")),
+                Ok(()) => match v.apply(proposed, group)? {
                     Ok(()) => None,
                     Err(why) => Some(format!("{name} refused by the vehicle: {why:?}")),
                 },
             };
             match refusal {
                 Some(text) => gcs.text(MavSeverity::MAV_SEVERITY_WARNING, &text)?,
-                None => params::save(params_file, &v.gains)?,
+                None => params::save(params_file, &v.settings)?,
             }
             // The answer is the value in force: the new one, or the old one on a refusal.
-            send_param(gcs, &v.gains, i)?;
+            send_param(gcs, &v.settings, i)?;
         }
         MavMessage::COMMAND_LONG(c) => {
             gcs.stats.handled += 1;
@@ -974,12 +993,12 @@ fn param_name(id: &mavlink::types::CharArray<16>) -> String {
         .collect()
 }
 
-fn send_param(gcs: &mut Gcs, gains: &Gains, index: usize) -> Result<()> {
+fn send_param(gcs: &mut Gcs, settings: &Settings, index: usize) -> Result<()> {
     let Some(p) = PARAMS.get(index) else {
         return Ok(());
     };
     gcs.send(MavMessage::PARAM_VALUE(PARAM_VALUE_DATA {
-        param_value: (p.get)(gains),
+        param_value: (p.get)(settings),
         param_count: PARAMS.len() as u16,
         param_index: index as u16,
         param_id: p.name.into(),

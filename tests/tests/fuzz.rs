@@ -22,13 +22,14 @@
 use controller_core::controller::Gains;
 use controller_core::nav::onboard::OnboardConfig;
 use controller_core::nav::{DvlFix, HeadingFix, ImuSample, NavHealth, PositionFix};
+use controller_core::params::VehicleParams;
 use controller_core::reference::{PaperPolynomial, Reference};
 use controller_core::state::NavState;
 use firmware::protocol::{
     encode, Board, Command, Decoded, FrameDecoder, Law, ManualThrust, Mode, NavSample, Plane,
     MAX_ENCODED_LEN, MAX_FRAME_LEN,
 };
-use firmware::Config;
+use firmware::{Config, Failsafe};
 use proptest::prelude::*;
 use proptest::test_runner::{Config as PtConfig, TestRunner};
 use rov_tests::{app, pulses_us};
@@ -156,6 +157,20 @@ fn nav_commands() -> impl Strategy<Value = Command> {
             })
         }),
         any::<u64>().prop_map(|t_us| Command::Step { t_us }),
+        (any_f(), any_f()).prop_map(|(mass, buoy)| {
+            let mut p = VehicleParams::OBSERVER;
+            p.mass_kg = mass;
+            p.buoyancy_offset_n = buoy;
+            Command::SetVehicle(p)
+        }),
+        proptest::array::uniform4(any::<u64>()).prop_map(|t| {
+            Command::SetFailsafe(Failsafe {
+                heartbeat_neutral_us: t[0],
+                heartbeat_disarm_us: t[1],
+                nav_stale_us: t[2],
+                manual_stale_us: t[3],
+            })
+        }),
     ]
 }
 
@@ -389,6 +404,13 @@ fn largest_messages_fit() {
             xy: Gains::default().paper_xy,
         },
         Command::SetTrackingGains(Gains::default().tracking),
+        Command::SetVehicle(VehicleParams::OBSERVER),
+        Command::SetFailsafe(Failsafe {
+            heartbeat_neutral_us: u64::MAX,
+            heartbeat_disarm_us: u64::MAX,
+            nav_stale_us: u64::MAX,
+            manual_stale_us: u64::MAX,
+        }),
         Command::StartNav {
             t_us: u64::MAX,
             initial: NavState::default(),

@@ -673,3 +673,102 @@ fn missions_are_uploaded_whole_refused_with_a_reason_and_flown_in_auto() {
     }
     assert_eq!(reached, 3);
 }
+
+/// The vehicle's description and the failsafe timeouts come over the tether: refused with a
+/// reason (nothing changes) when unsafe, while armed, or non-finite; accepted ones take effect.
+#[test]
+fn vehicle_description_and_failsafe_timeouts_over_the_tether() {
+    use controller_core::params::VehicleParams;
+    use firmware::Failsafe;
+    let (mut a, c, mut t) = fixed();
+    // What the two commands may change (a send also runs the loop's control steps).
+    let settings = |a: &TestApp| (*a.autopilot().controller(), *a.autopilot().failsafe());
+    let nacks = |a: &mut TestApp, t: &mut Topside, cmd: Command| {
+        let before = settings(a);
+        let (s, r) = t.send(a, &cmd);
+        let why = nacked(&r, s);
+        assert_eq!(settings(a), before, "{cmd:?} changed the state");
+        why
+    };
+    let with = |f: &dyn Fn(&mut VehicleParams)| {
+        let mut p = VehicleParams::OBSERVER;
+        f(&mut p);
+        Command::SetVehicle(p)
+    };
+    for (cmd, want) in [
+        (with(&|p| p.mass_kg = f32::NAN), NackReason::NonFinite),
+        (with(&|p| p.mass_kg = -10.0), NackReason::NotPositive),
+        // Buoyancy the vertical thruster could not hold with half its thrust to spare.
+        (with(&|p| p.buoyancy_offset_n = 8.0), NackReason::OutOfRange),
+        (
+            with(&|p| p.pulse.deadband_us = 500.0),
+            NackReason::NonPhysical,
+        ),
+        (
+            with(&|p| p.thrust_max_reverse_n = 1.0),
+            NackReason::NonPhysical,
+        ),
+    ] {
+        assert_eq!(nacks(&mut a, &mut t, cmd), Some(want), "{cmd:?}");
+    }
+    let fs = |f: &dyn Fn(&mut Failsafe)| {
+        let mut x = Failsafe::DEFAULT;
+        f(&mut x);
+        Command::SetFailsafe(x)
+    };
+    for cmd in [
+        fs(&|f| f.manual_stale_us = 10_000),
+        fs(&|f| f.heartbeat_neutral_us = 3_000_000),
+        fs(&|f| f.nav_stale_us = 5_000_000),
+        fs(&|f| f.heartbeat_disarm_us = 400_000),
+    ] {
+        assert_eq!(
+            nacks(&mut a, &mut t, cmd),
+            Some(NackReason::OutOfRange),
+            "{cmd:?}"
+        );
+    }
+
+    // Accepted: a heavier vehicle (the controller's model changes, the gains stay) ...
+    let gains = *a.autopilot().controller().gains();
+    let (s, r) = t.send(&mut a, &with(&|p| p.mass_kg = 14.0));
+    assert!(acked(&r, s), "{r:?}");
+    assert_eq!(a.autopilot().controller().vehicle().params().mass_kg, 14.0);
+    assert_eq!(*a.autopilot().controller().gains(), gains);
+    // ... and a shorter navigation timeout, which then trips earlier.
+    let (s, r) = t.send(&mut a, &fs(&|f| f.nav_stale_us = 100_000));
+    assert!(acked(&r, s), "{r:?}");
+    assert_eq!(a.autopilot().failsafe().nav_stale_us, 100_000);
+    let (s, r) = t.send(
+        &mut a,
+        &Command::SetReference {
+            reference: Reference::Hold {
+                pos_m: [1.0, 0.0, 0.0],
+            },
+            start_us: None,
+        },
+    );
+    assert!(acked(&r, s));
+    arm(&mut a, &c, &mut t);
+    let (s, r) = t.send(
+        &mut a,
+        &Command::SetMode(Mode::Track {
+            plane: Plane::Xy,
+            law: Law::Tracking,
+        }),
+    );
+    assert!(acked(&r, s), "{r:?}");
+    let last_nav = c.get_us();
+    for _ in 0..8 {
+        c.advance_us(20_000);
+        t.send(&mut a, &Command::Heartbeat { t_us: 0 });
+        let stale = a.last_output().faults & fault::NAV_STALE != 0;
+        assert_eq!(stale, c.get_us() - last_nav > 100_000);
+    }
+    // Armed: a new description is refused, the one in force stays.
+    assert_eq!(
+        nacks(&mut a, &mut t, with(&|p| p.mass_kg = 12.0)),
+        Some(NackReason::Armed)
+    );
+    assert_eq!(a.autopilot().controller().vehicle().params().mass_kg, 14.0);
+}

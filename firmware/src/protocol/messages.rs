@@ -9,6 +9,7 @@ use controller_core::law::paper_xz::PaperXzGains;
 use controller_core::law::tracking::TrackingGains;
 use controller_core::nav::onboard::OnboardConfig;
 use controller_core::nav::{DvlFix, HeadingFix, ImuSample, NavHealth, PositionFix, Refusal};
+use controller_core::params::VehicleParams;
 use controller_core::reference::Reference;
 use controller_core::state::{BodyForces, NavState, TrackingErrors};
 use serde::{Deserialize, Serialize};
@@ -180,6 +181,66 @@ pub enum Command {
         /// Host time, microseconds.
         t_us: u64,
     },
+    /// Replace the vehicle's description (version 5): validated, then checked flyable
+    /// (`Vehicle::check_flyable`); refused while armed or while the on-board estimator runs
+    /// on the old one. The gains stay.
+    SetVehicle(VehicleParams),
+    /// Replace the failsafe timeouts (version 5, [`Failsafe::validate`]).
+    SetFailsafe(Failsafe),
+}
+
+/// Failsafe timeouts, microseconds of the firmware's clock.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Failsafe {
+    /// Heartbeat age at which thrust goes neutral.
+    pub heartbeat_neutral_us: u64,
+    /// Heartbeat age at which the vehicle disarms.
+    pub heartbeat_disarm_us: u64,
+    /// `NavState` age at which tracking stops (neutral) and arming is refused.
+    pub nav_stale_us: u64,
+    /// `ManualThrust` age at which manual thrust goes neutral.
+    pub manual_stale_us: u64,
+}
+
+impl Failsafe {
+    /// The specified timeouts: 0.5 s, 1 s, 0.2 s, 0.5 s.
+    pub const DEFAULT: Self = Self {
+        heartbeat_neutral_us: 500_000,
+        heartbeat_disarm_us: 1_000_000,
+        nav_stale_us: 200_000,
+        manual_stale_us: 500_000,
+    };
+
+    /// Shortest timeout accepted: two control periods of the 50 Hz loop (a shorter one trips
+    /// on one late frame).
+    pub const MIN_US: u64 = 40_000;
+    /// Longest heartbeat-to-neutral and pilot-input timeout: 2 s of thrust on a lost link.
+    pub const MAX_NEUTRAL_US: u64 = 2_000_000;
+    /// Longest heartbeat-to-disarm timeout.
+    pub const MAX_DISARM_US: u64 = 10_000_000;
+    /// Longest navigation age flown on: 1 s of dead reckoning by the laws.
+    pub const MAX_NAV_STALE_US: u64 = 1_000_000;
+
+    /// Every timeout from [`Self::MIN_US`] to its maximum, and neutral before disarm.
+    pub fn validate(&self) -> Result<(), NackReason> {
+        let within = |v: u64, max: u64| (Self::MIN_US..=max).contains(&v);
+        if within(self.heartbeat_neutral_us, Self::MAX_NEUTRAL_US)
+            && within(self.heartbeat_disarm_us, Self::MAX_DISARM_US)
+            && within(self.nav_stale_us, Self::MAX_NAV_STALE_US)
+            && within(self.manual_stale_us, Self::MAX_NEUTRAL_US)
+            && self.heartbeat_neutral_us <= self.heartbeat_disarm_us
+        {
+            Ok(())
+        } else {
+            Err(NackReason::OutOfRange)
+        }
+    }
+}
+
+impl Default for Failsafe {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
 }
 
 /// Why a command was refused.
@@ -213,6 +274,8 @@ pub enum NackReason {
     NavSource,
     /// The estimator refused the measurement (its state is unchanged).
     NavRefused(Refusal),
+    /// Not while armed (a new vehicle description; version 5).
+    Armed,
 }
 
 impl From<controller_core::Error> for NackReason {

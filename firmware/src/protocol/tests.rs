@@ -100,6 +100,8 @@ fn every_command_and_reply_round_trips_and_fits() {
             std_rad: 0.02,
         }),
         Command::Step { t_us: u64::MAX },
+        Command::SetVehicle(controller_core::params::VehicleParams::OBSERVER),
+        Command::SetFailsafe(Failsafe::DEFAULT),
     ];
     for (i, cmd) in commands.iter().enumerate() {
         let f = frame(u16::MAX - i as u16, cmd);
