@@ -444,12 +444,16 @@ impl Gcs {
         Ok(())
     }
 
+    /// A `STATUSTEXT`; a text longer than the message's 50 characters goes as several,
+    /// split between words (this dialect's `STATUSTEXT` has no chunk fields).
     fn text(&mut self, severity: MavSeverity, text: &str) -> Result<()> {
-        let clipped: String = text.chars().take(50).collect();
-        self.send(MavMessage::STATUSTEXT(STATUSTEXT_DATA {
-            severity,
-            text: clipped.as_str().into(),
-        }))
+        for line in split_text(text, 50) {
+            self.send(MavMessage::STATUSTEXT(STATUSTEXT_DATA {
+                severity,
+                text: line.as_str().into(),
+            }))?;
+        }
+        Ok(())
     }
 
     fn ack(&mut self, command: MavCmd, result: MavResult) -> Result<()> {
@@ -489,6 +493,34 @@ impl Gcs {
             }
         }
     }
+}
+
+/// `text` in lines of at most `width` characters, broken at spaces where it can be.
+pub fn split_text(text: &str, width: usize) -> Vec<String> {
+    let mut lines = Vec::new();
+    let mut line = String::new();
+    for word in text.split(' ') {
+        let mut word = word.to_string();
+        while word.chars().count() > width {
+            if !line.is_empty() {
+                lines.push(std::mem::take(&mut line));
+            }
+            let head: String = word.chars().take(width).collect();
+            word = word.chars().skip(width).collect();
+            lines.push(head);
+        }
+        let extra = usize::from(!line.is_empty());
+        if line.chars().count() + extra + word.chars().count() > width {
+            lines.push(std::mem::take(&mut line));
+        } else if extra == 1 {
+            line.push(' ');
+        }
+        line.push_str(&word);
+    }
+    if !line.is_empty() || lines.is_empty() {
+        lines.push(line);
+    }
+    lines
 }
 
 /// The vehicle side: plant, navigation and the firmware `App` behind the tether.
@@ -914,7 +946,11 @@ fn handle(
             let group = params::group(param);
             // The checks the vehicle makes, here first (a clear reason), then the vehicle's.
             let refusal = match proposed.check(group) {
-                Err(e) => Some(format!("{name} refused: {e:#}")),
+                // The reason without the name said twice.
+                Err(e) => Some(format!(
+                    "{name} refused: {}",
+                    format!("{e:#}").replacen(&format!("{name} "), "", 1)
+                )),
                 Ok(()) => match v.apply(proposed, group)? {
                     Ok(()) => None,
                     Err(why) => Some(format!("{name} refused by the vehicle: {why:?}")),

@@ -192,7 +192,8 @@ fn client(args: &[&str]) -> String {
 }
 
 #[test]
-fn pymavlink_changes_a_gain_which_survives_a_restart_and_a_bad_one_is_refused() {
+fn pymavlink_changes_gains_the_vehicle_and_a_timeout_which_survive_a_restart_and_bad_ones_are_refused(
+) {
     if !pymavlink_or_skip() {
         return;
     }
@@ -211,12 +212,28 @@ fn pymavlink_changes_a_gain_which_survives_a_restart_and_a_bad_one_is_refused() 
         .find_map(|l| l.strip_prefix("VALUE="))
         .expect("the client printed the value it set")
         .to_string();
-    assert!(params.exists(), "the accepted change was saved");
+    let saved = std::fs::read_to_string(&params).expect("the accepted changes were saved");
+    assert!(
+        saved.contains("\"VEH_MASS\": 12.5") && saved.contains("\"FS_PILOT_STALE\": 0.8"),
+        "{saved}"
+    );
 
     let port = free_udp_port();
     let second = topside(port, &tlog, &params, &["--speedup", "2"]);
     client(&[&port.to_string(), "check", &value]);
     stop(second);
+}
+
+#[test]
+fn long_status_texts_are_split_between_words() {
+    use host_sim::topside::split_text;
+    let t =
+        "VEH_BUOY refused: not safe to fly: buoyancy_offset_n: more than half the vertical thrust";
+    let lines = split_text(t, 50);
+    assert!(lines.iter().all(|l| l.chars().count() <= 50), "{lines:?}");
+    assert_eq!(lines.join(" "), t);
+    assert_eq!(split_text("short", 50), ["short"]);
+    assert_eq!(split_text(&"x".repeat(120), 50).concat(), "x".repeat(120));
 }
 
 #[test]
