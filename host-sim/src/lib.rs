@@ -9,6 +9,7 @@
 //! - [`sensors`]: simulated IMU, depth, compass, DVL and USBL; [`estimator_nav`]: the core's
 //!   estimator on them as the navigation stage.
 //! - [`topside`]: the surface side: MAVLink 2 to ground stations, the tether to the vehicle.
+//! - [`tether_log`]: the raw tether log of the topside.
 //! - [`vehicle`]: vehicle files (the Observer's is the default).
 //! - [`output`], [`plots`]: what a run writes.
 //! - [`monte_carlo`]: perturbed-parameter runs in parallel.
@@ -30,5 +31,6 @@ pub mod runner;
 pub mod scenario;
 pub mod sensors;
 pub mod sim_loop;
+pub mod tether_log;
 pub mod topside;
 pub mod vehicle;

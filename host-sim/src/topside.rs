@@ -118,6 +118,10 @@ pub struct TopsideArgs {
     /// to the vehicle at start, and the simulated vehicle's body. Default: the scenario's.
     #[arg(long)]
     pub vehicle: Option<PathBuf>,
+    /// Where the raw tether log goes (every byte both ways, time-stamped; `tether_log`).
+    /// Default: the `.tlog`'s path with the extension `.tether`.
+    #[arg(long)]
+    pub tether_log: Option<PathBuf>,
 }
 
 /// Speed along a mission's path (m/s): the scenarios' survey speed (not a parameter yet).
@@ -767,6 +771,11 @@ pub fn main(a: TopsideArgs) -> Result<()> {
             "firmware library in process".to_string(),
         )
     };
+    let tether_log = a
+        .tether_log
+        .clone()
+        .unwrap_or_else(|| a.tlog.with_extension("tether"));
+    let port = Box::new(crate::tether_log::LoggedPort::new(port, &tether_log)?);
     let mut v = SimVehicle::new(&sc, port, hello_wait)?;
     if a.params.exists() {
         let saved = params::load(&a.params, v.settings)?;

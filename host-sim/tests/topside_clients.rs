@@ -112,6 +112,31 @@ fn fly_session(name: &str, extra: &[&str]) {
     assert!(count("COMMAND_ACK") >= 5);
     assert!(count("STATUSTEXT") >= 2);
 
+    // The raw tether log beside it: every frame both ways decodes, and it holds what the
+    // session did on the vehicle (arming, modes, the pilot's thrust) and its telemetry.
+    let frames = host_sim::tether_log::decode(
+        &host_sim::tether_log::read(&tlog.with_extension("tether")).unwrap(),
+    );
+    use firmware::protocol::{Command as Cmd, Reply};
+    let commands = |f: &dyn Fn(&Cmd) -> bool| frames.commands.iter().filter(|c| f(&c.2)).count();
+    let telemetry = frames
+        .replies
+        .iter()
+        .filter(|r| matches!(r.2, Reply::Telemetry(_)))
+        .count();
+    println!(
+        "tether log: {} commands, {} replies ({telemetry} telemetry), {} dropped",
+        frames.commands.len(),
+        frames.replies.len(),
+        frames.dropped
+    );
+    assert_eq!(frames.dropped, 0);
+    assert!(commands(&|c| matches!(c, Cmd::Arm)) >= 1);
+    assert!(commands(&|c| matches!(c, Cmd::SetMode(_))) >= 3);
+    assert!(commands(&|c| matches!(c, Cmd::ManualThrust(_))) >= 50);
+    assert!(commands(&|c| matches!(c, Cmd::SetVehicle(_))) == 1);
+    assert!(telemetry >= 500);
+
     // The dive drawn from its log: the same files as a simulated run.
     let replay_dir = dir.join("replay");
     let out = host_sim::replay::replay(&tlog, &replay_dir).unwrap();
