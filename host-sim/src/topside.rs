@@ -88,9 +88,10 @@ pub struct TopsideArgs {
     #[arg(long)]
     pub sim: String,
     /// MAVLink address: udpout:HOST:PORT (to a ground station listening, QGroundControl's
-    /// default 14550), udpin:HOST:PORT, tcpin:HOST:PORT, tcpout:HOST:PORT.
+    /// default 14550), udpin:HOST:PORT, tcpin:HOST:PORT, tcpout:HOST:PORT. Give it again
+    /// for more ground stations: each gets everything the vehicle says, and any may command.
     #[arg(long, default_value = "udpout:127.0.0.1:14550")]
-    pub mavlink: String,
+    pub mavlink: Vec<String>,
     /// Run the simulated vehicle this many times faster than real time.
     #[arg(long, default_value_t = 1.0)]
     pub speedup: f64,
@@ -409,9 +410,9 @@ pub struct GcsStats {
     pub sent: u64,
 }
 
-/// The ground-station side: the MAVLink connection, the sequence number, the .tlog.
+/// The ground-station side: the MAVLink connections, the sequence number, the .tlog.
 struct Gcs {
-    conn: mavlink::Connection<MavMessage>,
+    conns: Vec<mavlink::Connection<MavMessage>>,
     system_id: u8,
     seq: u8,
     tlog: BufWriter<File>,
@@ -442,8 +443,10 @@ impl Gcs {
         self.seq = self.seq.wrapping_add(1);
         self.log(header, &msg)?;
         // A ground station that is not there yet (udpout before it listens) is not an error.
-        if self.conn.send(&header, &msg).is_ok() {
-            self.stats.sent += 1;
+        for conn in &self.conns {
+            if conn.send(&header, &msg).is_ok() {
+                self.stats.sent += 1;
+            }
         }
         Ok(())
     }
@@ -467,37 +470,43 @@ impl Gcs {
         }))
     }
 
-    /// Everything that has arrived, without waiting.
+    /// What has arrived on every connection, without waiting: at most [`POLL_LIMIT`]
+    /// messages of each per control period, so that one ground station flooding (a
+    /// `MANUAL_CONTROL` storm) neither stalls the tether loop nor crowds out another.
     fn poll(&mut self) -> Result<Vec<(MavHeader, MavMessage)>> {
         let mut out = Vec::new();
-        loop {
-            match self.conn.try_recv() {
-                Ok((header, msg)) => {
-                    self.log(header, &msg)?;
-                    out.push((header, msg));
+        for i in 0..self.conns.len() {
+            for _ in 0..POLL_LIMIT {
+                match self.conns[i].try_recv() {
+                    Ok((header, msg)) => {
+                        self.log(header, &msg)?;
+                        out.push((header, msg));
+                    }
+                    Err(mavlink::error::MessageReadError::Io(e))
+                        if matches!(
+                            e.kind(),
+                            std::io::ErrorKind::WouldBlock
+                                | std::io::ErrorKind::TimedOut
+                                // udpout to a port nobody listens on yet.
+                                | std::io::ErrorKind::ConnectionRefused
+                        ) =>
+                    {
+                        break
+                    }
+                    Err(mavlink::error::MessageReadError::Io(e)) => {
+                        return Err(anyhow!("MAVLink connection: {e}"))
+                    }
+                    Err(_) => self.stats.malformed += 1,
                 }
-                Err(mavlink::error::MessageReadError::Io(e))
-                    if matches!(
-                        e.kind(),
-                        std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
-                    ) =>
-                {
-                    return Ok(out)
-                }
-                Err(mavlink::error::MessageReadError::Io(e))
-                    if e.kind() == std::io::ErrorKind::ConnectionRefused =>
-                {
-                    // udpout to a port nobody listens on yet.
-                    return Ok(out);
-                }
-                Err(mavlink::error::MessageReadError::Io(e)) => {
-                    return Err(anyhow!("MAVLink connection: {e}"))
-                }
-                Err(_) => self.stats.malformed += 1,
             }
         }
+        Ok(out)
     }
 }
+
+/// Most MAVLink messages taken from one connection in one control period (10,000 a second
+/// at 50 Hz); the rest waits in the socket, where a flood's excess is dropped by the OS.
+pub const POLL_LIMIT: usize = 200;
 
 /// `text` in lines of at most `width` characters, broken at spaces where it can be.
 pub fn split_text(text: &str, width: usize) -> Vec<String> {
@@ -725,11 +734,15 @@ pub fn main(a: TopsideArgs) -> Result<()> {
     if !(a.speedup.is_finite() && a.speedup > 0.0) {
         bail!("--speedup must be > 0 (got {})", a.speedup);
     }
-    let mut conn = mavlink::connect::<MavMessage>(&a.mavlink)
-        .with_context(|| format!("MAVLink address {:?}", a.mavlink))?;
-    // Send MAVLink 2, take 1 and 2: ground stations still send some messages in MAVLink 1
-    // (MAVProxy's mission items, for one).
-    conn.set_allow_recv_any_version(true);
+    let mut conns = Vec::new();
+    for address in &a.mavlink {
+        let mut conn = mavlink::connect::<MavMessage>(address)
+            .with_context(|| format!("MAVLink address {address:?}"))?;
+        // Send MAVLink 2, take 1 and 2: ground stations still send some messages in
+        // MAVLink 1 (MAVProxy's mission items, for one).
+        conn.set_allow_recv_any_version(true);
+        conns.push(conn);
+    }
     if let Some(dir) = a.tlog.parent() {
         if !dir.as_os_str().is_empty() {
             std::fs::create_dir_all(dir)?;
@@ -739,7 +752,7 @@ pub fn main(a: TopsideArgs) -> Result<()> {
         File::create(&a.tlog).with_context(|| format!("create {}", a.tlog.display()))?,
     );
     let mut gcs = Gcs {
-        conn,
+        conns,
         system_id: a.system_id,
         seq: 0,
         tlog,
@@ -793,7 +806,7 @@ pub fn main(a: TopsideArgs) -> Result<()> {
         "topside: simulated vehicle {:?} ({}), {firmware}, MAVLink on {}, tlog {}",
         sc.name,
         sc.plane.as_str(),
-        a.mavlink,
+        a.mavlink.join(", "),
         a.tlog.display()
     );
 

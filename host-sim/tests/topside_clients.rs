@@ -249,6 +249,41 @@ fn pymavlink_changes_gains_the_vehicle_and_a_timeout_which_survive_a_restart_and
     stop(second);
 }
 
+/// Two ground stations on two connections, one flooding `MANUAL_CONTROL`: neither the tether
+/// loop nor the other station is starved (issue 13, bad input).
+#[test]
+fn a_manual_control_flood_starves_neither_the_tether_nor_a_second_ground_station() {
+    if !pymavlink_or_skip() {
+        return;
+    }
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("topside-two-gcs");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let (pilot, observer) = (free_udp_port(), free_udp_port());
+    let second = format!("udpout:127.0.0.1:{observer}");
+    let topside = topside(
+        pilot,
+        &dir.join("two.tlog"),
+        &dir.join("params.json"),
+        &["--mavlink", &second],
+    );
+    let out = Command::new("python3")
+        .arg(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tests/clients/pymavlink_two_gcs.py"
+        ))
+        .args([pilot.to_string(), observer.to_string()])
+        .output()
+        .unwrap();
+    stop(topside);
+    println!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out.status.success(), "pymavlink_two_gcs.py failed");
+}
+
 #[test]
 fn long_status_texts_are_split_between_words() {
     use host_sim::topside::split_text;
