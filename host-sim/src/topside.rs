@@ -53,10 +53,10 @@ use firmware::protocol::{
 use mavlink::dialects::ardupilotmega::{
     MavAutopilot, MavCmd, MavFrame, MavMessage, MavMissionResult, MavModeFlag, MavParamType,
     MavResult, MavSeverity, MavState, MavSysStatusSensor, MavType, ATTITUDE_DATA, COMMAND_ACK_DATA,
-    HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_COUNT_DATA,
-    MISSION_CURRENT_DATA, MISSION_ITEM_INT_DATA, MISSION_ITEM_REACHED_DATA,
-    MISSION_REQUEST_INT_DATA, PARAM_VALUE_DATA, SERVO_OUTPUT_RAW_DATA, STATUSTEXT_DATA,
-    SYS_STATUS_DATA, VFR_HUD_DATA,
+    GLOBAL_POSITION_INT_DATA, GPS_GLOBAL_ORIGIN_DATA, HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA,
+    MISSION_ACK_DATA, MISSION_COUNT_DATA, MISSION_CURRENT_DATA, MISSION_ITEM_INT_DATA,
+    MISSION_ITEM_REACHED_DATA, MISSION_REQUEST_INT_DATA, PARAM_VALUE_DATA, SERVO_OUTPUT_RAW_DATA,
+    STATUSTEXT_DATA, SYS_STATUS_DATA, VFR_HUD_DATA,
 };
 use mavlink::{MavConnection, MavHeader};
 use std::fs::File;
@@ -138,7 +138,7 @@ const MISSION_RETRY: Duration = Duration::from_secs(1);
 struct Missions {
     /// Upload in progress: items so far, the count announced, when the last request went and
     /// how many times it went.
-    upload: Option<(Vec<MISSION_ITEM_INT_DATA>, u16, Instant, u32)>,
+    upload: Option<(Vec<(MISSION_ITEM_INT_DATA, [f32; 3])>, u16, Instant, u32)>,
     /// The mission the vehicle holds, as the ground station sent it.
     items: Vec<MISSION_ITEM_INT_DATA>,
     /// Waypoints reported reached in the current AUTO run.
@@ -211,10 +211,16 @@ impl Missions {
             }
             MavMessage::MISSION_ITEM_INT(item) => self.item(gcs, v, item)?,
             // The float form, which MAVProxy sends to a vehicle that does not announce
-            // MISSION_INT in AUTOPILOT_VERSION: the same item, x and y in metres.
+            // MISSION_INT in AUTOPILOT_VERSION: the same item, x and y in metres (local) or
+            // degrees (global).
             MavMessage::MISSION_ITEM(i) => {
+                let scale = if i.frame == MavFrame::MAV_FRAME_LOCAL_NED {
+                    1e4
+                } else {
+                    1e7
+                };
                 let as_int = |m: f32| {
-                    let v = (f64::from(m) * 1e4).round();
+                    let v = (f64::from(m) * scale).round();
                     if v.is_finite() {
                         v.clamp(f64::from(i32::MIN), f64::from(i32::MAX)) as i32
                     } else {
@@ -301,13 +307,13 @@ impl Missions {
             return Self::request(self.peer, gcs, items.len() as u16);
         }
         use MavMissionResult as R;
-        if item.frame != MavFrame::MAV_FRAME_LOCAL_NED {
-            let why = format!(
-                "item {}: frame {:?}, only MAV_FRAME_LOCAL_NED",
-                item.seq, item.frame
-            );
-            return self.refuse(gcs, R::MAV_MISSION_UNSUPPORTED_FRAME, &why);
-        }
+        let pos_m = match item_position(item.frame, item.x, item.y, item.z, gcs.origin.as_ref()) {
+            Ok(p) => p,
+            Err(why) => {
+                let why = format!("item {}: {why}", item.seq);
+                return self.refuse(gcs, R::MAV_MISSION_UNSUPPORTED_FRAME, &why);
+            }
+        };
         if item.command != MavCmd::MAV_CMD_NAV_WAYPOINT {
             let why = format!(
                 "item {}: {:?}, only MAV_CMD_NAV_WAYPOINT",
@@ -315,19 +321,20 @@ impl Missions {
             );
             return self.refuse(gcs, R::MAV_MISSION_UNSUPPORTED, &why);
         }
-        if !item.z.is_finite() {
+        let depth = pos_m[2];
+        if !depth.is_finite() {
             let why = format!("item {}: depth is not a number", item.seq);
             return self.refuse(gcs, R::MAV_MISSION_INVALID_PARAM7, &why);
         }
         let max_depth = firmware::autopilot::MAX_MISSION_DEPTH_M;
-        if !(0.0..=max_depth).contains(&item.z) {
+        if !(0.0..=max_depth).contains(&depth) {
             let why = format!(
-                "item {}: depth {} m is unreachable (0 to {max_depth} m)",
-                item.seq, item.z
+                "item {}: depth {depth} m is unreachable (0 to {max_depth} m)",
+                item.seq
             );
             return self.refuse(gcs, R::MAV_MISSION_INVALID_PARAM7, &why);
         }
-        items.push(item.clone());
+        items.push((item.clone(), pos_m));
         if items.len() < usize::from(count) {
             *at = Instant::now();
             *tries = 1;
@@ -335,12 +342,11 @@ impl Missions {
         }
         // Complete: to the vehicle, which replaces its mission only when the last one is in.
         let items = std::mem::take(items);
-        for (i, it) in items.iter().enumerate() {
-            // Local frames carry x and y in metres x 1e4.
+        for (i, (_, pos_m)) in items.iter().enumerate() {
             let cmd = Command::MissionItem {
                 index: i as u16,
                 count,
-                pos_m: [it.x as f32 * 1e-4, it.y as f32 * 1e-4, it.z],
+                pos_m: *pos_m,
                 speed_m_s: MISSION_SPEED_M_S,
             };
             if let Err(why) = v.command(&cmd)? {
@@ -349,7 +355,7 @@ impl Missions {
             }
         }
         self.upload = None;
-        self.items = items;
+        self.items = items.into_iter().map(|(item, _)| item).collect();
         gcs.text(
             MavSeverity::MAV_SEVERITY_INFO,
             &format!("Mission of {count} waypoints accepted"),
@@ -417,6 +423,8 @@ struct Gcs {
     seq: u8,
     tlog: BufWriter<File>,
     stats: GcsStats,
+    /// The origin of the local frame on the globe, once a ground station set it.
+    origin: Option<GlobalOrigin>,
 }
 
 fn unix_us() -> u64 {
@@ -507,6 +515,97 @@ impl Gcs {
 /// Most MAVLink messages taken from one connection in one control period (10,000 a second
 /// at 50 Hz); the rest waits in the socket, where a flood's excess is dropped by the OS.
 pub const POLL_LIMIT: usize = 200;
+
+/// The geodetic point of the local frame's origin (`SET_GPS_GLOBAL_ORIGIN`), on the surface.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GlobalOrigin {
+    /// Latitude, degrees.
+    pub lat_deg: f64,
+    /// Longitude, degrees.
+    pub lon_deg: f64,
+    /// Altitude of the surface above mean sea level, metres.
+    pub alt_m: f64,
+}
+
+impl GlobalOrigin {
+    /// From `SET_GPS_GLOBAL_ORIGIN`'s integers (degrees x 1e7, millimetres); `None` off the
+    /// globe.
+    pub fn from_mavlink(lat_e7: i32, lon_e7: i32, alt_mm: i32) -> Option<Self> {
+        let o = Self {
+            lat_deg: f64::from(lat_e7) * 1e-7,
+            lon_deg: f64::from(lon_e7) * 1e-7,
+            alt_m: f64::from(alt_mm) * 1e-3,
+        };
+        ((-90.0..=90.0).contains(&o.lat_deg) && (-180.0..=180.0).contains(&o.lon_deg)).then_some(o)
+    }
+
+    /// Metres per radian north and east at the origin: the WGS-84 ellipsoid's meridian and
+    /// prime-vertical radii of curvature (a local tangent plane, exact enough within the
+    /// 1 km a mission may reach).
+    fn radii_m(&self) -> (f64, f64) {
+        const A: f64 = 6_378_137.0;
+        const E2: f64 = 6.694_379_990_14e-3;
+        let s = self.lat_deg.to_radians().sin();
+        let w = (1.0 - E2 * s * s).sqrt();
+        (A * (1.0 - E2) / (w * w * w), A / w)
+    }
+
+    /// North and east of the origin (m) of a latitude and longitude (degrees).
+    pub fn to_local(&self, lat_deg: f64, lon_deg: f64) -> [f64; 2] {
+        let (rn, re) = self.radii_m();
+        let dlon = (lon_deg - self.lon_deg + 540.0).rem_euclid(360.0) - 180.0;
+        [
+            (lat_deg - self.lat_deg).to_radians() * rn,
+            dlon.to_radians() * re * self.lat_deg.to_radians().cos(),
+        ]
+    }
+
+    /// Latitude and longitude (degrees) of a point north and east of the origin (m).
+    pub fn to_global(&self, north_m: f64, east_m: f64) -> [f64; 2] {
+        let (rn, re) = self.radii_m();
+        [
+            self.lat_deg + (north_m / rn).to_degrees(),
+            self.lon_deg + (east_m / (re * self.lat_deg.to_radians().cos())).to_degrees(),
+        ]
+    }
+}
+
+/// A mission item's waypoint as `[north, east, depth]` (m) in the local frame: local frames
+/// carry metres x 1e4; global ones degrees x 1e7 and an altitude (negative below the
+/// surface, ArduSub's convention), relative to the origin's or above mean sea level.
+// The `_INT` frames are superseded by their plain names but still sent (QGroundControl's
+// older releases, MAVProxy), so both are taken.
+#[allow(deprecated)]
+pub fn item_position(
+    frame: MavFrame,
+    x: i32,
+    y: i32,
+    z: f32,
+    origin: Option<&GlobalOrigin>,
+) -> std::result::Result<[f32; 3], String> {
+    use MavFrame as F;
+    let global = |o: Option<&GlobalOrigin>| {
+        o.map(|o| o.to_local(f64::from(x) * 1e-7, f64::from(y) * 1e-7))
+            .ok_or_else(|| format!("{frame:?} needs SET_GPS_GLOBAL_ORIGIN first"))
+    };
+    Ok(match frame {
+        F::MAV_FRAME_LOCAL_NED => [x as f32 * 1e-4, y as f32 * 1e-4, z],
+        F::MAV_FRAME_GLOBAL_RELATIVE_ALT | F::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT => {
+            let [n, e] = global(origin)?;
+            [n as f32, e as f32, -z]
+        }
+        F::MAV_FRAME_GLOBAL | F::MAV_FRAME_GLOBAL_INT => {
+            let [n, e] = global(origin)?;
+            let surface = origin.map_or(0.0, |o| o.alt_m);
+            [n as f32, e as f32, (surface - f64::from(z)) as f32]
+        }
+        other => {
+            return Err(format!(
+                "frame {other:?}: MAV_FRAME_LOCAL_NED or a global frame"
+            ))
+        }
+    })
+}
 
 /// `text` in lines of at most `width` characters, broken at spaces where it can be.
 pub fn split_text(text: &str, width: usize) -> Vec<String> {
@@ -757,6 +856,7 @@ pub fn main(a: TopsideArgs) -> Result<()> {
         seq: 0,
         tlog,
         stats: GcsStats::default(),
+        origin: None,
     };
     // The QEMU child lives as long as this guard.
     let mut _qemu = None;
@@ -1013,6 +1113,28 @@ fn handle(
             gcs.stats.handled += 1;
             *manual = manual_thrust(m.x, m.z, m.r);
         }
+        MavMessage::SET_GPS_GLOBAL_ORIGIN(o) => {
+            gcs.stats.handled += 1;
+            match GlobalOrigin::from_mavlink(o.latitude, o.longitude, o.altitude) {
+                Some(origin) => {
+                    gcs.origin = Some(origin);
+                    gcs.text(
+                        MavSeverity::MAV_SEVERITY_INFO,
+                        &format!("Origin set: {:.7}, {:.7}", origin.lat_deg, origin.lon_deg),
+                    )?;
+                    // ArduPilot answers with the origin in force.
+                    gcs.send(MavMessage::GPS_GLOBAL_ORIGIN(GPS_GLOBAL_ORIGIN_DATA {
+                        latitude: o.latitude,
+                        longitude: o.longitude,
+                        altitude: o.altitude,
+                    }))?;
+                }
+                None => gcs.text(
+                    MavSeverity::MAV_SEVERITY_WARNING,
+                    "Origin refused: latitude or longitude off the globe",
+                )?,
+            }
+        }
         MavMessage::SET_POSITION_TARGET_LOCAL_NED(p) => {
             gcs.stats.handled += 1;
             let pos = [p.x, p.y, p.z];
@@ -1138,6 +1260,21 @@ fn send_state(gcs: &mut Gcs, v: &SimVehicle) -> Result<()> {
         heading: heading_deg.round() as i16,
         throttle: 0,
     }))?;
+    if let Some(o) = &gcs.origin {
+        // On the map: the local position on the globe, depth as negative altitude.
+        let [lat, lon] = o.to_global(f64::from(s.x_m), f64::from(s.y_m));
+        gcs.send(MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
+            time_boot_ms,
+            lat: (lat * 1e7).round() as i32,
+            lon: (lon * 1e7).round() as i32,
+            alt: ((o.alt_m - f64::from(s.z_m)) * 1e3).round() as i32,
+            relative_alt: (-s.z_m * 1e3).round() as i32,
+            vx: (vn * 100.0).round() as i16,
+            vy: (ve * 100.0).round() as i16,
+            vz: (s.w_m_s * 100.0).round() as i16,
+            hdg: (heading_deg * 100.0).round() as u16 % 36000,
+        }))?;
+    }
     let [p1, p2, p3] = v.tel.pulse_us;
     gcs.send(MavMessage::SERVO_OUTPUT_RAW(SERVO_OUTPUT_RAW_DATA {
         time_usec: (v.t_s * 1e6) as u32,

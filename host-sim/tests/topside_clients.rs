@@ -249,6 +249,40 @@ fn pymavlink_changes_gains_the_vehicle_and_a_timeout_which_survive_a_restart_and
     stop(second);
 }
 
+/// A Python client against a fresh `topside --sim circle-3d`: the topside on `port` (plus
+/// `extra`), then `clients/SCRIPT PORT ARGS...`; `DIR` in `args` is the session's folder.
+/// Returns the client's output after checking that it succeeded.
+fn client_session(name: &str, script: &str, port: u16, extra: &[&str], args: &[&str]) -> String {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("topside-{name}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let topside = topside(
+        port,
+        &dir.join(format!("{name}.tlog")),
+        &dir.join("params.json"),
+        extra,
+    );
+    let dir_arg = dir.to_string_lossy().to_string();
+    let args: Vec<&str> = args
+        .iter()
+        .map(|&a| if a == "DIR" { dir_arg.as_str() } else { a })
+        .collect();
+    let out = Command::new("python3")
+        .arg(format!(
+            "{}/tests/clients/{script}",
+            env!("CARGO_MANIFEST_DIR")
+        ))
+        .arg(port.to_string())
+        .args(args)
+        .output()
+        .unwrap();
+    stop(topside);
+    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+    println!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "{script} failed");
+    stdout
+}
+
 /// Two ground stations on two connections, one flooding `MANUAL_CONTROL`: neither the tether
 /// loop nor the other station is starved (issue 13, bad input).
 #[test]
@@ -256,32 +290,31 @@ fn a_manual_control_flood_starves_neither_the_tether_nor_a_second_ground_station
     if !pymavlink_or_skip() {
         return;
     }
-    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("topside-two-gcs");
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
     let (pilot, observer) = (free_udp_port(), free_udp_port());
     let second = format!("udpout:127.0.0.1:{observer}");
-    let topside = topside(
+    let out = client_session(
+        "two-gcs",
+        "pymavlink_two_gcs.py",
         pilot,
-        &dir.join("two.tlog"),
-        &dir.join("params.json"),
         &["--mavlink", &second],
+        &[&observer.to_string()],
     );
-    let out = Command::new("python3")
-        .arg(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/tests/clients/pymavlink_two_gcs.py"
-        ))
-        .args([pilot.to_string(), observer.to_string()])
-        .output()
-        .unwrap();
-    stop(topside);
-    println!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(out.status.success(), "pymavlink_two_gcs.py failed");
+    assert!(out.contains("PASS: disarmed"), "the session ran to its end");
+}
+
+#[test]
+fn the_global_origin_maps_degrees_to_metres_both_ways() {
+    use host_sim::topside::GlobalOrigin;
+    let o = GlobalOrigin::from_mavlink(450_000_000, 100_000_000, 0).unwrap();
+    // At 45 degrees the WGS-84 meridian radius is 6,367,381.8 m: 1e-5 degree is 1.11132 m.
+    let [n, e] = o.to_local(45.00001, 10.0);
+    assert!((n - 1.111_32).abs() < 1e-4 && e.abs() < 1e-9, "{n} {e}");
+    for (n, e) in [(4.0, -3.0), (-700.0, 650.0), (0.01, 0.02)] {
+        let [lat, lon] = o.to_global(n, e);
+        let [n2, e2] = o.to_local(lat, lon);
+        assert!((n2 - n).abs() < 1e-6 && (e2 - e).abs() < 1e-6);
+    }
+    assert!(GlobalOrigin::from_mavlink(950_000_000, 0, 0).is_none());
 }
 
 #[test]
@@ -318,33 +351,35 @@ fn pymavlink_uploads_a_mission_and_flies_it_in_auto() {
     if !pymavlink_or_skip() {
         return;
     }
-    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("topside-mission");
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    let port = free_udp_port();
-    let topside = topside(
-        port,
-        &dir.join("mission.tlog"),
-        &dir.join("params.json"),
+    let out = client_session(
+        "mission",
+        "pymavlink_mission.py",
+        free_udp_port(),
         &["--speedup", "8"],
+        &[],
     );
-    let script = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/tests/clients/pymavlink_mission.py"
-    );
-    let out = Command::new("python3")
-        .arg(script)
-        .arg(port.to_string())
-        .output()
-        .unwrap();
-    stop(topside);
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    println!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
-    assert!(out.status.success(), "the pymavlink mission session failed");
     assert!(
-        stdout.contains("PASS: AUTO without a mission refused"),
+        out.contains("PASS: AUTO without a mission refused"),
         "the session ran to its last check"
     );
+}
+
+/// Global frames (issue 13, item 4): refused before `SET_GPS_GLOBAL_ORIGIN`, then a mission in
+/// `MAV_FRAME_GLOBAL_RELATIVE_ALT_INT` (positions from pymavlink's own geodesy) flown in AUTO
+/// to its last waypoint, `GLOBAL_POSITION_INT` on the map's terms.
+#[test]
+fn pymavlink_flies_a_mission_in_a_global_frame_after_setting_the_origin() {
+    if !pymavlink_or_skip() {
+        return;
+    }
+    let out = client_session(
+        "global",
+        "pymavlink_global.py",
+        free_udp_port(),
+        &["--speedup", "8"],
+        &[],
+    );
+    assert!(out.contains("PASS: disarmed"), "the session ran to its end");
 }
 
 /// MAVProxy (PyPI), typed into as an operator would: ALT_HOLD, `wp load` of a QGC WPL file,
@@ -369,29 +404,12 @@ fn mavproxy_flies_a_mission_it_loads_from_a_file() {
         println!("SKIPPED: {why}; fix: python3 -m pip install MAVProxy");
         return;
     }
-    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("topside-mavproxy");
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    let port = free_udp_port();
-    let topside = topside(
-        port,
-        &dir.join("mavproxy.tlog"),
-        &dir.join("params.json"),
+    let out = client_session(
+        "mavproxy",
+        "mavproxy_session.py",
+        free_udp_port(),
         &["--speedup", "8"],
+        &["DIR"],
     );
-    let script = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/tests/clients/mavproxy_session.py"
-    );
-    let out = Command::new("python3")
-        .arg(script)
-        .arg(port.to_string())
-        .arg(&dir)
-        .output()
-        .unwrap();
-    stop(topside);
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    println!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
-    assert!(out.status.success(), "the MAVProxy session failed");
-    assert!(stdout.contains("PASS: `disarm`: DISARMED"));
+    assert!(out.contains("PASS: `disarm`: DISARMED"));
 }
