@@ -113,6 +113,15 @@ impl Controller {
         &self.limits
     }
 
+    /// Replace the vehicle model (its limits and pulse curve with it) and clear the laws'
+    /// state; the gains stay.
+    pub fn set_vehicle(&mut self, vehicle: Vehicle) {
+        self.limits = ThrusterLimits::of(&vehicle);
+        self.pwm = PwmMap::for_vehicle(&vehicle);
+        self.vehicle = vehicle;
+        self.reset();
+    }
+
     /// Replace the gains; on error nothing changes.
     pub fn set_gains(&mut self, gains: Gains) -> Result<(), Error> {
         gains.validate()?;

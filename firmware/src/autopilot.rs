@@ -28,6 +28,7 @@ use controller_core::controller::{ControlMode, ControlOutput, Controller};
 use controller_core::law::pilot::Sticks;
 use controller_core::nav::onboard::OnboardNav;
 use controller_core::nav::Refusal;
+use controller_core::params::VehicleParams;
 use controller_core::reference::mission::{MissionPath, MAX_WAYPOINTS};
 use controller_core::reference::Reference;
 use controller_core::state::{BodyForces, NavState, TrackingErrors};
@@ -341,18 +342,7 @@ impl Autopilot {
                 });
                 Ok(())
             }
-            Command::SetVehicle(params) => {
-                if self.armed {
-                    return Err(NackReason::Armed);
-                }
-                if self.onboard.is_some() {
-                    return Err(NackReason::NavSource);
-                }
-                let vehicle = params.validate()?;
-                vehicle.check_flyable()?;
-                self.controller = Controller::new(vehicle, *self.controller.gains())?;
-                Ok(())
-            }
+            Command::SetVehicle(params) => self.set_vehicle(params),
             Command::SetFailsafe(f) => {
                 f.validate()?;
                 self.failsafe = *f;
@@ -400,6 +390,23 @@ impl Autopilot {
             Command::Compass(f) => self.feed(seq, |o, _| o.heading(f)),
             _ => self.handle(now_us, seq, cmd),
         }
+    }
+
+    /// A new vehicle description: only disarmed and without the on-board estimator (which
+    /// runs on the old model). Out of line, so that its frame (a derived vehicle model) is
+    /// not part of every command's.
+    #[inline(never)]
+    fn set_vehicle(&mut self, params: &VehicleParams) -> Result<(), NackReason> {
+        if self.armed {
+            return Err(NackReason::Armed);
+        }
+        if self.onboard.is_some() {
+            return Err(NackReason::NavSource);
+        }
+        let vehicle = params.validate()?;
+        vehicle.check_flyable()?;
+        self.controller.set_vehicle(vehicle);
+        Ok(())
     }
 
     /// Take waypoint `index` of a mission of `count`; the mission in use changes only when

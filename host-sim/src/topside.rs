@@ -132,13 +132,16 @@ pub const MISSION_MAX_ITEMS: usize = controller_core::reference::mission::MAX_WA
 /// An upload that waits this long for the next item asks again (5 times, then gives up).
 const MISSION_RETRY: Duration = Duration::from_secs(1);
 
+/// A mission item as the ground station sent it, and its waypoint in the local frame.
+type ReceivedItem = (MISSION_ITEM_INT_DATA, [f32; 3]);
+
 /// The mission protocol at the surface: uploads item by item to the vehicle, the mission in
 /// use for downloads, and the progress reported in AUTO.
 #[derive(Debug, Default)]
 struct Missions {
     /// Upload in progress: items so far, the count announced, when the last request went and
     /// how many times it went.
-    upload: Option<(Vec<(MISSION_ITEM_INT_DATA, [f32; 3])>, u16, Instant, u32)>,
+    upload: Option<(Vec<ReceivedItem>, u16, Instant, u32)>,
     /// The mission the vehicle holds, as the ground station sent it.
     items: Vec<MISSION_ITEM_INT_DATA>,
     /// Waypoints reported reached in the current AUTO run.
