@@ -84,7 +84,7 @@ fn boots_disarmed_with_neutral_outputs_and_says_hello() {
     assert!(matches!(
         r.as_slice(),
         [Reply::Hello {
-            protocol: 4,
+            protocol: 5,
             board: Board::Host,
             lockstep: false,
             control_period_us: 20_000,
