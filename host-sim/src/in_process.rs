@@ -110,6 +110,12 @@ pub struct InProcessFirmware {
 impl InProcessFirmware {
     /// Boot the App (lock-step, the Observer's controller); it sends its `Hello` at once.
     pub fn new() -> Result<Self> {
+        Self::with_config(Config::lockstep(Board::Host))
+    }
+
+    /// Boot the App with `config`: `Config::fixed_rate` makes a vehicle that runs on the
+    /// host's clock, as a board does, driven by [`Self::pass`].
+    pub fn with_config(config: Config) -> Result<Self> {
         let controller = Controller::new(Vehicle::observer(), Gains::default())
             .map_err(|e| anyhow!("controller: {e}"))?;
         let mut app = App::new(
@@ -117,11 +123,19 @@ impl InProcessFirmware {
             SimSerial::default(),
             SimClock(Instant::now()),
             controller,
-            Config::lockstep(Board::Host),
+            config,
         )
         .map_err(|e| anyhow!("firmware config: {e}"))?;
         app.hello();
         Ok(Self { app })
+    }
+
+    /// One pass of the App's main loop (a fixed-rate App steps when its period is due on
+    /// the host's clock): `received` goes in first; what it sent comes back.
+    pub fn pass(&mut self, received: &[u8]) -> Vec<u8> {
+        self.app.parts_mut().1.rx.extend(received);
+        self.app.tick();
+        self.app.parts_mut().1.tx.drain(..).collect()
     }
 
     /// The App (read-only), e.g. for its state machine.

@@ -1,7 +1,7 @@
 //! Byte ports to the vehicle: a TCP socket (QEMU's `-serial tcp:`, a serial-to-TCP bridge)
 //! or a serial device, read with a short timeout so a waiting loop can check its deadline.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::path::PathBuf;
@@ -12,7 +12,7 @@ use std::time::Duration;
 pub enum Endpoint {
     /// A TCP socket (`HOST:PORT`), e.g. a serial-to-TCP bridge or QEMU's `-serial tcp:`.
     Tcp(String),
-    /// A serial device (`/dev/ttyUSB0`) at a baud rate, set up raw with `stty`.
+    /// A serial device (`/dev/ttyUSB0`) at a baud rate, opened raw by the `serialport` crate.
     Serial {
         /// Device path.
         device: PathBuf,
@@ -37,36 +37,23 @@ pub fn open(ep: &Endpoint) -> Result<Box<dyn Port>> {
                 TcpStream::connect(addr).with_context(|| format!("cannot connect to {addr}"))?;
             Ok(Box::new(tcp_port(s)?))
         }
-        Endpoint::Serial { device, baud } => {
-            // Raw mode, no echo, reads return after 0.1 s without data (VMIN 0, VTIME 1).
-            let st = std::process::Command::new("stty")
-                .arg("-F")
-                .arg(device)
-                .args([
-                    &baud.to_string(),
-                    "raw",
-                    "-echo",
-                    "-echoe",
-                    "-echok",
-                    "-ixon",
-                ])
-                .args([
-                    "-ixoff", "-crtscts", "cs8", "-parenb", "-cstopb", "min", "0",
-                ])
-                .args(["time", "1"])
-                .status()
-                .context("cannot run stty")?;
-            if !st.success() {
-                bail!("stty could not set up {} at {baud} baud", device.display());
-            }
-            let f = std::fs::OpenOptions::new()
-                .read(true)
-                .write(true)
-                .open(device)
-                .with_context(|| format!("cannot open {}", device.display()))?;
-            Ok(Box::new(f))
-        }
+        Endpoint::Serial { device, baud } => serial_port(device, *baud),
     }
+}
+
+/// Open a serial device (a USB-serial adapter, a UART, a pseudo-terminal) raw at `baud`, 8N1,
+/// no flow control, through the `serialport` crate, with the short read timeout of the ports.
+pub fn serial_port(device: &std::path::Path, baud: u32) -> Result<Box<dyn Port>> {
+    let path = device.to_string_lossy();
+    let port = serialport::new(path.as_ref(), baud)
+        .data_bits(serialport::DataBits::Eight)
+        .parity(serialport::Parity::None)
+        .stop_bits(serialport::StopBits::One)
+        .flow_control(serialport::FlowControl::None)
+        .timeout(POLL)
+        .open_native()
+        .with_context(|| format!("cannot open serial port {path} at {baud} baud"))?;
+    Ok(Box::new(port))
 }
 
 /// Configure an accepted or connected TCP stream as a port.

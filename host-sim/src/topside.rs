@@ -45,6 +45,7 @@ use crate::scenario::Scenario;
 use crate::sim_loop::{make_plant, nominal_plant_params, Navigation};
 use anyhow::{anyhow, bail, Context, Result};
 use controller_core::alloc::PwmMap;
+use controller_core::params::VehicleParams;
 use controller_core::reference::Reference;
 use controller_core::state::NavState;
 use firmware::protocol::{
@@ -85,8 +86,15 @@ pub mod ardusub_mode {
 pub struct TopsideArgs {
     /// The simulated vehicle: a built-in scenario or a .toml file (its plant, navigation and
     /// start; the reference is not used: the ground station commands).
-    #[arg(long)]
-    pub sim: String,
+    #[arg(long, required_unless_present = "serial", conflicts_with = "serial")]
+    pub sim: Option<String>,
+    /// A real vehicle on this serial device (`/dev/ttyUSB0`): it runs on its own clock and
+    /// navigates itself; the topside sends it heartbeats and the ground stations' commands.
+    #[arg(long, value_name = "DEV", conflicts_with_all = ["emulated", "speedup"])]
+    pub serial: Option<PathBuf>,
+    /// With --serial: the baud rate.
+    #[arg(long, default_value_t = 115_200, requires = "serial")]
+    pub baud: u32,
     /// MAVLink address: udpout:HOST:PORT (to a ground station listening, QGroundControl's
     /// default 14550), udpin:HOST:PORT, tcpin:HOST:PORT, tcpout:HOST:PORT. Give it again
     /// for more ground stations: each gets everything the vehicle says, and any may command.
@@ -638,22 +646,36 @@ pub fn split_text(text: &str, width: usize) -> Vec<String> {
     lines
 }
 
-/// The vehicle side: plant, navigation and the firmware `App` behind the tether.
+/// The vehicle behind the tether: a simulated one (the plant and its navigation here, the
+/// firmware in lock-step) or a real one on its own clock (`--serial`).
 struct SimVehicle {
-    plant: Box<dyn Plant>,
-    nav: Box<dyn Navigation>,
+    /// The simulated body; `None` for a real vehicle.
+    body: Option<Body>,
     link: Link,
-    pwm: PwmMap,
     t_s: f64,
     period_s: f64,
-    plant_dt_s: f64,
-    steps_per_period: usize,
-    held_n: [f64; 3],
+    /// Control periods run.
+    periods: u64,
+    /// The vehicle's navigation state (a real vehicle's: from its telemetry).
     state: NavState,
     tel: Telemetry,
     /// The gains, timeouts and description in force on the vehicle (as last accepted).
     settings: Settings,
 }
+
+/// A simulated vehicle's body: plant, navigation, the ESCs' pulse curve.
+struct Body {
+    plant: Box<dyn Plant>,
+    nav: Box<dyn Navigation>,
+    pwm: PwmMap,
+    plant_dt_s: f64,
+    steps_per_period: usize,
+    held_n: [f64; 3],
+}
+
+/// A real vehicle is sent a heartbeat every this many control periods (10 Hz): its
+/// `HEARTBEAT_LOST` failsafe trips after 0.5 s without one.
+const HEARTBEAT_EVERY: u64 = 5;
 
 const TETHER_TIMEOUT: Duration = Duration::from_millis(500);
 
@@ -688,15 +710,18 @@ impl SimVehicle {
         .ok_or_else(|| anyhow!("no Hello from the firmware"))?;
         let n = sc.plant_steps_per_control().max(1);
         let mut v = Self {
-            plant,
-            nav,
+            body: Some(Body {
+                plant,
+                nav,
+                pwm: PwmMap::for_vehicle(&sc.vehicle_model()?),
+                plant_dt_s: sc.plant_dt_s,
+                steps_per_period: n,
+                held_n: [0.0; 3],
+            }),
             link,
-            pwm: PwmMap::for_vehicle(&sc.vehicle_model()?),
             t_s: 0.0,
             period_s: sc.plant_dt_s * n as f64,
-            plant_dt_s: sc.plant_dt_s,
-            steps_per_period: n,
-            held_n: [0.0; 3],
+            periods: 0,
             state: NavState::default(),
             tel: Telemetry::default(),
             settings: Settings::new(sc.vehicle_params),
@@ -707,6 +732,45 @@ impl SimVehicle {
             bail!("the vehicle refused the vehicle description: {why:?}");
         }
         v.step()?;
+        Ok(v)
+    }
+
+    /// A real vehicle on `port`, running on its own clock: found by a heartbeat answered
+    /// within 2 s. Its description is sent only when `vehicle` is given (a real vehicle
+    /// keeps its own otherwise; the parameter list shows the Observer's until then).
+    fn real(port: Box<dyn crate::port::Port>, vehicle: Option<VehicleParams>) -> Result<Self> {
+        let mut link = Link::new(port, None);
+        link.send(&Command::Heartbeat { t_us: 0 })?;
+        let first = link
+            .wait_for(
+                Duration::from_secs(2),
+                |r| match r {
+                    Reply::Status(_) | Reply::Telemetry(_) | Reply::Hello { .. } => Some(Ok(())),
+                    Reply::Nack { reason, .. } => Some(Err(*reason)),
+                    Reply::Ack { .. } => None,
+                },
+                |_| {},
+            )?
+            .ok_or_else(|| anyhow!("no answer from a vehicle on the serial port within 2 s"))?;
+        if let Err(why) = first {
+            bail!("the vehicle refused our heartbeat: {why:?} (another protocol version?)");
+        }
+        let mut v = Self {
+            body: None,
+            link,
+            t_s: 0.0,
+            period_s: 0.02,
+            periods: 0,
+            state: NavState::default(),
+            tel: Telemetry::default(),
+            settings: Settings::new(vehicle.unwrap_or(VehicleParams::OBSERVER)),
+        };
+        if vehicle.is_some() {
+            let s = v.settings;
+            if let Err(why) = v.apply(s, Group::Vehicle)? {
+                bail!("the vehicle refused the vehicle description: {why:?}");
+            }
+        }
         Ok(v)
     }
 
@@ -749,11 +813,26 @@ impl SimVehicle {
         self.link.command(cmd, TETHER_TIMEOUT, 3, |_| {})
     }
 
-    /// One control period: heartbeat and navigation to the firmware, its telemetry back, the
-    /// plant through the period with the thrust of the pulse widths.
+    /// One control period. Simulated: heartbeat and navigation to the firmware, its
+    /// telemetry back, the plant through the period with the thrust of the pulse widths.
+    /// Real: a heartbeat every [`HEARTBEAT_EVERY`] periods and whatever the vehicle said.
     fn step(&mut self) -> Result<()> {
         let t_us = us(self.t_s);
-        self.state = self.nav.estimate(self.t_s, self.held_n);
+        let Some(body) = self.body.as_mut() else {
+            if self.periods.is_multiple_of(HEARTBEAT_EVERY) {
+                self.link.send(&Command::Heartbeat { t_us })?;
+            }
+            self.periods += 1;
+            while let Some((_, reply)) = self.link.recv(Duration::ZERO)? {
+                if let Reply::Telemetry(t) = reply {
+                    self.tel = t;
+                    self.state = t.nav;
+                }
+            }
+            self.t_s += self.period_s;
+            return Ok(());
+        };
+        body.state_for(self.t_s, &mut self.state);
         self.link.send(&Command::Heartbeat { t_us })?;
         let nav_seq = self.link.send(&Command::Nav(NavSample {
             t_us,
@@ -771,19 +850,29 @@ impl SimVehicle {
             )?
             .ok_or_else(|| anyhow!("tether: no Telemetry at t = {:.2} s", self.t_s))?;
         self.tel = tel;
+        body.advance(self.t_s, &tel);
+        self.t_s += self.period_s;
+        Ok(())
+    }
+}
+
+impl Body {
+    /// What the simulated vehicle's navigation says at `t_s`.
+    fn state_for(&mut self, t_s: f64, state: &mut NavState) {
+        *state = self.nav.estimate(t_s, self.held_n);
+    }
+
+    /// The plant through one control period from `t_s` under the telemetry's pulse widths.
+    fn advance(&mut self, t_s: f64, tel: &Telemetry) {
         let applied = tel
             .pulse_us
             .map(|p| f64::from(self.pwm.thrust_n(f32::from(p))));
         for i in 0..self.steps_per_period {
             self.plant.step(applied, self.plant_dt_s);
-            self.nav.observe(
-                self.t_s + (i + 1) as f64 * self.plant_dt_s,
-                &self.plant.state(),
-            );
+            self.nav
+                .observe(t_s + (i + 1) as f64 * self.plant_dt_s, &self.plant.state());
         }
         self.held_n = tel.thrust_n.map(f64::from);
-        self.t_s += self.period_s;
-        Ok(())
     }
 }
 
@@ -829,10 +918,7 @@ const FAULT_NAMES: [(u16, &str); 7] = [
 
 /// Run the topside until `--duration` (or forever).
 pub fn main(a: TopsideArgs) -> Result<()> {
-    let mut sc = Scenario::load(&a.sim)?;
-    if let Some(file) = &a.vehicle {
-        sc.vehicle_params = crate::vehicle::load(file)?;
-    }
+    let vehicle_file = a.vehicle.as_deref().map(crate::vehicle::load).transpose()?;
     if !(a.speedup.is_finite() && a.speedup > 0.0) {
         bail!("--speedup must be > 0 (got {})", a.speedup);
     }
@@ -861,38 +947,61 @@ pub fn main(a: TopsideArgs) -> Result<()> {
         stats: GcsStats::default(),
         origin: None,
     };
-    // The QEMU child lives as long as this guard.
-    let mut _qemu = None;
-    let (port, hello_wait, firmware): (Box<dyn crate::port::Port>, _, _) = if a.emulated {
-        let elf = match a.qemu.clone() {
-            Some(elf) => elf,
-            None => match qemu_firmware_image(&workspace_root())? {
-                FirmwareImage::Ready(elf) => elf,
-                FirmwareImage::Unavailable(why) => {
-                    bail!("the emulated board cannot run here: {why}")
-                }
-            },
-        };
-        let (q, p) = start_qemu_link("qemu-system-arm", &elf, None, false)?;
-        _qemu = Some(q);
-        (
-            p,
-            Duration::from_secs(30),
-            format!("firmware image {} in QEMU", elf.display()),
-        )
-    } else {
-        (
-            Box::new(InProcessFirmware::new()?),
-            Duration::from_secs(2),
-            "firmware library in process".to_string(),
-        )
-    };
     let tether_log = a
         .tether_log
         .clone()
         .unwrap_or_else(|| a.tlog.with_extension("tether"));
-    let port = Box::new(crate::tether_log::LoggedPort::new(port, &tether_log)?);
-    let mut v = SimVehicle::new(&sc, port, hello_wait)?;
+    // The QEMU child lives as long as this guard.
+    let mut _qemu = None;
+    let (mut v, what) = if let Some(device) = &a.serial {
+        let port = crate::port::serial_port(device, a.baud)?;
+        let port = Box::new(crate::tether_log::LoggedPort::new(port, &tether_log)?);
+        let v = SimVehicle::real(port, vehicle_file)?;
+        (
+            v,
+            format!("vehicle on {} at {} Bd", device.display(), a.baud),
+        )
+    } else {
+        let Some(sim) = &a.sim else {
+            bail!("--sim SCENARIO or --serial DEV");
+        };
+        let mut sc = Scenario::load(sim)?;
+        if let Some(p) = vehicle_file {
+            sc.vehicle_params = p;
+        }
+        let (port, hello_wait, firmware): (Box<dyn crate::port::Port>, _, _) = if a.emulated {
+            let elf = match a.qemu.clone() {
+                Some(elf) => elf,
+                None => match qemu_firmware_image(&workspace_root())? {
+                    FirmwareImage::Ready(elf) => elf,
+                    FirmwareImage::Unavailable(why) => {
+                        bail!("the emulated board cannot run here: {why}")
+                    }
+                },
+            };
+            let (q, p) = start_qemu_link("qemu-system-arm", &elf, None, false)?;
+            _qemu = Some(q);
+            (
+                p,
+                Duration::from_secs(30),
+                format!("firmware image {} in QEMU", elf.display()),
+            )
+        } else {
+            (
+                Box::new(InProcessFirmware::new()?),
+                Duration::from_secs(2),
+                "firmware library in process".to_string(),
+            )
+        };
+        let port = Box::new(crate::tether_log::LoggedPort::new(port, &tether_log)?);
+        let v = SimVehicle::new(&sc, port, hello_wait)?;
+        let what = format!(
+            "simulated vehicle {:?} ({}), {firmware}",
+            sc.name,
+            sc.plane.as_str()
+        );
+        (v, what)
+    };
     if a.params.exists() {
         let saved = params::load(&a.params, v.settings)?;
         for group in params::GROUPS {
@@ -906,9 +1015,7 @@ pub fn main(a: TopsideArgs) -> Result<()> {
         eprintln!("topside: parameters restored from {}", a.params.display());
     }
     eprintln!(
-        "topside: simulated vehicle {:?} ({}), {firmware}, MAVLink on {}, tlog {}",
-        sc.name,
-        sc.plane.as_str(),
+        "topside: {what}, MAVLink on {}, tlog {}",
         a.mavlink.join(", "),
         a.tlog.display()
     );
