@@ -12,18 +12,18 @@ fn frame(seq: u16, cmd: &Command) -> Vec<u8> {
 }
 
 #[test]
-fn the_bytes_are_postcard_then_crc32_then_cobs_as_in_version_4() {
+fn the_bytes_are_postcard_then_crc32_then_cobs_as_in_version_5() {
     // Computed independently (Python: zlib.crc32 and a textbook COBS) from the postcard
-    // payloads [4, 7, 1] (version 4, seq 7, `Arm` = variant 1) and [4, 42, 0, 0xE8, 0x07]
-    // (seq 42, `Heartbeat` = variant 0, t_us = 1000 as a varint). Version 4 (the on-board
-    // estimator's messages) changed only the version byte of these two.
+    // payloads [5, 7, 1] (version 5, seq 7, `Arm` = variant 1) and [5, 42, 0, 0xE8, 0x07]
+    // (seq 42, `Heartbeat` = variant 0, t_us = 1000 as a varint). Versions 4 and 5 (new
+    // messages at the end) changed only the version byte of these two.
     assert_eq!(
         frame(7, &Command::Arm),
-        [0, 8, 4, 7, 1, 159, 215, 14, 192, 0]
+        [0, 8, 5, 7, 1, 168, 189, 204, 193, 0]
     );
     assert_eq!(
         frame(42, &Command::Heartbeat { t_us: 1000 }),
-        [0, 3, 4, 42, 7, 232, 7, 192, 242, 238, 244, 0]
+        [0, 3, 5, 42, 7, 232, 7, 112, 219, 142, 201, 0]
     );
 }
 
