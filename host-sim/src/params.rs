@@ -7,7 +7,8 @@
 //!
 //! Names: `TRK_*` the tracking laws ([`TrackingGains`](controller_core::law::tracking::TrackingGains)),
 //! `PXZ_*` / `PXY_*` the paper's XZ / XY laws, `FS_*` the failsafe timeouts in seconds,
-//! `VEH_*` the vehicle ([`VehicleParams`], a vehicle file's keys; `VEH_PWM_*` its pulse curve).
+//! `VEH_*` the vehicle ([`VehicleParams`], a vehicle file's keys; `VEH_PWM_*` its pulse curve),
+//! `MIS_SPEED` the speed along a mission's path (kept here, sent with the next mission).
 
 use anyhow::{anyhow, bail, Context, Result};
 use controller_core::controller::Gains;
@@ -90,7 +91,14 @@ pub struct Settings {
     pub failsafe: FailsafeSeconds,
     /// The vehicle's description.
     pub vehicle: VehicleParams,
+    /// Speed along a mission's path (m/s), sent with the next mission uploaded.
+    pub mission_speed_m_s: f32,
 }
+
+/// The mission speed unless a ground station sets `MIS_SPEED`: the scenarios' survey speed.
+pub const MISSION_SPEED_M_S: f32 = 0.25;
+/// Slowest mission speed taken (m/s): slower, the laws' feasible references stall.
+pub const MIN_MISSION_SPEED_M_S: f32 = 0.05;
 
 impl Settings {
     /// Default gains and timeouts on `vehicle`.
@@ -99,6 +107,7 @@ impl Settings {
             gains: Gains::default(),
             failsafe: FailsafeSeconds::of(&Failsafe::DEFAULT),
             vehicle,
+            mission_speed_m_s: MISSION_SPEED_M_S,
         }
     }
 
@@ -113,6 +122,13 @@ impl Settings {
             }
             Group::Vehicle => {
                 crate::vehicle::check(&self.vehicle)?;
+            }
+            Group::Mission => {
+                let max = firmware::autopilot::MAX_MISSION_SPEED_M_S;
+                let v = self.mission_speed_m_s;
+                if !(v.is_finite() && (MIN_MISSION_SPEED_M_S..=max).contains(&v)) {
+                    bail!("MIS_SPEED must be {MIN_MISSION_SPEED_M_S}-{max} m/s");
+                }
             }
         }
         Ok(())
@@ -140,15 +156,18 @@ pub enum Group {
     Failsafe,
     /// `SetVehicle` (refused by the vehicle while armed).
     Vehicle,
+    /// Kept at the surface and sent with the next mission (`MissionItem`).
+    Mission,
 }
 
 /// The groups in the order a restart restores them: the vehicle first (the others are
 /// checked against it on board), then the timeouts and the gains.
-pub const GROUPS: [Group; 4] = [
+pub const GROUPS: [Group; 5] = [
     Group::Vehicle,
     Group::Failsafe,
     Group::Tracking,
     Group::Paper,
+    Group::Mission,
 ];
 
 macro_rules! params {
@@ -232,6 +251,7 @@ pub const PARAMS: &[Param] = params![
     "VEH_PWM_MAX" => vehicle.pulse.max_us,
     "VEH_PWM_DEADBAND" => vehicle.pulse.deadband_us,
     "VEH_PWM_LINEAR" => vehicle.pulse.linear_fraction,
+    "MIS_SPEED" => mission_speed_m_s,
 ];
 
 /// A parameter by name, with its index.
@@ -245,6 +265,7 @@ pub fn group(p: &Param) -> Group {
         Some("TRK") => Group::Tracking,
         Some("FS") => Group::Failsafe,
         Some("VEH") => Group::Vehicle,
+        Some("MIS") => Group::Mission,
         _ => Group::Paper,
     }
 }

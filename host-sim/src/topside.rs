@@ -133,8 +133,6 @@ pub struct TopsideArgs {
     pub tether_log: Option<PathBuf>,
 }
 
-/// Speed along a mission's path (m/s): the scenarios' survey speed (not a parameter yet).
-pub const MISSION_SPEED_M_S: f32 = 0.25;
 /// Most waypoints a mission may have (the vehicle's store).
 pub const MISSION_MAX_ITEMS: usize = controller_core::reference::mission::MAX_WAYPOINTS;
 /// An upload that waits this long for the next item asks again (5 times, then gives up).
@@ -358,7 +356,7 @@ impl Missions {
                 index: i as u16,
                 count,
                 pos_m: *pos_m,
-                speed_m_s: MISSION_SPEED_M_S,
+                speed_m_s: v.settings.mission_speed_m_s,
             };
             if let Err(why) = v.command(&cmd)? {
                 let why = format!("item {i} refused by the vehicle: {why:?}");
@@ -791,6 +789,11 @@ impl SimVehicle {
                 Err(_) => return Ok(Err(NackReason::OutOfRange)),
             },
             Group::Vehicle => Command::SetVehicle(proposed.vehicle),
+            Group::Mission => {
+                // Nothing to send now: the next mission carries it.
+                self.settings.mission_speed_m_s = proposed.mission_speed_m_s;
+                return Ok(Ok(()));
+            }
         };
         let r = self.command(&cmd)?;
         if r.is_ok() {
@@ -803,6 +806,7 @@ impl SimVehicle {
                 }
                 Group::Failsafe => s.failsafe = proposed.failsafe,
                 Group::Vehicle => s.vehicle = proposed.vehicle,
+                Group::Mission => s.mission_speed_m_s = proposed.mission_speed_m_s,
             }
         }
         Ok(r)

@@ -217,7 +217,10 @@ fn the_topside_drives_a_vehicle_on_a_serial_line() {
     );
     assert_eq!(frames.dropped, 0);
     assert!(heartbeats >= 25, "10 Hz heartbeats for more than 3 s");
-    assert!(tel.len() >= 25, "the vehicle's 10 Hz telemetry for more than 3 s");
+    assert!(
+        tel.len() >= 25,
+        "the vehicle's 10 Hz telemetry for more than 3 s"
+    );
     assert!(
         tel.iter()
             .skip(5)

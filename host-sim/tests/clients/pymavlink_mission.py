@@ -15,6 +15,7 @@ from pymavlink import mavutil
 from gcs import expect, wait
 
 AUTO, MANUAL = 3, 19
+SPEED = 0.35  # m/s along the path (the default is 0.25)
 mav = mavutil.mavlink
 
 
@@ -79,6 +80,11 @@ def main():
     p0 = position(m)
     # A triangle 4 m on a side from where the vehicle is, 0.5 m deeper at the end.
     pts = [(p0.x + 4, p0.y, p0.z), (p0.x + 4, p0.y + 4, p0.z), (p0.x, p0.y + 4, p0.z + 0.5)]
+    # The speed along the path is a parameter, sent with the mission.
+    m.mav.param_set_send(m.target_system, m.target_component, b"MIS_SPEED", SPEED,
+                         mav.MAV_PARAM_TYPE_REAL32)
+    p = wait(m, "PARAM_VALUE", 10, lambda p: p.param_id == "MIS_SPEED")
+    expect(p is not None and abs(p.param_value - SPEED) < 1e-6, f"MIS_SPEED set to {SPEED} m/s")
     r = upload(m, pts)
     expect(r == mav.MAV_MISSION_ACCEPTED, f"a 3-waypoint mission is accepted ({r}, {TEXTS})")
     got = download(m)
@@ -110,11 +116,22 @@ def main():
     expect(wait(m, "MISSION_CURRENT", 10) is not None, "MISSION_CURRENT in AUTO")
     reached = []
     end = time.time() + 90
+    # Ground speeds on the second leg (between waypoints 0 and 1): the cruise, after the
+    # start's transient.
+    leg = []
     while len(reached) < 3 and time.time() < end:
-        r = m.recv_match(type="MISSION_ITEM_REACHED", blocking=True, timeout=1)
-        if r is not None:
+        r = m.recv_match(type=["MISSION_ITEM_REACHED", "VFR_HUD"], blocking=True, timeout=1)
+        if r is not None and r.get_type() == "VFR_HUD":
+            if len(reached) == 1:
+                leg.append(r.groundspeed)
+        elif r is not None:
             reached.append(r.seq)
     expect(reached == [0, 1, 2], f"MISSION_ITEM_REACHED for each waypoint, in order ({reached})")
+    leg.sort()
+    median = leg[len(leg) // 2] if leg else 0.0
+    expect(abs(median - SPEED) < 0.03,
+           f"flown at MIS_SPEED: median {median:.3f} m/s over the ground on the second leg "
+           f"({len(leg)} samples) for {SPEED} m/s")
     n, e, d = pts[-1]
     # The reference stops on the last waypoint; the vehicle settles. Read everything that
     # comes meanwhile (a client that sleeps lets its socket overflow and loses messages).

@@ -23,8 +23,8 @@ def read(m, name):
 # The vehicle's description and a failsafe timeout, changed and restored with the gains.
 CHANGES = {"VEH_MASS": 12.5, "FS_PILOT_STALE": 0.8}
 # Values the vehicle must refuse: buoyancy beyond half the vertical thrust (unsafe for the
-# depth law), a pilot timeout of 5 s (beyond the 2 s limit), a NaN mass.
-REFUSED = {"VEH_BUOY": 9.0, "FS_PILOT_STALE": 5.0, "VEH_MASS": float("nan")}
+# depth law), a pilot timeout of 5 s (beyond the 2 s limit), a NaN mass, a 5 m/s mission.
+REFUSED = {"VEH_BUOY": 9.0, "FS_PILOT_STALE": 5.0, "VEH_MASS": float("nan"), "MIS_SPEED": 5.0}
 
 
 def set_param(m, name, value):
@@ -77,8 +77,9 @@ def main():
     count = next(iter(seen.values())).param_count if seen else 0
     expect(count >= 30 and len(seen) == count, f"the whole list arrives ({len(seen)} of {count})")
     expect("TRK_XY_KP" in seen and "PXZ_C1" in seen, "tracking and paper gains are listed")
-    expect(all(n in seen for n in ["VEH_MASS", "VEH_THR_FWD", "VEH_PWM_NEUTRAL", "FS_HB_NEUTRAL"]),
-           "the vehicle's description and the failsafe timeouts are listed")
+    expect(all(n in seen for n in ["VEH_MASS", "VEH_THR_FWD", "VEH_PWM_NEUTRAL", "FS_HB_NEUTRAL",
+                                   "MIS_SPEED"]),
+           "the vehicle's description, the failsafe timeouts and the mission speed are listed")
     expect(abs(seen["VEH_MASS"].param_value - 10.84) < 1e-4, "the Observer's mass, 10.84 kg")
 
     old = seen["TRK_XY_KP"].param_value
