@@ -13,8 +13,10 @@
 //! - [`vehicle`]: vehicle files (the Observer's is the default).
 //! - [`output`], [`plots`]: what a run writes.
 //! - [`monte_carlo`]: perturbed-parameter runs in parallel.
+//! - [`current_sweep`]: currents from every direction, as heat maps (issue 14).
 
 pub mod checks;
+pub mod current_sweep;
 pub mod estimator_nav;
 pub mod hil;
 pub mod in_process;

@@ -86,6 +86,13 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Currents from every direction: the built-in paths in 0.1-0.3 m/s from 12 directions,
+    /// the RMS tracking error as heat maps (issue 14's measurement).
+    CurrentSweep {
+        /// Output folder.
+        #[arg(long, default_value = "out/current-sweep")]
+        out: PathBuf,
+    },
     /// Hardware in the loop: the firmware (QEMU or a board) closes the loop, lock-step.
     Hil(host_sim::hil::HilArgs),
     /// Topside console: arm, disarm, mode, reference; telemetry to CSV with a status line.
@@ -208,6 +215,12 @@ fn main() -> Result<()> {
         Some(Command::Link(a)) => host_sim::link::main(a),
         Some(Command::Topside(a)) => host_sim::topside::main(a),
         Some(Command::Replay(a)) => host_sim::replay::main(a),
+        Some(Command::CurrentSweep { out }) => {
+            let cells = host_sim::current_sweep::sweep()?;
+            host_sim::current_sweep::write(&out, &cells)?;
+            println!("wrote {}", out.display());
+            Ok(())
+        }
         None => run_all(Path::new("out")),
         Some(Command::All { out }) => run_all(&out),
         Some(Command::Merge { dirs, out }) => {

@@ -16,9 +16,11 @@ use std::sync::Once;
 
 static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
 static FONT_INIT: Once = Once::new();
-const FONT_NAME: &str = "sans-serif";
+/// The font family the figures use (registered by [`init_font`]).
+pub const FONT_NAME: &str = "sans-serif";
 
-fn init_font() {
+/// Register the embedded font once (plotters' bitmap backend has none of its own).
+pub fn init_font() {
     FONT_INIT.call_once(|| {
         // The font is embedded and known good; a failure here would only lose the text.
         let _ = plotters::style::register_font(FONT_NAME, FontStyle::Normal, FONT);
