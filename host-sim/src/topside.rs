@@ -836,7 +836,7 @@ impl SimVehicle {
             self.t_s += self.period_s;
             return Ok(());
         };
-        body.state_for(self.t_s, &mut self.state);
+        self.state = body.state_at(self.t_s);
         self.link.send(&Command::Heartbeat { t_us })?;
         let nav_seq = self.link.send(&Command::Nav(NavSample {
             t_us,
@@ -862,8 +862,8 @@ impl SimVehicle {
 
 impl Body {
     /// What the simulated vehicle's navigation says at `t_s`.
-    fn state_for(&mut self, t_s: f64, state: &mut NavState) {
-        *state = self.nav.estimate(t_s, self.held_n);
+    fn state_at(&mut self, t_s: f64) -> NavState {
+        self.nav.estimate(t_s, self.held_n)
     }
 
     /// The plant through one control period from `t_s` under the telemetry's pulse widths.

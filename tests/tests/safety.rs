@@ -62,6 +62,27 @@ fn arm(a: &mut TestApp, c: &FakeClock, t: &mut Topside) {
     assert!(a.autopilot().armed());
 }
 
+/// Hold `pos_m` with the XY tracking law, armed; asserts each Ack.
+fn hold_point(a: &mut TestApp, c: &FakeClock, t: &mut Topside, pos_m: [f32; 3]) {
+    let (s, r) = t.send(
+        a,
+        &Command::SetReference {
+            reference: Reference::Hold { pos_m },
+            start_us: None,
+        },
+    );
+    assert!(acked(&r, s));
+    arm(a, c, t);
+    let (s, r) = t.send(
+        a,
+        &Command::SetMode(Mode::Track {
+            plane: Plane::Xy,
+            law: Law::Tracking,
+        }),
+    );
+    assert!(acked(&r, s), "{r:?}");
+}
+
 fn last_telemetry(r: &[Reply]) -> Option<Telemetry> {
     r.iter().rev().find_map(|r| match r {
         Reply::Telemetry(t) => Some(*t),
@@ -218,25 +239,7 @@ fn heartbeat_loss_neutral_then_disarm_then_explicit_rearm() {
 #[test]
 fn stale_nav_while_tracking_goes_neutral_with_a_fault() {
     let (mut a, c, mut t) = fixed();
-    let (s, r) = t.send(
-        &mut a,
-        &Command::SetReference {
-            reference: Reference::Hold {
-                pos_m: [5.0, 5.0, 0.0],
-            },
-            start_us: None,
-        },
-    );
-    assert!(acked(&r, s));
-    arm(&mut a, &c, &mut t);
-    let (s, r) = t.send(
-        &mut a,
-        &Command::SetMode(Mode::Track {
-            plane: Plane::Xy,
-            law: Law::Tracking,
-        }),
-    );
-    assert!(acked(&r, s), "{r:?}");
+    hold_point(&mut a, &c, &mut t, [5.0, 5.0, 0.0]);
     let last_nav = c.get_us();
     for _ in 0..20 {
         c.advance_us(20_000);
@@ -739,25 +742,7 @@ fn vehicle_description_and_failsafe_timeouts_over_the_tether() {
     let (s, r) = t.send(&mut a, &fs(&|f| f.nav_stale_us = 100_000));
     assert!(acked(&r, s), "{r:?}");
     assert_eq!(a.autopilot().failsafe().nav_stale_us, 100_000);
-    let (s, r) = t.send(
-        &mut a,
-        &Command::SetReference {
-            reference: Reference::Hold {
-                pos_m: [1.0, 0.0, 0.0],
-            },
-            start_us: None,
-        },
-    );
-    assert!(acked(&r, s));
-    arm(&mut a, &c, &mut t);
-    let (s, r) = t.send(
-        &mut a,
-        &Command::SetMode(Mode::Track {
-            plane: Plane::Xy,
-            law: Law::Tracking,
-        }),
-    );
-    assert!(acked(&r, s), "{r:?}");
+    hold_point(&mut a, &c, &mut t, [1.0, 0.0, 0.0]);
     let last_nav = c.get_us();
     for _ in 0..8 {
         c.advance_us(20_000);

@@ -11,9 +11,9 @@ import time
 
 from pymavlink import mavextra, mavutil
 
-from gcs import expect, wait
+from gcs import arm_and_auto, expect, wait
 
-AUTO, MANUAL = 3, 19
+MANUAL = 19
 mav = mavutil.mavlink
 LAT0, LON0, ALT0_MM = 59.4300000, 10.6000000, 0  # a fjord
 
@@ -65,14 +65,7 @@ def main():
     r, texts = upload(m, items, frame)
     expect(r == mav.MAV_MISSION_ACCEPTED, f"the global mission is accepted ({r}, {texts})")
 
-    m.mav.command_long_send(m.target_system, m.target_component,
-                            mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
-    a = wait(m, "COMMAND_ACK", 10, lambda a: a.command == mav.MAV_CMD_COMPONENT_ARM_DISARM)
-    expect(a is not None and a.result == mav.MAV_RESULT_ACCEPTED, "arming accepted")
-    m.mav.command_long_send(m.target_system, m.target_component, mav.MAV_CMD_DO_SET_MODE, 0,
-                            mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, AUTO, 0, 0, 0, 0, 0)
-    a = wait(m, "COMMAND_ACK", 10, lambda a: a.command == mav.MAV_CMD_DO_SET_MODE)
-    expect(a is not None and a.result == mav.MAV_RESULT_ACCEPTED, "AUTO accepted")
+    arm_and_auto(m)
     reached = []
     end = time.time() + 90
     while len(reached) < 2 and time.time() < end:

@@ -12,7 +12,7 @@ import time
 
 from pymavlink import mavutil
 
-from gcs import expect, wait
+from gcs import arm_and_auto, expect, wait
 
 AUTO, MANUAL = 3, 19
 SPEED = 0.35  # m/s along the path (the default is 0.25)
@@ -105,14 +105,7 @@ def main():
     expect(len(download(m)) == 3, "the mission in use is still the 3-waypoint one")
 
     # AUTO: arm, fly it, every waypoint reported reached, the vehicle ends on the last one.
-    m.mav.command_long_send(m.target_system, m.target_component,
-                            mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
-    a = wait(m, "COMMAND_ACK", 10, lambda a: a.command == mav.MAV_CMD_COMPONENT_ARM_DISARM)
-    expect(a is not None and a.result == mav.MAV_RESULT_ACCEPTED, "arming accepted")
-    m.mav.command_long_send(m.target_system, m.target_component, mav.MAV_CMD_DO_SET_MODE, 0,
-                            mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, AUTO, 0, 0, 0, 0, 0)
-    a = wait(m, "COMMAND_ACK", 10, lambda a: a.command == mav.MAV_CMD_DO_SET_MODE)
-    expect(a is not None and a.result == mav.MAV_RESULT_ACCEPTED, "AUTO accepted")
+    arm_and_auto(m)
     expect(wait(m, "MISSION_CURRENT", 10) is not None, "MISSION_CURRENT in AUTO")
     reached = []
     end = time.time() + 90
