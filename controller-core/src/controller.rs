@@ -13,6 +13,7 @@ use crate::law::paper_xz::{self, PaperXzGains};
 use crate::law::pilot::{self, PilotHold, Sticks};
 use crate::law::tracking::{self, TrackingGains, TrackingState};
 use crate::law::LawOutput;
+use crate::nav::predict::DelayCompensator;
 use crate::params::Vehicle;
 use crate::reference::RefSample;
 use crate::state::{BodyForces, NavState, TrackingErrors};
@@ -69,7 +70,7 @@ pub struct ControlOutput {
 }
 
 /// The controller: a validated vehicle model and gains, plus the tracking laws' state.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Controller {
     vehicle: Vehicle,
     gains: Gains,
@@ -77,6 +78,7 @@ pub struct Controller {
     pwm: PwmMap,
     state: TrackingState,
     pilot: PilotHold,
+    delay: DelayCompensator,
 }
 
 impl Controller {
@@ -90,6 +92,7 @@ impl Controller {
             pwm: PwmMap::for_vehicle(&vehicle),
             state: TrackingState::default(),
             pilot: PilotHold::default(),
+            delay: DelayCompensator::new(),
         })
     }
 
@@ -106,6 +109,11 @@ impl Controller {
     /// The thrust <-> pulse map.
     pub fn pwm_map(&self) -> &PwmMap {
         &self.pwm
+    }
+
+    /// The tracking laws' state (integrators, current estimate), for logs and tests.
+    pub fn tracking_state(&self) -> &TrackingState {
+        &self.state
     }
 
     /// Thruster limits.
@@ -133,6 +141,15 @@ impl Controller {
     pub fn reset(&mut self) {
         self.state = TrackingState::default();
         self.pilot = PilotHold::default();
+        self.delay.clear();
+    }
+
+    /// Tell the controller how late its navigation states are (s, 0 to
+    /// [`crate::nav::predict::MAX_DELAY_S`]): [`step`](Self::step) then predicts the state through the
+    /// model over the delay with the forces it commanded ([`crate::nav::predict`]). A non-finite or
+    /// out-of-range delay is refused and nothing changes.
+    pub fn set_measurement_delay_s(&mut self, delay_s: f32) -> Result<(), Error> {
+        self.delay.set_delay_s(delay_s)
     }
 
     /// Run one control step of `dt_s` seconds.
@@ -145,6 +162,8 @@ impl Controller {
     ) -> ControlOutput {
         let v = &self.vehicle;
         let g = &self.gains;
+        let predicted = self.delay.predict(v, nav, dt_s);
+        let nav = &predicted;
         let out: LawOutput = match mode {
             ControlMode::PaperXz => paper_xz::step(v, &g.paper_xz, &nav.xz(), reference),
             ControlMode::PaperXy => paper_xy::step(v, &g.paper_xy, &nav.xy(), reference),
@@ -190,6 +209,7 @@ impl Controller {
     fn finish(&mut self, out: LawOutput) -> ControlOutput {
         let allocation = allocate(&out.forces, &self.limits);
         self.state.on_allocation(&out.forces, &allocation.achieved);
+        self.delay.record(&allocation.achieved);
         let pulse_us = self.pwm.pulses_us(allocation.thrust_n);
         ControlOutput {
             requested: out.forces,

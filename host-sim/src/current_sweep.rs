@@ -16,7 +16,7 @@ use std::io::Write;
 use std::path::Path;
 
 /// The paths swept (built-in scenarios).
-pub const PATHS: [&str; 2] = ["circle-3d", "lawnmower-3d"];
+pub const PATHS: [&str; 3] = ["line-3d", "circle-3d", "lawnmower-3d"];
 /// Current speeds (m/s).
 pub const SPEEDS_M_S: [f64; 3] = [0.1, 0.2, 0.3];
 /// Directions relative to the path's first course (degrees): 0 behind the vehicle (the

@@ -406,6 +406,10 @@ pub struct DisturbanceSpec {
     /// Measurement delay (s).
     #[serde(default)]
     pub delay_s: f64,
+    /// The controller is told `delay_s` and predicts the state over it through the model
+    /// (`controller_core::nav::predict`; at most 0.5 s). Default: not told.
+    #[serde(default)]
+    pub delay_known: bool,
 }
 
 impl Default for DisturbanceSpec {
@@ -417,6 +421,7 @@ impl Default for DisturbanceSpec {
             noise_std: NoiseStd::default(),
             noise_seed: d_seed(),
             delay_s: 0.0,
+            delay_known: false,
         }
     }
 }
@@ -502,6 +507,11 @@ pub const BUILT_IN: &[BuiltIn] = &[
     builtin!("lawnmower-3d"),
     builtin!("helix-3d"),
     builtin!("current-3d"),
+    builtin!("line-3d"),
+    builtin!("current-line-behind-3d"),
+    builtin!("current-line-cross-3d"),
+    builtin!("current-hold-end-3d"),
+    builtin!("delay-line-3d"),
     builtin!("mc-circle-3d"),
     builtin!("nav-circle-3d"),
     builtin!("nav-lawnmower-3d"),
@@ -685,6 +695,13 @@ impl Scenario {
         nonneg("disturbance.delay_s", d.delay_s)?;
         if d.delay_s > self.duration_s {
             bail!("disturbance.delay_s ({}) is longer than the run", d.delay_s);
+        }
+        if d.delay_known && d.delay_s > f64::from(controller_core::nav::predict::MAX_DELAY_S) {
+            bail!(
+                "disturbance.delay_s ({} s) is longer than the controller can bridge ({} s) with delay_known = true",
+                d.delay_s,
+                controller_core::nav::predict::MAX_DELAY_S
+            );
         }
         nonneg("disturbance.noise_std.position_m", d.noise_std.position_m)?;
         nonneg("disturbance.noise_std.angle_rad", d.noise_std.angle_rad)?;

@@ -369,14 +369,26 @@ impl CoreEndpoint {
         let vehicle = p
             .validate()
             .map_err(|e| anyhow!("controller parameters: {e}"))?;
-        let controller = Controller::new(vehicle, Gains::default())
+        let mut controller = Controller::new(vehicle, Gains::default())
             .map_err(|e| anyhow!("controller gains: {e}"))?;
+        if sc.disturbance.delay_known {
+            controller
+                .set_measurement_delay_s(sc.disturbance.delay_s as f32)
+                .map_err(|e| anyhow!("disturbance.delay_s: {e}"))?;
+        }
         Ok(Self {
             controller,
             mode: sc.control_mode()?,
             period_s: (sc.plant_dt_s * sc.plant_steps_per_control().max(1) as f64) as f32,
             pwm: PwmMap::for_vehicle(&sc.vehicle_model()?),
         })
+    }
+}
+
+impl CoreEndpoint {
+    /// The controller (its laws' state for logs and tests).
+    pub fn controller(&self) -> &Controller {
+        &self.controller
     }
 }
 

@@ -685,7 +685,12 @@ fn vehicle_description_and_failsafe_timeouts_over_the_tether() {
     use firmware::Failsafe;
     let (mut a, c, mut t) = fixed();
     // What the two commands may change (a send also runs the loop's control steps).
-    let settings = |a: &TestApp| (*a.autopilot().controller(), *a.autopilot().failsafe());
+    let settings = |a: &TestApp| {
+        (
+            a.autopilot().controller().clone(),
+            *a.autopilot().failsafe(),
+        )
+    };
     let nacks = |a: &mut TestApp, t: &mut Topside, cmd: Command| {
         let before = settings(a);
         let (s, r) = t.send(a, &cmd);

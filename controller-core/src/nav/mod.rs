@@ -47,6 +47,7 @@ mod attitude;
 mod horizontal;
 pub mod kf;
 pub mod onboard;
+pub mod predict;
 mod vertical;
 
 use crate::error::{non_negative, positive, Error};

@@ -174,6 +174,21 @@ pub const REST_LOS_FAR_M: f32 = 0.2;
 /// Hysteresis (rad) of the rest law's choice between approaching forwards and backwards.
 pub const REST_REVERSE_HYST_RAD: f32 = 0.2;
 
+/// In a current: water-relative reference speed (m/s) above which the XY law is entirely the
+/// hand law (its heading settles with the time constant `eps / U`: 1.3 s here).
+pub const CURRENT_HAND_SPEED_M_S: f32 = 0.15;
+
+/// In a current: the hand distance per unit of water-relative reference speed (s), at least
+/// [`HAND_MIN_M`] and at most the gain `hand_m`. The yaw dynamics need `eps > 0.28 U`.
+pub const HAND_PER_WATER_SPEED_S: f32 = 0.8;
+
+/// In a current: the smallest hand distance (m).
+pub const HAND_MIN_M: f32 = 0.05;
+
+/// In a current: water-relative reference speed (m/s) below which its course is not used
+/// (held).
+pub const WATER_COURSE_FLOOR_M_S: f32 = 0.02;
+
 /// Time constant (s) with which the origin integrator bleeds at rest.
 pub const REST_BLEED_S: f32 = 10.0;
 
@@ -205,6 +220,9 @@ fn smoothstep(x: f32, lo: f32, hi: f32) -> f32 {
 /// read as a current).
 pub const CURRENT_DEADZONE_M_S: f32 = 0.01;
 
+/// Turn rate (rad/s) at which the current estimate learns at half its rate.
+pub const CURRENT_TURN_RATE_RAD_S: f32 = 0.1;
+
 /// Time constant of the low-pass on the current estimate (s).
 pub const CURRENT_TAU_S: f32 = 5.0;
 
@@ -230,8 +248,10 @@ impl super::CurrentObserver {
     /// `m11 u_dot = m22 v r - X(u) + tau_1 + d_x`, `m22 v_dot = -m11 u r - Y(v) + d_y`; the
     /// observer `d_hat = z + L M nu`, `z_dot = -L (d_hat + f_model + tau)` gives
     /// `d_hat_dot = L (d - d_hat)` without differentiating the velocity. A current `c_b`
-    /// (body) makes `d = D(nu) - D(nu - c_b)`, solved per axis for `c_b`, rotated to the
-    /// inertial frame and low-passed ([`CURRENT_TAU_S`]).
+    /// (body) makes `d = D(nu) - D(nu - c_b) + (m11 - m22) r [c_by, c_bx]` (drag on the
+    /// water-relative velocity, and the added mass of the current turning in the body
+    /// frame), solved per axis for `c_b` with the last estimate in the turning term, rotated
+    /// to the inertial frame and low-passed ([`CURRENT_TAU_S`]).
     pub(crate) fn update(
         &mut self,
         v: &Vehicle,
@@ -265,12 +285,20 @@ impl super::CurrentObserver {
         let zx = zx - dt * l * (dx + fx);
         let zy = zy - dt * l * (dy + fy);
         // d = D(nu) - D(nu - c)  =>  nu - c = D^-1(D(nu) - d).
-        let cbx = u - inv_drag(p.x_u, p.x_uu, xd - dx);
-        let cby = vv - inv_drag(p.y_v, p.y_vv, yd - dy);
+        // The turning current's added-mass force (`k r c_b`, `k = m11 - m22`) with the last
+        // estimate in the body frame.
+        let k = xy.m11 - xy.m22;
+        let [vx, vy] = self.vc;
+        let pbx = c * vx + s * vy;
+        let pby = -s * vx + c * vy;
+        let cbx = u - inv_drag(p.x_u, p.x_uu, xd - dx + k * r * pby);
+        let cby = vv - inv_drag(p.y_v, p.y_vv, yd - dy + k * r * pbx);
         let cx = c * cbx - s * cby;
         let cy = s * cbx + c * cby;
-        let k = dt / (CURRENT_TAU_S + dt);
-        let [vx, vy] = self.vc;
+        // Turning fast, the model's errors (thruster lag, roll, the turning current) read as
+        // a current: the estimate learns mostly from straight motion.
+        let turn = r / CURRENT_TURN_RATE_RAD_S;
+        let k = dt / ((CURRENT_TAU_S + dt) * (1.0 + turn * turn));
         let nvx = vx + k * (cx - vx);
         let nvy = vy + k * (cy - vy);
         let fin = |a: f32| if a.is_finite() { a } else { 0.0 };
@@ -290,7 +318,7 @@ pub fn hand(
 ) -> (f32, f32, f32, f32, f32) {
     let p = v.params();
     let xy = &v.xy;
-    let eps = g.hand_m;
+    let mut eps = g.hand_m;
     let (s, c) = sin_cos(nav.yaw_rad);
     let achieved = st.achieved;
     st.current
@@ -308,28 +336,52 @@ pub fn hand(
         clamp((sqrt(n2) - dz) / dz, 0.0, 1.0)
     };
     let vc_used = [blend * ccx, blend * ccy];
+    // In a current the reference is flown relative to the water (see below).
+    let in_current = blend > 0.0;
     let [vx, vy, _] = r.vel_m_s;
-    // Weight of the hand law (1) against the rest law (0), from the larger of the reference
-    // speeds over ground and relative to the water (estimated current): the hand law's yaw
-    // dynamics are stable when moving forward through the water, also when holding a point
-    // in a current. Without the current observer a current cannot be told from rest, and the
+    // Weight of the hand law (1) against the rest law (0), from the reference speed relative
+    // to the water (the estimated current; over ground in still water): the hand law steers
+    // the heading only through the motion through the water (its yaw dynamics have
+    // stiffness `Y_v U`, time constant `eps / U`), so where the water-relative speed is low
+    // (at rest; holding a point is not: there the water flows past) the heading is steered
+    // directly. Without the current observer a current cannot be told from rest, and the
     // hand law is used throughout.
     let (wx, wy) = (vx - vc_used[0], vy - vc_used[1]);
     let w2 = wx * wx + wy * wy;
     let sigma = if g.current_observer_rad_s > 0.0 {
-        // Both squares are NaN or neither (the estimate is finite), so `max` is `f32::max`.
-        smoothstep_sq(
-            crate::math::max(vx * vx + vy * vy, w2),
-            REST_SPEED_LO_M_S,
-            REST_SPEED_HI_M_S,
-        )
+        let hi = if in_current {
+            CURRENT_HAND_SPEED_M_S
+        } else {
+            REST_SPEED_HI_M_S
+        };
+        smoothstep_sq(w2, REST_SPEED_LO_M_S, hi)
     } else {
         1.0
     };
-    let course = course_of(r, wx, wy, w2);
+    // In a current the course relative to the water is held below a floor: there its
+    // direction is the estimate's noise (the vehicle drifts with the water and any heading
+    // is feasible), and the rest law keeps the heading instead of chasing it.
+    let usable = !in_current || w2 >= WATER_COURSE_FLOOR_M_S * WATER_COURSE_FLOOR_M_S;
+    let course = if usable {
+        course_of(r, wx, wy, w2)
+    } else {
+        None
+    };
+    let rest_dir = if !in_current {
+        rest_direction(r)
+    } else if usable {
+        Some([wx, wy])
+    } else {
+        None
+    };
     let (psi_r, psi_r1, psi_r2) =
         st.heading
-            .update(xy, course, [wx, wy], rest_direction(r), nav.yaw_rad, dt);
+            .update(xy, course, [wx, wy], rest_dir, nav.yaw_rad, dt);
+    if in_current {
+        // The heading follows the feasible heading with the time constant `eps / U` (yaw
+        // dynamics above): slow water lets the hand come closer to the origin.
+        eps = clamp(HAND_PER_WATER_SPEED_S * sqrt(w2), HAND_MIN_M, eps);
+    }
     // Current in the body frame, for the drag on the water-relative velocity.
     let [ux, uy] = vc_used;
     let vcb_x = c * ux + s * uy;
@@ -377,9 +429,14 @@ pub fn hand(
     let xd = (p.x_u + p.x_uu * ur.abs()) * ur;
     let yd = (p.y_v + p.y_vv * vr.abs()) * vr;
     let nd = (p.n_r + p.n_rr * rr.abs()) * rr;
-    let vdot = (-xy.m11 * u * rr - yd) / xy.m22;
-    let tau1 = xy.m11 * (bx + vs * rr) - xy.m22 * vv * rr + xd;
-    let tau2 = xy.m33 * (by - vdot - u * rr) / eps - (xy.m11 - xy.m22) * u * vv + nd;
+    // In a current: the added mass of the current turning in the body frame, and the Munk
+    // moment of the water-relative velocity (zero terms in still water).
+    let km = xy.m11 - xy.m22;
+    let (turn_x, turn_y) = (km * rr * vcb_y, km * rr * vcb_x);
+    let munk = km * ur * vr;
+    let vdot = (-xy.m11 * u * rr + turn_y - yd) / xy.m22;
+    let tau1 = xy.m11 * (bx + vs * rr) - xy.m22 * vv * rr - turn_x + xd;
+    let tau2 = xy.m33 * (by - vdot - u * rr) / eps - munk + nd;
     if sigma >= 1.0 {
         return (tau1, tau2, eox, eoy, wrap_angle(nav.yaw_rad - psi_r));
     }
@@ -392,8 +449,15 @@ pub fn hand(
     let aox = ax - g.xy_kd * (ox1 - vx) - g.xy_kp * ix_e - g.xy_ki * ix;
     let aoy = ay - g.xy_kd * (oy1 - vy) - g.xy_kp * iy_e - g.xy_ki * iy;
     let box_ = c * aox + s * aoy;
-    let tau1_rest = xy.m11 * (box_ + vv * rr) - xy.m22 * vv * rr + xd;
-    let chi0 = st.heading.rest_chi();
+    let tau1_rest = xy.m11 * (box_ + vv * rr) - xy.m22 * vv * rr - turn_x + xd;
+    // Near the point the heading is the path's direction; in a current the feasible heading
+    // relative to the water (weather-vaning when holding a point: into the current), with
+    // its rates as feedforward.
+    let (chi0, ff1, ff2) = if in_current {
+        (psi_r, psi_r1, psi_r2)
+    } else {
+        (st.heading.rest_chi(), 0.0, 0.0)
+    };
     let dist = sqrt(eox * eox + eoy * eoy);
     let w_los = smoothstep(dist, REST_LOS_NEAR_M, REST_LOS_FAR_M);
     let los = if dist > 0.0 { atan2(-eoy, -eox) } else { chi0 };
@@ -414,7 +478,8 @@ pub fn hand(
     };
     let psi_rest = chi0 + w_los * d_axis;
     let e_psi = wrap_angle(nav.yaw_rad - psi_rest);
-    let tau2_rest = xy.m33 * (-g.yaw_kp * e_psi - g.yaw_kd * rr) - (xy.m11 - xy.m22) * u * vv + nd;
+    let (ff1, ff2) = ((1.0 - w_los) * ff1, (1.0 - w_los) * ff2);
+    let tau2_rest = xy.m33 * (ff2 - g.yaw_kp * e_psi - g.yaw_kd * (rr - ff1)) - munk + nd;
     let k = 1.0 - sigma;
     let e_yaw = wrap_angle(nav.yaw_rad - (psi_r + k * wrap_angle(psi_rest - psi_r)));
     (
