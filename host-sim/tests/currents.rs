@@ -25,6 +25,14 @@ fn every_current_direction_up_to_0_3_m_s_is_tracked_within_5_cm_rms() {
     assert_eq!(cells.len(), 3 * 3 * 12);
     let mut over_max = Vec::new();
     for c in &cells {
+        eprintln!(
+            "{:13} {:.1} m/s from {:3.0} deg: RMS {:5.1} mm, max after 10 s {:5.1} mm",
+            c.path,
+            c.speed_m_s,
+            c.direction_deg,
+            c.rms_last80_m * 1e3,
+            c.max_after_10s_m * 1e3
+        );
         assert!(!c.nan, "{c:?}");
         assert!(c.max_thrust_n <= 20.0 + 1e-9, "{c:?}");
         assert!(c.rms_last80_m <= RMS_BOUND_M, "{c:?}");

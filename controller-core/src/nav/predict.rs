@@ -17,7 +17,7 @@
 use crate::math::{sin_cos, wrap_angle};
 use crate::params::Vehicle;
 use crate::state::{BodyForces, NavState};
-use heapless::HistoryBuffer;
+use heapless::Deque;
 
 /// Control steps of commanded forces kept (0.64 s at 100 Hz).
 pub const HISTORY_STEPS: usize = 64;
@@ -26,11 +26,17 @@ pub const HISTORY_STEPS: usize = 64;
 pub const MAX_DELAY_S: f32 = 0.5;
 
 /// The commanded forces of the last steps, and the delay to bridge.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct DelayCompensator {
     delay_s: f32,
     /// `[tau_1, tau_2]` of each past step, oldest first.
-    forces: HistoryBuffer<[f32; 2], HISTORY_STEPS>,
+    forces: Deque<[f32; 2], HISTORY_STEPS>,
+}
+
+impl PartialEq for DelayCompensator {
+    fn eq(&self, other: &Self) -> bool {
+        self.delay_s == other.delay_s && self.forces.iter().eq(other.forces.iter())
+    }
 }
 
 impl Default for DelayCompensator {
@@ -44,7 +50,7 @@ impl DelayCompensator {
     pub const fn new() -> Self {
         Self {
             delay_s: 0.0,
-            forces: HistoryBuffer::new(),
+            forces: Deque::new(),
         }
     }
 
@@ -74,11 +80,16 @@ impl DelayCompensator {
     /// Remember the forces commanded for the step that starts now.
     pub fn record(&mut self, forces: &BodyForces) {
         let f = [forces.surge_n, forces.yaw_n_m];
-        self.forces.write(if f[0].is_finite() && f[1].is_finite() {
+        let f = if f[0].is_finite() && f[1].is_finite() {
             f
         } else {
             [0.0, 0.0]
-        });
+        };
+        if self.forces.is_full() {
+            self.forces.pop_front();
+        }
+        // Cannot fail: there is room now.
+        let _ = self.forces.push_back(f);
     }
 
     /// The state now, from `nav` measured `delay_s` ago, stepping the model at `dt_s` (the
@@ -99,8 +110,8 @@ impl DelayCompensator {
         let (mut u, mut vv, mut r) = (nav.u_m_s, nav.v_m_s, nav.r_rad_s);
         let (mut s, mut c) = sin_cos(nav.yaw_rad);
         let mut turned = 0.0;
-        let skip = self.forces.len() - steps;
-        for &[t1, t2] in self.forces.oldest_ordered().skip(skip) {
+        let skip = self.forces.len().saturating_sub(steps);
+        for &[t1, t2] in self.forces.iter().skip(skip) {
             let xd = (p.x_u + p.x_uu * u.abs()) * u;
             let yd = (p.y_v + p.y_vv * vv.abs()) * vv;
             let nd = (p.n_r + p.n_rr * r.abs()) * r;

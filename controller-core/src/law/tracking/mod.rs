@@ -201,6 +201,8 @@ pub(crate) struct CurrentObserver {
     z: [f32; 2],
     /// Filtered current estimate, inertial `[cx, cy]`, m/s.
     pub(crate) vc: [f32; 2],
+    /// Surge force the thrusters deliver (the command through their lag), N.
+    surge_n: f32,
 }
 
 impl TrackingState {

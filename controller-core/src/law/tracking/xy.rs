@@ -174,10 +174,6 @@ pub const REST_LOS_FAR_M: f32 = 0.2;
 /// Hysteresis (rad) of the rest law's choice between approaching forwards and backwards.
 pub const REST_REVERSE_HYST_RAD: f32 = 0.2;
 
-/// In a current: water-relative reference speed (m/s) above which the XY law is entirely the
-/// hand law (its heading settles with the time constant `eps / U`: 1.3 s here).
-pub const CURRENT_HAND_SPEED_M_S: f32 = 0.15;
-
 /// In a current: the hand distance per unit of water-relative reference speed (s), at least
 /// [`HAND_MIN_M`] and at most the gain `hand_m`. The yaw dynamics need `eps > 0.28 U`.
 pub const HAND_PER_WATER_SPEED_S: f32 = 0.8;
@@ -221,7 +217,7 @@ fn smoothstep(x: f32, lo: f32, hi: f32) -> f32 {
 pub const CURRENT_DEADZONE_M_S: f32 = 0.01;
 
 /// Turn rate (rad/s) at which the current estimate learns at half its rate.
-pub const CURRENT_TURN_RATE_RAD_S: f32 = 0.1;
+pub const CURRENT_TURN_RATE_RAD_S: f32 = 0.2;
 
 /// Time constant of the low-pass on the current estimate (s).
 pub const CURRENT_TAU_S: f32 = 5.0;
@@ -277,7 +273,10 @@ impl super::CurrentObserver {
         }
         let xd = (p.x_u + p.x_uu * u.abs()) * u;
         let yd = (p.y_v + p.y_vv * vv.abs()) * vv;
-        let fx = xy.m22 * vv * r - xd + achieved.surge_n;
+        // The thrusters deliver the commanded surge force through their first-order lag.
+        let lag = p.thruster_time_constant_s;
+        self.surge_n += (achieved.surge_n - self.surge_n) * dt / (lag + dt);
+        let fx = xy.m22 * vv * r - xd + self.surge_n;
         let fy = -xy.m11 * u * r - yd;
         let [zx, zy] = self.z;
         let dx = zx + l * mx;
@@ -349,12 +348,7 @@ pub fn hand(
     let (wx, wy) = (vx - vc_used[0], vy - vc_used[1]);
     let w2 = wx * wx + wy * wy;
     let sigma = if g.current_observer_rad_s > 0.0 {
-        let hi = if in_current {
-            CURRENT_HAND_SPEED_M_S
-        } else {
-            REST_SPEED_HI_M_S
-        };
-        smoothstep_sq(w2, REST_SPEED_LO_M_S, hi)
+        smoothstep_sq(w2, REST_SPEED_LO_M_S, REST_SPEED_HI_M_S)
     } else {
         1.0
     };
