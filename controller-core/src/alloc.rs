@@ -62,20 +62,13 @@ pub fn allocate(request: &BodyForces, limits: &ThrusterLimits) -> Allocation {
     let fwd = limits.max_forward_n;
     let rev = limits.max_reverse_n;
     let l = limits.lever_arm_m;
-    // One finiteness test for the three requests in the common case: a sum is finite only if
-    // every term is (an infinity or NaN propagates); otherwise (or on overflow) per value.
-    let all_finite = (request.yaw_n_m + request.surge_n + request.heave_n).is_finite();
-    let (yaw_req, s_req, h_req, finite) = if all_finite {
-        (request.yaw_n_m, request.surge_n, request.heave_n, true)
-    } else {
-        let finite_or_zero = |x: f32| if x.is_finite() { x } else { 0.0 };
-        (
-            finite_or_zero(request.yaw_n_m),
-            finite_or_zero(request.surge_n),
-            finite_or_zero(request.heave_n),
-            request.is_finite(),
-        )
-    };
+    let finite_or_zero = |x: f32| if x.is_finite() { x } else { 0.0 };
+    let (yaw_req, s_req, h_req, finite) = (
+        finite_or_zero(request.yaw_n_m),
+        finite_or_zero(request.surge_n),
+        finite_or_zero(request.heave_n),
+        request.is_finite(),
+    );
     // Differential thrust d = F1 - F2, limited to what the pair can make.
     let d_req = yaw_req / l;
     let d_max = fwd + rev;
@@ -192,13 +185,11 @@ impl PwmMap {
                 y
             }
         };
-        // Zero, NaN and the infinities give neutral: one integer test on the magnitude bits
-        // (the float comparisons compile to several integer class checks).
-        let bits = thrust_n.to_bits();
-        if (bits & 0x7fff_ffff).wrapping_sub(1) >= 0x7f7f_ffff {
+        // Zero, NaN and the infinities give neutral.
+        if !thrust_n.is_finite() || thrust_n == 0.0 {
             return self.neutral_us;
         }
-        if bits >> 31 == 0 {
+        if thrust_n > 0.0 {
             let y = min(thrust_n / self.max_forward_n, 1.0);
             let lo = self.neutral_us + self.deadband_us;
             lo + x_of(y) * (self.max_us - lo)

@@ -47,36 +47,6 @@ pub fn sin_cos(x: f32) -> (f32, f32) {
     }
 }
 
-/// [`sin_cos_small`] of `clamp_keep_nan(x, -lim, lim)` with that clamped value, for
-/// `pi/4 <= lim` (one magnitude test in the common case |x| <= pi/4, where the clamp keeps
-/// `x` and the polynomials take it directly). Bit-identical to the two calls.
-#[inline(always)]
-pub fn clamp_sin_cos_small(x: f32, lim: f32) -> (f32, (f32, f32)) {
-    if x.abs() <= FRAC_PI_4 {
-        let z = x * x;
-        (x, (sin_poly(x, z), cos_poly(z)))
-    } else {
-        // |x| > pi/4 or NaN: the clamped value is beyond pi/4 or NaN, where `sin_cos_small`
-        // is `sin_cos`.
-        let b = clamp_keep_nan(x, -lim, lim);
-        (b, sin_cos(b))
-    }
-}
-
-/// [`sin_cos`] for angles that are usually small (pitch, roll, sideslip): for |x| <= pi/4 the
-/// range reduction is skipped and the polynomials take `x` itself, otherwise [`sin_cos`].
-/// Bit-identical to [`sin_cos`] except near |x| = pi/4, where `sin_cos`'s rounding of
-/// `x 2/pi` may pick the next quadrant; both are then within 1 ulp of each other (tested).
-#[inline]
-pub fn sin_cos_small(x: f32) -> (f32, f32) {
-    if x.abs() <= FRAC_PI_4 {
-        let z = x * x;
-        (sin_poly(x, z), cos_poly(z))
-    } else {
-        sin_cos(x)
-    }
-}
-
 /// Sine of `x` (radians). See [`sin_cos`].
 #[inline]
 pub fn sin(x: f32) -> f32 {
@@ -115,9 +85,8 @@ pub fn atan2(y: f32, x: f32) -> f32 {
     } else {
         (ay, ax, false)
     };
-    // `den` (>= +0 or NaN) positive and finite, as one integer test on its bits (the float
-    // comparisons compile to several class checks): `num / den` is in [0, 1] (or NaN).
-    if den.to_bits().wrapping_sub(1) >= 0x7f7f_ffff {
+    // `den` (>= +0 or NaN) positive and finite: `num / den` is in [0, 1] (or NaN).
+    if den.is_nan() || den <= 0.0 || den.is_infinite() {
         return atan2_special(y, x);
     }
     // atan(num/den) in [0, pi/4]: above tan(pi/8) as pi/4 + atan((n - d)/(n + d)).
@@ -222,27 +191,6 @@ fn asin_poly(x: f32) -> f32 {
         + x
 }
 
-/// `(asin(x), sin_cos_small(asin(x)))`, bit for bit: for |x| <= 0.5 the arcsine is below
-/// pi/6 in magnitude, so the sine and cosine polynomials take it without `sin_cos_small`'s
-/// range test.
-#[inline]
-pub fn asin_sin_cos(x: f32) -> (f32, (f32, f32)) {
-    if x.abs() <= 0.5 {
-        let t = asin_poly(x);
-        let z = t * t;
-        (t, (sin_poly(t, z), cos_poly(z)))
-    } else {
-        asin_sin_cos_big(x)
-    }
-}
-
-/// [`asin_sin_cos`] for |x| > 0.5 or NaN.
-#[inline(never)]
-fn asin_sin_cos_big(x: f32) -> (f32, (f32, f32)) {
-    let t = asin_big(x);
-    (t, sin_cos_small(t))
-}
-
 /// [`asin`] for |x| > 0.5 or NaN.
 #[inline(never)]
 fn asin_big(x: f32) -> f32 {
@@ -302,10 +250,6 @@ fn exp_mid(x: f32) -> f32 {
 /// Wrap an angle to (-pi, pi].
 #[inline]
 pub fn wrap_angle(a: f32) -> f32 {
-    // Common case, one comparison (false for NaN and at +-pi, handled below).
-    if a.abs() < PI {
-        return a;
-    }
     if (-PI..=PI).contains(&a) {
         if a == -PI {
             return PI;
@@ -394,7 +338,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn asin_poly_on_x_matches_copysign_form_and_asin_sin_cos_matches_parts() {
+    fn asin_poly_on_x_matches_copysign_form() {
         // The polynomial on |x| with the sign put back (the form `asin_poly` replaced).
         let old = |x: f32| {
             let a = x.abs();
@@ -416,68 +360,7 @@ mod tests {
             if x.abs() <= 0.5 {
                 assert_eq!(asin(x).to_bits(), old(x).to_bits(), "{x}");
             }
-            let (t, (s, c)) = asin_sin_cos(x);
-            let (s2, c2) = sin_cos_small(asin(x));
-            assert_eq!(t.to_bits(), asin(x).to_bits(), "{x}");
-            assert_eq!(
-                (s.to_bits(), c.to_bits()),
-                (s2.to_bits(), c2.to_bits()),
-                "{x}"
-            );
         }
-        let (t, (s, c)) = asin_sin_cos(f32::NAN);
-        assert_eq!(t.to_bits(), asin(f32::NAN).to_bits());
-        let (s2, c2) = sin_cos_small(asin(f32::NAN));
-        assert_eq!((s.to_bits(), c.to_bits()), (s2.to_bits(), c2.to_bits()));
-    }
-
-    #[test]
-    fn clamp_sin_cos_small_matches_clamp_then_sin_cos_small() {
-        // Bit for bit against the two calls it replaces, over and beyond the clamp.
-        let lim = 0.8;
-        let bits = |(b, (s, c)): (f32, (f32, f32))| (b.to_bits(), s.to_bits(), c.to_bits());
-        let n = 200_000;
-        let mut xs: Vec<f32> = (0..=n).map(|i| -3.0 + 6.0 * i as f32 / n as f32).collect();
-        xs.extend([
-            0.0,
-            -0.0,
-            FRAC_PI_4,
-            -FRAC_PI_4,
-            lim,
-            -lim,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            f32::NAN,
-            1.0e-40,
-        ]);
-        for x in xs {
-            let b = clamp_keep_nan(x, -lim, lim);
-            let want = bits((b, sin_cos_small(b)));
-            assert_eq!(bits(clamp_sin_cos_small(x, lim)), want, "{x}");
-        }
-    }
-
-    #[test]
-    fn sin_cos_small_matches_sin_cos() {
-        // Densely over [-2, 2] rad: the fast path (|x| <= pi/4) and the fallback. Bit for bit
-        // except within 1e-6 rad of pi/4, where the two may differ by 1 ulp.
-        let n = 400_000;
-        let ulp = |a: f32, b: f32| (a.to_bits() as i64 - b.to_bits() as i64).abs();
-        for i in 0..=n {
-            let x = -2.0 + 4.0 * i as f32 / n as f32;
-            let (a, b) = (sin_cos_small(x), sin_cos(x));
-            let edge = (x.abs() - FRAC_PI_4).abs() < 1e-6;
-            let tol = if edge { 1 } else { 0 };
-            assert!(
-                ulp(a.0, b.0) <= tol && ulp(a.1, b.1) <= tol,
-                "{x}: {a:?} {b:?}"
-            );
-        }
-        for x in [FRAC_PI_4, -FRAC_PI_4] {
-            let (a, b) = (sin_cos_small(x), sin_cos(x));
-            assert!(ulp(a.0, b.0) <= 1 && ulp(a.1, b.1) <= 1, "{x}");
-        }
-        assert!(sin_cos_small(f32::NAN).0.is_nan());
     }
 
     #[test]

@@ -19,7 +19,7 @@
 
 use super::tracking::{depth, TrackingGains, TrackingState};
 use crate::alloc::ThrusterLimits;
-use crate::math::{sin_cos_small, wrap_angle};
+use crate::math::{sin_cos, wrap_angle};
 use crate::params::Vehicle;
 use crate::reference::RefSample;
 use crate::state::{BodyForces, NavState, TrackingErrors};
@@ -99,8 +99,8 @@ pub fn step(
     };
 
     let heave_n = if hold_depth && centred(sticks.heave) {
-        let (sth, cth) = sin_cos_small(nav.pitch_rad);
-        let (sf, cf) = sin_cos_small(nav.roll_rad);
+        let (sth, cth) = sin_cos(nav.pitch_rad);
+        let (sf, cf) = sin_cos(nav.roll_rad);
         let z_dot = -sth * nav.u_m_s + cth * sf * nav.v_m_s + cth * cf * nav.w_m_s;
         let z_h = match hold.depth_m {
             Some(h) => h,

@@ -10,7 +10,7 @@
 //! heave thruster saturates.
 
 use super::{integrate, sat, TrackingGains, TrackingState};
-use crate::math::{max, sin_cos_small};
+use crate::math::{max, sin_cos};
 use crate::params::Vehicle;
 use crate::reference::RefSample;
 use crate::state::NavState;
@@ -24,7 +24,7 @@ pub fn depth(
     r: &RefSample,
     dt: f32,
 ) -> (f32, f32) {
-    depth_with(v, g, st, nav, r, dt, sin_cos_small(nav.pitch_rad))
+    depth_with(v, g, st, nav, r, dt, sin_cos(nav.pitch_rad))
 }
 
 /// [`depth`] with `(sin, cos)` of the pitch already computed by the caller.
@@ -40,7 +40,7 @@ pub(crate) fn depth_with(
 ) -> (f32, f32) {
     let p = v.params();
     let c = &v.xz;
-    let (sf, cf) = sin_cos_small(nav.roll_rad);
+    let (sf, cf) = sin_cos(nav.roll_rad);
     let (u, vv, w, q) = (nav.u_m_s, nav.v_m_s, nav.w_m_s, nav.q_rad_s);
     let [_, _, zr] = r.pos_m;
     let [_, _, vzr] = r.vel_m_s;

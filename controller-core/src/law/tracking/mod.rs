@@ -177,9 +177,6 @@ pub struct TrackingState {
     z_int: f32,
     /// The pitch demand was in its limit last step.
     pitch_limited: bool,
-    /// XZ: sine and cosine of the last step's feasible pitch, the start of this step's
-    /// fixed-point pass ([`crate::reference::feasible::pitch_xz`]).
-    pitch_ref_sc: Option<(f32, f32)>,
     /// Last allocation clamped the surge force.
     surge_sat: bool,
     /// Last allocation clamped the yaw moment.
@@ -217,10 +214,7 @@ impl TrackingState {
         };
         self.surge_sat = off(requested.surge_n, achieved.surge_n);
         self.yaw_sat = off(requested.yaw_n_m, achieved.yaw_n_m);
-        // The allocation passes an unclamped heave force through unchanged: a zero difference
-        // (both finite and equal) is within the tolerance, one comparison.
-        let (rh, ah) = (requested.heave_n, achieved.heave_n);
-        self.heave_sat = rh - ah != 0.0 && off(rh, ah);
+        self.heave_sat = off(requested.heave_n, achieved.heave_n);
         self.achieved = *achieved;
     }
 
@@ -239,9 +233,7 @@ impl TrackingState {
 /// and it is capped at 1 s.
 #[inline]
 pub(crate) fn clean_dt(dt_s: f32) -> f32 {
-    // Positive and finite (subnormals included): the bits lie in [1, 0x7f80_0000), one
-    // integer test (`is_finite` and `> 0.0` compile to several class checks).
-    if dt_s.to_bits().wrapping_sub(1) < 0x7f7f_ffff {
+    if dt_s.is_finite() && dt_s > 0.0 {
         crate::math::min(dt_s, 1.0)
     } else {
         0.0
@@ -253,11 +245,6 @@ pub(crate) fn clean_dt(dt_s: f32) -> f32 {
 #[inline]
 pub(crate) fn integrate(i: f32, e: f32, dt: f32, frozen: bool, limit: f32) -> f32 {
     let next = i + e * dt;
-    // Common case first: not frozen and strictly inside the limit (so finite): the clamp and
-    // the finiteness test below would both return `next`.
-    if !frozen && next.abs() < limit {
-        return next;
-    }
     let next = if frozen && next.abs() > i.abs() {
         i
     } else {
@@ -274,10 +261,7 @@ pub(crate) fn integrate(i: f32, e: f32, dt: f32, frozen: bool, limit: f32) -> f3
 /// Limit a scalar error to `+-l`.
 #[inline]
 pub(crate) fn sat(e: f32, l: f32) -> f32 {
-    // Strictly inside (false for NaN): the clamp would return `e` (same bits).
-    if e.abs() < l {
-        e
-    } else if e.is_nan() {
+    if e.is_nan() {
         0.0
     } else {
         crate::math::clamp(e, -l, l)
@@ -313,7 +297,7 @@ pub fn step_xz(
     dt_s: f32,
 ) -> LawOutput {
     let dt = clean_dt(dt_s);
-    let pitch_sc = crate::math::sin_cos_small(nav.pitch_rad);
+    let pitch_sc = crate::math::sin_cos(nav.pitch_rad);
     let (heave_n, ez) = depth::depth_with(v, g, st, nav, r, dt, pitch_sc);
     let (surge_n, pitch_err) = xz::surge(v, g, st, nav, r, heave_n, dt, pitch_sc);
     let yaw_n_m = xz::yaw_hold(v, g, nav);

@@ -46,14 +46,12 @@ fn filt_gain(dt: f32) -> f32 {
 
 impl HeadingRef {
     /// Advance the generator with the water-relative course `course` (`None` below the speed
-    /// floor) of the velocity `course_vec` and the direction of the reference motion
-    /// `rest_dir` (see [`rest_direction`]); `dt` must be clean ([`super::clean_dt`]).
+    /// floor) and the direction of the reference motion `rest_dir` (see [`rest_direction`]); `dt` must be clean ([`super::clean_dt`]).
     /// Returns `(psi_r, psi_r_dot, psi_r_ddot)`.
     pub(crate) fn update(
         &mut self,
         xy: &XyCoeffs,
         course: Option<Course>,
-        course_vec: [f32; 2],
         rest_dir: Option<[f32; 2]>,
         yaw: f32,
         dt: f32,
@@ -81,20 +79,9 @@ impl HeadingRef {
             };
         }
         if let Some(d) = rest_dir {
-            // Without a current the rest direction is the velocity the course was taken of:
-            // the same bits give the same arctangent, so keep the course's angle (no second
-            // `atan2` where the rest law runs). Otherwise the vector, its angle taken when used.
-            let same = |a: f32, b: f32| a.to_bits() == b.to_bits();
-            match course {
-                Some(c) if same(d[0], course_vec[0]) && same(d[1], course_vec[1]) => {
-                    self.rest_chi = c.chi_rad;
-                    self.rest_from_vec = false;
-                }
-                _ => {
-                    self.rest_vec = d;
-                    self.rest_from_vec = true;
-                }
-            }
+            // The vector; its angle is taken when the rest law uses it.
+            self.rest_vec = d;
+            self.rest_from_vec = true;
         }
         let k = filt_gain(dt);
         self.beta_qs_dot = filt(self.beta_qs, self.beta_qs_dot, bqs, dt, k);
@@ -105,15 +92,8 @@ impl HeadingRef {
         self.beta_dot = beta_dot;
         self.beta = beta;
         self.chi = chi;
-        let (b0, b1, b2) = (self.beta, self.beta_dot, self.beta_ddot);
-        // One finiteness test for the three in the common case: a sum is finite only if every
-        // term is (an infinity or NaN propagates); otherwise (or on overflow) per value.
-        let (b0, b1, b2) = if (b0 + b1 + b2).is_finite() {
-            (b0, b1, b2)
-        } else {
-            let ok = |x: f32| if x.is_finite() { x } else { 0.0 };
-            (ok(b0), ok(b1), ok(b2))
-        };
+        let ok = |x: f32| if x.is_finite() { x } else { 0.0 };
+        let (b0, b1, b2) = (ok(self.beta), ok(self.beta_dot), ok(self.beta_ddot));
         (wrap_angle(chi - b0), chi1 - b1, chi2 - b2)
     }
 
@@ -134,14 +114,10 @@ impl HeadingRef {
 /// derivative (velocity, acceleration, jerk): a reference starting from rest moves first along
 /// its acceleration and jerk. `None` when all vanish. (Norms compared squared: no root.)
 fn rest_direction(r: &RefSample) -> Option<[f32; 2]> {
-    // `n2` is +0 or more, or NaN: for such bits the integer order is the float order, so
-    // "finite and above the floor" is two integer comparisons (`is_finite` is a class check).
-    const FLOOR2_BITS: u32 = (REST_DIRECTION_FLOOR * REST_DIRECTION_FLOOR).to_bits();
-    // The three in turn, read in place (a loop over an array of the three copies them).
     let usable = |v: &[f32; 3]| {
         let [x, y, _] = *v;
-        let n2 = (x * x + y * y).to_bits();
-        n2 > FLOOR2_BITS && n2 < f32::INFINITY.to_bits()
+        let n2 = x * x + y * y;
+        n2 > REST_DIRECTION_FLOOR * REST_DIRECTION_FLOOR && n2.is_finite()
     };
     let pick = if usable(&r.vel_m_s) {
         &r.vel_m_s
@@ -368,9 +344,7 @@ pub fn hand(
     } else {
         None
     };
-    let (psi_r, psi_r1, psi_r2) =
-        st.heading
-            .update(xy, course, [wx, wy], rest_dir, nav.yaw_rad, dt);
+    let (psi_r, psi_r1, psi_r2) = st.heading.update(xy, course, rest_dir, nav.yaw_rad, dt);
     if in_current {
         // The heading follows the feasible heading with the time constant `eps / U` (yaw
         // dynamics above): slow water lets the hand come closer to the origin.

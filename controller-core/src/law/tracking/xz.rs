@@ -18,7 +18,7 @@
 //! `tau_1` through the coupled mass matrix.
 
 use super::{integrate, sat, TrackingGains, TrackingState};
-use crate::math::{asin_sin_cos, tanh, wrap_angle};
+use crate::math::{asin, sqrt, tanh, wrap_angle};
 use crate::params::Vehicle;
 use crate::reference::feasible::pitch_xz_sc;
 use crate::reference::RefSample;
@@ -60,11 +60,7 @@ pub fn surge(
     let [vxr, _, _] = r.vel_m_s;
     let [axr, _, _] = r.acc_m_s2;
     let [jxr, _, _] = r.jerk_m_s3;
-    // One fixed-point pass from the last step's feasible pitch (from 0 at a start: within
-    // about 0.03 of the pitch there, and the next passes contract from it).
-    let start = st.pitch_ref_sc.unwrap_or((0.0, 1.0));
-    let (pr, (sr, cr)) = pitch_xz_sc(c, zx, grav, r, Some(start));
-    st.pitch_ref_sc = Some((sr, cr));
+    let (pr, (sr, cr)) = pitch_xz_sc(c, zx, grav, r);
     let x1r = xr + alpha * sr;
     let x1r_dot = vxr + alpha * cr * pr.theta_dot;
     let x1r_ddot = axr + alpha * (cr * pr.theta_ddot - sr * pr.theta_dot * pr.theta_dot);
@@ -93,9 +89,9 @@ pub fn surge(
     } else {
         (-2.0 * (a_d1 + munk1) / grav, -2.0 * (a_d2 + munk2) / grav)
     };
-    // `|y| <= 0.95` (NaN went to 0 in `sat`), so `sqrt(1 - y^2) >= 0.31` is `cos(asin(y))`,
-    // which the arcsine's cosine polynomial gives without a square root.
-    let (asin_y, (_, root)) = asin_sin_cos(y);
+    // `|y| <= 0.95` (NaN went to 0 in `sat`), so `sqrt(1 - y^2) >= 0.31`.
+    let asin_y = asin(y);
+    let root = sqrt(1.0 - y * y);
     let th_u = 0.5 * asin_y;
     let th_u1 = 0.5 * y1 / root;
     let th_u2 = 0.5 * (y2 / root + y * y1 * y1 / (root * root * root));
