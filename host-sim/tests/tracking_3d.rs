@@ -72,7 +72,10 @@ fn tracking_3d_helix() {
 #[test]
 fn tracking_3d_fast_line_from_offset_and_fast_circle() {
     for (v, line_final, line_rms, circle_rms) in
-        [(0.5f32, 0.004, 0.012, 1e-4), (1.0, 0.035, 0.03, 3e-4)]
+        // The 0.5 m/s line's RMS bound went from 12 to 13 mm with issue 14's current handling
+        // (11.8 -> 12.1 mm: the start transient reads briefly as a current; the issue allows
+        // still water 1 mm worse).
+        [(0.5f32, 0.004, 0.013, 1e-4), (1.0, 0.035, 0.03, 3e-4)]
     {
         let line = Reference::Line {
             start_m: [0.0, 0.0, 1.0],
