@@ -150,7 +150,10 @@ fn tracking_xz_paper_current_and_buoyancy() {
 
 #[test]
 fn tracking_xy_paper_current() {
-    // Measured: RMS 0.046 m, final 0.0013 m (off); RMS 0.032 m, final 0.0053 m (on).
+    // Measured: RMS 0.046 m, final 0.0013 m (off); RMS 0.032 m, final 0.0053 m (on) before
+    // issue 14's current handling, RMS 0.019 m, final 0.0086 m (on) after: the reference ends
+    // in a hold, and holding a point in a current leaves a +-0.15 rad weather-vane swing
+    // (docs/tracking.md), so the last sample moved out while the RMS came down.
     let (off, on) = both(
         "XY paper reference, current [0, -0.2, 0] m/s",
         ControlMode::TrackingXy,
@@ -160,10 +163,10 @@ fn tracking_xy_paper_current() {
         env([0.0, -0.2, 0.0]),
         120.0,
         0.05,
-        0.036,
+        0.02,
     );
     assert!(off.final_err_m <= 0.002, "{off:?}");
-    assert!(on.final_err_m <= 0.006, "{on:?}");
+    assert!(on.final_err_m <= 0.01, "{on:?}");
 }
 
 #[test]
