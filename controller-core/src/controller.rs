@@ -145,9 +145,10 @@ impl Controller {
     }
 
     /// Tell the controller how late its navigation states are (s, 0 to
-    /// [`crate::nav::predict::MAX_DELAY_S`]): [`step`](Self::step) then predicts the state through the
-    /// model over the delay with the forces it commanded ([`crate::nav::predict`]). A non-finite or
-    /// out-of-range delay is refused and nothing changes.
+    /// [`crate::nav::predict::MAX_DELAY_S`]): [`step`](Self::step) then predicts the state
+    /// through the model over the delay with the forces it commanded
+    /// ([`crate::nav::predict`]). A non-finite or out-of-range delay is refused and nothing
+    /// changes.
     pub fn set_measurement_delay_s(&mut self, delay_s: f32) -> Result<(), Error> {
         self.delay.set_delay_s(delay_s)
     }

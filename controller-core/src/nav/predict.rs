@@ -1,20 +1,14 @@
 //! Prediction of a late navigation state through the model (issue 14): a measurement that is
 //! `delay_s` old describes where the vehicle was; the laws need where it is.
 //!
-//! The horizontal state is integrated forward over the delay with the planar model of
-//! `MODEL_NOTES` (the XY equations the tracking law inverts),
-//! ```text
-//! m11 u_dot = m22 v r - X(u) + tau_1
-//! m22 v_dot = -m11 u r - Y(v)
-//! m33 r_dot = (m11 - m22) u v - N(r) + tau_2
-//! x_dot = u cos psi - v sin psi,   y_dot = u sin psi + v cos psi,   psi_dot = r
-//! ```
-//! driven by the surge force and yaw moment the controller really commanded over that time
-//! (a ring of the last [`HISTORY_STEPS`] steps); depth moves with the heave velocity, pitch
-//! and roll are kept. Semi-implicit Euler at the control period; the heading is rotated
-//! incrementally (no trigonometry inside the loop) and the heading is the sum of the turns.
+//! The horizontal state is integrated forward over the delay with the planar XY model
+//! ([`crate::model::xy`], the equations the tracking law inverts), driven by the surge force
+//! and yaw moment the controller really commanded over that time (the last
+//! [`HISTORY_STEPS`] steps); depth moves with the heave velocity, pitch and roll are kept.
+//! Euler steps of the control period.
 
-use crate::math::{sin_cos, wrap_angle};
+use crate::math::wrap_angle;
+use crate::model::{axpy, xy};
 use crate::params::Vehicle;
 use crate::state::{BodyForces, NavState};
 use heapless::Deque;
@@ -104,37 +98,24 @@ impl DelayCompensator {
         if steps == 0 {
             return *nav;
         }
-        let p = v.params();
-        let xy = &v.xy;
-        let (mut x, mut y) = (nav.x_m, nav.y_m);
-        let (mut u, mut vv, mut r) = (nav.u_m_s, nav.v_m_s, nav.r_rad_s);
-        let (mut s, mut c) = sin_cos(nav.yaw_rad);
-        let mut turned = 0.0;
         let skip = self.forces.len().saturating_sub(steps);
-        for &[t1, t2] in self.forces.iter().skip(skip) {
-            let xd = (p.x_u + p.x_uu * u.abs()) * u;
-            let yd = (p.y_v + p.y_vv * vv.abs()) * vv;
-            let nd = (p.n_r + p.n_rr * r.abs()) * r;
-            let du = (xy.m22 * vv * r - xd + t1) / xy.m11;
-            let dv = (-xy.m11 * u * r - yd) / xy.m22;
-            let dr = ((xy.m11 - xy.m22) * u * vv - nd + t2) / xy.m33;
-            u += du * dt_s;
-            vv += dv * dt_s;
-            r += dr * dt_s;
-            x += (c * u - s * vv) * dt_s;
-            y += (s * u + c * vv) * dt_s;
-            let a = r * dt_s;
-            turned += a;
-            (s, c) = (s + c * a, c - s * a);
+        let mut st = nav.xy();
+        for &[surge_n, yaw_n_m] in self.forces.iter().skip(skip) {
+            let f = BodyForces {
+                surge_n,
+                yaw_n_m,
+                heave_n: 0.0,
+            };
+            st = axpy(&st, dt_s, &xy::derivative(v, &st, &f));
         }
         let out = NavState {
-            x_m: x,
-            y_m: y,
+            x_m: st.x_m,
+            y_m: st.y_m,
             z_m: nav.z_m + nav.w_m_s * self.delay_s,
-            yaw_rad: wrap_angle(nav.yaw_rad + turned),
-            u_m_s: u,
-            v_m_s: vv,
-            r_rad_s: r,
+            yaw_rad: wrap_angle(st.yaw_rad),
+            u_m_s: st.u_m_s,
+            v_m_s: st.v_m_s,
+            r_rad_s: st.r_rad_s,
             ..*nav
         };
         if out.is_finite() {

@@ -46,7 +46,8 @@ fn filt_gain(dt: f32) -> f32 {
 
 impl HeadingRef {
     /// Advance the generator with the water-relative course `course` (`None` below the speed
-    /// floor) and the direction of the reference motion `rest_dir` (see [`rest_direction`]); `dt` must be clean ([`super::clean_dt`]).
+    /// floor) and the direction of the reference motion `rest_dir` (see
+    /// [`rest_direction`]); `dt` must be clean ([`super::clean_dt`]).
     /// Returns `(psi_r, psi_r_dot, psi_r_ddot)`.
     pub(crate) fn update(
         &mut self,
