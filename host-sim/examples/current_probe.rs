@@ -1,7 +1,8 @@
 //! Development probe for the tracking law in a current: one scenario flown in a current of a
 //! given speed and direction (relative to the path's first course, as `current-sweep`), with
-//! a time series of the true position error, the yaw, the law's yaw error and its current
-//! estimate; or, with `sweep`, the whole current sweep as a table.
+//! a time series of the true position error, the yaw, the law's yaw error, its current
+//! estimate, the reference speed through the water and the feasible heading (course and
+//! sideslip); or, with `sweep`, the whole current sweep as a table.
 //!
 //! ```text
 //! cargo run -p host-sim --release --example current_probe -- circle-3d 0.3 90 [every_s]
@@ -21,6 +22,10 @@ use host_sim::sim_loop::{
 struct Probe {
     inner: CoreEndpoint,
     estimates: Vec<[f32; 2]>,
+    /// The reference velocity (horizontal) and the law's feasible heading `[course,
+    /// sideslip]`, per step.
+    ref_vel: Vec<[f32; 2]>,
+    heading: Vec<[f32; 2]>,
 }
 
 impl ControllerEndpoint for Probe {
@@ -32,6 +37,13 @@ impl ControllerEndpoint for Probe {
             .tracking_state()
             .current_estimate_m_s();
         self.estimates.push(c);
+        self.ref_vel.push([r.vel_m_s[0], r.vel_m_s[1]]);
+        let h = self
+            .inner
+            .controller()
+            .tracking_state()
+            .feasible_heading_rad();
+        self.heading.push(h);
         Ok(reply)
     }
 }
@@ -85,6 +97,8 @@ fn main() -> Result<()> {
     let mut probe = Probe {
         inner: CoreEndpoint::for_scenario(&sc)?,
         estimates: Vec::new(),
+        ref_vel: Vec::new(),
+        heading: Vec::new(),
     };
     let mut nav = navigation_for(&sc, None)?;
     let out = run_closed_loop(&sc, &opts, nav.as_mut(), &mut probe)?;
@@ -98,19 +112,28 @@ fn main() -> Result<()> {
         s.nan_detected
     );
     let mut next = 0.0;
-    for (x, c) in out.log.iter().zip(&probe.estimates) {
+    let per_step = probe
+        .estimates
+        .iter()
+        .zip(&probe.ref_vel)
+        .zip(&probe.heading);
+    for (x, ((c, v), h)) in out.log.iter().zip(per_step) {
         if x.t_s + 1e-9 >= next {
             next += every;
             println!(
-                "t {:6.1} s  error {:6.1} mm ({:6.1}, {:6.1})  yaw {:6.2}  yaw error {:6.2}  current estimate ({:5.2}, {:5.2}) m/s",
+                "t {:6.1} s  error {:6.1} mm ({:6.1}, {:6.1})  yaw {:6.2}  yaw error {:6.2}  yaw rate {:5.2}  current estimate ({:5.2}, {:5.2}) m/s  reference through the water {:5.3} m/s  course {:5.2}  sideslip {:5.2}",
                 x.t_s,
                 x.pos_err_norm_m * 1e3,
                 x.pos_err_m[0] * 1e3,
                 x.pos_err_m[1] * 1e3,
                 x.state.eta[5],
                 x.angle_err_rad,
+                x.state.nu[5],
                 c[0],
-                c[1]
+                c[1],
+                (v[0] - c[0]).hypot(v[1] - c[1]),
+                h[0],
+                h[1]
             );
         }
     }

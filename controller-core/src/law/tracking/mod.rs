@@ -223,6 +223,12 @@ impl TrackingState {
         [self.xy_int[0], self.xy_int[1], self.xz_int, self.z_int]
     }
 
+    /// The XY law's feasible heading as `[course, sideslip]` (rad; `psi_r = course -
+    /// sideslip`), for logs and the development probe.
+    pub fn feasible_heading_rad(&self) -> [f32; 2] {
+        [self.heading.chi, self.heading.beta]
+    }
+
     /// The XY law's current estimate `[cx, cy]` (inertial, m/s).
     pub fn current_estimate_m_s(&self) -> [f32; 2] {
         self.current.vc
