@@ -112,11 +112,11 @@ fn a_cross_current_as_fast_as_the_path_is_crabbed_into() {
     assert!(s.max_abs_thruster_force_n <= 20.0 + 1e-9);
 }
 
-/// Unwrapped yaw excursion (max - min) of the samples after `t0_s`.
-fn yaw_excursion(out: &RunOutput, t0_s: f64) -> f64 {
+/// Unwrapped yaw excursion (max - min) of the samples from `t0_s` to `t1_s`.
+fn yaw_excursion(out: &RunOutput, t0_s: f64, t1_s: f64) -> f64 {
     let mut prev = None;
     let (mut acc, mut lo, mut hi) = (0.0f64, 0.0f64, 0.0f64);
-    for x in out.log.iter().filter(|x| x.t_s >= t0_s) {
+    for x in out.log.iter().filter(|x| x.t_s >= t0_s && x.t_s <= t1_s) {
         let y = x.state.eta[5];
         if let Some(p) = prev {
             let mut d: f64 = y - p;
@@ -131,7 +131,8 @@ fn yaw_excursion(out: &RunOutput, t0_s: f64) -> f64 {
 }
 
 /// End of a path in 0.2 m/s from every 30 degrees: the vehicle turns to the heading the
-/// current allows and holds the last point.
+/// current allows and holds the last point, and its weather-vane swing dies out (smaller over
+/// the last 30 s than over the 30 s before).
 #[test]
 fn the_end_of_a_path_is_held_in_0_2_m_s_from_any_direction_without_a_full_turn() {
     let end_s = 40.0; // 10 m at 0.25 m/s
@@ -142,20 +143,29 @@ fn the_end_of_a_path_is_held_in_0_2_m_s_from_any_direction_without_a_full_turn()
             Some([0.2 * a.cos(), 0.2 * a.sin(), 0.0]),
         );
         let s = &out.summary;
-        let turn = yaw_excursion(&out, end_s);
+        let t_end = out.summary.simulated_s;
+        let turn = yaw_excursion(&out, end_s, t_end);
+        let swing_before = yaw_excursion(&out, t_end - 60.0, t_end - 30.0);
+        let swing = yaw_excursion(&out, t_end - 30.0, t_end);
         eprintln!(
-            "{:3} deg: tail RMS {:.1} mm, final {:.1} mm, max after 10 s {:.1} mm, yaw excursion after the end {:.2} rad",
+            "{:3} deg: tail RMS {:.1} mm, final {:.1} mm, max after 10 s {:.1} mm, yaw excursion after the end {:.2} rad, yaw swing over the 30 s before the last {:.3} rad, over the last 30 s {:.3} rad",
             i * 30,
             s.rms_position_error_tail_m * 1e3,
             s.final_position_error_m * 1e3,
             s.max_position_error_after_10s_m * 1e3,
-            turn
+            turn,
+            swing_before,
+            swing
         );
         assert!(!s.nan_detected);
         assert!(s.rms_position_error_tail_m <= 0.05, "{i}: {s:?}");
         assert!(
             turn < std::f64::consts::TAU,
             "{i}: a full turn ({turn} rad)"
+        );
+        assert!(
+            swing <= 0.2 && (swing < swing_before || swing < 1e-3),
+            "{i}: the yaw swings by {swing} rad over the last 30 s ({swing_before} before)"
         );
     }
 }

@@ -196,8 +196,19 @@ pub const CURRENT_DEADZONE_M_S: f32 = 0.01;
 /// Turn rate (rad/s) at which the current estimate learns at half its rate.
 pub const CURRENT_TURN_RATE_RAD_S: f32 = 0.2;
 
-/// Time constant of the low-pass on the current estimate (s).
+/// Time constant of the low-pass on the current estimate at the start (s).
 pub const CURRENT_TAU_S: f32 = 5.0;
+
+/// Time constant of the low-pass on the current estimate once it has settled (s): the
+/// current is taken as constant over minutes, and a slower estimate no longer reads the
+/// vehicle's own weather-vane swing as a change of the current (with 5 s throughout, the two
+/// kept each other going in a hold: +-0.15 rad without end).
+pub const CURRENT_TAU_SETTLED_S: f32 = 20.0;
+
+/// Learning time (s, weighted by the turn-rate factor): for the first `CURRENT_SETTLE_S` the
+/// estimate learns with [`CURRENT_TAU_S`], over the next `CURRENT_SETTLE_S` its time constant
+/// grows linearly to [`CURRENT_TAU_SETTLED_S`].
+pub const CURRENT_SETTLE_S: f32 = 30.0;
 
 /// Solve `(k1 + k2 |x|) x = f` for `x` (odd, monotonic) in closed form (one square root).
 fn inv_drag(k1: f32, k2: f32, f: f32) -> f32 {
@@ -224,7 +235,8 @@ impl super::CurrentObserver {
     /// (body) makes `d = D(nu) - D(nu - c_b) + (m11 - m22) r [c_by, c_bx]` (drag on the
     /// water-relative velocity, and the added mass of the current turning in the body
     /// frame), solved per axis for `c_b` with the last estimate in the turning term, rotated
-    /// to the inertial frame and low-passed ([`CURRENT_TAU_S`]).
+    /// to the inertial frame and low-passed ([`CURRENT_TAU_S`], slowing to
+    /// [`CURRENT_TAU_SETTLED_S`] once learnt).
     pub(crate) fn update(
         &mut self,
         v: &Vehicle,
@@ -274,12 +286,16 @@ impl super::CurrentObserver {
         // Turning fast, the model's errors (thruster lag, roll, the turning current) read as
         // a current: the estimate learns mostly from straight motion.
         let turn = r / CURRENT_TURN_RATE_RAD_S;
-        let k = dt / ((CURRENT_TAU_S + dt) * (1.0 + turn * turn));
+        let weight = 1.0 / (1.0 + turn * turn);
+        let settled = clamp(self.learned_s / CURRENT_SETTLE_S - 1.0, 0.0, 1.0);
+        let tau = CURRENT_TAU_S + settled * (CURRENT_TAU_SETTLED_S - CURRENT_TAU_S);
+        let k = dt * weight / (tau + dt);
         let nvx = vx + k * (cx - vx);
         let nvy = vy + k * (cy - vy);
         let fin = |a: f32| if a.is_finite() { a } else { 0.0 };
         self.z = [fin(zx), fin(zy)];
         self.vc = [fin(nvx), fin(nvy)];
+        self.learned_s = fin(self.learned_s + dt * weight);
     }
 }
 
