@@ -151,9 +151,9 @@ fn tracking_xz_paper_current_and_buoyancy() {
 #[test]
 fn tracking_xy_paper_current() {
     // Measured: RMS 0.046 m, final 0.0013 m (off); RMS 0.032 m, final 0.0053 m (on) before
-    // issue 14's current handling, RMS 0.019 m, final 0.0086 m (on) after: the reference ends
-    // in a hold, and holding a point in a current leaves a +-0.15 rad weather-vane swing
-    // (docs/tracking.md), so the last sample moved out while the RMS came down.
+    // issue 14's current handling; RMS 0.017 m, final 0.0056 m (on) after it. The reference
+    // ends in a hold, where a weather-vane swing dies out slowly (docs/tracking.md): the
+    // final bound was 10 mm while the swing did not die out (8.6 mm), and is 6 mm again.
     let (off, on) = both(
         "XY paper reference, current [0, -0.2, 0] m/s",
         ControlMode::TrackingXy,
@@ -166,7 +166,7 @@ fn tracking_xy_paper_current() {
         0.02,
     );
     assert!(off.final_err_m <= 0.002, "{off:?}");
-    assert!(on.final_err_m <= 0.01, "{on:?}");
+    assert!(on.final_err_m <= 0.006, "{on:?}");
 }
 
 #[test]
