@@ -366,7 +366,9 @@ impl Autopilot {
     /// `UsblFix`, `DvlFix`, `Compass`); on `Err` nothing changed. Kept out of [`handle`]
     /// (`Self::handle`) because the link-time no-panic proof does not hold through the
     /// estimator: the `heapless` history ring it keeps leaves indexing paths the compiler
-    /// cannot remove. Its inputs are fuzzed instead (`tests/tests/fuzz.rs`).
+    /// cannot remove. Its inputs are fuzzed instead (`tests/tests/fuzz.rs`). Out of line, so
+    /// that the temporaries of a new estimator (`StartNav`) are not in every command's frame.
+    #[inline(never)]
     pub fn handle_nav(&mut self, now_us: u64, seq: u16, cmd: &Command) -> Result<(), NackReason> {
         match cmd {
             Command::StartNav {
@@ -460,6 +462,9 @@ impl Autopilot {
         self.mission.waypoints.len()
     }
 
+    /// Out of line, so that the temporaries of a new mission path (AUTO) are not in every
+    /// command's frame (docs/hil-and-mcu-cost.md: where the stack went).
+    #[inline(never)]
     fn set_mode(&mut self, now_us: u64, mode: Mode) -> Result<(), NackReason> {
         match mode {
             Mode::Idle | Mode::Manual => {}
