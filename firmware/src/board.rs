@@ -62,52 +62,56 @@ pub const BAUD: u32 = 115_200;
 /// Watchdog timeout, milliseconds.
 pub const WATCHDOG_MS: u32 = 250;
 
-/// The tether's USART1 and its two rings, shared by the main loop and the USART1 interrupt.
-struct Port {
-    /// The receiver and transmitter, owned by the interrupt once started.
-    rx: Option<Rx<USART1>>,
-    tx: Option<Tx<USART1>>,
+/// The tether's two rings, shared by the main loop and the USART1 interrupt.
+struct Rings {
     /// Bytes received by the interrupt, waiting for the main loop.
-    rx_ring: Deque<u8, 1024>,
+    rx: Deque<u8, 1024>,
     /// Bytes the loop queued for sending, written to the data register by the interrupt.
-    tx_ring: Deque<u8, 256>,
+    tx: Deque<u8, 256>,
 }
 
-static PORT: Mutex<RefCell<Port>> = Mutex::new(RefCell::new(Port {
-    rx: None,
-    tx: None,
-    rx_ring: Deque::new(),
-    tx_ring: Deque::new(),
+/// A static of its own: all zeros at boot, so in `.bss`, not 1.3 KiB of `.data` initializer
+/// in flash (as beside the `Option` below, whose `None` is not zero).
+static RINGS: Mutex<RefCell<Rings>> = Mutex::new(RefCell::new(Rings {
+    rx: Deque::new(),
+    tx: Deque::new(),
 }));
+/// USART1's receiver and transmitter, owned by the interrupt once started.
+static SERIAL: Mutex<RefCell<Option<Usart>>> = Mutex::new(RefCell::new(None));
 /// Bytes lost: the ring was full, or the USART reported an overrun or framing error.
 pub static RX_LOST: AtomicU32 = AtomicU32::new(0);
 
-/// Run `f` on the port in a critical section. `try_borrow_mut`, not `borrow_mut`: every
-/// borrow of the cell is inside a critical section and ends with it, so a borrow cannot fail
-/// (`None`), but `borrow_mut` would keep a panic path in the interrupt (and the main loop)
-/// that the compiler cannot remove.
-fn with_port<R>(f: impl FnOnce(&mut Port) -> R) -> Option<R> {
-    cortex_m::interrupt::free(|cs| PORT.borrow(cs).try_borrow_mut().ok().map(|mut p| f(&mut p)))
+type Usart = (Rx<USART1>, Tx<USART1>);
+
+/// Run `f` on the rings and the serial port in a critical section. `try_borrow_mut`, not
+/// `borrow_mut`: every borrow of these cells is inside a critical section and ends with it,
+/// so a borrow cannot fail (`None`), but `borrow_mut` would keep a panic path in the
+/// interrupt (and the main loop) that the compiler cannot remove.
+fn with_port<R>(f: impl FnOnce(&mut Rings, &mut Option<Usart>) -> R) -> Option<R> {
+    cortex_m::interrupt::free(|cs| {
+        let mut rings = RINGS.borrow(cs).try_borrow_mut().ok()?;
+        let mut serial = SERIAL.borrow(cs).try_borrow_mut().ok()?;
+        Some(f(&mut rings, &mut serial))
+    })
 }
 
 #[interrupt]
 fn USART1() {
-    with_port(|p| {
-        if let Some(tx) = p.tx.as_mut() {
-            send_queued(tx, &mut p.tx_ring);
-        }
-        if let Some(rx) = p.rx.as_mut() {
-            // Drain; an error (overrun, framing) is cleared by the read and the frame it hit
-            // is dropped by the CRC.
-            loop {
-                let lost = match rx.read() {
-                    Ok(b) => p.rx_ring.push_back(b).is_err(),
-                    Err(nb::Error::WouldBlock) => break,
-                    Err(nb::Error::Other(_)) => true,
-                };
-                if lost {
-                    RX_LOST.fetch_add(1, Ordering::Relaxed);
-                }
+    with_port(|rings, serial| {
+        let Some((rx, tx)) = serial else {
+            return;
+        };
+        send_queued(tx, &mut rings.tx);
+        // Drain; an error (overrun, framing) is cleared by the read and the frame it hit is
+        // dropped by the CRC.
+        loop {
+            let lost = match rx.read() {
+                Ok(b) => rings.rx.push_back(b).is_err(),
+                Err(nb::Error::WouldBlock) => break,
+                Err(nb::Error::Other(_)) => true,
+            };
+            if lost {
+                RX_LOST.fetch_add(1, Ordering::Relaxed);
             }
         }
     });
@@ -147,16 +151,16 @@ impl embedded_io::ErrorType for Tether {
 
 impl embedded_io::ReadReady for Tether {
     fn read_ready(&mut self) -> Result<bool, TetherError> {
-        Ok(with_port(|p| !p.rx_ring.is_empty()).unwrap_or(false))
+        Ok(with_port(|rings, _| !rings.rx.is_empty()).unwrap_or(false))
     }
 }
 
 impl embedded_io::Read for Tether {
     fn read(&mut self, buf: &mut [u8]) -> Result<usize, TetherError> {
-        Ok(with_port(|p| {
-            let n = buf.len().min(p.rx_ring.len());
+        Ok(with_port(|rings, _| {
+            let n = buf.len().min(rings.rx.len());
             for b in buf.iter_mut().take(n) {
-                *b = p.rx_ring.pop_front().unwrap_or(0);
+                *b = rings.rx.pop_front().unwrap_or(0);
             }
             n
         })
@@ -166,20 +170,20 @@ impl embedded_io::Read for Tether {
 
 impl embedded_io::WriteReady for Tether {
     fn write_ready(&mut self) -> Result<bool, TetherError> {
-        Ok(with_port(|p| !p.tx_ring.is_full()).unwrap_or(false))
+        Ok(with_port(|rings, _| !rings.tx.is_full()).unwrap_or(false))
     }
 }
 
 impl embedded_io::Write for Tether {
     /// Queue what fits (at least one byte after `write_ready`) and start the interrupt.
     fn write(&mut self, buf: &[u8]) -> Result<usize, TetherError> {
-        Ok(with_port(|p| {
+        Ok(with_port(|rings, serial| {
             let n = buf
                 .iter()
-                .take_while(|&&b| p.tx_ring.push_back(b).is_ok())
+                .take_while(|&&b| rings.tx.push_back(b).is_ok())
                 .count();
-            if let Some(tx) = p.tx.as_mut() {
-                send_queued(tx, &mut p.tx_ring);
+            if let Some((_, tx)) = serial {
+                send_queued(tx, &mut rings.tx);
             }
             n
         })
@@ -304,9 +308,9 @@ pub fn run(variant: Variant) -> ! {
     };
     let (tx, mut rx) = serial.split();
     rx.listen();
-    with_port(|p| (p.rx, p.tx) = (Some(rx), Some(tx)));
-    // SAFETY: the handler above only touches `PORT` inside critical sections, initialized; unmasking cannot break a critical section in progress (there
-    // is none).
+    with_port(|_, serial| *serial = Some((rx, tx)));
+    // SAFETY: the handler above only touches `RINGS` and `SERIAL` inside critical sections,
+    // initialized; unmasking cannot break a critical section in progress (there is none).
     unsafe { cortex_m::peripheral::NVIC::unmask(pac::Interrupt::USART1) };
     let tether = Tether;
 
