@@ -401,16 +401,26 @@ where
     /// Feed received bytes to the decoder and act on every completed frame, in order.
     pub fn on_bytes(&mut self, mut bytes: &[u8]) {
         while !bytes.is_empty() {
-            match self.decoder.push_slice(&mut bytes) {
-                None | Some(Decoded::Dropped { seq: None, .. }) => {}
-                Some(Decoded::Frame { seq, msg }) => self.on_command(seq, &msg),
-                Some(Decoded::Dropped {
-                    reason: DropReason::Version,
-                    seq: Some(seq),
-                }) => self.nack(seq, NackReason::UnsupportedVersion),
-                Some(Decoded::Dropped { seq: Some(seq), .. }) => {
-                    self.nack(seq, NackReason::Malformed);
-                }
+            let d = self.decoder.push_slice(&mut bytes);
+            self.on_decoded(d);
+        }
+    }
+
+    /// Act on what the decoder made of a delimiter. A function of its own: folded into
+    /// `on_bytes`, it cost 40 B of stack and 0.5 KiB of flash (measured 2026-11-25).
+    fn on_decoded(&mut self, d: Option<Decoded<Command>>) {
+        match d {
+            None | Some(Decoded::Dropped { seq: None, .. }) => {}
+            Some(Decoded::Frame { seq, msg }) => self.on_command(seq, &msg),
+            Some(Decoded::Dropped {
+                reason,
+                seq: Some(seq),
+            }) => {
+                let reason = match reason {
+                    DropReason::Version => NackReason::UnsupportedVersion,
+                    _ => NackReason::Malformed,
+                };
+                self.nack(seq, reason);
             }
         }
     }
