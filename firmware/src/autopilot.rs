@@ -49,23 +49,18 @@ pub mod nav_limits {
 /// Check a navigation state: every field finite and within [`nav_limits`].
 pub fn check_nav(s: &NavState) -> Result<(), NackReason> {
     use nav_limits::*;
-    let fields = [
-        (s.x_m, POSITION_M),
-        (s.y_m, POSITION_M),
-        (s.z_m, POSITION_M),
-        (s.roll_rad, ANGLE_RAD),
-        (s.pitch_rad, ANGLE_RAD),
-        (s.yaw_rad, ANGLE_RAD),
-        (s.u_m_s, SPEED_M_S),
-        (s.v_m_s, SPEED_M_S),
-        (s.w_m_s, SPEED_M_S),
-        (s.p_rad_s, RATE_RAD_S),
-        (s.q_rad_s, RATE_RAD_S),
-        (s.r_rad_s, RATE_RAD_S),
+    let groups = [
+        ([s.x_m, s.y_m, s.z_m], POSITION_M),
+        ([s.roll_rad, s.pitch_rad, s.yaw_rad], ANGLE_RAD),
+        ([s.u_m_s, s.v_m_s, s.w_m_s], SPEED_M_S),
+        ([s.p_rad_s, s.q_rad_s, s.r_rad_s], RATE_RAD_S),
     ];
     if !s.is_finite() {
         Err(NackReason::NonFinite)
-    } else if fields.iter().any(|&(v, lim)| v.abs() > lim) {
+    } else if groups
+        .iter()
+        .any(|(v, lim)| v.iter().any(|x| x.abs() > *lim))
+    {
         Err(NackReason::OutOfRange)
     } else {
         Ok(())
@@ -330,10 +325,8 @@ impl Autopilot {
                     return Err(NackReason::NavSource);
                 }
                 check_nav(&sample.state)?;
-                if let Some(prev) = self.nav {
-                    if sample.t_us < prev.sample.t_us {
-                        return Err(NackReason::OutOfRange);
-                    }
+                if self.nav.is_some_and(|prev| sample.t_us < prev.sample.t_us) {
+                    return Err(NackReason::OutOfRange);
                 }
                 self.nav = Some(NavRx {
                     rx_us: now_us,
@@ -466,27 +459,20 @@ impl Autopilot {
     /// command's frame (docs/hil-and-mcu-cost.md: where the stack went).
     #[inline(never)]
     fn set_mode(&mut self, now_us: u64, mode: Mode) -> Result<(), NackReason> {
+        let needs_nav = !matches!(mode, Mode::Idle | Mode::Manual | Mode::Track { .. });
+        if needs_nav && !self.nav_fresh(now_us) {
+            return Err(NackReason::NavStale);
+        }
+        let s = self.nav_state();
+        let here_m = [s.x_m, s.y_m, s.z_m];
         match mode {
-            Mode::Idle | Mode::Manual => {}
-            Mode::Stabilize | Mode::DepthHold => {
-                if !self.nav_fresh(now_us) {
-                    return Err(NackReason::NavStale);
-                }
-            }
             Mode::Auto => {
-                if !self.nav_fresh(now_us) {
-                    return Err(NackReason::NavStale);
-                }
                 if self.mission.waypoints.is_empty() {
                     return Err(NackReason::NoReference);
                 }
-                let s = self.nav_state();
-                let path = MissionPath::new(
-                    [s.x_m, s.y_m, s.z_m],
-                    &self.mission.waypoints,
-                    self.mission.speed_m_s,
-                    MISSION_TURN_RADIUS_M,
-                )?;
+                let m = &self.mission;
+                let path =
+                    MissionPath::new(here_m, &m.waypoints, m.speed_m_s, MISSION_TURN_RADIUS_M)?;
                 self.auto = Some((path, now_us));
             }
             Mode::Track { plane, law } => {
@@ -495,18 +481,8 @@ impl Autopilot {
                     return Err(NackReason::NoReference);
                 }
             }
-            Mode::Hold => {
-                if !self.nav_fresh(now_us) {
-                    return Err(NackReason::NavStale);
-                }
-                let s = self.nav_state();
-                self.hold = Some((
-                    Reference::Hold {
-                        pos_m: [s.x_m, s.y_m, s.z_m],
-                    },
-                    now_us,
-                ));
-            }
+            Mode::Hold => self.hold = Some((Reference::Hold { pos_m: here_m }, now_us)),
+            Mode::Idle | Mode::Manual | Mode::Stabilize | Mode::DepthHold => {}
         }
         if mode != self.mode {
             self.controller.reset();
@@ -520,7 +496,7 @@ impl Autopilot {
     }
 
     /// Neutral output with the given faults.
-    fn neutral(&self, faults: u16) -> StepOutput {
+    pub fn neutral(&self, faults: u16) -> StepOutput {
         let n = self.controller.pwm_map().neutral_us;
         StepOutput {
             pulse_us: [n; 3],
@@ -567,19 +543,14 @@ impl Autopilot {
         }
         let (sample, cm) = match (self.mode, &self.reference, &self.hold) {
             (Mode::Idle, ..) => return self.neutral(faults),
-            (Mode::Manual, ..) => {
-                return match self.manual {
-                    Some((t, m)) if now_us.saturating_sub(t) < fs.manual_stale_us => {
-                        self.manual_output(&m, faults)
-                    }
-                    _ => self.neutral(faults | fault::MANUAL_STALE),
-                }
-            }
-            (Mode::Stabilize | Mode::DepthHold, ..) => {
+            (Mode::Manual | Mode::Stabilize | Mode::DepthHold, ..) => {
                 let m = match self.manual {
                     Some((t, m)) if now_us.saturating_sub(t) < fs.manual_stale_us => m,
                     _ => return self.neutral(faults | fault::MANUAL_STALE),
                 };
+                if self.mode == Mode::Manual {
+                    return self.manual_output(&m, faults);
+                }
                 if !nav_fresh {
                     return self.neutral(faults | fault::NAV_STALE);
                 }
@@ -591,7 +562,7 @@ impl Autopilot {
                 };
                 let hold_depth = self.mode == Mode::DepthHold;
                 let law = self.controller.pilot_step(&nav, &sticks, hold_depth, dt_s);
-                return self.law_output(&law, faults, true);
+                return self.law_output(&law, faults);
             }
             (Mode::Track { plane, law }, Some((r, start)), _) => match control_mode(plane, law) {
                 Some(cm) => (r.sample(seconds_since(now_us, *start)), cm),
@@ -615,10 +586,10 @@ impl Autopilot {
         }
         let nav = self.nav_state();
         let law = self.controller.step(cm, &nav, &sample, dt_s);
-        self.law_output(&law, faults, true)
+        self.law_output(&law, faults)
     }
 
-    fn law_output(&self, law: &ControlOutput, faults: u16, law_ran: bool) -> StepOutput {
+    fn law_output(&self, law: &ControlOutput, faults: u16) -> StepOutput {
         let sat = if law.allocation.saturated {
             fault::SATURATED
         } else {
@@ -630,7 +601,7 @@ impl Autopilot {
             pulse_us: law.pulse_us,
             errors: law.errors,
             faults: faults | sat,
-            law_ran,
+            law_ran: true,
         }
     }
 
@@ -650,20 +621,17 @@ impl Autopilot {
             heave_n: m.heave * one_way(m.heave),
         };
         let allocation = allocate(&requested, lim);
-        let sat = if allocation.saturated {
-            fault::SATURATED
-        } else {
-            0
-        };
-        StepOutput {
+        let out = ControlOutput {
             requested,
             allocation,
             pulse_us: allocation
                 .thrust_n
                 .map(|f| self.controller.pwm_map().pulse_us(f)),
             errors: TrackingErrors::default(),
-            faults: faults | sat,
+        };
+        StepOutput {
             law_ran: false,
+            ..self.law_output(&out, faults)
         }
     }
 }

@@ -37,9 +37,12 @@ use stm32f4xx_hal::{
     prelude::*,
     rcc::Config as RccConfig,
     serial::{Rx, Tx},
-    timer::Counter,
+    timer::{Counter, ErasedChannel},
     watchdog::IndependentWatchdog,
 };
+
+/// An ESC's PWM output: a channel of TIM3.
+type Pwm = ErasedChannel<pac::TIM3>;
 
 /// Which board.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -59,49 +62,56 @@ pub const BAUD: u32 = 115_200;
 /// Watchdog timeout, milliseconds.
 pub const WATCHDOG_MS: u32 = 250;
 
-/// Bytes received by the USART1 interrupt, waiting for the main loop.
-static RX_RING: Mutex<RefCell<Deque<u8, 1024>>> = Mutex::new(RefCell::new(Deque::new()));
+/// The tether's two rings, shared by the main loop and the USART1 interrupt.
+struct Rings {
+    /// Bytes received by the interrupt, waiting for the main loop.
+    rx: Deque<u8, 1024>,
+    /// Bytes the loop queued for sending, written to the data register by the interrupt.
+    tx: Deque<u8, 256>,
+}
+
+/// A static of its own: all zeros at boot, so in `.bss`, not 1.3 KiB of `.data` initializer
+/// in flash (as beside the `Option` below, whose `None` is not zero).
+static RINGS: Mutex<RefCell<Rings>> = Mutex::new(RefCell::new(Rings {
+    rx: Deque::new(),
+    tx: Deque::new(),
+}));
+/// USART1's receiver and transmitter, owned by the interrupt once started.
+static SERIAL: Mutex<RefCell<Option<Usart>>> = Mutex::new(RefCell::new(None));
 /// Bytes lost: the ring was full, or the USART reported an overrun or framing error.
 pub static RX_LOST: AtomicU32 = AtomicU32::new(0);
-/// The receiver, owned by the interrupt once started.
-static RX: Mutex<RefCell<Option<Rx<USART1>>>> = Mutex::new(RefCell::new(None));
-/// Bytes the loop queued for sending, written to the data register by the interrupt.
-static TX_RING: Mutex<RefCell<Deque<u8, 256>>> = Mutex::new(RefCell::new(Deque::new()));
-/// The transmitter, owned by the interrupt once started.
-static TX: Mutex<RefCell<Option<Tx<USART1>>>> = Mutex::new(RefCell::new(None));
+
+type Usart = (Rx<USART1>, Tx<USART1>);
+
+/// Run `f` on the rings and the serial port in a critical section. `try_borrow_mut`, not
+/// `borrow_mut`: every borrow of these cells is inside a critical section and ends with it,
+/// so a borrow cannot fail (`None`), but `borrow_mut` would keep a panic path in the
+/// interrupt (and the main loop) that the compiler cannot remove.
+fn with_port<R>(f: impl FnOnce(&mut Rings, &mut Option<Usart>) -> R) -> Option<R> {
+    cortex_m::interrupt::free(|cs| {
+        let mut rings = RINGS.borrow(cs).try_borrow_mut().ok()?;
+        let mut serial = SERIAL.borrow(cs).try_borrow_mut().ok()?;
+        Some(f(&mut rings, &mut serial))
+    })
+}
 
 #[interrupt]
 fn USART1() {
-    cortex_m::interrupt::free(|cs| {
-        // `try_borrow_mut`, not `borrow_mut`: every borrow of these cells is inside a critical
-        // section and ends with it, so a borrow cannot fail, but `borrow_mut` would keep a
-        // panic path in the interrupt (and the main loop) that the compiler cannot remove.
-        let (Ok(mut rx), Ok(mut ring)) = (
-            RX.borrow(cs).try_borrow_mut(),
-            RX_RING.borrow(cs).try_borrow_mut(),
-        ) else {
+    with_port(|rings, serial| {
+        let Some((rx, tx)) = serial else {
             return;
         };
-        if let (Ok(mut tx), Ok(mut out)) = (
-            TX.borrow(cs).try_borrow_mut(),
-            TX_RING.borrow(cs).try_borrow_mut(),
-        ) {
-            if let Some(tx) = tx.as_mut() {
-                send_queued(tx, &mut out);
-            }
-        }
-        if let Some(rx) = rx.as_mut() {
-            // Drain; an error (overrun, framing) is cleared by the read and the frame it hit
-            // is dropped by the CRC.
-            loop {
-                let lost = match rx.read() {
-                    Ok(b) => ring.push_back(b).is_err(),
-                    Err(nb::Error::WouldBlock) => break,
-                    Err(nb::Error::Other(_)) => true,
-                };
-                if lost {
-                    RX_LOST.fetch_add(1, Ordering::Relaxed);
-                }
+        send_queued(tx, &mut rings.tx);
+        // Drain; an error (overrun, framing) is cleared by the read and the frame it hit is
+        // dropped by the CRC.
+        loop {
+            let lost = match rx.read() {
+                Ok(b) => rings.rx.push_back(b).is_err(),
+                Err(nb::Error::WouldBlock) => break,
+                Err(nb::Error::Other(_)) => true,
+            };
+            if lost {
+                RX_LOST.fetch_add(1, Ordering::Relaxed);
             }
         }
     });
@@ -141,63 +151,43 @@ impl embedded_io::ErrorType for Tether {
 
 impl embedded_io::ReadReady for Tether {
     fn read_ready(&mut self) -> Result<bool, TetherError> {
-        // No panic path: see the interrupt handler on `try_borrow`.
-        Ok(cortex_m::interrupt::free(|cs| {
-            RX_RING
-                .borrow(cs)
-                .try_borrow()
-                .is_ok_and(|ring| !ring.is_empty())
-        }))
+        Ok(with_port(|rings, _| !rings.rx.is_empty()).unwrap_or(false))
     }
 }
 
 impl embedded_io::Read for Tether {
     fn read(&mut self, buf: &mut [u8]) -> Result<usize, TetherError> {
-        Ok(cortex_m::interrupt::free(|cs| {
-            RX_RING.borrow(cs).try_borrow_mut().map_or(0, |mut ring| {
-                let n = buf.len().min(ring.len());
-                for b in buf.iter_mut().take(n) {
-                    *b = ring.pop_front().unwrap_or(0);
-                }
-                n
-            })
-        }))
+        Ok(with_port(|rings, _| {
+            let n = buf.len().min(rings.rx.len());
+            for b in buf.iter_mut().take(n) {
+                *b = rings.rx.pop_front().unwrap_or(0);
+            }
+            n
+        })
+        .unwrap_or(0))
     }
 }
 
 impl embedded_io::WriteReady for Tether {
     fn write_ready(&mut self) -> Result<bool, TetherError> {
-        Ok(cortex_m::interrupt::free(|cs| {
-            TX_RING
-                .borrow(cs)
-                .try_borrow()
-                .is_ok_and(|out| !out.is_full())
-        }))
+        Ok(with_port(|rings, _| !rings.tx.is_full()).unwrap_or(false))
     }
 }
 
 impl embedded_io::Write for Tether {
     /// Queue what fits (at least one byte after `write_ready`) and start the interrupt.
     fn write(&mut self, buf: &[u8]) -> Result<usize, TetherError> {
-        Ok(cortex_m::interrupt::free(|cs| {
-            let (Ok(mut tx), Ok(mut out)) = (
-                TX.borrow(cs).try_borrow_mut(),
-                TX_RING.borrow(cs).try_borrow_mut(),
-            ) else {
-                return 0;
-            };
-            let mut n = 0;
-            for &b in buf {
-                if out.push_back(b).is_err() {
-                    break;
-                }
-                n += 1;
-            }
-            if let Some(tx) = tx.as_mut() {
-                send_queued(tx, &mut out);
+        Ok(with_port(|rings, serial| {
+            let n = buf
+                .iter()
+                .take_while(|&&b| rings.tx.push_back(b).is_ok())
+                .count();
+            if let Some((_, tx)) = serial {
+                send_queued(tx, &mut rings.tx);
             }
             n
-        }))
+        })
+        .unwrap_or(0))
     }
 
     fn flush(&mut self) -> Result<(), TetherError> {
@@ -301,12 +291,12 @@ pub fn run(variant: Variant) -> ! {
         Variant::Qemu => Config::lockstep(Board::QemuNetduinoPlus2),
     };
     let (_pwm, (ch1, ch2, ch3, _)) = dp.TIM3.pwm_us(config.pwm_period_us().micros(), &mut rcc);
-    let mut ch1 = ch1.with(gpioa.pa6);
-    let mut ch2 = ch2.with(gpioa.pa7);
-    let mut ch3 = ch3.with(gpiob.pb0);
-    ch1.enable();
-    ch2.enable();
-    ch3.enable();
+    let mut pwm = [
+        ch1.with(gpioa.pa6).erase(),
+        ch2.with(gpioa.pa7).erase(),
+        ch3.with(gpiob.pb0).erase(),
+    ];
+    pwm.iter_mut().for_each(Pwm::enable);
 
     // Tether on USART1.
     let serial = match dp
@@ -318,17 +308,9 @@ pub fn run(variant: Variant) -> ! {
     };
     let (tx, mut rx) = serial.split();
     rx.listen();
-    cortex_m::interrupt::free(|cs| {
-        if let Ok(mut slot) = RX.borrow(cs).try_borrow_mut() {
-            *slot = Some(rx);
-        }
-        if let Ok(mut slot) = TX.borrow(cs).try_borrow_mut() {
-            *slot = Some(tx);
-        }
-    });
-    // SAFETY: the handler above only touches `RX`, `TX` and their rings inside critical
-    // sections, all initialized; unmasking cannot break a critical section in progress (there
-    // is none).
+    with_port(|_, serial| *serial = Some((rx, tx)));
+    // SAFETY: the handler above only touches `RINGS` and `SERIAL` inside critical sections,
+    // initialized; unmasking cannot break a critical section in progress (there is none).
     unsafe { cortex_m::peripheral::NVIC::unmask(pac::Interrupt::USART1) };
     let tether = Tether;
 
@@ -358,12 +340,12 @@ pub fn run(variant: Variant) -> ! {
             );
             let sensors = BusSensors::new(imu, baro);
             let clock = Tim2Clock::start(dp.TIM2.counter::<1_000_000>(&mut rcc));
-            main_loop((ch1, ch2, ch3), tether, clock, config, sensors, watchdog)
+            main_loop(pwm, tether, clock, config, sensors, watchdog)
         }
         Variant::Qemu => {
             // Default clocks: the timer clock is 16 MHz, so the prescaler is 0.
             let clock = Tim2Clock::start(dp.TIM2.counter::<16_000_000>(&mut rcc));
-            main_loop((ch1, ch2, ch3), tether, clock, config, NoSensors, watchdog)
+            main_loop(pwm, tether, clock, config, NoSensors, watchdog)
         }
     }
 }
@@ -377,17 +359,14 @@ pub fn run(variant: Variant) -> ! {
 /// in `run`'s. Here the temporaries are freed before the loop starts and the `App` is written
 /// straight into `main_loop`'s variable (docs/firmware.md, "Flash and RAM").
 #[inline(never)]
-fn build_app<P1, P2, P3, C, N>(
-    pwm: (P1, P2, P3),
+fn build_app<C, N>(
+    pwm: [Pwm; 3],
     tether: Tether,
     clock: C,
     config: Config,
     sensors: N,
-) -> App<P1, P2, P3, Tether, C, N>
+) -> App<Pwm, Tether, C, N>
 where
-    P1: embedded_hal::pwm::SetDutyCycle,
-    P2: embedded_hal::pwm::SetDutyCycle,
-    P3: embedded_hal::pwm::SetDutyCycle,
     C: Monotonic,
     N: Sensors,
 {
@@ -400,8 +379,8 @@ where
     }
 }
 
-fn main_loop<P1, P2, P3, C, N>(
-    pwm: (P1, P2, P3),
+fn main_loop<C, N>(
+    pwm: [Pwm; 3],
     tether: Tether,
     clock: C,
     config: Config,
@@ -409,9 +388,6 @@ fn main_loop<P1, P2, P3, C, N>(
     mut watchdog: IndependentWatchdog,
 ) -> !
 where
-    P1: embedded_hal::pwm::SetDutyCycle,
-    P2: embedded_hal::pwm::SetDutyCycle,
-    P3: embedded_hal::pwm::SetDutyCycle,
     C: Monotonic,
     N: Sensors,
 {

@@ -100,7 +100,7 @@ impl Monotonic for SimClock {
 }
 
 /// The App as the boards build it, with simulated peripherals.
-pub type SimApp = App<SimPwm, SimPwm, SimPwm, SimSerial, SimClock>;
+pub type SimApp = App<SimPwm, SimSerial, SimClock>;
 
 /// The firmware library in process, as a byte port.
 pub struct InProcessFirmware {
@@ -119,7 +119,7 @@ impl InProcessFirmware {
         let controller = Controller::new(Vehicle::observer(), Gains::default())
             .map_err(|e| anyhow!("controller: {e}"))?;
         let mut app = App::new(
-            (SimPwm::default(), SimPwm::default(), SimPwm::default()),
+            [SimPwm::default(), SimPwm::default(), SimPwm::default()],
             SimSerial::default(),
             SimClock(Instant::now()),
             controller,

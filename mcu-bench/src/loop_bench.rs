@@ -150,7 +150,7 @@ impl<P: Platform> Monotonic for Clock<'_, P> {
     }
 }
 
-type BenchApp<'a, P> = App<FakePwm, FakePwm, FakePwm, FakeSerial, Clock<'a, P>>;
+type BenchApp<'a, P> = App<FakePwm, FakeSerial, Clock<'a, P>>;
 
 /// Control period of the lock-step loop (50 Hz).
 const PERIOD_US: u64 = 20_000;
@@ -294,7 +294,7 @@ pub fn run_loop<P: Platform>(b: &Bench<'_, P>, p: &P) {
             p.print(format_args!("mcu-bench: Controller::new failed"));
             return;
         };
-        let pwm = (FakePwm(0), FakePwm(0), FakePwm(0));
+        let pwm = [FakePwm(0), FakePwm(0), FakePwm(0)];
         let Ok(mut app) = App::new(
             pwm,
             FakeSerial::new(),

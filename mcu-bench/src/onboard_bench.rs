@@ -141,7 +141,7 @@ pub fn run_onboard<P: Platform>(b: &Bench<'_, P>, p: &P) {
         return;
     };
     let Ok(mut app) = App::with_sensors(
-        (FakePwm(0), FakePwm(0), FakePwm(0)),
+        [FakePwm(0), FakePwm(0), FakePwm(0)],
         FakeSerial::new(),
         SimClock { p, now_us: &now_us },
         controller,

@@ -133,7 +133,7 @@ impl Monotonic for FakeClock {
 }
 
 /// The application under test.
-pub type TestApp = App<FakePwm, FakePwm, FakePwm, FakeSerial, FakeClock>;
+pub type TestApp = App<FakePwm, FakeSerial, FakeClock>;
 
 /// 50 Hz PWM with 1 us per duty step (like the board's TIM3).
 pub const PWM_MAX_DUTY: u16 = 20_000;
@@ -146,11 +146,11 @@ pub fn controller() -> Controller {
 /// An app with fakes and the given config; returns the clock handle too.
 pub fn app(config: Config) -> (TestApp, FakeClock) {
     let clock = FakeClock::default();
-    let pwm = (
+    let pwm = [
         FakePwm::new(PWM_MAX_DUTY),
         FakePwm::new(PWM_MAX_DUTY),
         FakePwm::new(PWM_MAX_DUTY),
-    );
+    ];
     let app = App::new(
         pwm,
         FakeSerial::default(),
@@ -219,7 +219,7 @@ pub fn pulses_us(app: &mut TestApp) -> [f32; 3] {
     let (pwm, _, _) = app.parts_mut();
     let period = 20_000.0f32;
     let p = |o: &FakePwm| f32::from(o.duty().unwrap_or(0)) * period / f32::from(o.max);
-    [p(&pwm.0), p(&pwm.1), p(&pwm.2)]
+    pwm.each_ref().map(p)
 }
 
 /// Horizontal-plane plant (the core's f32 model, RK4) driven by ESC pulse widths.

@@ -295,11 +295,11 @@ fn the_board_reads_its_own_sensors_and_a_quiet_or_absurd_imu_is_a_failsafe() {
     use rov_tests::{controller, FakePwm, FakeSerial, PWM_MAX_DUTY};
     let clock = FakeClock::default();
     let sensors = FakeSensors::default();
-    let pwm = (
+    let pwm = [
         FakePwm::new(PWM_MAX_DUTY),
         FakePwm::new(PWM_MAX_DUTY),
         FakePwm::new(PWM_MAX_DUTY),
-    );
+    ];
     let mut a = App::with_sensors(
         pwm,
         FakeSerial::default(),
@@ -311,7 +311,7 @@ fn the_board_reads_its_own_sensors_and_a_quiet_or_absurd_imu_is_a_failsafe() {
     .unwrap();
     let mut top = Topside::default();
     let mut decoder = FrameDecoder::<Reply>::new();
-    let mut send = |a: &mut App<_, _, _, FakeSerial, _, _>, cmd: &Command| {
+    let mut send = |a: &mut App<_, FakeSerial, _, _>, cmd: &Command| {
         let (_, f) = top.frame(cmd);
         a.parts_mut().1.rx.extend(f);
         a.tick();
@@ -334,7 +334,7 @@ fn the_board_reads_its_own_sensors_and_a_quiet_or_absurd_imu_is_a_failsafe() {
         send(&mut a, &cmd);
     }
     // 2 s of 50 Hz loop passes with heartbeats; the estimator runs on the fake sensors.
-    let mut run = |a: &mut App<_, _, _, FakeSerial, _, _>, ms: u64| {
+    let mut run = |a: &mut App<_, FakeSerial, _, _>, ms: u64| {
         let mut faults_at = Vec::new();
         for _ in 0..ms / 5 {
             clock.advance_us(5_000);

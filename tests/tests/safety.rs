@@ -47,9 +47,9 @@ fn nacked(replies: &[Reply], seq: u16) -> Option<NackReason> {
 fn duties(a: &mut TestApp) -> [u16; 3] {
     let (p, _, _) = a.parts_mut();
     [
-        p.0.duty().unwrap_or(0),
-        p.1.duty().unwrap_or(0),
-        p.2.duty().unwrap_or(0),
+        p[0].duty().unwrap_or(0),
+        p[1].duty().unwrap_or(0),
+        p[2].duty().unwrap_or(0),
     ]
 }
 
@@ -96,9 +96,9 @@ fn boots_disarmed_with_neutral_outputs_and_says_hello() {
     // Written once by `new`, before anything else.
     {
         let (p, _, _) = a.parts_mut();
-        assert_eq!(p.0.writes, vec![NEUTRAL_DUTY]);
-        assert_eq!(p.1.writes, vec![NEUTRAL_DUTY]);
-        assert_eq!(p.2.writes, vec![NEUTRAL_DUTY]);
+        assert_eq!(p[0].writes, vec![NEUTRAL_DUTY]);
+        assert_eq!(p[1].writes, vec![NEUTRAL_DUTY]);
+        assert_eq!(p[2].writes, vec![NEUTRAL_DUTY]);
     }
     a.hello();
     let r = t.replies(&mut a);
@@ -119,7 +119,7 @@ fn boots_disarmed_with_neutral_outputs_and_says_hello() {
     assert!(!a.autopilot().armed());
     assert_eq!(a.autopilot().mode(), Mode::Idle);
     let (p, _, _) = a.parts_mut();
-    for o in [&p.0, &p.1, &p.2] {
+    for o in p.iter() {
         assert!(o.writes.iter().all(|d| *d == NEUTRAL_DUTY));
     }
     let tel = last_telemetry(&t.replies(&mut a)).expect("periodic telemetry");
@@ -139,11 +139,11 @@ fn pwm_duty_follows_the_period() {
         let mut cfg = Config::fixed_rate(Board::Host);
         cfg.pwm_hz = hz;
         let r = firmware::App::new(
-            (
+            [
                 rov_tests::FakePwm::new(PWM_MAX_DUTY),
                 rov_tests::FakePwm::new(PWM_MAX_DUTY),
                 rov_tests::FakePwm::new(PWM_MAX_DUTY),
-            ),
+            ],
             rov_tests::FakeSerial::default(),
             FakeClock::default(),
             rov_tests::controller(),

@@ -100,11 +100,11 @@ fn no_loop_iteration_waits_on_a_115200_baud_port() {
     let clock = FakeClock::default();
     let port = Port::default();
     port.0.borrow_mut().clock = clock.clone();
-    let pwm = (
+    let pwm = [
         FakePwm::new(PWM_MAX_DUTY),
         FakePwm::new(PWM_MAX_DUTY),
         FakePwm::new(PWM_MAX_DUTY),
-    );
+    ];
     let mut app = App::new(
         pwm,
         port.clone(),

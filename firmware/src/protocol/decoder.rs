@@ -44,16 +44,6 @@ pub struct DropCounters {
 }
 
 impl DropCounters {
-    /// No drops.
-    pub const ZERO: Self = Self {
-        overflow: 0,
-        cobs: 0,
-        too_short: 0,
-        crc: 0,
-        version: 0,
-        malformed: 0,
-    };
-
     /// Count one drop.
     pub fn count(&mut self, r: DropReason) {
         let c = match r {
@@ -130,7 +120,7 @@ impl<M> Default for FrameDecoder<M> {
 
 impl<M> FrameDecoder<M> {
     /// An empty decoder.
-    pub const fn new() -> Self {
+    pub fn new() -> Self {
         Self {
             cobs: cobs::DecoderState::Idle,
             buf: [0; MAX_PAYLOAD_LEN + CRC_LEN],
@@ -138,7 +128,7 @@ impl<M> FrameDecoder<M> {
             raw: 0,
             lost: None,
             frames: 0,
-            dropped: DropCounters::ZERO,
+            dropped: DropCounters::default(),
             _m: core::marker::PhantomData,
         }
     }
