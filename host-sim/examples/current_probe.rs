@@ -11,7 +11,7 @@
 use anyhow::{bail, Context, Result};
 use controller_core::reference::RefSample;
 use controller_core::state::NavState;
-use host_sim::current_sweep::{sweep, RMS_BOUND_M};
+use host_sim::current_sweep::{first_course, sweep, RMS_BOUND_M};
 use host_sim::estimator_nav::navigation_for;
 use host_sim::scenario::Scenario;
 use host_sim::sim_loop::{
@@ -31,19 +31,10 @@ struct Probe {
 impl ControllerEndpoint for Probe {
     fn step(&mut self, t: f64, nav: &NavState, r: &RefSample) -> Result<StepReply> {
         let reply = self.inner.step(t, nav, r)?;
-        let c = self
-            .inner
-            .controller()
-            .tracking_state()
-            .current_estimate_m_s();
-        self.estimates.push(c);
+        let law = self.inner.controller().tracking_state();
+        self.estimates.push(law.current_estimate_m_s());
+        self.heading.push(law.feasible_heading_rad());
         self.ref_vel.push([r.vel_m_s[0], r.vel_m_s[1]]);
-        let h = self
-            .inner
-            .controller()
-            .tracking_state()
-            .feasible_heading_rad();
-        self.heading.push(h);
         Ok(reply)
     }
 }
@@ -86,9 +77,7 @@ fn main() -> Result<()> {
         Some(s) => s.parse().context("EVERY_S")?,
         None => 5.0,
     };
-    let r = sc.reference.to_core();
-    let (p0, p1) = (r.sample(0.0).pos_m, r.sample(2.0).pos_m);
-    let course = f64::from(p1[1] - p0[1]).atan2(f64::from(p1[0] - p0[0])) + dir;
+    let course = first_course(&sc) + dir;
     let opts = RunOptions {
         record: true,
         current_m_s: Some([speed * course.cos(), speed * course.sin(), 0.0]),

@@ -47,7 +47,7 @@ pub struct Cell {
 }
 
 /// The path's first course (rad): from the reference at 0 s to where it is at 2 s.
-fn first_course(sc: &Scenario) -> f64 {
+pub fn first_course(sc: &Scenario) -> f64 {
     let r = sc.reference.to_core();
     let (a, b) = (r.sample(0.0).pos_m, r.sample(2.0).pos_m);
     f64::from(b[1] - a[1]).atan2(f64::from(b[0] - a[0]))

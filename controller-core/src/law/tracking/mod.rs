@@ -200,7 +200,8 @@ pub(crate) struct CurrentObserver {
     pub(crate) vc: [f32; 2],
     /// Surge force the thrusters deliver (the command through their lag), N.
     surge_n: f32,
-    /// Time the estimate has learnt (s, weighted by its turn-rate factor).
+    /// Time the estimate has learnt (s, weighted by its turn-rate factor; counted up to
+    /// `2 CURRENT_SETTLE_S`, where its time constant stops growing).
     learned_s: f32,
 }
 

@@ -17,7 +17,7 @@
 //! derivatives are filtered differences (time constant [`DERIV_TAU_S`]).
 
 use super::{integrate, sat2, HeadingRef, TrackingGains, TrackingState};
-use crate::math::{atan2, clamp, sin_cos, sqrt, wrap_angle};
+use crate::math::{atan2, clamp, min, sin_cos, sqrt, wrap_angle};
 use crate::params::{Vehicle, XyCoeffs};
 use crate::reference::feasible::{course_of, sideslip, Course};
 use crate::reference::RefSample;
@@ -295,7 +295,8 @@ impl super::CurrentObserver {
         let fin = |a: f32| if a.is_finite() { a } else { 0.0 };
         self.z = [fin(zx), fin(zy)];
         self.vc = [fin(nvx), fin(nvy)];
-        self.learned_s = fin(self.learned_s + dt * weight);
+        // Counted up to where the time constant stops growing.
+        self.learned_s = min(fin(self.learned_s + dt * weight), 2.0 * CURRENT_SETTLE_S);
     }
 }
 
