@@ -510,8 +510,12 @@ impl Gcs {
                     {
                         break
                     }
+                    // An empty datagram or a cut frame (end of file in the parser): no
+                    // input from a ground station ends the topside; logged and counted.
                     Err(mavlink::error::MessageReadError::Io(e)) => {
-                        return Err(anyhow!("MAVLink connection: {e}"))
+                        eprintln!("topside: MAVLink connection {i}: {e} (dropped)");
+                        self.stats.malformed += 1;
+                        break;
                     }
                     Err(_) => self.stats.malformed += 1,
                 }

@@ -413,3 +413,113 @@ fn mavproxy_flies_a_mission_it_loads_from_a_file() {
     );
     assert!(out.contains("PASS: `disarm`: DISARMED"));
 }
+
+/// A ground station's raw bytes to a topside on `udpout:127.0.0.1:PORT`: the test binds PORT,
+/// learns the topside's address from its first datagram and answers it.
+struct RawStation {
+    socket: UdpSocket,
+    topside: std::net::SocketAddr,
+}
+
+impl RawStation {
+    /// Bound to `port`, waiting up to 60 s for the topside's first datagram.
+    fn new(port: u16) -> Self {
+        let socket = UdpSocket::bind(("127.0.0.1", port)).unwrap();
+        socket
+            .set_read_timeout(Some(Duration::from_millis(100)))
+            .unwrap();
+        let end = Instant::now() + Duration::from_secs(60);
+        let mut buf = [0u8; 600];
+        loop {
+            assert!(Instant::now() < end, "no datagram from the topside in 60 s");
+            if let Ok((_, from)) = socket.recv_from(&mut buf) {
+                return Self {
+                    socket,
+                    topside: from,
+                };
+            }
+        }
+    }
+
+    fn send_raw(&self, bytes: &[u8]) {
+        self.socket.send_to(bytes, self.topside).unwrap();
+    }
+
+    fn send(&self, msg: &mavlink::dialects::ardupilotmega::MavMessage) {
+        let mut frame = Vec::new();
+        let header = mavlink::MavHeader {
+            system_id: 255,
+            component_id: 190,
+            sequence: 0,
+        };
+        mavlink::write_v2_msg(&mut frame, header, msg).unwrap();
+        self.send_raw(&frame);
+    }
+
+    /// The first message `pick` takes within `timeout` (polled, not slept).
+    fn wait<T>(
+        &self,
+        timeout: Duration,
+        mut pick: impl FnMut(&mavlink::dialects::ardupilotmega::MavMessage) -> Option<T>,
+    ) -> Option<T> {
+        let end = Instant::now() + timeout;
+        let mut buf = [0u8; 2048];
+        while Instant::now() < end {
+            let Ok((n, _)) = self.socket.recv_from(&mut buf) else {
+                continue;
+            };
+            let mut reader = mavlink::MavlinkReader::new(&buf[..n]);
+            while let Ok((_, m)) =
+                reader.read_any_message::<mavlink::dialects::ardupilotmega::MavMessage>()
+            {
+                if let Some(t) = pick(&m) {
+                    return Some(t);
+                }
+            }
+        }
+        None
+    }
+
+    /// The topside answers a parameter read within `timeout`: it is alive and listening.
+    fn answers(&self, timeout: Duration) -> bool {
+        use mavlink::dialects::ardupilotmega::{MavMessage, PARAM_REQUEST_READ_DATA};
+        let end = Instant::now() + timeout;
+        while Instant::now() < end {
+            self.send(&MavMessage::PARAM_REQUEST_READ(PARAM_REQUEST_READ_DATA {
+                param_index: 0,
+                target_system: 1,
+                target_component: 1,
+                param_id: "".into(),
+            }));
+            let got = self.wait(Duration::from_millis(500), |m| {
+                matches!(m, MavMessage::PARAM_VALUE(p) if p.param_index == 0).then_some(())
+            });
+            if got.is_some() {
+                return true;
+            }
+        }
+        false
+    }
+}
+
+/// Issue 22, item 5: an empty UDP datagram, garbage bytes and a truncated frame from a ground
+/// station are logged and dropped; the topside lives on and answers the next request.
+#[test]
+fn an_empty_datagram_and_garbage_do_not_end_the_topside() {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("topside-empty-datagram");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let port = free_udp_port();
+    let mut child = topside(port, &dir.join("e.tlog"), &dir.join("params.json"), &[]);
+    let station = RawStation::new(port);
+    assert!(station.answers(Duration::from_secs(20)), "alive at first");
+    station.send_raw(&[]);
+    station.send_raw(&[0xFD, 0x09, 0, 0]);
+    station.send_raw(&[0x55; 300]);
+    station.send_raw(&[]);
+    let alive = station.answers(Duration::from_secs(20));
+    let exited = child.try_wait().unwrap();
+    stop(child);
+    assert!(exited.is_none(), "the topside ended: {exited:?}");
+    assert!(alive, "the topside answers after the empty datagram");
+}
