@@ -609,10 +609,13 @@ fn the_escs_neutral_is_not_a_parameter_a_ground_station_can_move() {
         param_id: "VEH_PWM_NEUTRAL".into(),
         param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
     }));
-    let mut why = None;
+    // The reason comes in 50-character STATUSTEXT lines, before the value.
+    let mut why = String::new();
     let value = station.wait(Duration::from_secs(10), |m| match m {
         MavMessage::STATUSTEXT(s) => {
-            why = Some(String::from_utf8_lossy(&s.text.to_vec()).to_string());
+            let line = String::from_utf8_lossy(&s.text.to_vec()).to_string();
+            why.push_str(line.trim_end_matches('\0'));
+            why.push(' ');
             None
         }
         MavMessage::PARAM_VALUE(p) if p.param_id.to_str().ok() == Some("VEH_PWM_NEUTRAL") => {
@@ -621,7 +624,6 @@ fn the_escs_neutral_is_not_a_parameter_a_ground_station_can_move() {
         _ => None,
     });
     stop(child);
-    let why = why.unwrap_or_default();
     println!("answer: {value:?}, {why:?}");
     assert_eq!(value, Some(1500.0), "the neutral in force is answered");
     assert!(why.contains("VEH_PWM_NEUTRAL refused"), "{why}");
