@@ -31,9 +31,16 @@
 //! (the three pulse widths the ESCs see); a `STATUSTEXT` for every failsafe the firmware
 //! raises or clears and every refusal.
 //!
+//! Several ground stations: all see everything, one commands (`commander`: the first to
+//! command, the one that armed or the one that sent `CHANGE_OPERATOR_CONTROL`; anyone may
+//! disarm). No input from a ground station ends the topside (`transport`). Refused inputs
+//! are answered (`COMMAND_ACK` / `MISSION_ACK` / `PARAM_VALUE`) with a `STATUSTEXT` reason:
+//! `ARM_DISARM` with param1 other than 1 or 0, `DO_SET_MODE` with param2 not a whole mode
+//! number, GUIDED targets outside the surface..100 m / 1 km box, `VEH_PWM_NEUTRAL`.
+//!
 //! Every MAVLink message sent or received goes to a `.tlog` (each a big-endian 64-bit
 //! microsecond UNIX time stamp followed by the MAVLink frame: what QGroundControl, MAVExplorer
-//! and pymavlink read).
+//! and pymavlink read), under a new time-stamped name each start (`logs`).
 
 mod commander;
 mod geodesy;
