@@ -254,6 +254,21 @@ pub const PARAMS: &[Param] = params![
     "MIS_SPEED" => mission_speed_m_s,
 ];
 
+/// Parameters shown but not settable, with the reason (issue 22): the ESCs' neutral pulse is
+/// the ESC's constant, not part of a description a ground station may move.
+pub const READ_ONLY: &[(&str, &str)] = &[(
+    "VEH_PWM_NEUTRAL",
+    "neutral is the ESC's constant, not a setting",
+)];
+
+/// Why a parameter is read-only, if it is.
+pub fn read_only(name: &str) -> Option<&'static str> {
+    READ_ONLY
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, why)| *why)
+}
+
 /// A parameter by name, with its index.
 pub fn find(name: &str) -> Option<(usize, &'static Param)> {
     PARAMS.iter().enumerate().find(|(_, p)| p.name == name)
@@ -301,6 +316,10 @@ pub fn load(path: &Path, defaults: Settings) -> Result<Settings> {
             find(&name).ok_or_else(|| anyhow!("{}: unknown parameter {name}", path.display()))?;
         if !v.is_finite() {
             bail!("{}: {name} is not finite", path.display());
+        }
+        if read_only(&name).is_some() {
+            // Shown, saved, never restored: the value in force stays.
+            continue;
         }
         (p.set)(&mut g, v);
     }

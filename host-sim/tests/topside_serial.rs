@@ -194,7 +194,14 @@ fn the_topside_drives_a_vehicle_on_a_serial_line() {
         "the vehicle holds the gain set over the serial line"
     );
 
-    let frames = tether_log::decode(&tether_log::read(&dir.join("serial.tether")).unwrap());
+    // The tether log of this start, under its time-stamped name.
+    let tether: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "tether"))
+        .collect();
+    assert_eq!(tether.len(), 1, "{tether:?}");
+    let frames = tether_log::decode(&tether_log::read(&tether[0]).unwrap());
     let heartbeats = frames
         .commands
         .iter()

@@ -4,7 +4,7 @@ Usage: pymavlink_two_gcs.py PORT_PILOT PORT_OBSERVER
 
 The pilot's station (udpin PORT_PILOT) sets MANUAL, arms and then sends MANUAL_CONTROL as fast
 as Python can for 6 s; the observer's station (udpin PORT_OBSERVER), a second ground station
-on another connection, meanwhile counts what it receives and commands the vehicle itself. The
+on another connection, meanwhile counts what it receives and takes control and commands the vehicle itself. The
 flood must starve neither: the observer gets the heartbeat and the 10 Hz state streams at
 their rates, its own commands are answered at once, and the pilot's sticks still drive the
 thrusters.
@@ -64,7 +64,16 @@ def main():
             counts[k] = counts.get(k, 0) + 1
             if k == "SERVO_OUTPUT_RAW" and first_pulse is None and msg.servo1_raw > 1550:
                 first_pulse = time.time() - start
-        # The observer's own command during the flood: a mode change, answered at once.
+        # The observer's own command during the flood: a mode change, answered at once -
+        # refused while the pilot is in control, accepted once the observer takes control
+        # (issue 22: one commander at a time).
+        observer.mav.command_long_send(observer.target_system, observer.target_component,
+                                       mav.MAV_CMD_DO_SET_MODE, 0,
+                                       mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, POSHOLD,
+                                       0, 0, 0, 0, 0)
+        refused, _ = ack(observer, mav.MAV_CMD_DO_SET_MODE)
+        observer.mav.change_operator_control_send(observer.target_system, 0, 0, b"")
+        took = wait(observer, "CHANGE_OPERATOR_CONTROL_ACK", 3)
         observer.mav.command_long_send(observer.target_system, observer.target_component,
                                        mav.MAV_CMD_DO_SET_MODE, 0,
                                        mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, POSHOLD,
@@ -81,6 +90,9 @@ def main():
     expect(counts.get("LOCAL_POSITION_NED", 0) >= 40,
            f"and the 10 Hz state ({counts.get('LOCAL_POSITION_NED', 0)} LOCAL_POSITION_NED in 5 s)")
     expect(first_pulse is not None, f"the pilot's sticks drive the thrusters (pulse > 1550 us after {first_pulse} s)")
+    expect(refused is not None and refused.result == mav.MAV_RESULT_TEMPORARILY_REJECTED,
+           "the observer's mode change is refused while the pilot is in control")
+    expect(took is not None and took.ack == 0, "the observer takes control")
     expect(a is not None and a.result == mav.MAV_RESULT_ACCEPTED and dt < 1.0,
            f"the observer's mode change is answered during the flood ({dt:.2f} s)")
     hb = wait(pilot, "HEARTBEAT", 3, lambda h: h.custom_mode == POSHOLD)
