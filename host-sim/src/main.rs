@@ -12,8 +12,9 @@
 //! New subcommands (e.g. `hil`, `link`) are one more variant in [`Command`] and one more arm
 //! in `main`'s `match`.
 
-use anyhow::{bail, Result};
+use anyhow::{anyhow, bail, Result};
 use clap::{Parser, Subcommand};
+use host_sim::checks::{is_refused, refused};
 use host_sim::monte_carlo::{merge_shards, parse_shard, run_batch, write_batch, McConfig};
 use host_sim::output::write_run;
 use host_sim::plots::compare_plot;
@@ -22,6 +23,15 @@ use host_sim::scenario::{ControllerKind, Scenario, BUILT_IN};
 use host_sim::sim_loop::tracks_word;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// Exit codes (the README's table): 0 done and as expected; 1 a result that is not what was
+/// expected (a target missed, a divergence, a built-in scenario that differs from its file);
+/// 2 an input refused before any work started (clap's usage errors are 2 too); 3 work that
+/// could not be completed (a file that could not be written, a link or board that failed).
+const EXIT_REFUSED: u8 = 2;
+/// See [`EXIT_REFUSED`].
+const EXIT_FAILED: u8 = 3;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -208,27 +218,43 @@ fn run_all(out_dir: &Path) -> Result<()> {
     Ok(())
 }
 
-fn main() -> Result<()> {
+fn main() -> ExitCode {
     let cli = Cli::parse();
+    match dispatch(cli) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(if is_refused(&e) {
+                EXIT_REFUSED
+            } else {
+                EXIT_FAILED
+            })
+        }
+    }
+}
+
+/// Run the command; `Ok` carries the exit code of a command that ran to its end.
+fn dispatch(cli: Cli) -> Result<ExitCode> {
+    let done = |r: Result<()>| r.map(|()| ExitCode::SUCCESS);
     match cli.command {
-        Some(Command::Hil(a)) => host_sim::hil::main(a),
-        Some(Command::Link(a)) => host_sim::link::main(a),
-        Some(Command::Topside(a)) => host_sim::topside::main(a),
-        Some(Command::Replay(a)) => host_sim::replay::main(a),
+        Some(Command::Hil(a)) => done(host_sim::hil::main(a)),
+        Some(Command::Link(a)) => done(host_sim::link::main(a)),
+        Some(Command::Topside(a)) => done(host_sim::topside::main(a)),
+        Some(Command::Replay(a)) => done(host_sim::replay::main(a)),
         Some(Command::CurrentSweep { out }) => {
             let cells = host_sim::current_sweep::sweep()?;
             host_sim::current_sweep::write(&out, &cells)?;
             println!("wrote {}", out.display());
-            Ok(())
+            Ok(ExitCode::SUCCESS)
         }
-        None => run_all(Path::new("out")),
-        Some(Command::All { out }) => run_all(&out),
+        None => done(run_all(Path::new("out"))),
+        Some(Command::All { out }) => done(run_all(&out)),
         Some(Command::Merge { dirs, out }) => {
             let (summary, runs) = merge_shards(&dirs)?;
             write_batch(&out, &summary, &runs)?;
             println!("{}", serde_json::to_string_pretty(&summary)?);
             println!("merged {} shard folders into {}", dirs.len(), out.display());
-            Ok(())
+            Ok(ExitCode::SUCCESS)
         }
         Some(Command::List) => {
             for b in BUILT_IN {
@@ -244,27 +270,27 @@ fn main() -> Result<()> {
                     Err(e) => println!("{:<22} (invalid: {e:#})", b.name),
                 }
             }
-            Ok(())
+            Ok(ExitCode::SUCCESS)
         }
         Some(Command::Run {
             scenario,
             controller,
             out,
         }) => {
-            let mut sc = Scenario::load(&scenario)?;
+            let mut sc = Scenario::load(&scenario).map_err(refused)?;
             if let Some(c) = controller {
-                let kind = ControllerKind::parse(&c)?;
+                let kind = ControllerKind::parse(&c).map_err(refused)?;
                 if kind != sc.controller {
                     sc.controller = kind;
                     sc.name = format!("{}-{}", sc.name, kind.as_str());
                 }
-                sc.validate()?;
+                sc.validate().map_err(refused)?;
             }
             let dir = out.unwrap_or_else(|| PathBuf::from("out").join(&sc.name));
             let o = run_one(&sc, &dir)?;
             print_table(&[&o]);
             println!("outputs in {}", dir.display());
-            Ok(())
+            Ok(ExitCode::SUCCESS)
         }
         Some(Command::MonteCarlo {
             scenario,
@@ -274,14 +300,20 @@ fn main() -> Result<()> {
             shard,
             out,
         }) => {
-            let shard = shard.as_deref().map(parse_shard).transpose()?;
+            let shard = shard
+                .as_deref()
+                .map(parse_shard)
+                .transpose()
+                .map_err(refused)?;
             if runs == 0 {
-                bail!("--runs must be >= 1");
+                return Err(refused(anyhow!("--runs must be >= 1")));
             }
             if !(0.0..1.0).contains(&perturb) {
-                bail!("--perturb must be in [0, 1) (got {perturb})");
+                return Err(refused(anyhow!(
+                    "--perturb must be in [0, 1) (got {perturb})"
+                )));
             }
-            let sc = Scenario::load(&scenario)?;
+            let sc = Scenario::load(&scenario).map_err(refused)?;
             let cfg = McConfig {
                 runs,
                 seed,
@@ -296,7 +328,7 @@ fn main() -> Result<()> {
             write_batch(&dir, &summary, &rs)?;
             println!("{}", serde_json::to_string_pretty(&summary)?);
             println!("outputs in {}", dir.display());
-            Ok(())
+            Ok(ExitCode::SUCCESS)
         }
     }
 }

@@ -473,6 +473,10 @@ pub struct Scenario {
     pub vehicle_params: VehicleParams,
 }
 
+/// Longest scenario name: it names a folder, and file systems allow 255 bytes per name
+/// (Monte Carlo adds a prefix and a shard suffix).
+pub const MAX_NAME_LEN: usize = 100;
+
 fn observer_params() -> VehicleParams {
     VehicleParams::OBSERVER
 }
@@ -595,6 +599,20 @@ impl Scenario {
             .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_' || c == '.')
         {
             bail!("name {:?} may contain only letters, digits, '-', '_' and '.' (it names the output folder)", self.name);
+        }
+        // A plain file name: `..` or `.` would put the outputs beside or above the output
+        // folder, a leading '.' hides them.
+        if self.name.starts_with('.') {
+            bail!(
+                "name {:?} must not start with '.' (it names the output folder, which must stay inside --out)",
+                self.name
+            );
+        }
+        if self.name.len() > MAX_NAME_LEN {
+            bail!(
+                "name is {} characters long; at most {MAX_NAME_LEN} (it names the output folder)",
+                self.name.len()
+            );
         }
         pos("duration_s", self.duration_s)?;
         pos("control_period_s", self.control_period_s)?;
