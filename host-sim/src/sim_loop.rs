@@ -26,13 +26,16 @@ use crate::plant::xz::XzPlant;
 use crate::plant::{Environment, Plant, PlantState};
 use crate::scenario::{NoiseStd, Plane, Scenario};
 use crate::sensors::Measurement;
+// The rotation and the noise draw live with the sensors that use them most (beside the
+// transpose `inertial_to_body`); re-exported here, where callers have found them.
+pub use crate::sensors::{body_to_inertial, gauss};
 use anyhow::{anyhow, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::controller::{ControlMode, Controller, Gains};
 use controller_core::params::VehicleParams;
 use controller_core::reference::RefSample;
 use controller_core::state::{BodyForces, NavState, TrackingErrors};
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 use std::collections::VecDeque;
@@ -427,18 +430,6 @@ pub fn make_plant(
     })
 }
 
-/// Rotation body -> inertial (ZYX Euler), applied to a body vector.
-pub fn body_to_inertial(eta: &[f64; 6], v: [f64; 3]) -> [f64; 3] {
-    let (sf, cf) = eta[3].sin_cos();
-    let (st, ct) = eta[4].sin_cos();
-    let (sp, cp) = eta[5].sin_cos();
-    [
-        cp * ct * v[0] + (cp * st * sf - sp * cf) * v[1] + (cp * st * cf + sp * sf) * v[2],
-        sp * ct * v[0] + (sp * st * sf + cp * cf) * v[1] + (sp * st * cf - cp * sf) * v[2],
-        -st * v[0] + ct * sf * v[1] + ct * cf * v[2],
-    ]
-}
-
 /// The plant state as the core's `f32` navigation state.
 pub fn to_nav(s: &PlantState) -> NavState {
     NavState {
@@ -455,13 +446,6 @@ pub fn to_nav(s: &PlantState) -> NavState {
         q_rad_s: s.nu[4] as f32,
         r_rad_s: s.nu[5] as f32,
     }
-}
-
-/// Standard normal draw (Box-Muller; one of the pair is dropped, simplicity over speed).
-pub fn gauss(rng: &mut ChaCha8Rng) -> f64 {
-    let u1: f64 = rng.random::<f64>().max(1e-300);
-    let u2: f64 = rng.random::<f64>();
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }
 
 /// The nominal plant parameters of a scenario: its vehicle (the Observer unless the key
