@@ -61,3 +61,89 @@ fn a_scenario_named_dot_dot_is_refused_and_writes_nothing() {
         );
     }
 }
+
+#[test]
+fn a_run_too_long_to_hold_is_refused_before_it_allocates() {
+    let dir = scratch("duration");
+    let f = scenario_file(&dir, "long.toml", "long", "");
+    let text = std::fs::read_to_string(&f)
+        .unwrap()
+        .replace("duration_s = 2.0", "duration_s = 1e6");
+    std::fs::write(&f, text).unwrap();
+    let o = host_sim(&dir, &["run", f.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("duration_s"), "{}", stderr(&o));
+    assert!(!dir.join("out").exists());
+}
+
+#[test]
+fn a_campaign_too_large_for_one_process_points_to_shard() {
+    let dir = scratch("runs");
+    let o = host_sim(
+        &dir,
+        &["monte-carlo", "mc-circle-3d", "--runs", "100000000"],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("--shard I/N, N >= 100"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!dir.join("out").exists());
+}
+
+#[test]
+fn hil_noise_above_one_is_not_a_probability() {
+    let dir = scratch("noise");
+    let o = host_sim(&dir, &["hil", "line-3d", "--in-process", "--noise", "1.5"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("not a probability"), "{}", stderr(&o));
+}
+
+#[test]
+fn a_known_delay_the_law_cannot_fly_is_refused_with_the_reason() {
+    let dir = scratch("delay");
+    let f = scenario_file(
+        &dir,
+        "d.toml",
+        "d",
+        "[disturbance]\ndelay_s = 0.4\ndelay_known = true\n",
+    );
+    let o = host_sim(&dir, &["run", f.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("limit-cycles"), "{}", stderr(&o));
+    // The measured limit itself is flown.
+    let f = scenario_file(
+        &dir,
+        "d.toml",
+        "d",
+        "[disturbance]\ndelay_s = 0.3\ndelay_known = true\n",
+    );
+    let o = host_sim(&dir, &["run", f.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+#[test]
+fn a_buoyancy_the_vertical_thruster_cannot_hold_is_refused() {
+    let dir = scratch("buoyancy");
+    // Heavy: the vertical thruster's reverse thrust (15 N) holds it up.
+    for (b, ok) in [(-18.0, false), (-14.0, true), (21.0, false), (18.0, true)] {
+        let f = scenario_file(
+            &dir,
+            "b.toml",
+            "b",
+            &format!("[disturbance]\nbuoyancy_offset_n = {b}\n"),
+        );
+        let o = host_sim(&dir, &["run", f.to_str().unwrap()]);
+        if ok {
+            assert_ne!(o.status.code(), Some(2), "{b} N: {}", stderr(&o));
+        } else {
+            assert_eq!(o.status.code(), Some(2), "{b} N: {}", stderr(&o));
+            assert!(
+                stderr(&o).contains("cannot hold the depth"),
+                "{}",
+                stderr(&o)
+            );
+        }
+    }
+}
