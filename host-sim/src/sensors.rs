@@ -381,7 +381,8 @@ pub struct SensorSuite {
     gyro_bias: [f64; 3],
     accel_bias: [f64; 3],
     prev: Option<(f64, [f64; 3])>,
-    /// Usbl fixes injected as outliers.
+    /// USBL fixes drawn as outliers, delivered or not (one drawn in a run's last latency
+    /// window never arrives; the run's summary counts the delivered ones, from the fixes).
     pub usbl_outliers_injected: u64,
 }
 

@@ -104,7 +104,8 @@ pub struct NavReport {
     pub source: String,
     /// Share of control ticks whose position NEES lies inside the 95 % chi-square bound.
     pub nees_in_bounds_fraction: Option<f64>,
-    /// USBL fixes replaced by multipath outliers.
+    /// USBL fixes replaced by multipath outliers and delivered to the estimator (an outlier
+    /// drawn in the run's last latency window never arrives and is not counted).
     pub usbl_outliers_injected: u64,
     /// USBL fixes the estimator rejected on its innovation gate.
     pub usbl_fixes_rejected: u64,
@@ -951,6 +952,13 @@ pub fn run_closed_loop(
     s.rms_position_error_last80_m = last80.value();
     s.rms_estimation_error_m = est.value();
     s.navigation = nav.report();
+    // An outlier counts when the estimator received it: the stage draws each fix at its
+    // ping and delivers it `latency_s` later, so one drawn in the last latency window of
+    // the run never arrives. The fix records are kept on delivery.
+    let fixes = nav.usbl_fixes();
+    if !fixes.is_empty() {
+        s.navigation.usbl_outliers_injected = fixes.iter().filter(|f| f.outlier).count() as u64;
+    }
     s.final_position_error_m = last.pos_err_norm_m;
     s.final_position_error_xyz_m = last.pos_err_m;
     s.final_angle_error_rad = last.angle_err_rad;
@@ -997,11 +1005,7 @@ pub fn run_closed_loop(
     let fs = last.state;
     s.final_state = fs.eta.iter().chain(fs.nu.iter()).copied().collect();
     s.wall_time_s = wall.elapsed().as_secs_f64();
-    let usbl_fixes = if opts.record {
-        nav.usbl_fixes()
-    } else {
-        Vec::new()
-    };
+    let usbl_fixes = if opts.record { fixes } else { Vec::new() };
     Ok(RunOutput {
         summary: s,
         log,
