@@ -675,8 +675,9 @@ pub struct HilArgs {
     pub heartbeat_stop: Option<f64>,
     /// Inject noise: probability that a frame sent is corrupted (and that garbage precedes
     /// it); received bytes are corrupted with probability NOISE / 100. A probability, in
-    /// [0, 1]. Every corrupted frame costs a reply timeout and a resend: at 0.5 a simulated
-    /// second takes about 32 s of wall time (issue 23), so keep --duration short.
+    /// [0, 1]. Every corrupted frame costs a reply timeout and a resend, so the wall time
+    /// grows fast: one simulated second of `line-3d --in-process` took 0.06 s at 0, 2.6 s at
+    /// 0.1 and 30 s at 0.5 (2026-11-26, 2 shared cores); keep --duration short.
     #[arg(long, value_name = "PROB", value_parser = parse_probability)]
     pub noise: Option<f64>,
     /// Seed of the noise.
