@@ -538,6 +538,10 @@ pub const MAX_KNOWN_DELAY_S: f64 = 0.30;
 /// 400 B each, and one CSV row): 1,000,000 ticks, 10,000 s at 10 ms, about 0.4 GB in memory.
 pub const MAX_CONTROL_TICKS: f64 = 1.0e6;
 
+/// The longest measurement delay line, in plant steps (one plant state of about 100 B each:
+/// 0.1 GB at the limit; 1,000 s at 1 ms).
+pub const MAX_DELAY_STEPS: f64 = 1.0e6;
+
 /// One scenario, as written in its TOML file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -843,6 +847,14 @@ impl Scenario {
         nonneg("disturbance.delay_s", d.delay_s)?;
         if d.delay_s > self.duration_s {
             bail!("disturbance.delay_s ({}) is longer than the run", d.delay_s);
+        }
+        if d.delay_s / self.plant_dt_s > MAX_DELAY_STEPS {
+            bail!(
+                "disturbance.delay_s = {} s is {:.3e} plant steps of plant_dt_s = {} s; the delay line keeps every step of it (about 100 B each), at most {MAX_DELAY_STEPS:.0e}",
+                d.delay_s,
+                d.delay_s / self.plant_dt_s,
+                self.plant_dt_s
+            );
         }
         if d.delay_known && d.delay_s > MAX_KNOWN_DELAY_S {
             bail!(

@@ -147,3 +147,19 @@ fn a_buoyancy_the_vertical_thruster_cannot_hold_is_refused() {
         }
     }
 }
+
+#[test]
+fn a_delay_line_too_long_to_hold_is_refused_before_it_allocates() {
+    let dir = scratch("delayline");
+    // 1e5 s of delay at 0.1 ms plant steps: 1e9 states (96 GB) in the delay line.
+    let f = scenario_file(&dir, "dl.toml", "dl", "[disturbance]\ndelay_s = 99000.0\n");
+    let text = std::fs::read_to_string(&f).unwrap().replace(
+        "duration_s = 2.0",
+        "duration_s = 100000.0\ncontrol_period_s = 0.1\nplant_dt_s = 0.0001",
+    );
+    std::fs::write(&f, text).unwrap();
+    let o = host_sim(&dir, &["run", f.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("delay_s"), "{}", stderr(&o));
+    assert!(!dir.join("out").exists());
+}
