@@ -11,6 +11,10 @@
 //! ```
 //! New subcommands (e.g. `hil`, `link`) are one more variant in [`Command`] and one more arm
 //! in `main`'s `match`.
+//!
+//! Exit codes (the README's table): 0 as expected; 1 a run that diverged, went non-finite,
+//! lost control or missed its `[expect]` targets, or (the main job) a built-in whose result
+//! differs from its file; 2 an input refused before any work; 3 work that could not complete.
 
 use anyhow::{anyhow, bail, Result};
 use clap::{Parser, Subcommand};

@@ -16,9 +16,13 @@
 //!    navigation stage sees every plant step.
 //!
 //! The run stops early when the state or the requested forces stop being finite
-//! (`nan_detected`) or when it diverges (position error > 1 km, |position| > 10 km,
-//! |velocity| > 100 m/s, |rate| > 100 rad/s, or a thrust command above 10 kN). An endpoint
-//! that fails (the firmware refused a command, the link was lost) ends the run with an error.
+//! (`nan_detected`) or when it leaves the physical (`diverged`: |position| > 10 km,
+//! |velocity| > 100 m/s, |rate| > 100 rad/s, or a thrust command above 10 kN). A run that
+//! completes is judged at its end on the true state for control lost (`lost_control`, then
+//! `diverged`): the depth or position error still growing past 1 m, or the vehicle turning
+//! over 2 turns more than its path; no fixed distance. Then the run is judged against its
+//! scenario's `[expect]` ([`judge`]). An endpoint that fails (the firmware refused a command,
+//! the link was lost) ends the run with an error.
 
 use crate::plant::six_dof_factory;
 use crate::plant::xy::XyPlant;
@@ -191,7 +195,7 @@ pub struct Summary {
 /// One target of `[expect]` against the run.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct TargetCheck {
-    /// What was expected, e.g. `rms_last80_m <= 0.02`.
+    /// What was expected, e.g. `RMS last 80 % <= 2.0 cm`.
     pub target: String,
     /// What the run did (the figure, or a word).
     pub measured: String,
