@@ -1,21 +1,174 @@
 #!/usr/bin/env python3
-"""Module cycles of the workspace's crates: a pair of top-level modules of one crate that each
-`use crate::` the other. Prints `CYCLE` lines (none expected) and `checked`.
+"""Module cycles of the workspace's crates: top-level modules of one crate that reach each other
+through `crate::` paths (a pair that use each other, or a longer circle a -> b -> c -> a).
+
+Prints one `CYCLE` line per circle found and exits 1 when there is any; prints `checked` and
+exits 0 when there is none.
+
+What counts as a use: a `crate::m` path in code, including grouped imports
+(`use crate::{a::X, b}`). Comments (doc links among them) are not uses, and neither are
+`#[cfg(test)]` modules: a test may drive a module through its caller without the shipped
+modules depending on each other.
 
     python3 scripts/modcycles.py    # from the workspace root
 """
-import re,os,sys,itertools
-for crate in ['firmware/src','host-sim/src','mcu-bench/src','controller-core/src','sensor-drivers/src']:
-    mods={}
-    for root,_,files in os.walk(crate):
-        for f in files:
-            if not f.endswith('.rs'): continue
-            p=os.path.join(root,f); rel=os.path.relpath(p,crate)[:-3]
-            name=rel.split('/')[0] if rel.split('/')[0] not in ('lib','main','bin') else None
-            if name is None: continue
-            txt=open(p).read()
-            uses=set(re.findall(r'crate::(\w+)',txt))
-            mods.setdefault(name,set()).update(u for u in uses if u!=name)
-    for a,b in itertools.combinations(mods,2):
-        if b in mods[a] and a in mods[b]: print(crate,'CYCLE',a,b)
-print('checked')
+import os
+import re
+import sys
+
+CRATES = ['firmware/src', 'host-sim/src', 'mcu-bench/src', 'controller-core/src', 'sensor-drivers/src']
+
+
+def strip_comments(txt):
+    """The text without `//` and `/* */` comments; string literals are kept (a `//` in a
+    string does not start a comment)."""
+    out, i, n = [], 0, len(txt)
+    while i < n:
+        c = txt[i]
+        if c == '"':
+            j = i + 1
+            while j < n and txt[j] != '"':
+                j += 2 if txt[j] == '\\' else 1
+            out.append(txt[i:j + 1])
+            i = j + 1
+        elif txt.startswith('//', i):
+            j = txt.find('\n', i)
+            i = n if j < 0 else j
+        elif txt.startswith('/*', i):
+            depth, j = 1, i + 2
+            while j < n and depth:
+                if txt.startswith('/*', j):
+                    depth, j = depth + 1, j + 2
+                elif txt.startswith('*/', j):
+                    depth, j = depth - 1, j + 2
+                else:
+                    j += 1
+            i = j
+        else:
+            out.append(c)
+            i += 1
+    return ''.join(out)
+
+
+def strip_test_modules(txt):
+    """The text without `#[cfg(test)] mod name { ... }` blocks."""
+    while True:
+        m = re.search(r'#\[cfg\(test\)\]\s*(pub(\([^)]*\))?\s+)?mod\s+\w+\s*\{', txt)
+        if not m:
+            return txt
+        depth, j = 1, m.end()
+        while j < len(txt) and depth:
+            depth += {'{': 1, '}': -1}.get(txt[j], 0)
+            j += 1
+        txt = txt[:m.start()] + txt[j:]
+
+
+def uses(txt):
+    """The top-level modules named by `crate::` paths in `txt`."""
+    found = set(re.findall(r'crate::(\w+)', txt))
+    for group in re.findall(r'crate::\{([^;]*)\}', txt):
+        # Top-level names of the group: the first segment of each comma-separated item at
+        # brace depth 0.
+        depth, item = 0, ''
+        for ch in group + ',':
+            if ch == '{':
+                depth += 1
+            elif ch == '}':
+                depth -= 1
+            if ch == ',' and depth == 0:
+                m = re.match(r'\s*(\w+)', item)
+                if m:
+                    found.add(m.group(1))
+                item = ''
+            else:
+                item += ch
+    return found
+
+
+def modules(crate):
+    """Top-level module -> the other top-level modules it uses."""
+    mods = {}
+    for root, _, files in os.walk(crate):
+        for f in sorted(files):
+            if not f.endswith('.rs'):
+                continue
+            p = os.path.join(root, f)
+            top = os.path.relpath(p, crate)[:-3].split(os.sep)[0]
+            if top in ('lib', 'main', 'bin'):
+                continue
+            with open(p) as fh:
+                txt = strip_test_modules(strip_comments(fh.read()))
+            mods.setdefault(top, set()).update(u for u in uses(txt) if u != top)
+    return {m: {u for u in us if u in mods} for m, us in mods.items()}
+
+
+def cycles(graph):
+    """One circle per strongly connected component of more than one module (Tarjan), as the
+    list of its modules in order, the first repeated at the end."""
+    index, low, stack, on, comps, counter = {}, {}, [], set(), [], [0]
+
+    def visit(v):
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on.add(v)
+        for w in sorted(graph[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                comps.append(set(comp))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    out = []
+    for comp in comps:
+        # A shortest circle through the component's first module (breadth-first).
+        start = min(comp)
+        prev, frontier, found = {start: None}, [start], None
+        while frontier and found is None:
+            nxt = []
+            for v in frontier:
+                for w in sorted(graph[v] & comp):
+                    if w == start:
+                        found = v
+                        break
+                    if w not in prev:
+                        prev[w] = v
+                        nxt.append(w)
+                if found is not None:
+                    break
+            frontier = nxt
+        path, v = [], found
+        while v is not None:
+            path.append(v)
+            v = prev[v]
+        out.append(list(reversed(path)) + [start])
+    return out
+
+
+def main():
+    found = 0
+    for crate in CRATES:
+        if not os.path.isdir(crate):
+            continue
+        for circle in cycles(modules(crate)):
+            print(crate, 'CYCLE', ' -> '.join(circle))
+            found += 1
+    print('checked')
+    return 1 if found else 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

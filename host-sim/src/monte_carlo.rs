@@ -160,6 +160,34 @@ pub fn shard_range(runs: usize, i: usize, n: usize) -> std::ops::Range<usize> {
     start.min(runs)..(start + len).min(runs)
 }
 
+/// The most runs one process holds: each keeps about 100 B of results in memory and
+/// about 350 B in `runs.json`, so 1,000,000 runs take about 0.1 GB and 0.35 GB.
+pub const MAX_RUNS_PER_PROCESS: usize = 1_000_000;
+
+/// The most runs `merge` joins (their results all in memory, about 1 GB).
+pub const MAX_MERGED_RUNS: usize = 10_000_000;
+
+/// Check a campaign of `runs` (the slice `shard` of it) before any work: one process runs
+/// at most [`MAX_RUNS_PER_PROCESS`]; a larger campaign is refused with the `--shard` that
+/// fits (each slice on its own machine or job, joined with `host-sim merge`).
+pub fn check_campaign(runs: usize, shard: (usize, usize)) -> Result<()> {
+    if runs == 0 {
+        anyhow::bail!("--runs must be >= 1");
+    }
+    let here = shard_range(runs, shard.0, shard.1).len();
+    if here > MAX_RUNS_PER_PROCESS {
+        let slices = runs.div_ceil(MAX_RUNS_PER_PROCESS);
+        anyhow::bail!(
+            "{here} runs in one process is too many (at most {MAX_RUNS_PER_PROCESS}: each run \
+             keeps about 100 B of results in memory and 350 B in runs.json): split the campaign \
+             with --shard I/N, N >= {slices} (e.g. --shard 0/{slices} ... --shard {}/{slices}, \
+             one job each), and join the folders with host-sim merge",
+            slices - 1
+        );
+    }
+    Ok(())
+}
+
 /// Parse `I/N` (0 <= I < N).
 pub fn parse_shard(s: &str) -> Result<(usize, usize)> {
     let (i, n) = s
@@ -284,6 +312,7 @@ pub fn run_batch(
     shard: (usize, usize),
 ) -> Result<(McSummary, ShardRuns)> {
     sc.validate()?;
+    check_campaign(cfg.runs, shard)?;
     let wall = Instant::now();
     let campaign = Campaign {
         scenario: sc.name.clone(),
@@ -426,7 +455,17 @@ pub fn merge_shards(dirs: &[std::path::PathBuf]) -> Result<(McSummary, ShardRuns
         let part: ShardRuns = serde_json::from_str(&text)
             .with_context(|| format!("{} is not a monte-carlo runs.json", path.display()))?;
         match &campaign {
-            None => campaign = Some(part.campaign.clone()),
+            None => {
+                if part.campaign.runs > MAX_MERGED_RUNS {
+                    anyhow::bail!(
+                        "a campaign of {} runs cannot be merged on one machine (at most \
+                         {MAX_MERGED_RUNS}, all in memory); each shard's summary.json stands \
+                         on its own",
+                        part.campaign.runs
+                    );
+                }
+                campaign = Some(part.campaign.clone());
+            }
             Some(c) if *c != part.campaign => anyhow::bail!(
                 "{} is from another campaign ({:?}, expected {:?})",
                 path.display(),

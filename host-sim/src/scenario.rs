@@ -426,6 +426,122 @@ impl Default for DisturbanceSpec {
     }
 }
 
+fn d_settle() -> f64 {
+    10.0
+}
+
+/// The `[expect]` table: what the scenario is for, as targets its runs are judged against
+/// (the verdict of `summary.json`, the main table and the exit code). Every key is optional;
+/// without the table a run shows its figures and no judgement. Errors are the true position
+/// against the reference.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExpectSpec {
+    /// The run is expected to diverge or lose control (the paper's XZ law unlimited); no
+    /// other key may be given with it.
+    #[serde(default)]
+    pub diverges: bool,
+    /// `true`: final error and last-20 % RMS under 10 cm; `false`: the law is expected not to
+    /// track (over 10 cm, or diverged), as the paper's laws with the real limits.
+    #[serde(default)]
+    pub tracks: Option<bool>,
+    /// Largest final position error (m).
+    #[serde(default)]
+    pub final_m: Option<f64>,
+    /// Largest position error after `settle_s` (m).
+    #[serde(default)]
+    pub max_m: Option<f64>,
+    /// The start transient left out of `max_m` (s), default 10.
+    #[serde(default = "d_settle")]
+    pub settle_s: f64,
+    /// Largest RMS position error over the whole run (m).
+    #[serde(default)]
+    pub rms_m: Option<f64>,
+    /// Largest RMS position error over the last 80 % of the run (m).
+    #[serde(default)]
+    pub rms_last80_m: Option<f64>,
+    /// Largest RMS position error over the last 20 % of the run (m).
+    #[serde(default)]
+    pub tail_rms_m: Option<f64>,
+    /// Largest RMS of the navigation position against the truth after 10 s (m).
+    #[serde(default)]
+    pub estimation_rms_m: Option<f64>,
+    /// Every USBL outlier the estimator received was rejected on its gate.
+    #[serde(default)]
+    pub outliers_rejected: bool,
+}
+
+impl Default for ExpectSpec {
+    fn default() -> Self {
+        Self {
+            diverges: false,
+            tracks: None,
+            final_m: None,
+            max_m: None,
+            settle_s: d_settle(),
+            rms_m: None,
+            rms_last80_m: None,
+            tail_rms_m: None,
+            estimation_rms_m: None,
+            outliers_rejected: false,
+        }
+    }
+}
+
+impl ExpectSpec {
+    /// The numeric bounds given: `(key, bound)`.
+    pub fn bounds(&self) -> Vec<(&'static str, f64)> {
+        [
+            ("final_m", self.final_m),
+            ("max_m", self.max_m),
+            ("rms_m", self.rms_m),
+            ("rms_last80_m", self.rms_last80_m),
+            ("tail_rms_m", self.tail_rms_m),
+            ("estimation_rms_m", self.estimation_rms_m),
+        ]
+        .into_iter()
+        .filter_map(|(k, v)| v.map(|v| (k, v)))
+        .collect()
+    }
+
+    fn validate(&self, duration_s: f64) -> Result<()> {
+        for (k, v) in self.bounds() {
+            pos(&format!("expect.{k}"), v)?;
+        }
+        nonneg("expect.settle_s", self.settle_s)?;
+        if self.settle_s >= duration_s {
+            bail!(
+                "expect.settle_s ({} s) leaves nothing of the run ({} s) to judge",
+                self.settle_s,
+                duration_s
+            );
+        }
+        if self.diverges
+            && (self.tracks.is_some() || !self.bounds().is_empty() || self.outliers_rejected)
+        {
+            bail!("expect.diverges = true takes no other target (a diverging run has no figures to bound)");
+        }
+        if self.tracks == Some(false) && !self.bounds().is_empty() {
+            bail!("expect.tracks = false takes no bounds (they would be upper bounds on errors the run is expected to exceed)");
+        }
+        Ok(())
+    }
+}
+
+/// The longest delay the tracking law flies with `delay_known = true` (s): from 0.31 s the
+/// prediction over the delay limit-cycles (measured 2026-11-26 on `delay-line-3d`, 0.3 m/s:
+/// 0.30 s: 0.5 mm final; 0.31 s: 5.8 cm and growing; 0.35 s: 19 cm, thrusters saturated 17 %
+/// of the time; 0.40 s: 29 cm, 39 %; on `circle-3d`: 0.30 s 2.4 mm RMS, 0.35 s 10 cm).
+pub const MAX_KNOWN_DELAY_S: f64 = 0.30;
+
+/// The most control ticks of one run (one recorded [`crate::sim_loop::Sample`] of about
+/// 400 B each, and one CSV row): 1,000,000 ticks, 10,000 s at 10 ms, about 0.4 GB in memory.
+pub const MAX_CONTROL_TICKS: f64 = 1.0e6;
+
+/// The longest measurement delay line, in plant steps (one plant state of about 100 B each:
+/// 0.1 GB at the limit; 1,000 s at 1 ms).
+pub const MAX_DELAY_STEPS: f64 = 1.0e6;
+
 /// One scenario, as written in its TOML file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -468,10 +584,17 @@ pub struct Scenario {
     /// relative path is taken from the scenario file's folder, else the working directory.
     #[serde(default)]
     pub vehicle: Option<String>,
+    /// What the runs must reach (`[expect]`); absent: figures without judgement.
+    #[serde(default)]
+    pub expect: Option<ExpectSpec>,
     /// The vehicle's parameters: the file's, read by [`Scenario::load`], or the Observer.
     #[serde(skip, default = "observer_params")]
     pub vehicle_params: VehicleParams,
 }
+
+/// Longest scenario name: it names a folder, and file systems allow 255 bytes per name
+/// (Monte Carlo adds a prefix and a shard suffix).
+pub const MAX_NAME_LEN: usize = 100;
 
 fn observer_params() -> VehicleParams {
     VehicleParams::OBSERVER
@@ -596,6 +719,20 @@ impl Scenario {
         {
             bail!("name {:?} may contain only letters, digits, '-', '_' and '.' (it names the output folder)", self.name);
         }
+        // A plain file name: `..` or `.` would put the outputs beside or above the output
+        // folder, a leading '.' hides them.
+        if self.name.starts_with('.') {
+            bail!(
+                "name {:?} must not start with '.' (it names the output folder, which must stay inside --out)",
+                self.name
+            );
+        }
+        if self.name.len() > MAX_NAME_LEN {
+            bail!(
+                "name is {} characters long; at most {MAX_NAME_LEN} (it names the output folder)",
+                self.name.len()
+            );
+        }
         pos("duration_s", self.duration_s)?;
         pos("control_period_s", self.control_period_s)?;
         pos("plant_dt_s", self.plant_dt_s)?;
@@ -616,6 +753,20 @@ impl Scenario {
         }
         if self.duration_s / self.plant_dt_s > 1e9 {
             bail!("duration_s / plant_dt_s is over 1e9 steps; shorten the run or enlarge the step");
+        }
+        if self.duration_s / self.control_period_s > MAX_CONTROL_TICKS {
+            bail!(
+                "duration_s = {} s is {:.3e} control ticks at control_period_s = {} s; a run keeps \
+                 and writes every tick (about 400 B each), at most {MAX_CONTROL_TICKS:.0e} ticks \
+                 ({} s at this period): shorten the run",
+                self.duration_s,
+                self.duration_s / self.control_period_s,
+                self.control_period_s,
+                MAX_CONTROL_TICKS * self.control_period_s
+            );
+        }
+        if let Some(e) = &self.expect {
+            e.validate(self.duration_s)?;
         }
         self.control_mode()?;
         for (k, v) in self.initial.values() {
@@ -692,15 +843,23 @@ impl Scenario {
                 0.5 * weight
             );
         }
+        self.check_buoyancy_holdable()?;
         nonneg("disturbance.delay_s", d.delay_s)?;
         if d.delay_s > self.duration_s {
             bail!("disturbance.delay_s ({}) is longer than the run", d.delay_s);
         }
-        if d.delay_known && d.delay_s > f64::from(controller_core::nav::predict::MAX_DELAY_S) {
+        if d.delay_s / self.plant_dt_s > MAX_DELAY_STEPS {
             bail!(
-                "disturbance.delay_s ({} s) is longer than the controller can bridge ({} s) with delay_known = true",
+                "disturbance.delay_s = {} s is {:.3e} plant steps of plant_dt_s = {} s; the delay line keeps every step of it (about 100 B each), at most {MAX_DELAY_STEPS:.0e}",
                 d.delay_s,
-                controller_core::nav::predict::MAX_DELAY_S
+                d.delay_s / self.plant_dt_s,
+                self.plant_dt_s
+            );
+        }
+        if d.delay_known && d.delay_s > MAX_KNOWN_DELAY_S {
+            bail!(
+                "disturbance.delay_s = {} s with delay_known = true: the tracking law flies a known delay up to {MAX_KNOWN_DELAY_S} s; from 0.31 s its prediction limit-cycles (0.35 s: 19 cm, thrusters saturated 17 % of the time)",
+                d.delay_s
             );
         }
         nonneg("disturbance.noise_std.position_m", d.noise_std.position_m)?;
@@ -715,6 +874,34 @@ impl Scenario {
             if let Some(missing) = self.sensors.missing_for_estimator() {
                 bail!("navigation.source = \"estimator\" needs {missing}");
             }
+        }
+        Ok(())
+    }
+
+    /// With thruster limits, the vertical thruster must hold the net buoyancy (the vehicle's
+    /// own plus the scenario's offset): a heavy vehicle needs its reverse thrust upward, a
+    /// light one its forward thrust downward. Beyond that the vehicle cannot keep its depth.
+    fn check_buoyancy_holdable(&self) -> Result<()> {
+        if !self.thrusters.saturate || self.plane == Plane::Xy {
+            return Ok(());
+        }
+        let p = &self.vehicle_params;
+        let net_n = f64::from(p.buoyancy_offset_n) + self.disturbance.buoyancy_offset_n;
+        let (limit_n, which) = if net_n < 0.0 {
+            (
+                f64::from(p.thrust_max_reverse_n),
+                "heavy; its reverse thrust",
+            )
+        } else {
+            (
+                f64::from(p.thrust_max_forward_n),
+                "light; its forward thrust",
+            )
+        };
+        if net_n.abs() > limit_n {
+            bail!(
+                "disturbance.buoyancy_offset_n: the net buoyancy is {net_n:.1} N ({which} holds {limit_n:.1} N): the vertical thruster cannot hold the depth"
+            );
         }
         Ok(())
     }

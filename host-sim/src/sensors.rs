@@ -23,7 +23,6 @@
 
 use crate::checks::{fin as finite, nonneg as noise};
 use crate::plant::PlantState;
-use crate::sim_loop::{body_to_inertial, gauss};
 use anyhow::{bail, Result};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -382,7 +381,8 @@ pub struct SensorSuite {
     gyro_bias: [f64; 3],
     accel_bias: [f64; 3],
     prev: Option<(f64, [f64; 3])>,
-    /// Usbl fixes injected as outliers.
+    /// USBL fixes drawn as outliers, delivered or not (one drawn in a run's last latency
+    /// window never arrives; the run's summary counts the delivered ones, from the fixes).
     pub usbl_outliers_injected: u64,
 }
 
@@ -539,6 +539,25 @@ impl SensorSuite {
             }
         }
     }
+}
+
+/// Rotation body -> inertial (ZYX Euler), applied to a body vector.
+pub fn body_to_inertial(eta: &[f64; 6], v: [f64; 3]) -> [f64; 3] {
+    let (sf, cf) = eta[3].sin_cos();
+    let (st, ct) = eta[4].sin_cos();
+    let (sp, cp) = eta[5].sin_cos();
+    [
+        cp * ct * v[0] + (cp * st * sf - sp * cf) * v[1] + (cp * st * cf + sp * sf) * v[2],
+        sp * ct * v[0] + (sp * st * sf + cp * cf) * v[1] + (sp * st * cf - cp * sf) * v[2],
+        -st * v[0] + ct * sf * v[1] + ct * cf * v[2],
+    ]
+}
+
+/// Standard normal draw (Box-Muller; one of the pair is dropped, simplicity over speed).
+pub fn gauss(rng: &mut ChaCha8Rng) -> f64 {
+    let u1: f64 = rng.random::<f64>().max(1e-300);
+    let u2: f64 = rng.random::<f64>();
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }
 
 /// Rotation inertial -> body (the transpose of [`body_to_inertial`]).

@@ -16,23 +16,30 @@
 //!    navigation stage sees every plant step.
 //!
 //! The run stops early when the state or the requested forces stop being finite
-//! (`nan_detected`) or when it diverges (position error > 1 km, |position| > 10 km,
-//! |velocity| > 100 m/s, |rate| > 100 rad/s, or a thrust command above 10 kN). An endpoint
-//! that fails (the firmware refused a command, the link was lost) ends the run with an error.
+//! (`nan_detected`) or when it leaves the physical (`diverged`: |position| > 10 km,
+//! |velocity| > 100 m/s, |rate| > 100 rad/s, or a thrust command above 10 kN). A run that
+//! completes is judged at its end on the true state for control lost (`lost_control`, then
+//! `diverged`): the depth or position error still growing past 1 m, or the vehicle turning
+//! over 2 turns more than its path; no fixed distance. Then the run is judged against its
+//! scenario's `[expect]` ([`judge`]). An endpoint that fails (the firmware refused a command,
+//! the link was lost) ends the run with an error.
 
 use crate::plant::six_dof_factory;
 use crate::plant::xy::XyPlant;
 use crate::plant::xz::XzPlant;
 use crate::plant::{Environment, Plant, PlantState};
-use crate::scenario::{NoiseStd, Plane, Scenario};
+use crate::scenario::{ExpectSpec, NoiseStd, Plane, Scenario, MAX_CONTROL_TICKS};
 use crate::sensors::Measurement;
+// The rotation and the noise draw live with the sensors that use them most (beside the
+// transpose `inertial_to_body`); re-exported here, where callers have found them.
+pub use crate::sensors::{body_to_inertial, gauss};
 use anyhow::{anyhow, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::controller::{ControlMode, Controller, Gains};
 use controller_core::params::VehicleParams;
 use controller_core::reference::RefSample;
 use controller_core::state::{BodyForces, NavState, TrackingErrors};
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 use std::collections::VecDeque;
@@ -101,7 +108,8 @@ pub struct NavReport {
     pub source: String,
     /// Share of control ticks whose position NEES lies inside the 95 % chi-square bound.
     pub nees_in_bounds_fraction: Option<f64>,
-    /// USBL fixes replaced by multipath outliers.
+    /// USBL fixes replaced by multipath outliers and delivered to the estimator (an outlier
+    /// drawn in the run's last latency window never arrives and is not counted).
     pub usbl_outliers_injected: u64,
     /// USBL fixes the estimator rejected on its innovation gate.
     pub usbl_fixes_rejected: u64,
@@ -153,14 +161,26 @@ pub struct Summary {
     pub rms_estimation_error_m: f64,
     /// The navigation stage's own figures.
     pub navigation: NavReport,
-    /// The run diverged.
+    /// Largest position error after the `[expect]` table's `settle_s` (10 s without it) (m).
+    pub max_position_error_after_settle_m: f64,
+    /// The vehicle's net yaw rotation minus the path's, largest over the run (turns; XY and
+    /// 3-D only, 0 otherwise).
+    pub max_turns_off_path: f64,
+    /// The run diverged: a state or force beyond the physical (the run stopped), or, judged
+    /// at the end, control lost (`lost_control`).
     pub diverged: bool,
+    /// Control lost, judged on the true state: depth (the depth error at the end larger than
+    /// all of the first half and over 1 m), heading (over 2 turns more than the path), or
+    /// position (the same growth rule on the position error).
+    pub lost_control: Option<String>,
     /// A NaN or infinity appeared.
     pub nan_detected: bool,
     /// Why the run stopped.
     pub stop_reason: String,
-    /// One-line verdict: "tracks" (final and last-20 % RMS error under 1 cm), "tracks
-    /// roughly" (under 10 cm), or "does not track" with the reason.
+    /// The run against its scenario's `[expect]` table (absent without one).
+    pub targets: Option<Targets>,
+    /// One-line verdict: against the targets when the scenario declares them, else the
+    /// figures (final error, last-20 % RMS) and no judgement; a divergence is named.
     pub verdict: String,
     /// Plant RK4 steps done.
     pub sim_steps: u64,
@@ -170,6 +190,26 @@ pub struct Summary {
     pub wall_time_s: f64,
     /// Final plant state `[x, y, z, roll, pitch, yaw, u, v, w, p, q, r]`.
     pub final_state: Vec<f64>,
+}
+
+/// One target of `[expect]` against the run.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TargetCheck {
+    /// What was expected, e.g. `RMS last 80 % <= 2.0 cm`.
+    pub target: String,
+    /// What the run did (the figure, or a word).
+    pub measured: String,
+    /// Met.
+    pub met: bool,
+}
+
+/// A run against its scenario's `[expect]` table.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Targets {
+    /// Every target met.
+    pub met: bool,
+    /// Each target.
+    pub checks: Vec<TargetCheck>,
 }
 
 /// One USBL fix as the estimator saw it, for plots and logs.
@@ -427,18 +467,6 @@ pub fn make_plant(
     })
 }
 
-/// Rotation body -> inertial (ZYX Euler), applied to a body vector.
-pub fn body_to_inertial(eta: &[f64; 6], v: [f64; 3]) -> [f64; 3] {
-    let (sf, cf) = eta[3].sin_cos();
-    let (st, ct) = eta[4].sin_cos();
-    let (sp, cp) = eta[5].sin_cos();
-    [
-        cp * ct * v[0] + (cp * st * sf - sp * cf) * v[1] + (cp * st * cf + sp * sf) * v[2],
-        sp * ct * v[0] + (sp * st * sf + cp * cf) * v[1] + (sp * st * cf - cp * sf) * v[2],
-        -st * v[0] + ct * sf * v[1] + ct * cf * v[2],
-    ]
-}
-
 /// The plant state as the core's `f32` navigation state.
 pub fn to_nav(s: &PlantState) -> NavState {
     NavState {
@@ -457,13 +485,6 @@ pub fn to_nav(s: &PlantState) -> NavState {
     }
 }
 
-/// Standard normal draw (Box-Muller; one of the pair is dropped, simplicity over speed).
-pub fn gauss(rng: &mut ChaCha8Rng) -> f64 {
-    let u1: f64 = rng.random::<f64>().max(1e-300);
-    let u2: f64 = rng.random::<f64>();
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-}
-
 /// The nominal plant parameters of a scenario: its vehicle (the Observer unless the key
 /// `vehicle` names another) with the scenario's buoyancy offset added to the vehicle's.
 pub fn nominal_plant_params(sc: &Scenario) -> VehicleParams {
@@ -472,49 +493,167 @@ pub fn nominal_plant_params(sc: &Scenario) -> VehicleParams {
     p
 }
 
-/// Does the run track, in a word for a table: `yes` (final error and last-20 % RMS under
-/// 1 cm), `roughly` (under 10 cm), `NO` (more), `NO: diverged`, `NO: NaN`.
-pub fn tracks_word(s: &Summary) -> &'static str {
-    if s.nan_detected {
-        "NO: NaN"
-    } else if s.diverged {
-        "NO: diverged"
+/// The verdict in a word for a table: against the targets `meets` / `MISSES`; without
+/// targets `-`, or `DIVERGED` / `NaN` / the control lost.
+pub fn verdict_word(s: &Summary) -> &'static str {
+    match &s.targets {
+        Some(t) if t.met => "meets",
+        Some(_) => "MISSES",
+        None if s.nan_detected => "NaN",
+        None if s.diverged => "DIVERGED",
+        None => "-",
+    }
+}
+
+/// The figures of a run in words: a divergence or loss of control named, else the final
+/// error and the last-20 % RMS.
+pub fn figures(s: &Summary) -> String {
+    if s.nan_detected || s.diverged {
+        let mut why = s
+            .lost_control
+            .clone()
+            .unwrap_or_else(|| s.stop_reason.clone());
+        if s.lost_control.is_some() && s.stop_reason != "completed" {
+            why = format!("{}; {why}", s.stop_reason);
+        }
+        return why;
+    }
+    let (f, t) = (s.final_position_error_m, s.rms_position_error_tail_m);
+    let worst = f.max(t);
+    if worst < 0.01 {
+        format!(
+            "final error {:.3} mm, last-20 % RMS {:.3} mm",
+            1e3 * f,
+            1e3 * t
+        )
+    } else if worst < 0.1 {
+        format!(
+            "final error {:.1} cm, last-20 % RMS {:.1} cm",
+            1e2 * f,
+            1e2 * t
+        )
     } else {
+        format!("final error {f:.2} m, last-20 % RMS {t:.2} m")
+    }
+}
+
+/// A length in words for the verdict: mm under 1 cm, cm under 1 m, m above.
+fn len(m: f64) -> String {
+    if !m.is_finite() {
+        format!("{m}")
+    } else if m < 0.01 {
+        format!("{:.3} mm", 1e3 * m)
+    } else if m < 1.0 {
+        format!("{:.1} cm", 1e2 * m)
+    } else {
+        format!("{m:.2} m")
+    }
+}
+
+/// The run `s` against `expect` (see [`ExpectSpec`]).
+pub fn judge(expect: &ExpectSpec, s: &Summary) -> Targets {
+    let mut checks = Vec::new();
+    let lost = s.diverged || s.nan_detected;
+    if expect.diverges {
+        checks.push(TargetCheck {
+            target: "diverges".into(),
+            measured: if lost {
+                figures(s)
+            } else {
+                "did not diverge".into()
+            },
+            met: lost,
+        });
+    }
+    if let Some(tracks) = expect.tracks {
         let worst = s.final_position_error_m.max(s.rms_position_error_tail_m);
-        if worst < 0.01 {
-            "yes"
-        } else if worst < 0.1 {
-            "roughly"
-        } else {
-            "NO"
+        let tracked = !lost && worst < 0.1;
+        checks.push(TargetCheck {
+            target: if tracks {
+                "tracks (final and last-20 % RMS < 10 cm)".into()
+            } else {
+                "does not track (final or last-20 % RMS >= 10 cm, or diverges)".into()
+            },
+            measured: if lost { figures(s) } else { len(worst) },
+            met: tracked == tracks,
+        });
+    }
+    if !expect.diverges && lost && expect.tracks.is_none() {
+        checks.push(TargetCheck {
+            target: "no divergence".into(),
+            measured: figures(s),
+            met: false,
+        });
+    }
+    for (key, bound) in expect.bounds() {
+        let v = match key {
+            "final_m" => s.final_position_error_m,
+            "max_m" => s.max_position_error_after_settle_m,
+            "rms_m" => s.rms_position_error_m,
+            "rms_last80_m" => s.rms_position_error_last80_m,
+            "tail_rms_m" => s.rms_position_error_tail_m,
+            _ => s.rms_estimation_error_m,
+        };
+        let name = match key {
+            "final_m" => "final".to_string(),
+            "max_m" => format!("max after {} s", expect.settle_s),
+            "rms_m" => "RMS".into(),
+            "rms_last80_m" => "RMS last 80 %".into(),
+            "tail_rms_m" => "RMS last 20 %".into(),
+            _ => "estimation RMS".into(),
+        };
+        checks.push(TargetCheck {
+            target: format!("{name} <= {}", len(bound)),
+            measured: len(v),
+            // A NaN (no estimate, an empty window) does not meet a bound.
+            met: !lost && v <= bound,
+        });
+    }
+    if expect.outliers_rejected {
+        let n = &s.navigation;
+        checks.push(TargetCheck {
+            target: "every outlier received rejected".into(),
+            measured: format!(
+                "{} of {} rejected",
+                n.usbl_fixes_rejected, n.usbl_outliers_injected
+            ),
+            met: n.usbl_fixes_rejected >= n.usbl_outliers_injected,
+        });
+    }
+    Targets {
+        met: checks.iter().all(|c| c.met),
+        checks,
+    }
+}
+
+/// The one-line verdict of a summary: against its targets when it has them (`meets its
+/// targets: ...`, `MISSES its targets: ...`), else the figures.
+pub fn verdict(s: &Summary) -> String {
+    match &s.targets {
+        None => format!("no targets declared: {}", figures(s)),
+        Some(t) => {
+            let list = |met: bool| {
+                t.checks
+                    .iter()
+                    .filter(|c| c.met == met)
+                    .map(|c| format!("{}: {}", c.target, c.measured))
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            };
+            if t.met {
+                format!("meets its targets: {}", list(true))
+            } else {
+                format!("MISSES its targets: {}", list(false))
+            }
         }
     }
 }
 
-/// The one-line verdict of a summary.
-pub fn verdict(s: &Summary) -> String {
-    if s.nan_detected || s.diverged {
-        return format!("does not track: {}", s.stop_reason);
-    }
-    let worst = s.final_position_error_m.max(s.rms_position_error_tail_m);
-    if worst < 0.01 {
-        format!(
-            "tracks: final error {:.3} mm, last-20 % RMS {:.3} mm",
-            1e3 * s.final_position_error_m,
-            1e3 * s.rms_position_error_tail_m
-        )
-    } else if worst < 0.1 {
-        format!(
-            "tracks roughly: final error {:.1} cm, last-20 % RMS {:.1} cm",
-            1e2 * s.final_position_error_m,
-            1e2 * s.rms_position_error_tail_m
-        )
-    } else {
-        format!(
-            "does not track: final error {:.2} m, last-20 % RMS {:.2} m",
-            s.final_position_error_m, s.rms_position_error_tail_m
-        )
-    }
+/// The control lost, judged at the end of a run that completed: `first_half` is the largest
+/// error of the first half, `tail_min` the smallest of the last 20 %. The error still
+/// growing: the whole end larger than anything of the first half, and over 1 m.
+fn still_growing(first_half: f64, tail_min: f64) -> bool {
+    tail_min > 1.0 && tail_min > first_half
 }
 
 /// Sums of squares over the windows the summary reports.
@@ -539,12 +678,11 @@ impl Rms {
     }
 }
 
-/// Why a run diverged, if it did.
-fn divergence(pen: f64, truth: &PlantState, cmd: &[f64; 3]) -> Option<&'static str> {
+/// Why a run left the physical, if it did (the run stops: the figures after would mean
+/// nothing). A vehicle that drifts off is judged at the end ([`still_growing`]), not here.
+fn divergence(truth: &PlantState, cmd: &[f64; 3]) -> Option<&'static str> {
     let max_abs = |v: &[f64]| v.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-    if pen > 1.0e3 {
-        Some("position error > 1 km")
-    } else if max_abs(&truth.eta[..3]) > 1.0e4 {
+    if max_abs(&truth.eta[..3]) > 1.0e4 {
         Some("|position| > 10 km")
     } else if max_abs(&truth.nu[..3]) > 100.0 {
         Some("|velocity| > 100 m/s")
@@ -554,6 +692,55 @@ fn divergence(pen: f64, truth: &PlantState, cmd: &[f64; 3]) -> Option<&'static s
         Some("thrust command > 10 kN")
     } else {
         None
+    }
+}
+
+/// Turns of the vehicle beyond the path's: over this the heading control is lost.
+pub const MAX_TURNS_OFF_PATH: f64 = 2.0;
+
+/// The vehicle's yaw and the path's direction, unwrapped, for the turns one made more than
+/// the other.
+#[derive(Debug, Default)]
+struct Turns {
+    yaw: Option<(f64, f64)>,
+    path: Option<(f64, f64)>,
+    offset: Option<f64>,
+    off: f64,
+}
+
+impl Turns {
+    /// Unwrap `(last, total)` by the new angle `a`.
+    fn unwrap(acc: &mut Option<(f64, f64)>, a: f64) -> f64 {
+        let (last, total) = acc.unwrap_or((a, a));
+        let mut d = (a - last) % std::f64::consts::TAU;
+        if d > std::f64::consts::PI {
+            d -= std::f64::consts::TAU;
+        } else if d < -std::f64::consts::PI {
+            d += std::f64::consts::TAU;
+        }
+        *acc = Some((a, total + d));
+        total + d
+    }
+
+    /// One tick: the vehicle's yaw, the path's direction when it moves (it keeps the last
+    /// one while the reference holds a point).
+    fn update(&mut self, yaw_rad: f64, path_rad: Option<f64>) {
+        let y = Self::unwrap(&mut self.yaw, yaw_rad);
+        if let Some(p) = path_rad {
+            if self.path.is_none() {
+                // The path starts moving: count from here.
+                self.offset = None;
+            }
+            Self::unwrap(&mut self.path, p);
+        }
+        let p = self.path.map_or(0.0, |(_, total)| total);
+        let diff = y - p;
+        let offset = *self.offset.get_or_insert(diff);
+        self.off = (diff - offset).abs() / std::f64::consts::TAU;
+    }
+
+    fn off_path_turns(&self) -> f64 {
+        self.off
     }
 }
 
@@ -598,6 +785,11 @@ pub fn run_closed_loop(
     let tc = dt * n_sub as f64;
     let duration = opts.duration_s.unwrap_or(sc.duration_s);
     let n_ctrl = (duration / tc).round() as u64;
+    if n_ctrl as f64 > MAX_CONTROL_TICKS {
+        return Err(anyhow!(
+            "{duration} s is {n_ctrl} control ticks: at most {MAX_CONTROL_TICKS:.0e} in one run"
+        ));
+    }
 
     let mut log = Vec::with_capacity(if opts.record { n_ctrl as usize + 1 } else { 0 });
     let (mut all, mut tail, mut last80, mut est) = (
@@ -621,6 +813,12 @@ pub fn run_closed_loop(
     let t_tail = 0.8 * duration;
     let t_80 = 0.2 * duration;
     let mut held_cmd = [0.0f64; 3];
+    let settle_s = sc.expect.map_or(10.0, |e| e.settle_s);
+    let (mut first_half_max, mut first_half_depth_max) = (0.0f64, 0.0f64);
+    let (mut tail_min, mut tail_depth_min) = (f64::INFINITY, f64::INFINITY);
+    let heading_judged = sc.plane != Plane::Xz;
+    let depth_judged = sc.plane != Plane::Xy;
+    let mut turns = Turns::default();
 
     for k in 0..=n_ctrl {
         let t = k as f64 * tc;
@@ -715,7 +913,27 @@ pub fn run_closed_loop(
         s.control_steps += 1;
         s.simulated_s = t;
 
-        if let Some(why) = divergence(pen, &truth, &cmd) {
+        // Control lost: the error and the depth error of the first half and of the end;
+        // the turns of the vehicle against the path's.
+        let depth_err = (truth.eta[2] - ref_pos[2]).abs();
+        if t < 0.5 * duration {
+            first_half_max = first_half_max.max(pen);
+            first_half_depth_max = first_half_depth_max.max(depth_err);
+        }
+        if t >= t_tail {
+            tail_min = tail_min.min(pen);
+            tail_depth_min = tail_depth_min.min(depth_err);
+        }
+        if t >= settle_s {
+            s.max_position_error_after_settle_m = s.max_position_error_after_settle_m.max(pen);
+        }
+        if heading_judged {
+            let path = (ref_vel[0].hypot(ref_vel[1]) > 1e-3).then(|| ref_vel[1].atan2(ref_vel[0]));
+            turns.update(truth.eta[5], path);
+            s.max_turns_off_path = s.max_turns_off_path.max(turns.off_path_turns());
+        }
+
+        if let Some(why) = divergence(&truth, &cmd) {
             s.diverged = true;
             s.stop_reason = format!("diverged at t = {t:.3} s: {why}");
             break;
@@ -738,6 +956,13 @@ pub fn run_closed_loop(
     s.rms_position_error_last80_m = last80.value();
     s.rms_estimation_error_m = est.value();
     s.navigation = nav.report();
+    // An outlier counts when the estimator received it: the stage draws each fix at its
+    // ping and delivers it `latency_s` later, so one drawn in the last latency window of
+    // the run never arrives. The fix records are kept on delivery.
+    let fixes = nav.usbl_fixes();
+    if !fixes.is_empty() {
+        s.navigation.usbl_outliers_injected = fixes.iter().filter(|f| f.outlier).count() as u64;
+    }
     s.final_position_error_m = last.pos_err_norm_m;
     s.final_position_error_xyz_m = last.pos_err_m;
     s.final_angle_error_rad = last.angle_err_rad;
@@ -755,15 +980,36 @@ pub fn run_closed_loop(
             s.rms_position_error_last80_m = f64::INFINITY;
         }
     }
+    if !s.diverged && !s.nan_detected {
+        s.lost_control = if depth_judged && still_growing(first_half_depth_max, tail_depth_min) {
+            let z = last.state.eta[2] - last.ref_pos_m[2];
+            Some(format!(
+                "lost depth control: {:.1} m {} its reference depth at the end, and still going",
+                z.abs(),
+                if z > 0.0 { "below" } else { "above" }
+            ))
+        } else if s.max_turns_off_path > MAX_TURNS_OFF_PATH {
+            Some(format!(
+                "lost heading control: turned {:.1} turns more than the path",
+                s.max_turns_off_path
+            ))
+        } else if still_growing(first_half_max, tail_min) {
+            Some(format!(
+                "lost position control: the error grows ({} at the end, at most {} in the first half)",
+                len(last.pos_err_norm_m),
+                len(first_half_max)
+            ))
+        } else {
+            None
+        };
+        s.diverged = s.lost_control.is_some();
+    }
+    s.targets = sc.expect.map(|e| judge(&e, &s));
     s.verdict = verdict(&s);
     let fs = last.state;
     s.final_state = fs.eta.iter().chain(fs.nu.iter()).copied().collect();
     s.wall_time_s = wall.elapsed().as_secs_f64();
-    let usbl_fixes = if opts.record {
-        nav.usbl_fixes()
-    } else {
-        Vec::new()
-    };
+    let usbl_fixes = if opts.record { fixes } else { Vec::new() };
     Ok(RunOutput {
         summary: s,
         log,

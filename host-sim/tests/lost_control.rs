@@ -1,0 +1,47 @@
+//! Divergence judged on the true state (issue 23): a vehicle that cannot hold its depth is
+//! named so, not "completed"; a run that ends where it should is not judged lost.
+
+use host_sim::runner::{nominal_plant_params, run, RunOptions};
+use host_sim::scenario::Scenario;
+
+#[test]
+fn an_18_n_heavy_vehicle_that_sinks_has_lost_depth_control() {
+    let sc = Scenario::load("line-3d").unwrap();
+    // The controller is told the nominal vehicle; the plant is 18 N heavy, more than the
+    // vertical thruster's 15 N reverse thrust (the scenario check refuses such a file, the
+    // plant of a Monte Carlo run or a real vehicle can still be so).
+    let mut plant = nominal_plant_params(&sc);
+    plant.buoyancy_offset_n -= 18.0;
+    let out = run(
+        &sc,
+        &RunOptions {
+            plant_params: Some(plant),
+            ..RunOptions::default()
+        },
+    )
+    .unwrap();
+    let s = &out.summary;
+    assert!(s.diverged, "{}", s.verdict);
+    let lost = s.lost_control.as_deref().unwrap_or("");
+    assert!(lost.starts_with("lost depth control"), "{lost}");
+    assert!(lost.contains("below"), "{lost}");
+    assert!(!s.verdict.contains("completed") && s.verdict.contains("lost depth control"));
+    assert!(!s.targets.as_ref().unwrap().met);
+}
+
+#[test]
+fn a_vehicle_just_within_its_thruster_holds_its_depth() {
+    let sc = Scenario::load("line-3d").unwrap();
+    let mut plant = nominal_plant_params(&sc);
+    plant.buoyancy_offset_n -= 14.0;
+    let out = run(
+        &sc,
+        &RunOptions {
+            plant_params: Some(plant),
+            ..RunOptions::default()
+        },
+    )
+    .unwrap();
+    let s = &out.summary;
+    assert!(!s.diverged && s.lost_control.is_none(), "{}", s.verdict);
+}

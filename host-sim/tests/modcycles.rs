@@ -1,0 +1,63 @@
+//! `scripts/modcycles.py` fails when it finds what it looks for (issue 23): a circle of
+//! modules prints a `CYCLE` line and exits 1; the workspace has none. Skipped without python3.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn workspace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .to_path_buf()
+}
+
+/// The script run in `cwd`, or `None` (SKIPPED) without python3.
+fn modcycles(cwd: &Path) -> Option<Output> {
+    let script = workspace().join("scripts/modcycles.py");
+    match Command::new("python3")
+        .arg(script)
+        .current_dir(cwd)
+        .output()
+    {
+        Ok(o) => Some(o),
+        Err(e) => {
+            eprintln!("SKIPPED: python3 not runnable ({e})");
+            None
+        }
+    }
+}
+
+#[test]
+fn the_workspace_has_no_module_circle() {
+    let Some(o) = modcycles(&workspace()) else {
+        return;
+    };
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(!out.contains("CYCLE"), "{out}");
+    assert_eq!(o.status.code(), Some(0), "{out}");
+}
+
+#[test]
+fn a_circle_of_three_modules_is_found_and_fails_the_check() {
+    let dir = std::env::temp_dir().join(format!("modcycles-{}", std::process::id()));
+    let src = dir.join("host-sim/src");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&src).unwrap();
+    std::fs::write(src.join("a.rs"), "use crate::b::B;\n").unwrap();
+    std::fs::write(src.join("b.rs"), "use crate::{c::C, d};\n").unwrap();
+    std::fs::write(src.join("c.rs"), "pub use crate::a::A;\n").unwrap();
+    // A doc link and a test module are not uses.
+    std::fs::write(
+        src.join("d.rs"),
+        "/// See [`crate::b::B`].\n#[cfg(test)]\nmod tests {\n    use crate::b::B;\n}\n",
+    )
+    .unwrap();
+    let Some(o) = modcycles(&dir) else {
+        return;
+    };
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("host-sim/src CYCLE a -> b -> c -> a"), "{out}");
+    assert!(!out.contains(" d"), "{out}");
+    assert_eq!(o.status.code(), Some(1), "{out}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
