@@ -228,6 +228,10 @@ fn heartbeat_loss_neutral_then_disarm_then_explicit_rearm() {
         assert_eq!(pulses_us(&mut a), [1500.0; 3]);
     }
     t.send(&mut a, &nav(c.get_us()));
+    // Issue 22: the arming in a stick mode is refused while the stick is off centre.
+    let (s, r) = t.send(&mut a, &Command::Arm);
+    assert_eq!(nacked(&r, s), Some(NackReason::SticksNotCentred));
+    t.send(&mut a, &Command::ManualThrust(ManualThrust::default()));
     let (s, r) = t.send(&mut a, &Command::Arm);
     assert!(acked(&r, s));
     c.advance_us(20_000);
@@ -761,4 +765,128 @@ fn vehicle_description_and_failsafe_timeouts_over_the_tether() {
         Some(NackReason::Armed)
     );
     assert_eq!(a.autopilot().controller().vehicle().params().mass_kg, 14.0);
+}
+
+// ---- Issue 22: the probes, each a test ------------------------------------------------
+
+/// Keep the link and the navigation fresh for `steps` control periods of 20 ms.
+fn fly(a: &mut TestApp, c: &FakeClock, t: &mut Topside, steps: u32) {
+    for _ in 0..steps {
+        c.advance_us(20_000);
+        t.send(a, &nav(c.get_us()));
+        t.send(a, &Command::Heartbeat { t_us: 0 });
+    }
+}
+
+/// Issue 22, "arming obeys a stale stick": a full stick sent while disarmed does not act
+/// after the arming. While it is fresh, the arming is refused (ArduSub's throttle check);
+/// once stale, the arming is taken and the thrusters wait for input sent after it.
+#[test]
+fn arming_does_not_obey_a_stick_sent_while_disarmed() {
+    let (mut a, c, mut t) = fixed();
+    t.send(&mut a, &Command::Heartbeat { t_us: 0 });
+    t.send(&mut a, &nav(c.get_us()));
+    let (s, r) = t.send(&mut a, &Command::SetMode(Mode::Manual));
+    assert!(acked(&r, s), "{r:?}");
+    let full = ManualThrust {
+        surge: 1.0,
+        yaw: 1.0,
+        heave: 1.0,
+    };
+    t.send(&mut a, &Command::ManualThrust(full));
+    let (s, r) = t.send(&mut a, &Command::Arm);
+    assert_eq!(nacked(&r, s), Some(NackReason::SticksNotCentred));
+    assert!(!a.autopilot().armed());
+    // The stick goes stale (0.6 s, nothing new): the arming is taken, and 20 ms later the
+    // outputs are neutral (no input since the arming).
+    fly(&mut a, &c, &mut t, 30);
+    let (s, r) = t.send(&mut a, &Command::Arm);
+    assert!(acked(&r, s), "{r:?}");
+    fly(&mut a, &c, &mut t, 1);
+    assert_eq!(pulses_us(&mut a), [1500.0; 3]);
+    assert_ne!(a.last_output().faults & fault::MANUAL_STALE, 0);
+    // A centred stick sent while disarmed is no obstacle; input after the arming acts.
+    t.send(&mut a, &Command::Disarm);
+    t.send(&mut a, &Command::ManualThrust(ManualThrust::default()));
+    let (s, r) = t.send(&mut a, &Command::Arm);
+    assert!(acked(&r, s), "{r:?}");
+    t.send(&mut a, &Command::ManualThrust(full));
+    fly(&mut a, &c, &mut t, 1);
+    assert!(pulses_us(&mut a)[0] > 1500.0);
+}
+
+/// Issue 22, "re-arming resumes an old reference": tracking a line, disarm, 60 s later arm.
+/// The reference was dropped at the disarm: the arming in the tracking mode is refused
+/// `NoReference` (outputs stay neutral); sent again, the line starts at the arming.
+#[test]
+fn rearming_does_not_resume_an_old_reference() {
+    let (mut a, c, mut t) = fixed();
+    let line = Command::SetReference {
+        reference: Reference::Line {
+            start_m: [0.0, 0.0, 0.0],
+            heading_rad: 0.0,
+            speed_m_s: 0.5,
+        },
+        start_us: None,
+    };
+    let (s, r) = t.send(&mut a, &line);
+    assert!(acked(&r, s));
+    arm(&mut a, &c, &mut t);
+    let track = Command::SetMode(Mode::Track {
+        plane: Plane::Xy,
+        law: Law::Tracking,
+    });
+    let (s, r) = t.send(&mut a, &track);
+    assert!(acked(&r, s));
+    fly(&mut a, &c, &mut t, 50);
+    assert!(a.last_output().law_ran);
+    t.send(&mut a, &Command::Disarm);
+    fly(&mut a, &c, &mut t, 3_000); // 60 s
+    let (s, r) = t.send(&mut a, &Command::Arm);
+    assert_eq!(nacked(&r, s), Some(NackReason::NoReference));
+    assert!(!a.autopilot().armed());
+    assert_eq!(pulses_us(&mut a), [1500.0; 3]);
+    // Sent again (start "now", at the vehicle): the first step's error is small.
+    let (s, r) = t.send(&mut a, &line);
+    assert!(acked(&r, s));
+    fly(&mut a, &c, &mut t, 50); // 1 s between the reference and the arming
+    let (s, r) = t.send(&mut a, &Command::Arm);
+    assert!(acked(&r, s), "{r:?}");
+    fly(&mut a, &c, &mut t, 1);
+    let e = a.last_output().errors;
+    assert!(a.last_output().law_ran);
+    assert!(e.x_m.abs() < 0.05, "first error {e:?}");
+}
+
+/// Issue 22, "AUTO armed 120 s after it was set jumps 10 m along the path": the path starts
+/// at the arming, where the vehicle is.
+#[test]
+fn auto_armed_late_starts_its_path_at_the_arming() {
+    let (mut a, c, mut t) = fixed();
+    for (i, p) in [[20.0, 0.0, 0.0], [20.0, 20.0, 0.0]].iter().enumerate() {
+        let (s, r) = t.send(
+            &mut a,
+            &Command::MissionItem {
+                index: i as u16,
+                count: 2,
+                pos_m: *p,
+                speed_m_s: 0.1,
+            },
+        );
+        assert!(acked(&r, s), "{r:?}");
+    }
+    t.send(&mut a, &Command::Heartbeat { t_us: 0 });
+    t.send(&mut a, &nav(c.get_us()));
+    let (s, r) = t.send(&mut a, &Command::SetMode(Mode::Auto));
+    assert!(acked(&r, s), "{r:?}");
+    fly(&mut a, &c, &mut t, 6_000); // 120 s
+    let (s, r) = t.send(&mut a, &Command::Arm);
+    assert!(acked(&r, s), "{r:?}");
+    fly(&mut a, &c, &mut t, 1);
+    let e = a.last_output().errors;
+    assert!(a.last_output().law_ran);
+    assert!(
+        e.x_m.abs() < 0.05 && e.y_m.abs() < 0.05,
+        "the path starts 120 s along: {e:?}"
+    );
 }

@@ -276,6 +276,9 @@ pub enum NackReason {
     NavRefused(Refusal),
     /// Not while armed (a new vehicle description; version 5).
     Armed,
+    /// Arming in a stick mode refused: the pilot's latest input is fresh and off centre
+    /// (version 6).
+    SticksNotCentred,
 }
 
 impl From<controller_core::Error> for NackReason {
