@@ -124,6 +124,9 @@ pub struct Autopilot {
     /// Time of the latest arming or change of mode: no reference's `t = 0` is earlier, so
     /// nothing set before it is resumed part-way (issue 22).
     engaged_us: u64,
+    /// A new surface session began: the next `Nav` is not ordered after the previous
+    /// session's (a restarted topside's clock starts again).
+    nav_order_reset: bool,
     /// Control steps run.
     pub steps: u32,
 }
@@ -169,6 +172,7 @@ impl Autopilot {
             upload: Mission::default(),
             auto: None,
             engaged_us: 0,
+            nav_order_reset: false,
             steps: 0,
         }
     }
@@ -242,6 +246,12 @@ impl Autopilot {
         f(o, thrust).map_err(NackReason::NavRefused)?;
         self.onboard_seq = seq;
         Ok(())
+    }
+
+    /// A new surface session began (the App's handshake): its `Nav` time stamps start a
+    /// new order.
+    pub fn new_session(&mut self) {
+        self.nav_order_reset = true;
     }
 
     /// Disarm now (neutral from the next step). What was commanded before is forgotten: the
@@ -333,6 +343,8 @@ impl Autopilot {
             | Command::UsblFix(_)
             | Command::DvlFix(_)
             | Command::Compass(_) => Err(NackReason::Unsupported),
+            // The App's (sessions are a link matter).
+            Command::OpenSession { .. } => Err(NackReason::Unsupported),
             Command::StopNav => {
                 self.onboard = None;
                 Ok(())
@@ -362,9 +374,11 @@ impl Autopilot {
                     return Err(NackReason::NavSource);
                 }
                 check_nav(&sample.state)?;
-                if self.nav.is_some_and(|prev| sample.t_us < prev.sample.t_us) {
+                let ordered = !self.nav_order_reset;
+                if ordered && self.nav.is_some_and(|prev| sample.t_us < prev.sample.t_us) {
                     return Err(NackReason::OutOfRange);
                 }
+                self.nav_order_reset = false;
                 self.nav = Some(NavRx {
                     rx_us: now_us,
                     seq,
@@ -374,6 +388,11 @@ impl Autopilot {
             }
             Command::SetVehicle(params) => self.set_vehicle(params),
             Command::SetFailsafe(f) => {
+                // Timeouts are not changed mid-dive (relaxing one would weaken a failsafe
+                // that is protecting the vehicle now).
+                if self.armed {
+                    return Err(NackReason::Armed);
+                }
                 f.validate()?;
                 self.failsafe = *f;
                 Ok(())

@@ -32,7 +32,7 @@ use firmware::protocol::{
 use firmware::{Config, Failsafe};
 use proptest::prelude::*;
 use proptest::test_runner::{Config as PtConfig, TestRunner};
-use rov_tests::{app, pulses_us};
+use rov_tests::{app, pulses_us, Topside};
 
 fn cases() -> u32 {
     std::env::var("FUZZ_CASES")
@@ -193,20 +193,22 @@ fn segment() -> impl Strategy<Value = Segment> {
     ]
 }
 
-fn frame(seq: u16, c: &Command) -> Vec<u8> {
+fn frame(session: u32, seq: u16, c: &Command) -> Vec<u8> {
     let mut buf = [0u8; MAX_FRAME_LEN];
-    encode(seq, c, &mut buf)
+    encode(session, seq, c, &mut buf)
         .expect("every command fits")
         .to_vec()
 }
 
-/// The stream, the valid frames it holds in order, and how many oversize runs.
-fn build(segs: &[Segment]) -> (Vec<u8>, Vec<(u16, Command)>, u32) {
+/// The stream (frames of `session`, numbered from 1), the valid frames it holds in order,
+/// and how many oversize runs.
+fn build(session: u32, segs: &[Segment]) -> (Vec<u8>, Vec<(u16, Command)>, u32) {
     let mut bytes = Vec::new();
     let mut valid = Vec::new();
     let mut oversize = 0;
+    let frame = |seq, c: &Command| frame(session, seq, c);
     for (i, s) in segs.iter().enumerate() {
-        let seq = i as u16;
+        let seq = i as u16 + 1;
         match s {
             Segment::Valid(c) => {
                 bytes.extend(frame(seq, c));
@@ -248,11 +250,11 @@ fn decoder_recovers_every_valid_frame_and_accepts_nothing_else() {
     });
     let stats = std::cell::Cell::new((0u64, 0u64, 0u64, 0u64));
     let r = runner.run(&proptest::collection::vec(segment(), 1..12), |segs| {
-        let (bytes, valid, oversize) = build(&segs);
+        let (bytes, valid, oversize) = build(7, &segs);
         let mut d = FrameDecoder::<Command>::new();
         let mut got = Vec::new();
         for b in &bytes {
-            if let Some(Decoded::Frame { seq, msg }) = d.push(*b) {
+            if let Some(Decoded::Frame { seq, msg, .. }) = d.push(*b) {
                 got.push((seq, msg));
             }
         }
@@ -266,7 +268,7 @@ fn decoder_recovers_every_valid_frame_and_accepts_nothing_else() {
         for chunk in bytes.chunks(1 + segs.len() * 7 % 61) {
             let mut rest = chunk;
             while !rest.is_empty() {
-                if let Some(Decoded::Frame { seq, msg }) = s.push_slice(&mut rest) {
+                if let Some(Decoded::Frame { seq, msg, .. }) = s.push_slice(&mut rest) {
                     got_s.push((seq, msg));
                 }
             }
@@ -301,12 +303,14 @@ fn app_survives_any_byte_stream() {
         ..PtConfig::default()
     });
     let r = runner.run(&proptest::collection::vec(segment(), 1..24), |segs| {
-        let (bytes, _valid, _) = build(&segs);
         for cfg in [
             Config::lockstep(Board::Host),
             Config::fixed_rate(Board::Host),
         ] {
             let (mut a, c) = app(cfg);
+            let mut top = Topside::default();
+            top.open(&mut a);
+            let (bytes, _valid, _) = build(top.session, &segs);
             for chunk in bytes.chunks(37) {
                 a.parts_mut().1.rx.extend(chunk);
                 c.advance_us(7_000);
@@ -370,6 +374,8 @@ fn largest_messages_fit() {
             tx_frames: u32::MAX,
             nacks: u32::MAX,
             tx_dropped: u32::MAX,
+            no_session: u32::MAX,
+            replayed: u32::MAX,
             dropped: firmware::protocol::DropCounters {
                 overflow: u32::MAX,
                 cobs: u32::MAX,
@@ -386,14 +392,14 @@ fn largest_messages_fit() {
         std::mem::size_of::<FrameDecoder<Command>>()
     );
     let mut buf = [0u8; MAX_FRAME_LEN];
-    let n = encode(u16::MAX, &Reply::Telemetry(big), &mut buf)
+    let n = encode(u32::MAX, u16::MAX, &Reply::Telemetry(big), &mut buf)
         .unwrap()
         .len();
     println!(
         "largest telemetry frame: {n} bytes (max {MAX_FRAME_LEN}, payload max {MAX_PAYLOAD_LEN})"
     );
     assert!(n <= MAX_FRAME_LEN);
-    let n = encode(u16::MAX, &Reply::Status(big_status), &mut buf)
+    let n = encode(u32::MAX, u16::MAX, &Reply::Status(big_status), &mut buf)
         .unwrap()
         .len();
     println!("largest status frame: {n} bytes");
@@ -437,7 +443,7 @@ fn largest_messages_fit() {
         },
     ];
     for c in worst_cmds {
-        let n = encode(u16::MAX, &c, &mut buf).unwrap().len();
+        let n = encode(u32::MAX, u16::MAX, &c, &mut buf).unwrap().len();
         println!(
             "{}: {n} bytes",
             format!("{c:?}").split('(').next().unwrap_or("")

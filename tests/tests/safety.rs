@@ -105,7 +105,7 @@ fn boots_disarmed_with_neutral_outputs_and_says_hello() {
     assert!(matches!(
         r.as_slice(),
         [Reply::Hello {
-            protocol: 5,
+            protocol: 6,
             board: Board::Host,
             lockstep: false,
             control_period_us: 20_000,
@@ -410,8 +410,9 @@ fn invalid_values_are_nacked_and_change_nothing() {
     let (s, r) = t.deliver(&mut a, &nav(c.get_us()));
     assert_eq!(nacked(&r, s), Some(NackReason::OutOfRange));
     assert_eq!(snapshot(&a), before);
-    // Tracking without a reference (fresh app).
+    // Tracking without a reference (fresh app, its session open).
     let (mut b, _c2, mut t2) = fixed();
+    t2.open(&mut b);
     let before = snapshot(&b);
     let (s, r) = t2.deliver(
         &mut b,
@@ -432,7 +433,7 @@ fn invalid_values_are_nacked_and_change_nothing() {
 fn other_protocol_version_is_nacked() {
     let (mut a, _c, mut t) = fixed();
     let mut buf = [0u8; MAX_FRAME_LEN];
-    let f = encode_with_version(9, 1234, &Command::Arm, &mut buf).unwrap();
+    let f = encode_with_version(9, 0, 1234, &Command::Arm, &mut buf).unwrap();
     a.parts_mut().1.rx.extend(f.iter().copied());
     a.tick();
     let r: Vec<Reply> = t
@@ -494,7 +495,8 @@ fn lockstep_runs_on_host_time() {
         },
     });
     let (s, r) = t.send(&mut a, &far);
-    assert_eq!(nacked(&r, s), Some(NackReason::OutOfRange));
+    // Issue 22: the stamp is refused first (an hour ahead of the host's clock).
+    assert_eq!(nacked(&r, s), Some(NackReason::ClockAhead));
     assert_eq!(a.now_us(), t_us);
     let (s, r) = t.send(&mut a, &nav(t_us + 20_000));
     assert_eq!(
@@ -889,4 +891,232 @@ fn auto_armed_late_starts_its_path_at_the_arming() {
         e.x_m.abs() < 0.05 && e.y_m.abs() < 0.05,
         "the path starts 120 s along: {e:?}"
     );
+}
+
+/// Issue 22, "a replayed frame is obeyed": after `Disarm`, the same `Arm` and `ManualThrust`
+/// bytes sent again are refused `Replayed` and counted; the vehicle stays disarmed.
+#[test]
+fn a_replayed_frame_is_refused_and_counted() {
+    let (mut a, c, mut t) = fixed();
+    t.send(&mut a, &Command::Heartbeat { t_us: 0 });
+    t.send(&mut a, &nav(c.get_us()));
+    t.send(&mut a, &Command::SetMode(Mode::Manual));
+    let (arm_seq, arm_bytes) = t.frame(&Command::Arm);
+    a.parts_mut().1.rx.extend(arm_bytes.clone());
+    a.tick();
+    assert!(acked(&t.replies(&mut a), arm_seq));
+    let push = ManualThrust {
+        surge: 1.0,
+        yaw: 0.0,
+        heave: 0.0,
+    };
+    let (_, push_bytes) = t.frame(&Command::ManualThrust(push));
+    a.parts_mut().1.rx.extend(push_bytes.clone());
+    fly(&mut a, &c, &mut t, 1);
+    assert!(pulses_us(&mut a)[0] > 1500.0);
+    t.send(&mut a, &Command::Disarm);
+    // The recorded bytes again.
+    a.parts_mut().1.rx.extend(arm_bytes);
+    a.parts_mut().1.rx.extend(push_bytes);
+    a.tick();
+    let r = t.replies(&mut a);
+    assert_eq!(nacked(&r, arm_seq), Some(NackReason::Replayed), "{r:?}");
+    fly(&mut a, &c, &mut t, 5);
+    assert!(!a.autopilot().armed());
+    assert_eq!(pulses_us(&mut a), [1500.0; 3]);
+    assert_eq!(a.link_stats().replayed, 2);
+}
+
+/// Sessions: nothing but `OpenSession` is taken outside one; a restarted topside (a new
+/// session, its numbers and its clock from 0) is welcome at once, and the old session's
+/// frames are refused `NoSession` from then on.
+#[test]
+fn a_session_is_needed_and_a_restarted_topside_is_welcome_at_once() {
+    let (mut a, c) = app(Config::fixed_rate(Board::Host));
+    // A frame in no session: refused, nothing changes.
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let f = firmware::protocol::encode(0, 5, &Command::Heartbeat { t_us: 0 }, &mut buf).unwrap();
+    a.parts_mut().1.rx.extend(f.iter().copied());
+    a.tick();
+    let mut old = Topside::default();
+    let r = old.replies(&mut a);
+    assert_eq!(nacked(&r, 5), Some(NackReason::NoSession), "{r:?}");
+    assert_eq!(a.link_stats().no_session, 1);
+    // The first topside: a session, a Nav stream at 100 s of its clock.
+    c.set_us(1_000_000);
+    for k in 0..10 {
+        c.advance_us(20_000);
+        let (s, r) = old.send(&mut a, &nav(100_000_000 + k * 20_000));
+        assert_eq!(nacked(&r, s), None, "{r:?}");
+        old.send(&mut a, &Command::Heartbeat { t_us: 0 });
+    }
+    // It restarts: a new session, its clock from 0. Taken at once.
+    let mut new = Topside::default();
+    new.opened = 7; // another nonce
+    let (s, r) = new.send(&mut a, &nav(0));
+    assert_eq!(nacked(&r, s), None, "{r:?}");
+    let (s, r) = new.send(&mut a, &Command::Heartbeat { t_us: 0 });
+    assert_eq!(nacked(&r, s), None);
+    let (s, r) = new.send(&mut a, &Command::Arm);
+    assert!(acked(&r, s), "{r:?}");
+    // The old one's frames: refused, whatever their number.
+    let (s, r) = old.send(&mut a, &Command::Disarm);
+    assert_eq!(nacked(&r, s), Some(NackReason::NoSession));
+    assert!(a.autopilot().armed());
+}
+
+/// Issue 22, "one Nav stamped an hour ahead locks out 10 s": refused `ClockAhead`, and the
+/// next good one is taken (fixed-rate, the vehicle's own clock).
+#[test]
+fn a_nav_stamped_an_hour_ahead_is_refused_and_locks_nothing_out() {
+    let (mut a, c, mut t) = fixed();
+    t.send(&mut a, &Command::Heartbeat { t_us: 0 });
+    let t0 = 50_000_000;
+    for k in 0..5 {
+        c.advance_us(20_000);
+        let (s, r) = t.send(&mut a, &nav(t0 + k * 20_000));
+        assert_eq!(nacked(&r, s), None);
+    }
+    let (s, r) = t.send(&mut a, &nav(t0 + 3_600_000_000));
+    assert_eq!(nacked(&r, s), Some(NackReason::ClockAhead));
+    c.advance_us(20_000);
+    let (s, r) = t.send(&mut a, &nav(t0 + 5 * 20_000));
+    assert_eq!(nacked(&r, s), None, "the next good Nav: {r:?}");
+    let (s, r) = t.send(&mut a, &Command::Arm);
+    assert!(acked(&r, s), "{r:?}");
+    // Within the tolerance the stamps may run ahead (jitter, drift); beyond, not.
+    c.advance_us(20_000);
+    let (s, r) = t.send(&mut a, &nav(t0 + 6 * 20_000 + 400_000));
+    assert_eq!(nacked(&r, s), None);
+    let (s, r) = t.send(&mut a, &nav(t0 + 6 * 20_000 + 1_000_000));
+    assert_eq!(nacked(&r, s), Some(NackReason::ClockAhead));
+}
+
+/// Issue 22, "one Heartbeat an hour ahead disables the link failsafe in lock-step": refused
+/// `ClockAhead`; 5 s without heartbeats then disarm as specified.
+#[test]
+fn a_heartbeat_an_hour_ahead_does_not_disable_the_link_failsafe() {
+    let (mut a, _c) = app(Config::lockstep(Board::Host));
+    let mut t = Topside::default();
+    let mut t_us = 1_000_000u64;
+    t.send(&mut a, &Command::Heartbeat { t_us });
+    t.send(&mut a, &nav(t_us));
+    t.send(&mut a, &Command::SetMode(Mode::Manual));
+    let (s, r) = t.send(&mut a, &Command::Arm);
+    assert!(acked(&r, s));
+    let (s, r) = t.send(
+        &mut a,
+        &Command::Heartbeat {
+            t_us: t_us + 3_600_000_000,
+        },
+    );
+    assert_eq!(nacked(&r, s), Some(NackReason::ClockAhead));
+    let push = ManualThrust {
+        surge: 0.5,
+        yaw: 0.0,
+        heave: 0.0,
+    };
+    let hb_at = t_us;
+    let mut disarmed_at = None;
+    for _ in 0..250 {
+        t_us += 20_000;
+        t.send(&mut a, &Command::ManualThrust(push));
+        let (_, r) = t.send(&mut a, &nav(t_us));
+        let tel = last_telemetry(&r).expect("telemetry");
+        if !tel.armed {
+            disarmed_at.get_or_insert(t_us - hb_at);
+        }
+    }
+    assert_eq!(disarmed_at, Some(1_000_000));
+}
+
+/// Issue 22: the tether's `Imu` and `Pressure` only on a board without sensors of its own;
+/// an `Imu` an hour ahead (emulated board, lock-step) is refused and does not move the
+/// estimator's clock.
+#[test]
+fn tether_sensor_readings_only_without_own_sensors_and_never_an_hour_ahead() {
+    use controller_core::nav::onboard::OnboardConfig;
+    use controller_core::nav::ImuSample;
+    let imu = |t_us| {
+        Command::Imu(ImuSample {
+            t_us,
+            gyro_rad_s: [0.0; 3],
+            accel_m_s2: [0.0, 0.0, -9.81],
+        })
+    };
+    // A board with its own sensors (the trait's default): refused `OwnSensors`.
+    #[derive(Debug, Clone, Copy)]
+    struct Own;
+    impl firmware::Sensors for Own {
+        fn imu(&mut self, _: u64) -> Option<ImuSample> {
+            None
+        }
+        fn pressure_pa(&mut self, _: u64) -> Option<f32> {
+            None
+        }
+    }
+    let clock = FakeClock::default();
+    let pwm = || rov_tests::FakePwm::new(PWM_MAX_DUTY);
+    let mut b = firmware::App::with_sensors(
+        [pwm(), pwm(), pwm()],
+        rov_tests::FakeSerial::default(),
+        clock.clone(),
+        rov_tests::controller(),
+        Config::lockstep(Board::Stm32f4),
+        Own,
+    )
+    .unwrap();
+    let mut t = Topside::default();
+    t.open(&mut b);
+    for cmd in [
+        imu(0),
+        Command::Pressure {
+            t_us: 0,
+            pressure_pa: 1e5,
+        },
+    ] {
+        let (s, f) = t.frame(&cmd);
+        b.on_bytes(&f);
+        let r = t.replies(&mut b);
+        assert_eq!(nacked(&r, s), Some(NackReason::OwnSensors), "{cmd:?}");
+    }
+    // The emulated board: taken, but not an hour ahead.
+    let (mut a, _c) = app(Config::lockstep(Board::QemuNetduinoPlus2));
+    let mut t = Topside::default();
+    t.send(&mut a, &Command::Heartbeat { t_us: 0 });
+    let (s, r) = t.send(
+        &mut a,
+        &Command::StartNav {
+            t_us: 0,
+            initial: NavState::default(),
+            config: OnboardConfig::default(),
+        },
+    );
+    assert!(acked(&r, s), "{r:?}");
+    let (s, r) = t.send(&mut a, &imu(20_000));
+    assert_eq!(nacked(&r, s), None, "{r:?}");
+    let (s, r) = t.send(&mut a, &imu(3_600_000_000));
+    assert_eq!(nacked(&r, s), Some(NackReason::ClockAhead));
+    let est_t = a.autopilot().onboard_nav().unwrap().estimator().time_us();
+    assert!(est_t <= 20_000, "the estimator's clock moved to {est_t}");
+    let (s, r) = t.send(&mut a, &imu(40_000));
+    assert_eq!(nacked(&r, s), None, "the next good sample: {r:?}");
+}
+
+/// Issue 22: `SetFailsafe` only while disarmed (timeouts are not relaxed mid-dive).
+#[test]
+fn failsafe_timeouts_are_not_changed_while_armed() {
+    let (mut a, c, mut t) = fixed();
+    arm(&mut a, &c, &mut t);
+    let relaxed = firmware::Failsafe {
+        heartbeat_neutral_us: 2_000_000,
+        heartbeat_disarm_us: 10_000_000,
+        ..firmware::Failsafe::DEFAULT
+    };
+    let (s, r) = t.send(&mut a, &Command::SetFailsafe(relaxed));
+    assert_eq!(nacked(&r, s), Some(NackReason::Armed));
+    assert_eq!(*a.autopilot().failsafe(), firmware::Failsafe::DEFAULT);
+    t.send(&mut a, &Command::Disarm);
+    let (s, r) = t.send(&mut a, &Command::SetFailsafe(relaxed));
+    assert!(acked(&r, s), "{r:?}");
 }

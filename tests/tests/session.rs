@@ -77,7 +77,7 @@ impl Session {
                 }
                 Reply::Ack { seq } => self.acks.push(seq),
                 Reply::Nack { .. } => self.nacks += 1,
-                Reply::Hello { .. } => {}
+                Reply::Hello { .. } | Reply::Session { .. } => {}
             }
         }
     }
@@ -112,6 +112,7 @@ fn arm_track_lose_link_recover() {
     };
     s.app.hello();
     s.collect();
+    s.top.open(&mut s.app);
     // Link up, idle.
     for _ in 0..10 {
         s.period(true, true);
