@@ -19,7 +19,7 @@ use crate::protocol::{
     Status, Telemetry, MAX_FRAME_LEN,
 };
 use crate::sensors::{NoSensors, Sensors};
-use controller_core::alloc::PwmMap;
+use controller_core::alloc::{PwmMap, ESC_MAX_US, ESC_MIN_US, ESC_NEUTRAL_US};
 use controller_core::controller::Controller;
 use embedded_hal::pwm::SetDutyCycle;
 use embedded_io::{Read, ReadReady, Write, WriteReady};
@@ -165,14 +165,20 @@ impl core::fmt::Display for ConfigError {
 impl core::error::Error for ConfigError {}
 
 /// Duty for a pulse width: `pulse_us / period_us * max_duty`, rounded, with the pulse clamped
-/// to the map's `[min_us, max_us]` first (NaN -> `neutral_us`).
+/// to the map's `[min_us, max_us]` and then to the ESC's range first (NaN -> the ESC's
+/// neutral, [`ESC_NEUTRAL_US`]): no pulse outside 1100-1900 us ever reaches an output.
 pub fn duty_for_pulse(pulse_us: f32, map: &PwmMap, period_us: u32, max_duty: u16) -> u16 {
+    use controller_core::math::clamp;
     // `math::clamp`, not `f32::clamp`: the bounds come from the PWM map at run time, and
     // `f32::clamp` panics when `min > max`; the firmware has no panic path.
     let p = if pulse_us.is_nan() {
-        map.neutral_us
+        ESC_NEUTRAL_US
     } else {
-        controller_core::math::clamp(pulse_us, map.min_us, map.max_us)
+        clamp(
+            clamp(pulse_us, map.min_us, map.max_us),
+            ESC_MIN_US,
+            ESC_MAX_US,
+        )
     };
     // `as` saturates (a negative pulse is 0 us).
     let p = u64::from((p + 0.5) as u32);
@@ -286,7 +292,7 @@ where
         // `board.rs` for why that matters to the stack).
         let mut pwm = pwm;
         let neutral = StepOutput {
-            pulse_us: [controller.pwm_map().neutral_us; 3],
+            pulse_us: [ESC_NEUTRAL_US; 3],
             ..StepOutput::default()
         };
         let (duty, ok) = set_duties(

@@ -23,14 +23,14 @@
 
 pub use crate::protocol::Failsafe;
 use crate::protocol::{fault, Command, Law, ManualThrust, Mode, NackReason, NavSample, Plane};
-use controller_core::alloc::{allocate, Allocation};
+use controller_core::alloc::{allocate, Allocation, ESC_NEUTRAL_US};
 use controller_core::controller::{ControlMode, ControlOutput, Controller};
 use controller_core::law::pilot::Sticks;
 use controller_core::nav::onboard::OnboardNav;
 use controller_core::nav::Refusal;
 use controller_core::params::VehicleParams;
 use controller_core::reference::mission::{MissionPath, MAX_WAYPOINTS};
-use controller_core::reference::Reference;
+use controller_core::reference::{Bounds, Reference};
 use controller_core::state::{BodyForces, NavState, TrackingErrors};
 use heapless::Vec;
 
@@ -322,7 +322,9 @@ impl Autopilot {
                 reference,
                 start_us,
             } => {
-                reference.validate().map_err(NackReason::from)?;
+                reference
+                    .check_bounds(&Bounds::VEHICLE)
+                    .map_err(NackReason::from)?;
                 self.reference = Some((*reference, start_us.unwrap_or(now_us)));
                 Ok(())
             }
@@ -562,9 +564,8 @@ impl Autopilot {
 
     /// Neutral output with the given faults.
     pub fn neutral(&self, faults: u16) -> StepOutput {
-        let n = self.controller.pwm_map().neutral_us;
         StepOutput {
-            pulse_us: [n; 3],
+            pulse_us: [ESC_NEUTRAL_US; 3],
             faults,
             ..StepOutput::default()
         }

@@ -1120,3 +1120,129 @@ fn failsafe_timeouts_are_not_changed_while_armed() {
     let (s, r) = t.send(&mut a, &Command::SetFailsafe(relaxed));
     assert!(acked(&r, s), "{r:?}");
 }
+
+/// Issue 22, "a vehicle description moves neutral" and "unsafe descriptions are accepted":
+/// refused with a reason, nothing changes; the disarmed and link-lost outputs stay at the
+/// ESC's 1500 us whatever the description.
+#[test]
+fn descriptions_cannot_move_neutral_or_describe_an_unflyable_vehicle() {
+    use controller_core::params::VehicleParams;
+    let (mut a, c, mut t) = fixed();
+    t.open(&mut a);
+    let with = |f: &dyn Fn(&mut VehicleParams)| {
+        let mut p = VehicleParams::OBSERVER;
+        f(&mut p);
+        Command::SetVehicle(p)
+    };
+    for cmd in [
+        with(&|p| {
+            p.pulse.min_us = 500.0;
+            p.pulse.neutral_us = 1100.0;
+        }),
+        with(&|p| p.pulse.neutral_us = 1150.0),
+        with(&|p| p.pulse.max_us = 2400.0),
+        with(&|p| {
+            p.thrust_max_forward_n = 1e-3;
+            p.thrust_max_reverse_n = 1e-3;
+        }),
+        with(&|p| p.x_uu = 1e5),
+        with(&|p| p.y_v = 1e5),
+        with(&|p| p.mass_kg = 1e-3),
+        with(&|p| p.mass_kg = 200.0),
+        with(&|p| p.i_z_kg_m2 = 1e-6),
+        with(&|p| p.x_udot_kg = -1e3),
+        with(&|p| p.thruster_time_constant_s = 30.0),
+    ] {
+        let before = snapshot(&a);
+        let (s, r) = t.deliver(&mut a, &cmd);
+        assert_eq!(nacked(&r, s), Some(NackReason::OutOfRange), "{cmd:?}");
+        assert_eq!(snapshot(&a), before);
+    }
+    // The Observer itself, and a heavier vehicle, are flyable.
+    let (s, r) = t.send(&mut a, &with(&|p| p.mass_kg = 14.0));
+    assert!(acked(&r, s), "{r:?}");
+    // Disarmed, then armed with the link lost: 1500 us.
+    fly(&mut a, &c, &mut t, 2);
+    assert_eq!(pulses_us(&mut a), [1500.0; 3]);
+    arm(&mut a, &c, &mut t);
+    c.advance_us(1_200_000);
+    a.tick();
+    assert!(!a.autopilot().armed());
+    assert_eq!(pulses_us(&mut a), [1500.0; 3]);
+}
+
+/// Issue 22, "targets without bounds": references, targets and gains out of the vehicle's
+/// range are refused (a GUIDED target 50 m above the surface, a hold at 1e30 / 1e6 m up,
+/// gains of 1e30); missions were bounded already.
+#[test]
+fn references_and_gains_have_bounds() {
+    let (mut a, _c, mut t) = fixed();
+    t.open(&mut a);
+    let r = |reference| Command::SetReference {
+        reference,
+        start_us: None,
+    };
+    for cmd in [
+        r(Reference::Hold {
+            pos_m: [0.0, 0.0, -50.0],
+        }),
+        r(Reference::Hold {
+            pos_m: [1e30, 0.0, -1e6],
+        }),
+        r(Reference::Hold {
+            pos_m: [0.0, 0.0, 150.0],
+        }),
+        r(Reference::Hold {
+            pos_m: [2_000.0, 0.0, 1.0],
+        }),
+        r(Reference::Line {
+            start_m: [0.0, 0.0, 1.0],
+            heading_rad: 0.0,
+            speed_m_s: 5.0,
+        }),
+        r(Reference::Circle {
+            center_m: [995.0, 0.0, 1.0],
+            radius_m: 10.0,
+            speed_m_s: 0.2,
+        }),
+        r(Reference::Helix {
+            center_m: [0.0, 0.0, 1.0],
+            radius_m: 5.0,
+            speed_m_s: 0.2,
+            depth_rate_m_s: 3.0,
+        }),
+        r(Reference::Paper(PaperPolynomial {
+            h_r_m: -10.0,
+            t_f_s: 100.0,
+        })),
+        r(Reference::Paper(PaperPolynomial {
+            h_r_m: 10.0,
+            t_f_s: 1.0,
+        })),
+    ] {
+        let before = snapshot(&a);
+        let (s, rep) = t.deliver(&mut a, &cmd);
+        assert_eq!(nacked(&rep, s), Some(NackReason::OutOfRange), "{cmd:?}");
+        assert_eq!(snapshot(&a), before);
+    }
+    for bad in [1e30f32, 5e3] {
+        let mut g = Gains::default();
+        g.tracking.xy_kp = bad;
+        let (s, rep) = t.send(&mut a, &Command::SetTrackingGains(g.tracking));
+        assert_eq!(nacked(&rep, s), Some(NackReason::OutOfRange), "{bad}");
+        let mut g = Gains::default();
+        g.paper_xz.c1w = bad;
+        let (s, rep) = t.send(
+            &mut a,
+            &Command::SetPaperGains {
+                xz: g.paper_xz,
+                xy: g.paper_xy,
+            },
+        );
+        assert_eq!(nacked(&rep, s), Some(NackReason::OutOfRange), "{bad}");
+    }
+    assert_eq!(*a.autopilot().controller().gains(), Gains::default());
+    // In range: taken.
+    let (s, rep) = t.send(&mut a, &r(Reference::Paper(PaperPolynomial::PAPER)));
+    assert!(acked(&rep, s), "{rep:?}");
+}
