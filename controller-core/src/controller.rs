@@ -102,8 +102,8 @@ impl Gains {
             ),
         ];
         for (name, set) in all {
-            // `!(v <= MAX)` also refuses NaN.
-            if set.iter().any(|v| !(v.abs() <= MAX_GAIN)) {
+            // NaN is not finite: refused too (`validate` above refuses it first).
+            if set.iter().any(|v| !v.is_finite() || v.abs() > MAX_GAIN) {
                 return Err(Error::OutOfRange(name));
             }
         }

@@ -640,7 +640,7 @@ fn a_million_inputs_of_each_kind() {
     let mut d = FrameDecoder::<Command>::new();
     let mut corrupted_accepted = [0u64; 4];
     let mut intact_recovered = 0u64;
-    for kind in 0..4 {
+    for (kind, accepted) in corrupted_accepted.iter_mut().enumerate() {
         for _ in 0..n {
             let f = &pool[r.below(pool.len())];
             let mut bytes = f.clone();
@@ -691,7 +691,7 @@ fn a_million_inputs_of_each_kind() {
             if let Some(Decoded::Frame { .. }) = d.push(0) {
                 got.push(());
             }
-            corrupted_accepted[kind] += got.len() as u64;
+            *accepted += got.len() as u64;
             let mut src: &[u8] = good;
             while !src.is_empty() {
                 if let Some(Decoded::Frame { .. }) = d.push_slice(&mut src) {

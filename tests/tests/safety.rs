@@ -951,8 +951,10 @@ fn a_session_is_needed_and_a_restarted_topside_is_welcome_at_once() {
         old.send(&mut a, &Command::Heartbeat { t_us: 0 });
     }
     // It restarts: a new session, its clock from 0. Taken at once.
-    let mut new = Topside::default();
-    new.opened = 7; // another nonce
+    let mut new = Topside {
+        opened: 7, // another nonce
+        ..Topside::default()
+    };
     let (s, r) = new.send(&mut a, &nav(0));
     assert_eq!(nacked(&r, s), None, "{r:?}");
     let (s, r) = new.send(&mut a, &Command::Heartbeat { t_us: 0 });
