@@ -44,6 +44,9 @@ pub const STAMP_AHEAD_TOLERANCE_US: u64 = 500_000;
 /// vehicle is disarmed then).
 pub const LOCKSTEP_MAX_STEP_US: u64 = 1_000_000;
 
+/// Session numbers are 14 bits (1..=16383).
+const SESSION_MASK: u32 = 0x3FFF;
+
 /// The latest accepted surface time stamp of one kind and the vehicle's time it came at.
 #[derive(Debug, Clone, Copy, Default)]
 struct Stamp {
@@ -512,9 +515,11 @@ where
     /// match a later one); the `OpenSession`'s own number starts the sequence.
     fn open_session(&mut self, seq: u16, nonce: u32) {
         self.sessions_opened = self.sessions_opened.wrapping_add(1);
-        let mut id = nonce ^ self.sessions_opened.wrapping_mul(0x9E37_79B9);
+        // 14 bits: a two-byte varint in every envelope (a full u32 is five, and each byte
+        // costs every frame's decoding).
+        let mut id = (nonce ^ self.sessions_opened.wrapping_mul(0x9E37_79B9)) & SESSION_MASK;
         if id == 0 || id == self.session {
-            id = id.wrapping_add(0x9E37_79B9) | 1;
+            id = (id.wrapping_add(0x2F1B) & SESSION_MASK) | 1;
         }
         self.session = id;
         self.last_seq = seq;
@@ -720,7 +725,9 @@ where
                 let Some((seq, reply)) = self.tx_queue.pop_front() else {
                     return;
                 };
-                let encoded = encode(self.session, seq, &reply, &mut self.tx_buf).map(<[u8]>::len);
+                // Replies carry session 0 (one varint byte): the surface does not need the
+                // vehicle's session on its answers, and every byte costs the loop time.
+                let encoded = encode(0, seq, &reply, &mut self.tx_buf).map(<[u8]>::len);
                 let Some(len) = serial_ok(&mut self.io_faults, encoded) else {
                     continue;
                 };

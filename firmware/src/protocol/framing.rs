@@ -37,8 +37,8 @@ pub struct Envelope<M> {
     /// Sender's sequence number (wraps).
     pub seq: u16,
     /// The surface session the frame belongs to (version 6): the number the vehicle gave in
-    /// its `Reply::Session`, 0 outside a session (the `OpenSession` itself). Replies carry
-    /// the vehicle's session in force.
+    /// its `Reply::Session` (1..=16383), 0 outside a session (the `OpenSession` itself).
+    /// Replies carry 0.
     pub session: u32,
     /// The message.
     pub msg: M,
