@@ -139,6 +139,16 @@ struct CurveInv {
     quadratic: bool,
 }
 
+/// Neutral pulse of the thrusters' ESCs, microseconds: a constant of the ESC (its arming and
+/// stop point), not of a vehicle description. The firmware writes it at boot, when disarmed
+/// and on every failsafe, whatever description it holds; a description whose pulse curve
+/// names another neutral is refused (`Vehicle::check_flyable`; issue 22).
+pub const ESC_NEUTRAL_US: f32 = 1500.0;
+/// Shortest pulse the ESCs take (full reverse), microseconds.
+pub const ESC_MIN_US: f32 = 1100.0;
+/// Longest pulse the ESCs take (full forward), microseconds.
+pub const ESC_MAX_US: f32 = 1900.0;
+
 impl PwmMap {
     /// The vehicle's pulse curve and thrust limits.
     pub fn for_vehicle(vehicle: &Vehicle) -> Self {

@@ -47,12 +47,67 @@ pub struct Gains {
     pub tracking: TrackingGains,
 }
 
+/// Largest value of any gain accepted (issue 22): 100x the largest default (10). A gain `k`
+/// with `k dt` far above 1 at the 50 Hz step is outside the laws' discrete-time range (the
+/// probes took 1e30).
+pub const MAX_GAIN: f32 = 1.0e3;
+
 impl Gains {
-    /// Validate every set.
+    /// Validate every set, and every gain at most [`MAX_GAIN`].
     pub fn validate(&self) -> Result<(), Error> {
         self.paper_xz.validate()?;
         self.paper_xy.validate()?;
-        self.tracking.validate()
+        self.tracking.validate()?;
+        let (a, b, t) = (&self.paper_xz, &self.paper_xy, &self.tracking);
+        let all = [
+            (
+                "paper_xz",
+                [a.k, a.c1w, a.c2w, a.c1q, a.c2q, a.cq, a.c1, a.c2],
+            ),
+            (
+                "paper_xy",
+                [b.k, b.c1u, b.c2u, b.c1r, b.c2r, b.cr, b.c3, b.c4],
+            ),
+            (
+                "tracking",
+                [
+                    t.hand_m, t.xy_kp, t.xy_kd, t.xy_ki, t.xz_kp, t.xz_kd, t.xz_ki, t.pitch_kp,
+                ],
+            ),
+            (
+                "tracking",
+                [
+                    t.pitch_kd,
+                    t.pitch_max_rad,
+                    t.depth_kp,
+                    t.depth_kd,
+                    t.depth_ki,
+                    t.yaw_kp,
+                    t.yaw_kd,
+                    t.error_limit_m,
+                ],
+            ),
+            (
+                "tracking",
+                [
+                    t.integral_limit_m_s2,
+                    t.current_observer_rad_s,
+                    0.0,
+                    0.0,
+                    0.0,
+                    0.0,
+                    0.0,
+                    0.0,
+                ],
+            ),
+        ];
+        for (name, set) in all {
+            // NaN is not finite: refused too (`validate` above refuses it first).
+            if set.iter().any(|v| !v.is_finite() || v.abs() > MAX_GAIN) {
+                return Err(Error::OutOfRange(name));
+            }
+        }
+        Ok(())
     }
 }
 

@@ -235,6 +235,121 @@ impl Vehicle {
                 "thrust_max_forward_n and thrust_max_reverse_n more than 10x apart",
             ));
         }
+        self.check_bounds()
+    }
+}
+
+/// The ranges a description must lie in to be flown (issue 22; docs/safety.md gives each
+/// reason). The laws' gains were tuned on the Observer (10.84 kg, Table I); these ranges allow
+/// vehicles of its class, about 5x lighter to 10x heavier, and refuse the values that made
+/// the laws fail in the probes (thrust 1e-3 N: saturated every step, 4.1 m off; drag 1e5: 138
+/// m off; mass 1e-3 kg: 23 m off).
+pub mod flyable {
+    /// Mass (kg): a hand-launched ROV of the Observer's class.
+    pub const MASS_KG: (f32, f32) = (2.0, 100.0);
+    /// Added mass and inertia magnitude, as a multiple of the mass (kg per kg) or of the
+    /// rigid inertia: added mass above 2x the body's is not a submerged rigid body of this
+    /// shape.
+    pub const ADDED_MASS_RATIO: f32 = 2.0;
+    /// Rigid inertia about each axis (kg m^2).
+    pub const INERTIA_KG_M2: (f32, f32) = (0.005, 20.0);
+    /// Linear drag coefficients (N s/m, N m s/rad): 0 to 50x the Observer's largest (2.47).
+    pub const LINEAR_DRAG: f32 = 100.0;
+    /// Quadratic drag coefficients (N s^2/m^2, N m s^2/rad^2): 0 to ~30x the Observer's
+    /// largest (5.99).
+    pub const QUADRATIC_DRAG: f32 = 200.0;
+    /// Each thruster's largest thrust either way (N): below 2 N the laws saturate on any
+    /// disturbance; above 200 N the pulse steps are coarser than the laws' resolution.
+    pub const THRUST_N: (f32, f32) = (2.0, 200.0);
+    /// Thruster time constant (s): the laws assume a thruster faster than the 0.5-1 s of the
+    /// vehicle's motion.
+    pub const THRUSTER_TIME_CONSTANT_S: f32 = 0.5;
+    /// Lever arm of the horizontal thrusters (m).
+    pub const LEVER_ARM_M: (f32, f32) = (0.03, 1.0);
+    /// Metacentric height `z_g` (m): positive (self-righting), at most half a metre.
+    pub const Z_G_M: (f32, f32) = (0.001, 0.5);
+    /// Gravity (m/s^2): the Earth's, anywhere on it.
+    pub const GRAVITY_M_S2: (f32, f32) = (9.7, 9.9);
+    /// Pulse range of the curve: within the ESC's 1100-1900 us, each end at least 100 us
+    /// from neutral (else the full thrust is within a few pulse steps).
+    pub const PULSE_END_FROM_NEUTRAL_US: f32 = 100.0;
+    /// Deadband half-width (us): at most 100 us (a quarter of the ESC's travel).
+    pub const DEADBAND_US: f32 = 100.0;
+}
+
+impl Vehicle {
+    /// Every mass, drag, thrust and pulse value within [`flyable`], and the neutral pulse
+    /// the ESC's ([`crate::alloc::ESC_NEUTRAL_US`]).
+    fn check_bounds(&self) -> Result<(), Error> {
+        use crate::alloc::{ESC_MAX_US, ESC_MIN_US, ESC_NEUTRAL_US};
+        use flyable::*;
+        let p = &self.params;
+        let within = |name: &'static str, v: f32, (lo, hi): (f32, f32)| {
+            if (lo..=hi).contains(&v) {
+                Ok(())
+            } else {
+                Err(Error::OutOfRange(name))
+            }
+        };
+        within("mass_kg", p.mass_kg, MASS_KG)?;
+        let added = ADDED_MASS_RATIO * p.mass_kg;
+        for (name, v) in [
+            ("x_udot_kg", p.x_udot_kg),
+            ("y_vdot_kg", p.y_vdot_kg),
+            ("z_wdot_kg", p.z_wdot_kg),
+        ] {
+            within(name, v.abs(), (0.0, added))?;
+        }
+        for (name, v) in [
+            ("i_x_kg_m2", p.i_x_kg_m2),
+            ("i_y_kg_m2", p.i_y_kg_m2),
+            ("i_z_kg_m2", p.i_z_kg_m2),
+        ] {
+            within(name, v, INERTIA_KG_M2)?;
+        }
+        let inertia = ADDED_MASS_RATIO * p.i_y_kg_m2.max(p.i_z_kg_m2);
+        for (name, v) in [
+            ("m_qdot_kg_m2", p.m_qdot_kg_m2),
+            ("n_rdot_kg_m2", p.n_rdot_kg_m2),
+        ] {
+            within(name, v.abs(), (0.0, inertia))?;
+        }
+        for (name, v) in [
+            ("x_u", p.x_u),
+            ("y_v", p.y_v),
+            ("z_w", p.z_w),
+            ("m_q", p.m_q),
+            ("n_r", p.n_r),
+        ] {
+            within(name, v, (0.0, LINEAR_DRAG))?;
+        }
+        for (name, v) in [
+            ("x_uu", p.x_uu),
+            ("y_vv", p.y_vv),
+            ("z_ww", p.z_ww),
+            ("m_qq", p.m_qq),
+            ("n_rr", p.n_rr),
+        ] {
+            within(name, v, (0.0, QUADRATIC_DRAG))?;
+        }
+        within("thrust_max_forward_n", p.thrust_max_forward_n, THRUST_N)?;
+        within("thrust_max_reverse_n", p.thrust_max_reverse_n, THRUST_N)?;
+        within(
+            "thruster_time_constant_s",
+            p.thruster_time_constant_s,
+            (0.0, THRUSTER_TIME_CONSTANT_S),
+        )?;
+        within("thruster_lever_arm_m", p.thruster_lever_arm_m, LEVER_ARM_M)?;
+        within("z_g_m", p.z_g_m, Z_G_M)?;
+        within("gravity_m_s2", p.gravity_m_s2, GRAVITY_M_S2)?;
+        let c = &p.pulse;
+        if c.neutral_us != ESC_NEUTRAL_US {
+            return Err(Error::OutOfRange("pulse.neutral_us: the ESC's 1500 us"));
+        }
+        let end = PULSE_END_FROM_NEUTRAL_US;
+        within("pulse.min_us", c.min_us, (ESC_MIN_US, ESC_NEUTRAL_US - end))?;
+        within("pulse.max_us", c.max_us, (ESC_NEUTRAL_US + end, ESC_MAX_US))?;
+        within("pulse.deadband_us", c.deadband_us, (0.0, DEADBAND_US))?;
         Ok(())
     }
 }

@@ -19,7 +19,7 @@ use crate::protocol::{
     Status, Telemetry, MAX_FRAME_LEN,
 };
 use crate::sensors::{NoSensors, Sensors};
-use controller_core::alloc::PwmMap;
+use controller_core::alloc::{PwmMap, ESC_MAX_US, ESC_MIN_US, ESC_NEUTRAL_US};
 use controller_core::controller::Controller;
 use embedded_hal::pwm::SetDutyCycle;
 use embedded_io::{Read, ReadReady, Write, WriteReady};
@@ -30,6 +30,50 @@ const RX_CHUNK: usize = 64;
 
 /// Replies waiting for the serial port behind the frame being sent.
 pub const TX_QUEUE_LEN: usize = 4;
+
+/// Fixed-rate mode: how far a surface time stamp (`Nav`, `Imu`, `Pressure`) may run ahead
+/// of the previous one of its kind beyond the time that passed on the vehicle's clock
+/// (0.5 s: the tether's jitter and the clocks' drift are milliseconds). One frame stamped
+/// far ahead is refused `ClockAhead` and moves nothing (issue 22).
+pub const STAMP_AHEAD_TOLERANCE_US: u64 = 500_000;
+
+/// Lock-step mode: the largest step of the host's clock one frame may make (1 s; the
+/// simulation steps 20 ms). A frame stamped further ahead is refused `ClockAhead`, so one
+/// frame cannot move the firmware's time (and its failsafe timers) an hour on. The first
+/// stamped frame after boot sets the time base (the host's time starts where it starts; the
+/// vehicle is disarmed then).
+pub const LOCKSTEP_MAX_STEP_US: u64 = 1_000_000;
+
+/// Session numbers are 14 bits (1..=16383).
+const SESSION_MASK: u32 = 0x3FFF;
+
+/// The latest accepted surface time stamp of one kind and the vehicle's time it came at.
+#[derive(Debug, Clone, Copy, Default)]
+struct Stamp {
+    /// `(stamp, vehicle time)`; `None` before the first of the session.
+    last: Option<(u64, u64)>,
+}
+
+impl Stamp {
+    /// The surface clock now, as projected from the latest stamp by the vehicle's clock.
+    fn projected(&self, now_us: u64) -> Option<u64> {
+        self.last
+            .map(|(t, rx)| t.saturating_add(now_us.saturating_sub(rx)))
+    }
+
+    /// True when `t_us` is not too far ahead of the projection (the first stamp of a session
+    /// sets it).
+    fn ok(&self, t_us: u64, now_us: u64) -> bool {
+        self.projected(now_us)
+            .is_none_or(|p| t_us <= p.saturating_add(STAMP_AHEAD_TOLERANCE_US))
+    }
+
+    /// Take `t_us` (accepted) at `now_us`.
+    fn take(&mut self, t_us: u64, now_us: u64) {
+        let p = self.projected(now_us).unwrap_or(t_us);
+        self.last = Some((t_us.max(p), now_us));
+    }
+}
 
 /// A monotonic clock.
 pub trait Monotonic {
@@ -124,14 +168,20 @@ impl core::fmt::Display for ConfigError {
 impl core::error::Error for ConfigError {}
 
 /// Duty for a pulse width: `pulse_us / period_us * max_duty`, rounded, with the pulse clamped
-/// to the map's `[min_us, max_us]` first (NaN -> `neutral_us`).
+/// to the map's `[min_us, max_us]` and then to the ESC's range first (NaN -> the ESC's
+/// neutral, [`ESC_NEUTRAL_US`]): no pulse outside 1100-1900 us ever reaches an output.
 pub fn duty_for_pulse(pulse_us: f32, map: &PwmMap, period_us: u32, max_duty: u16) -> u16 {
+    use controller_core::math::clamp;
     // `math::clamp`, not `f32::clamp`: the bounds come from the PWM map at run time, and
     // `f32::clamp` panics when `min > max`; the firmware has no panic path.
     let p = if pulse_us.is_nan() {
-        map.neutral_us
+        ESC_NEUTRAL_US
     } else {
-        controller_core::math::clamp(pulse_us, map.min_us, map.max_us)
+        clamp(
+            clamp(pulse_us, map.min_us, map.max_us),
+            ESC_MIN_US,
+            ESC_MAX_US,
+        )
     };
     // `as` saturates (a negative pulse is 0 us).
     let p = u64::from((p + 0.5) as u32);
@@ -167,7 +217,17 @@ pub struct App<P, S, C, N = NoSensors> {
     tx_len: usize,
     control_late_max_us: u32,
     link: LinkStats,
+    /// The surface session in force (0: none), sessions opened since boot, and the sequence
+    /// number of the latest frame taken in the session.
+    session: u32,
+    sessions_opened: u32,
+    last_seq: u16,
+    /// Fixed-rate mode: the latest `Nav`, `Imu` and `Pressure` stamps of the session.
+    stamps: [Stamp; 3],
     host_time_us: u64,
+    /// Lock-step: a stamped command was taken since boot (the first one sets the host's
+    /// time base, wherever it starts; later ones step it by at most `LOCKSTEP_MAX_STEP_US`).
+    host_clock_set: bool,
     next_control_us: Option<u64>,
     next_telemetry_us: u64,
     last: StepOutput,
@@ -235,7 +295,7 @@ where
         // `board.rs` for why that matters to the stack).
         let mut pwm = pwm;
         let neutral = StepOutput {
-            pulse_us: [controller.pwm_map().neutral_us; 3],
+            pulse_us: [ESC_NEUTRAL_US; 3],
             ..StepOutput::default()
         };
         let (duty, ok) = set_duties(
@@ -259,7 +319,12 @@ where
             tx_len: 0,
             control_late_max_us: 0,
             link: LinkStats::default(),
+            session: 0,
+            sessions_opened: 0,
+            last_seq: 0,
+            stamps: [Stamp::default(); 3],
             host_time_us: 0,
+            host_clock_set: false,
             next_control_us: None,
             next_telemetry_us: 0,
             last: neutral,
@@ -411,7 +476,7 @@ where
     fn on_decoded(&mut self, d: Option<Decoded<Command>>) {
         match d {
             None | Some(Decoded::Dropped { seq: None, .. }) => {}
-            Some(Decoded::Frame { seq, msg }) => self.on_command(seq, &msg),
+            Some(Decoded::Frame { seq, session, msg }) => self.on_frame(seq, session, &msg),
             Some(Decoded::Dropped {
                 reason,
                 seq: Some(seq),
@@ -425,22 +490,83 @@ where
         }
     }
 
+    /// The session's gate (issue 22): `OpenSession` opens a new one at any time; any other
+    /// frame must carry the session in force and a sequence number above the last one
+    /// taken in it (the surface opens a new session before its numbers wrap), or it is
+    /// refused and counted, and changes nothing.
+    fn on_frame(&mut self, seq: u16, session: u32, cmd: &Command) {
+        if let Command::OpenSession { nonce } = *cmd {
+            return self.open_session(seq, nonce);
+        }
+        if session == 0 || session != self.session {
+            self.link.no_session = self.link.no_session.wrapping_add(1);
+            return self.nack(seq, NackReason::NoSession);
+        }
+        if seq <= self.last_seq {
+            self.link.replayed = self.link.replayed.wrapping_add(1);
+            return self.nack(seq, NackReason::Replayed);
+        }
+        self.last_seq = seq;
+        self.on_command(seq, cmd);
+    }
+
+    /// Open a session: a number never 0 and not the previous one's, mixed from the surface's
+    /// nonce and a count of the sessions (so a recording of an earlier session does not
+    /// match a later one); the `OpenSession`'s own number starts the sequence.
+    fn open_session(&mut self, seq: u16, nonce: u32) {
+        self.sessions_opened = self.sessions_opened.wrapping_add(1);
+        // 14 bits: a two-byte varint in every envelope (a full u32 is five, and each byte
+        // costs every frame's decoding).
+        let mut id = (nonce ^ self.sessions_opened.wrapping_mul(0x9E37_79B9)) & SESSION_MASK;
+        if id == 0 || id == self.session {
+            id = (id.wrapping_add(0x2F1B) & SESSION_MASK) | 1;
+        }
+        self.session = id;
+        self.last_seq = seq;
+        self.stamps = [Stamp::default(); 3];
+        self.autopilot.new_session();
+        self.send(&Reply::Session { nonce, session: id });
+    }
+
+    /// The surface stamp of a command and which [`Stamp`] slot checks it in fixed-rate mode.
+    fn stamp_of(cmd: &Command) -> Option<(u64, Option<usize>)> {
+        match cmd {
+            Command::Heartbeat { t_us } | Command::Step { t_us } => Some((*t_us, None)),
+            Command::Nav(n) => Some((n.t_us, Some(0))),
+            Command::Imu(s) => Some((s.t_us, Some(1))),
+            Command::Pressure { t_us, .. } => Some((*t_us, Some(2))),
+            _ => None,
+        }
+    }
+
     fn on_command(&mut self, seq: u16, cmd: &Command) {
         let lockstep = self.config.timing == Timing::LockStep;
+        let stamp = Self::stamp_of(cmd);
         let now = if lockstep {
-            // The host's clock: the latest time stamp of an accepted Heartbeat or Nav (never
-            // goes back; a refused command does not move it).
-            let t = match cmd {
-                Command::Heartbeat { t_us } | Command::Step { t_us } => *t_us,
-                Command::Pressure { t_us, .. } => *t_us,
-                Command::Nav(n) => n.t_us,
-                Command::Imu(s) => s.t_us,
-                _ => 0,
-            };
+            // The host's clock: the latest time stamp of an accepted stamped command (never
+            // goes back, never jumps more than `LOCKSTEP_MAX_STEP_US`; a refused command
+            // does not move it).
+            let t = stamp.map_or(0, |(t, _)| t);
+            let started = self.host_clock_set;
+            if started && t > self.host_time_us.saturating_add(LOCKSTEP_MAX_STEP_US) {
+                return self.nack(seq, NackReason::ClockAhead);
+            }
             self.host_time_us.max(t)
         } else {
             self.clock.now_us()
         };
+        let slot = match stamp {
+            Some((t, Some(k))) if !lockstep => Some((t, k)),
+            _ => None,
+        };
+        if let Some((t, k)) = slot {
+            if !self.stamps.get(k).is_some_and(|s| s.ok(t, now)) {
+                return self.nack(seq, NackReason::ClockAhead);
+            }
+        }
+        if matches!(cmd, Command::Imu(_) | Command::Pressure { .. }) && self.sensors.own_sensors() {
+            return self.nack(seq, NackReason::OwnSensors);
+        }
         if matches!(cmd, Command::Step { .. }) && !lockstep {
             return self.nack(seq, NackReason::Unsupported);
         }
@@ -456,10 +582,16 @@ where
         if let Err(reason) = handled {
             return self.nack(seq, reason);
         }
+        if let Some((t, k)) = slot {
+            if let Some(s) = self.stamps.get_mut(k) {
+                s.take(t, now);
+            }
+        }
         if lockstep {
             // Moves only for a command with a later time stamp (`now` is the host's time
             // otherwise).
             self.host_time_us = now;
+            self.host_clock_set |= stamp.is_some();
         }
         match cmd {
             Command::Heartbeat { .. } => {
@@ -593,7 +725,9 @@ where
                 let Some((seq, reply)) = self.tx_queue.pop_front() else {
                     return;
                 };
-                let encoded = encode(seq, &reply, &mut self.tx_buf).map(<[u8]>::len);
+                // Replies carry session 0 (one varint byte): the surface does not need the
+                // vehicle's session on its answers, and every byte costs the loop time.
+                let encoded = encode(0, seq, &reply, &mut self.tx_buf).map(<[u8]>::len);
                 let Some(len) = serial_ok(&mut self.io_faults, encoded) else {
                     continue;
                 };

@@ -23,14 +23,14 @@
 
 pub use crate::protocol::Failsafe;
 use crate::protocol::{fault, Command, Law, ManualThrust, Mode, NackReason, NavSample, Plane};
-use controller_core::alloc::{allocate, Allocation};
+use controller_core::alloc::{allocate, Allocation, ESC_NEUTRAL_US};
 use controller_core::controller::{ControlMode, ControlOutput, Controller};
 use controller_core::law::pilot::Sticks;
 use controller_core::nav::onboard::OnboardNav;
 use controller_core::nav::Refusal;
 use controller_core::params::VehicleParams;
 use controller_core::reference::mission::{MissionPath, MAX_WAYPOINTS};
-use controller_core::reference::Reference;
+use controller_core::reference::{Bounds, Reference};
 use controller_core::state::{BodyForces, NavState, TrackingErrors};
 use heapless::Vec;
 
@@ -121,6 +121,12 @@ pub struct Autopilot {
     mission: Mission,
     upload: Mission,
     auto: Option<(MissionPath, u64)>,
+    /// Time of the latest arming or change of mode: no reference's `t = 0` is earlier, so
+    /// nothing set before it is resumed part-way (issue 22).
+    engaged_us: u64,
+    /// A new surface session began: the next `Nav` is not ordered after the previous
+    /// session's (a restarted topside's clock starts again).
+    nav_order_reset: bool,
     /// Control steps run.
     pub steps: u32,
 }
@@ -140,6 +146,9 @@ pub const MAX_MISSION_RANGE_M: f32 = 1_000.0;
 pub const MAX_MISSION_SPEED_M_S: f32 = 1.0;
 /// Radius of the turns that join a mission's legs (m).
 pub const MISSION_TURN_RADIUS_M: f32 = 1.5;
+/// Largest stick deflection that counts as centred when arming in a stick mode (fraction of
+/// full scale): ArduSub refuses to arm with the throttle off neutral (`AP_Arming_Sub`).
+pub const STICK_CENTRED: f32 = 0.05;
 
 impl Autopilot {
     /// Boots disarmed, `Idle`, no reference.
@@ -162,6 +171,8 @@ impl Autopilot {
             mission: Mission::default(),
             upload: Mission::default(),
             auto: None,
+            engaged_us: 0,
+            nav_order_reset: false,
             steps: 0,
         }
     }
@@ -237,10 +248,48 @@ impl Autopilot {
         Ok(())
     }
 
-    /// Disarm now (neutral from the next step).
+    /// A new surface session began (the App's handshake): its `Nav` time stamps start a
+    /// new order.
+    pub fn new_session(&mut self) {
+        self.nav_order_reset = true;
+    }
+
+    /// Disarm now (neutral from the next step). What was commanded before is forgotten: the
+    /// pilot's input, the tracking reference, the hold point and AUTO's path (a re-arming
+    /// starts clean; issue 22).
     pub fn disarm(&mut self) {
         self.armed = false;
         self.controller.reset();
+        self.manual = None;
+        self.reference = None;
+        self.hold = None;
+        self.auto = None;
+    }
+
+    /// Arm (from disarmed): a clean start in the current mode. A stick mode refuses while
+    /// the latest pilot input is fresh and off centre, then forgets it (thrust waits for
+    /// input sent after the arming); a tracking mode needs a reference sent since the last
+    /// disarm; HOLD holds where the vehicle is and AUTO flies its mission from here, both from
+    /// now. Out of line (the mission path's temporaries).
+    #[inline(never)]
+    fn arm(&mut self, now_us: u64) -> Result<(), NackReason> {
+        let stick_mode = matches!(self.mode, Mode::Manual | Mode::Stabilize | Mode::DepthHold);
+        if let Some((t, m)) = self.manual {
+            let fresh = now_us.saturating_sub(t) < self.failsafe.manual_stale_us;
+            let centred = [m.surge, m.yaw, m.heave]
+                .iter()
+                .all(|v| v.abs() <= STICK_CENTRED);
+            if stick_mode && fresh && !centred {
+                return Err(NackReason::SticksNotCentred);
+            }
+        }
+        self.enter_mode(now_us, self.mode)?;
+        self.manual = None;
+        self.engaged_us = now_us;
+        self.controller.reset();
+        self.armed = true;
+        self.sticky = 0;
+        Ok(())
     }
 
     /// Apply one command received at `now_us` with sequence number `seq`. On `Err` nothing
@@ -259,12 +308,10 @@ impl Autopilot {
                 if !self.nav_fresh(now_us) {
                     return Err(NackReason::NavStale);
                 }
-                if !self.armed {
-                    self.controller.reset();
+                if self.armed {
+                    return Ok(());
                 }
-                self.armed = true;
-                self.sticky = 0;
-                Ok(())
+                self.arm(now_us)
             }
             Command::Disarm => {
                 self.disarm();
@@ -275,7 +322,9 @@ impl Autopilot {
                 reference,
                 start_us,
             } => {
-                reference.validate().map_err(NackReason::from)?;
+                reference
+                    .check_bounds(&Bounds::VEHICLE)
+                    .map_err(NackReason::from)?;
                 self.reference = Some((*reference, start_us.unwrap_or(now_us)));
                 Ok(())
             }
@@ -296,6 +345,8 @@ impl Autopilot {
             | Command::UsblFix(_)
             | Command::DvlFix(_)
             | Command::Compass(_) => Err(NackReason::Unsupported),
+            // The App's (sessions are a link matter).
+            Command::OpenSession { .. } => Err(NackReason::Unsupported),
             Command::StopNav => {
                 self.onboard = None;
                 Ok(())
@@ -325,9 +376,11 @@ impl Autopilot {
                     return Err(NackReason::NavSource);
                 }
                 check_nav(&sample.state)?;
-                if self.nav.is_some_and(|prev| sample.t_us < prev.sample.t_us) {
+                let ordered = !self.nav_order_reset;
+                if ordered && self.nav.is_some_and(|prev| sample.t_us < prev.sample.t_us) {
                     return Err(NackReason::OutOfRange);
                 }
+                self.nav_order_reset = false;
                 self.nav = Some(NavRx {
                     rx_us: now_us,
                     seq,
@@ -337,6 +390,11 @@ impl Autopilot {
             }
             Command::SetVehicle(params) => self.set_vehicle(params),
             Command::SetFailsafe(f) => {
+                // Timeouts are not changed mid-dive (relaxing one would weaken a failsafe
+                // that is protecting the vehicle now).
+                if self.armed {
+                    return Err(NackReason::Armed);
+                }
                 f.validate()?;
                 self.failsafe = *f;
                 Ok(())
@@ -459,6 +517,23 @@ impl Autopilot {
     /// command's frame (docs/hil-and-mcu-cost.md: where the stack went).
     #[inline(never)]
     fn set_mode(&mut self, now_us: u64, mode: Mode) -> Result<(), NackReason> {
+        let changed = mode != self.mode;
+        self.enter_mode(now_us, mode)?;
+        if changed {
+            self.controller.reset();
+            self.engaged_us = now_us;
+        }
+        self.mode = mode;
+        if matches!(mode, Mode::Manual | Mode::Stabilize | Mode::DepthHold) {
+            // A manual command from before the mode change must not start the thrusters.
+            self.manual = None;
+        }
+        Ok(())
+    }
+
+    /// Check that `mode` can be flown now and set up what it flies from `now_us` (HOLD's
+    /// point, AUTO's path); on `Err` nothing changed.
+    fn enter_mode(&mut self, now_us: u64, mode: Mode) -> Result<(), NackReason> {
         let needs_nav = !matches!(mode, Mode::Idle | Mode::Manual | Mode::Track { .. });
         if needs_nav && !self.nav_fresh(now_us) {
             return Err(NackReason::NavStale);
@@ -484,22 +559,13 @@ impl Autopilot {
             Mode::Hold => self.hold = Some((Reference::Hold { pos_m: here_m }, now_us)),
             Mode::Idle | Mode::Manual | Mode::Stabilize | Mode::DepthHold => {}
         }
-        if mode != self.mode {
-            self.controller.reset();
-        }
-        self.mode = mode;
-        if matches!(mode, Mode::Manual | Mode::Stabilize | Mode::DepthHold) {
-            // A manual command from before the mode change must not start the thrusters.
-            self.manual = None;
-        }
         Ok(())
     }
 
     /// Neutral output with the given faults.
     pub fn neutral(&self, faults: u16) -> StepOutput {
-        let n = self.controller.pwm_map().neutral_us;
         StepOutput {
-            pulse_us: [n; 3],
+            pulse_us: [ESC_NEUTRAL_US; 3],
             faults,
             ..StepOutput::default()
         }
@@ -565,7 +631,11 @@ impl Autopilot {
                 return self.law_output(&law, faults);
             }
             (Mode::Track { plane, law }, Some((r, start)), _) => match control_mode(plane, law) {
-                Some(cm) => (r.sample(seconds_since(now_us, *start)), cm),
+                // Never from before the arming or the mode's entry.
+                Some(cm) => (
+                    r.sample(seconds_since(now_us, (*start).max(self.engaged_us))),
+                    cm,
+                ),
                 None => return self.neutral(faults),
             },
             (Mode::Hold, _, Some((r, start))) => (

@@ -24,6 +24,7 @@
 use crate::app::{App, Config, Monotonic, Timing};
 use crate::protocol::Board;
 use crate::sensors::{BusSensors, NoSensors, Sensors};
+use crate::startup::{loop_pass, start_outputs, EscOutput, Watchdog};
 use controller_core::controller::{Controller, Gains};
 use controller_core::params::Vehicle;
 use core::cell::RefCell;
@@ -249,6 +250,18 @@ impl<const FREQ: u32> Monotonic for Tim2Clock<FREQ> {
     }
 }
 
+impl EscOutput for Pwm {
+    fn enable(&mut self) {
+        Pwm::enable(self);
+    }
+}
+
+impl Watchdog for IndependentWatchdog {
+    fn feed(&mut self) {
+        IndependentWatchdog::feed(self);
+    }
+}
+
 fn halt() -> ! {
     cortex_m::peripheral::SCB::sys_reset()
 }
@@ -296,7 +309,10 @@ pub fn run(variant: Variant) -> ! {
         ch2.with(gpioa.pa7).erase(),
         ch3.with(gpiob.pb0).erase(),
     ];
-    pwm.iter_mut().for_each(Pwm::enable);
+    // Neutral duty first, then the outputs on (issue 22: they were enabled before).
+    if !start_outputs(&mut pwm, config.pwm_period_us()) {
+        halt()
+    }
 
     // Tether on USART1.
     let serial = match dp
@@ -407,8 +423,7 @@ where
     let mut faults = 0u16;
     let mut next_status_us = 0u64;
     loop {
-        app.tick();
-        watchdog.feed();
+        loop_pass(&mut app, &mut watchdog);
         // Once a second while armed: what a pilot watching the defmt log wants to see.
         if app.autopilot().armed() && app.now_us() >= next_status_us {
             let now = app.now_us();

@@ -14,6 +14,7 @@ pub mod app;
 pub mod autopilot;
 pub mod protocol;
 pub mod sensors;
+pub mod startup;
 
 #[cfg(target_os = "none")]
 pub mod board;
@@ -21,3 +22,4 @@ pub mod board;
 pub use app::{App, Config, ConfigError, Monotonic, Timing};
 pub use autopilot::{Autopilot, Failsafe, StepOutput};
 pub use sensors::{BusSensors, NoSensors, Sensors};
+pub use startup::{loop_pass, start_outputs, EscOutput, Watchdog};

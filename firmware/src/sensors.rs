@@ -18,6 +18,12 @@ pub trait Sensors {
     fn imu(&mut self, now_us: u64) -> Option<ImuSample>;
     /// A new absolute pressure (Pa) when one is ready (the sensor's own rate), else `None`.
     fn pressure_pa(&mut self, now_us: u64) -> Option<f32>;
+    /// True on a board with sensors of its own: the tether's `Imu` and `Pressure` are then
+    /// refused (`OwnSensors`), so that the surface cannot feed the estimator on a real
+    /// vehicle (issue 22).
+    fn own_sensors(&self) -> bool {
+        true
+    }
 }
 
 /// No sensors on the MCU's buses: the emulated board and the host, where the readings come
@@ -32,6 +38,10 @@ impl Sensors for NoSensors {
 
     fn pressure_pa(&mut self, _now_us: u64) -> Option<f32> {
         None
+    }
+
+    fn own_sensors(&self) -> bool {
+        false
     }
 }
 

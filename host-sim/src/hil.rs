@@ -344,11 +344,12 @@ impl TetherEndpoint {
             None => Command::Nav(NavSample { t_us, state: *nav }),
         };
         let hb_cmd = Command::Heartbeat { t_us };
-        let hb_seq = self.link.next_seq();
         if heartbeats {
             self.link.send(&hb_cmd)?;
         }
-        let nav_seq = self.link.send(&nav_cmd)?;
+        // A resend carries a new sequence number (the firmware refuses a repeated one as a
+        // replay); the Telemetry answering any of them counts.
+        let mut nav_seqs = vec![self.link.send(&nav_cmd)?];
         let mut tries = 1;
         let sent = std::mem::take(&mut self.sent_measurements);
         loop {
@@ -356,8 +357,8 @@ impl TetherEndpoint {
             let got = self.link.wait_for(
                 self.reply_timeout,
                 |r| match r {
-                    Reply::Telemetry(tl) if tl.nav_seq == nav_seq => Some(Ok(*tl)),
-                    Reply::Nack { seq, reason } if *seq == nav_seq => Some(Err(*reason)),
+                    Reply::Telemetry(tl) if nav_seqs.contains(&tl.nav_seq) => Some(Ok(*tl)),
+                    Reply::Nack { seq, reason } if nav_seqs.contains(seq) => Some(Err(*reason)),
                     _ => None,
                 },
                 |r| {
@@ -387,9 +388,9 @@ impl TetherEndpoint {
                     tries += 1;
                     self.link.stats.resends += 1;
                     if heartbeats {
-                        self.link.send_with_seq(hb_seq, &hb_cmd)?;
+                        self.link.send(&hb_cmd)?;
                     }
-                    self.link.send_with_seq(nav_seq, &nav_cmd)?;
+                    nav_seqs.push(self.link.send(&nav_cmd)?);
                 }
             }
         }

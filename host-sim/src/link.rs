@@ -89,6 +89,8 @@ pub struct Link {
     port: Box<dyn Port>,
     dec: FrameDecoder<Reply>,
     seq: u16,
+    /// The vehicle's session (0: none open yet; protocol version 6).
+    session: u32,
     noise: Option<Noise>,
     pending: VecDeque<(u16, Reply)>,
     /// Counters.
@@ -105,6 +107,7 @@ impl Link {
             port,
             dec: FrameDecoder::new(),
             seq: 0,
+            session: 0,
             noise,
             pending: VecDeque::new(),
             stats: HostLinkStats::default(),
@@ -122,18 +125,63 @@ impl Link {
         self.seq
     }
 
-    /// Send `cmd`; returns its sequence number.
+    /// The session in force (0 before the first send).
+    pub fn session(&self) -> u32 {
+        self.session
+    }
+
+    /// Open a new session with the vehicle (protocol version 6): `OpenSession` with a random
+    /// nonce, answered by `Reply::Session`; sent up to 3 times, 2 s each. The sequence
+    /// numbers start again. Other replies that arrive meanwhile are kept for `recv`.
+    pub fn open_session(&mut self) -> Result<u32> {
+        let nonce: u32 = rand::random();
+        let mut kept = Vec::new();
+        let mut got = None;
+        for _ in 0..3 {
+            self.seq = 1;
+            self.session = 0;
+            self.send_with_seq(0, &Command::OpenSession { nonce })?;
+            let deadline = Instant::now() + Duration::from_secs(2);
+            while got.is_none() {
+                let left = deadline.saturating_duration_since(Instant::now());
+                let Some((seq, r)) = self.recv(left)? else {
+                    break;
+                };
+                match r {
+                    Reply::Session { nonce: n, session } if n == nonce => got = Some(session),
+                    r => kept.push((seq, r)),
+                }
+            }
+            if got.is_some() {
+                break;
+            }
+            self.stats.timeouts += 1;
+        }
+        for r in kept.into_iter().rev() {
+            self.pending.push_front(r);
+        }
+        let session = got.ok_or_else(|| anyhow!("the vehicle did not open a session"))?;
+        self.session = session;
+        Ok(session)
+    }
+
+    /// Send `cmd`; returns its sequence number. Opens a session first when none is open, and
+    /// a new one before the sequence numbers would wrap (the vehicle takes only rising ones).
     pub fn send(&mut self, cmd: &Command) -> Result<u16> {
+        if self.session == 0 || self.seq >= u16::MAX - 1 {
+            self.open_session()?;
+        }
         let seq = self.seq;
         self.seq = self.seq.wrapping_add(1);
         self.send_with_seq(seq, cmd)?;
         Ok(seq)
     }
 
-    /// Send `cmd` with a given sequence number (a resend keeps its number).
+    /// Send `cmd` with a given sequence number in the session in force (the vehicle refuses
+    /// a number not above the last one it took: `Replayed`).
     pub fn send_with_seq(&mut self, seq: u16, cmd: &Command) -> Result<()> {
         let mut buf = [0u8; MAX_FRAME_LEN];
-        let frame = encode(seq, cmd, &mut buf).map_err(|e| anyhow!("encode: {e}"))?;
+        let frame = encode(self.session, seq, cmd, &mut buf).map_err(|e| anyhow!("encode: {e}"))?;
         let mut bytes = Vec::with_capacity(frame.len() + 10);
         if let Some(n) = self.noise.as_mut() {
             if n.rng.random::<f64>() < n.spec.tx_garbage_prob {
@@ -198,7 +246,7 @@ impl Link {
                     }
                     for &b in &buf[..n] {
                         match self.dec.push(b) {
-                            Some(Decoded::Frame { seq, msg }) => {
+                            Some(Decoded::Frame { seq, msg, .. }) => {
                                 self.stats.frames_received += 1;
                                 match msg {
                                     Reply::Ack { .. } => self.stats.acks += 1,
@@ -254,7 +302,10 @@ impl Link {
     }
 
     /// Send a command that is answered by `Ack`/`Nack` and wait for the answer, resending
-    /// (same sequence number) up to `tries` times on timeout. `Ok(Err(reason))` is a `Nack`.
+    /// up to `tries` times on timeout (each send a new sequence number: the vehicle refuses
+    /// a repeated one as a replay; the answer to any of them counts). A `NoSession` refusal
+    /// (the vehicle restarted, or another surface opened a session) opens a new session and
+    /// sends again. `Ok(Err(reason))` is a `Nack`.
     pub fn command(
         &mut self,
         cmd: &Command,
@@ -262,21 +313,28 @@ impl Link {
         tries: u32,
         mut other: impl FnMut(&Reply),
     ) -> Result<std::result::Result<(), NackReason>> {
-        let seq = self.send(cmd)?;
+        let mut sent = vec![self.send(cmd)?];
+        let mut reopened = false;
         for attempt in 0..tries.max(1) {
             if attempt > 0 {
                 self.stats.resends += 1;
-                self.send_with_seq(seq, cmd)?;
+                sent.push(self.send(cmd)?);
             }
             let got = self.wait_for(
                 timeout,
                 |r| match r {
-                    Reply::Ack { seq: s } if *s == seq => Some(Ok(())),
-                    Reply::Nack { seq: s, reason } if *s == seq => Some(Err(*reason)),
+                    Reply::Ack { seq: s } if sent.contains(s) => Some(Ok(())),
+                    Reply::Nack { seq: s, reason } if sent.contains(s) => Some(Err(*reason)),
                     _ => None,
                 },
                 &mut other,
             )?;
+            if got == Some(Err(NackReason::NoSession)) && !reopened {
+                reopened = true;
+                self.open_session()?;
+                sent.push(self.send(cmd)?);
+                continue;
+            }
             if let Some(r) = got {
                 return Ok(r);
             }
@@ -648,8 +706,9 @@ pub fn console(
                     }
                 }
                 Reply::Hello { board, .. } => eprintln!("\nhello from {board:?}"),
-                // Kept by the link (`last_status`) for the CSV and the status line.
-                Reply::Status(_) => {}
+                // Kept by the link (`last_status`) for the CSV and the status line; a session
+                // is the link's own.
+                Reply::Status(_) | Reply::Session { .. } => {}
             }
         }
         // Answers still missing 2 s after the last command: give up on them.

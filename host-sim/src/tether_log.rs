@@ -154,12 +154,12 @@ pub fn decode(records: &[Record]) -> Frames {
         for &b in &r.bytes {
             match r.direction {
                 Direction::ToVehicle => match to_vehicle.push(b) {
-                    Some(Decoded::Frame { seq, msg }) => f.commands.push((r.t_us, seq, msg)),
+                    Some(Decoded::Frame { seq, msg, .. }) => f.commands.push((r.t_us, seq, msg)),
                     Some(Decoded::Dropped { .. }) => f.dropped += 1,
                     None => {}
                 },
                 Direction::FromVehicle => match from_vehicle.push(b) {
-                    Some(Decoded::Frame { seq, msg }) => f.replies.push((r.t_us, seq, msg)),
+                    Some(Decoded::Frame { seq, msg, .. }) => f.replies.push((r.t_us, seq, msg)),
                     Some(Decoded::Dropped { .. }) => f.dropped += 1,
                     None => {}
                 },

@@ -17,6 +17,7 @@ use controller_core::params::Vehicle;
 use controller_core::reference::{PaperPolynomial, Reference};
 use controller_core::state::{BodyForces, NavState};
 use core::convert::Infallible;
+use core::sync::atomic::{AtomicU32, Ordering};
 use firmware::protocol::{
     encode, Board, Command, Decoded, FrameDecoder, Law, Mode, NavSample, Plane, Reply, Telemetry,
     MAX_FRAME_LEN,
@@ -155,12 +156,40 @@ type BenchApp<'a, P> = App<FakePwm, FakeSerial, Clock<'a, P>>;
 /// Control period of the lock-step loop (50 Hz).
 const PERIOD_US: u64 = 20_000;
 
-/// Frame of `cmd` into `buf`; empty if it does not fit (never for these commands).
+/// The session the bench's frames carry: the one [`open_session`] opened last.
+static SESSION: AtomicU32 = AtomicU32::new(0);
+
+/// Frame of `cmd` into `buf` in the session opened last; empty if it does not fit (never for
+/// these commands).
 pub(crate) fn frame<'b>(seq: u16, cmd: &Command, buf: &'b mut [u8; MAX_FRAME_LEN]) -> &'b [u8] {
-    match encode(seq, cmd, buf) {
+    match encode(SESSION.load(Ordering::Relaxed), seq, cmd, buf) {
         Ok(f) => f,
         Err(_) => &[],
     }
+}
+
+/// Open a session with `app` as the host's link does (`OpenSession` with sequence number 0,
+/// answered by `Reply::Session`); later frames carry it, numbered from 1. Untimed.
+pub(crate) fn open_session<C: Monotonic, N: firmware::Sensors>(
+    app: &mut App<FakePwm, FakeSerial, C, N>,
+) {
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    SESSION.store(0, Ordering::Relaxed);
+    let f = frame(0, &Command::OpenSession { nonce: 0xB0A7 }, &mut buf);
+    app.parts_mut().1.load(f);
+    app.tick();
+    let (_, serial, _) = app.parts_mut();
+    let mut dec = FrameDecoder::<Reply>::new();
+    for &b in serial.tx.get(..serial.tx_len).unwrap_or(&[]) {
+        if let Some(Decoded::Frame {
+            msg: Reply::Session { session, .. },
+            ..
+        }) = dec.push(b)
+        {
+            SESSION.store(session, Ordering::Relaxed);
+        }
+    }
+    serial.clear_tx();
 }
 
 /// Hand one command to the app (untimed); returns true if it answered with an `Ack` or a
@@ -276,7 +305,7 @@ pub fn run_loop<P: Platform>(b: &Bench<'_, P>, p: &P) {
         |t| {
             let mut out = [0u8; MAX_FRAME_LEN];
             seq = seq.wrapping_add(1);
-            encode(seq, &Reply::Telemetry(*t), &mut out)
+            encode(1, seq, &Reply::Telemetry(*t), &mut out)
                 .map(|f| f.len())
                 .unwrap_or(0)
         },
@@ -328,6 +357,7 @@ pub fn run_loop<P: Platform>(b: &Bench<'_, P>, p: &P) {
             Command::Arm,
         ];
         let mut refused = 0u32;
+        open_session(&mut app);
         for cmd in setup.iter() {
             if !feed(&mut app, next(), cmd) {
                 refused += 1;

@@ -12,7 +12,7 @@
 //! schedule lines them up: every 50th pass has all of them at once, which is the `max`.
 
 use crate::bench::{Bench, Platform, CALLS};
-use crate::loop_bench::{frame, FakePwm, FakeSerial};
+use crate::loop_bench::{frame, open_session, FakePwm, FakeSerial};
 use controller_core::controller::{Controller, Gains};
 use controller_core::nav::onboard::{OnboardConfig, PressureDepth};
 use controller_core::nav::{DvlFix, HeadingFix, PositionFix, GRAVITY_M_S2};
@@ -158,6 +158,7 @@ pub fn run_onboard<P: Platform>(b: &Bench<'_, P>, p: &P) {
     };
     let mut seq = 0u16;
     let mut buf = [0u8; MAX_FRAME_LEN];
+    open_session(&mut app);
     for cmd in [
         Command::Heartbeat { t_us: 0 },
         Command::StartNav {

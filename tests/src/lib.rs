@@ -162,27 +162,60 @@ pub fn app(config: Config) -> (TestApp, FakeClock) {
     (app, clock)
 }
 
-/// Topside side of the link: frames commands with sequence numbers, parses replies.
+/// Topside side of the link: frames commands with sequence numbers in its session (opened
+/// on the first [`send`](Self::send) or [`deliver`](Self::deliver), or by
+/// [`open`](Self::open)), parses replies.
 #[derive(Debug, Default)]
 pub struct Topside {
     /// Next sequence number.
     pub seq: u16,
+    /// The session the vehicle gave (0: none yet).
+    pub session: u32,
+    /// Sessions this topside opened (its nonces).
+    pub opened: u32,
     /// Reply decoder.
     pub decoder: FrameDecoder<Reply>,
 }
 
 impl Topside {
-    /// Frame a command; returns (its sequence number, the bytes).
+    /// Frame a command in the session; returns (its sequence number, the bytes).
     pub fn frame(&mut self, cmd: &Command) -> (u16, Vec<u8>) {
         let seq = self.seq;
         self.seq = self.seq.wrapping_add(1);
         let mut buf = [0u8; MAX_FRAME_LEN];
-        let f = encode(seq, cmd, &mut buf).expect("fits").to_vec();
+        let f = encode(self.session, seq, cmd, &mut buf)
+            .expect("fits")
+            .to_vec();
         (seq, f)
+    }
+
+    /// Open a session with the app (the handshake, through its receive path, no `tick`);
+    /// returns the replies other than the answer.
+    pub fn open<N: firmware::Sensors>(
+        &mut self,
+        app: &mut App<FakePwm, FakeSerial, FakeClock, N>,
+    ) -> Vec<Reply> {
+        self.opened += 1;
+        let nonce = 0x5EED_0000 ^ self.opened;
+        self.seq = 0;
+        let (_, f) = self.frame(&Command::OpenSession { nonce });
+        app.on_bytes(&f);
+        let mut rest = Vec::new();
+        for r in self.replies(app) {
+            match r {
+                Reply::Session { nonce: n, session } if n == nonce => self.session = session,
+                r => rest.push(r),
+            }
+        }
+        assert_ne!(self.session, 0, "no session opened: {rest:?}");
+        rest
     }
 
     /// Queue a command to the app and let it read it (one `tick`); returns the replies.
     pub fn send(&mut self, app: &mut TestApp, cmd: &Command) -> (u16, Vec<Reply>) {
+        if self.session == 0 {
+            self.open(app);
+        }
         let (seq, f) = self.frame(cmd);
         app.parts_mut().1.rx.extend(f);
         app.tick();
@@ -192,6 +225,9 @@ impl Topside {
     /// Feed a command byte by byte to the app's receive path, without a `tick` (no control
     /// step runs); returns the replies.
     pub fn deliver(&mut self, app: &mut TestApp, cmd: &Command) -> (u16, Vec<Reply>) {
+        if self.session == 0 {
+            self.open(app);
+        }
         let (seq, f) = self.frame(cmd);
         for b in f {
             app.on_bytes(&[b]);
@@ -200,7 +236,10 @@ impl Topside {
     }
 
     /// Take and parse everything the app wrote. Panics on a dropped reply frame.
-    pub fn replies(&mut self, app: &mut TestApp) -> Vec<Reply> {
+    pub fn replies<N: firmware::Sensors>(
+        &mut self,
+        app: &mut App<FakePwm, FakeSerial, FakeClock, N>,
+    ) -> Vec<Reply> {
         let bytes = std::mem::take(&mut app.parts_mut().1.tx);
         let mut out = Vec::new();
         for b in bytes {

@@ -214,8 +214,9 @@ fn the_two_sources_do_not_mix() {
     let (seq, r) = t.send(&mut a, &nav);
     assert_eq!(nacked(&r, seq), None);
     assert!(telemetry(&r).is_some());
-    // A `Step` is a lock-step command.
+    // A `Step` is a lock-step command (another firmware: another session).
     let (mut a, _c) = app(Config::fixed_rate(Board::Host));
+    let mut t = Topside::default();
     let (seq, r) = t.send(&mut a, &Command::Step { t_us: 0 });
     assert_eq!(nacked(&r, seq), Some(NackReason::Unsupported));
 }
@@ -310,6 +311,7 @@ fn the_board_reads_its_own_sensors_and_a_quiet_or_absurd_imu_is_a_failsafe() {
     )
     .unwrap();
     let mut top = Topside::default();
+    top.open(&mut a);
     let mut decoder = FrameDecoder::<Reply>::new();
     let mut send = |a: &mut App<_, FakeSerial, _, _>, cmd: &Command| {
         let (_, f) = top.frame(cmd);

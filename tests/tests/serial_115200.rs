@@ -90,9 +90,9 @@ impl embedded_io::Write for Port {
     }
 }
 
-fn frame(seq: u16, cmd: &Command) -> Vec<u8> {
+fn frame(session: u32, seq: u16, cmd: &Command) -> Vec<u8> {
     let mut out = [0u8; MAX_FRAME_LEN];
-    encode(seq, cmd, &mut out).unwrap().to_vec()
+    encode(session, seq, cmd, &mut out).unwrap().to_vec()
 }
 
 #[test]
@@ -115,10 +115,37 @@ fn no_loop_iteration_waits_on_a_115200_baud_port() {
     .unwrap();
     app.hello();
     let tick_us = 50;
-    let mut seq = 0u16;
+    // The session (protocol version 6), opened as the host's link does; its answer comes
+    // down the slow line within a few milliseconds.
+    app.on_bytes(&frame(0, 0, &Command::OpenSession { nonce: 1 }));
+    let mut session = None;
+    for _ in 0..2_000 {
+        clock.advance_us(tick_us);
+        app.tick();
+        let mut d = FrameDecoder::<Reply>::new();
+        let tx = port.0.borrow().tx.clone();
+        session = tx.iter().find_map(|&b| match d.push(b) {
+            Some(Decoded::Frame {
+                msg: Reply::Session { session, .. },
+                ..
+            }) => Some(session),
+            _ => None,
+        });
+        if session.is_some() {
+            break;
+        }
+    }
+    let session = session.expect("a session");
+    // The run starts at the next 100 ms.
+    let t0 = clock.get_us().next_multiple_of(100_000);
+    while clock.get_us() < t0 {
+        clock.advance_us(tick_us);
+        app.tick();
+    }
+    let mut seq = 1u16;
     let mut pass = 0u32;
     let run_us = 5_000_000;
-    while clock.get_us() < run_us {
+    while clock.get_us() < t0 + run_us {
         let t = clock.get_us();
         // The surface: a heartbeat every 100 ms (answered by a Status) and a state every
         // 20 ms, as bytes arriving on the line.
@@ -126,7 +153,7 @@ fn no_loop_iteration_waits_on_a_115200_baud_port() {
             port.0
                 .borrow_mut()
                 .rx
-                .extend(frame(seq, &Command::Heartbeat { t_us: t }));
+                .extend(frame(session, seq, &Command::Heartbeat { t_us: t }));
             seq += 1;
         }
         if t % 20_000 == 0 {
@@ -134,7 +161,7 @@ fn no_loop_iteration_waits_on_a_115200_baud_port() {
                 t_us: t,
                 state: NavState::default(),
             });
-            port.0.borrow_mut().rx.extend(frame(seq, &nav));
+            port.0.borrow_mut().rx.extend(frame(session, seq, &nav));
             seq += 1;
         }
         app.tick();

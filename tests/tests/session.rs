@@ -77,7 +77,7 @@ impl Session {
                 }
                 Reply::Ack { seq } => self.acks.push(seq),
                 Reply::Nack { .. } => self.nacks += 1,
-                Reply::Hello { .. } => {}
+                Reply::Hello { .. } | Reply::Session { .. } => {}
             }
         }
     }
@@ -112,6 +112,7 @@ fn arm_track_lose_link_recover() {
     };
     s.app.hello();
     s.collect();
+    s.top.open(&mut s.app);
     // Link up, idle.
     for _ in 0..10 {
         s.period(true, true);
@@ -190,6 +191,14 @@ fn arm_track_lose_link_recover() {
     }
     assert!(!s.app.autopilot().armed());
     assert_eq!(pulses_us(&mut s.app), [1500.0; 3]);
+    // Issue 22: the disarm forgot the reference (a re-arming resumes nothing); the surface
+    // sends what it wants now, the end point of the path.
+    s.command(&Command::SetReference {
+        reference: Reference::Hold {
+            pos_m: [4.0, 4.0, 0.0],
+        },
+        start_us: None,
+    });
     s.command(&Command::Arm);
     for _ in 0..(20_000_000 / PERIOD_US) {
         s.period(true, true);

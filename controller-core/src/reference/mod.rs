@@ -200,7 +200,100 @@ pub enum Reference {
     },
 }
 
+/// Where a reference may take the vehicle (issue 22): depth between the surface and
+/// `max_depth_m`, each horizontal coordinate within `max_range_m` of the origin, speeds up to
+/// `max_speed_m_s`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Bounds {
+    /// Largest `|x|`, `|y|` (m).
+    pub max_range_m: f32,
+    /// Deepest point (m, z positive down); the shallowest is the surface, 0.
+    pub max_depth_m: f32,
+    /// Fastest speed along the path, and depth rate (m/s).
+    pub max_speed_m_s: f32,
+}
+
+impl Bounds {
+    /// The firmware's: 1 km, 100 m (the Observer's 150 m tether with room for its catenary),
+    /// 1 m/s (the Observer's top speed is about 1 m/s on 20 N per thruster).
+    pub const VEHICLE: Self = Self {
+        max_range_m: 1_000.0,
+        max_depth_m: 100.0,
+        max_speed_m_s: 1.0,
+    };
+
+    fn point(&self, name: &'static str, p: &[f32; 3], margin_m: f32) -> Result<(), Error> {
+        let [x, y, z] = *p;
+        let r = self.max_range_m - margin_m;
+        if x.abs() <= r && y.abs() <= r && (0.0..=self.max_depth_m).contains(&z) {
+            Ok(())
+        } else {
+            Err(Error::OutOfRange(name))
+        }
+    }
+
+    fn speed(&self, name: &'static str, v: f32) -> Result<(), Error> {
+        if v.abs() <= self.max_speed_m_s {
+            Ok(())
+        } else {
+            Err(Error::OutOfRange(name))
+        }
+    }
+}
+
 impl Reference {
+    /// [`validate`](Self::validate), then every point the reference starts from or turns
+    /// about within `b`, and its speeds: a circle wholly inside, a lawnmower's extent from its
+    /// start, a paper polynomial's end depth (it moves all three axes to `h_r`) and its peak
+    /// speed `2.5 h_r / t_f`. A line and a helix leave the bounds in time: their start and
+    /// speed are checked; the surface's own limits stop them (docs/safety.md).
+    pub fn check_bounds(&self, b: &Bounds) -> Result<(), Error> {
+        self.validate()?;
+        match self {
+            Reference::Paper(p) => {
+                b.point("h_r_m", &[p.h_r_m; 3], 0.0)?;
+                b.speed("h_r_m / t_f_s", 2.5 * p.h_r_m / p.t_f_s)
+            }
+            Reference::Hold { pos_m } => b.point("pos_m", pos_m, 0.0),
+            Reference::Line {
+                start_m, speed_m_s, ..
+            } => {
+                b.point("start_m", start_m, 0.0)?;
+                b.speed("speed_m_s", *speed_m_s)
+            }
+            Reference::Circle {
+                center_m,
+                radius_m,
+                speed_m_s,
+            } => {
+                b.point("center_m", center_m, *radius_m)?;
+                b.speed("speed_m_s", *speed_m_s)
+            }
+            Reference::Lawnmower {
+                start_m,
+                leg_length_m,
+                spacing_m,
+                legs,
+                speed_m_s,
+                ..
+            } => {
+                let extent = leg_length_m + spacing_m * f32::from(*legs);
+                b.point("start_m", start_m, extent)?;
+                b.speed("speed_m_s", *speed_m_s)
+            }
+            Reference::Helix {
+                center_m,
+                radius_m,
+                speed_m_s,
+                depth_rate_m_s,
+            } => {
+                b.point("center_m", center_m, *radius_m)?;
+                b.speed("speed_m_s", *speed_m_s)?;
+                b.speed("depth_rate_m_s", *depth_rate_m_s)
+            }
+        }
+    }
+
     /// Refuse non-finite or non-physical settings.
     pub fn validate(&self) -> Result<(), Error> {
         match self {

@@ -77,6 +77,8 @@ pub enum Decoded<M> {
     Frame {
         /// Sender's sequence number.
         seq: u16,
+        /// The sender's session (version 6).
+        session: u32,
         /// The message.
         msg: M,
     },
@@ -215,6 +217,7 @@ impl<M: DeserializeOwned> FrameDecoder<M> {
                 self.frames = self.frames.wrapping_add(1);
                 Decoded::Frame {
                     seq: env.seq,
+                    session: env.session,
                     msg: env.msg,
                 }
             }

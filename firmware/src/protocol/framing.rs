@@ -2,7 +2,7 @@
 //! COBS-encoded (the `cobs` crate) between two zero delimiters:
 //!
 //! ```text
-//! 0x00 ++ COBS( postcard(Envelope { version: u8, seq: u16, msg }) ++ CRC-32/ISO-HDLC(le) ) ++ 0x00
+//! 0x00 ++ COBS( postcard(Envelope { version: u8, seq: u16, session: u32, msg }) ++ CRC-32/ISO-HDLC(le) ) ++ 0x00
 //! ```
 //!
 //! The CRC (the `crc` crate's CRC-32/ISO-HDLC, the zlib/Ethernet one) covers the whole
@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 /// Protocol version. Bump it on any change of the bytes; a frame with another version is
 /// dropped (counted as [`DropReason::Version`](super::DropReason::Version)) and answered with
 /// `Nack { reason: UnsupportedVersion }` when its sequence number can be read.
-pub const PROTOCOL_VERSION: u8 = 5;
+pub const PROTOCOL_VERSION: u8 = 6;
 
 /// Largest postcard payload (envelope) in bytes, CRC not included.
 pub const MAX_PAYLOAD_LEN: usize = 248;
@@ -36,6 +36,10 @@ pub struct Envelope<M> {
     pub version: u8,
     /// Sender's sequence number (wraps).
     pub seq: u16,
+    /// The surface session the frame belongs to (version 6): the number the vehicle gave in
+    /// its `Reply::Session` (1..=16383), 0 outside a session (the `OpenSession` itself).
+    /// Replies carry 0.
+    pub session: u32,
     /// The message.
     pub msg: M,
 }
@@ -67,26 +71,34 @@ impl core::fmt::Display for EncodeError {
 
 impl core::error::Error for EncodeError {}
 
-/// Encode `msg` with sequence number `seq` into `out`; returns the frame (both delimiters
-/// included).
+/// Encode `msg` with sequence number `seq` in session `session` into `out`; returns the
+/// frame (both delimiters included).
 pub fn encode<'a, M: Serialize>(
+    session: u32,
     seq: u16,
     msg: &M,
     out: &'a mut [u8; MAX_FRAME_LEN],
 ) -> Result<&'a [u8], EncodeError> {
-    encode_with_version(PROTOCOL_VERSION, seq, msg, out)
+    encode_with_version(PROTOCOL_VERSION, session, seq, msg, out)
 }
 
 /// [`encode`] with another protocol version (for tests of version handling).
 pub fn encode_with_version<'a, M: Serialize>(
     version: u8,
+    session: u32,
     seq: u16,
     msg: &M,
     out: &'a mut [u8; MAX_FRAME_LEN],
 ) -> Result<&'a [u8], EncodeError> {
     let mut body = [0u8; MAX_PAYLOAD_LEN + CRC_LEN];
     let (payload, _) = body.split_at_mut(MAX_PAYLOAD_LEN);
-    let n = postcard::to_slice(&Envelope { version, seq, msg }, payload)
+    let env = Envelope {
+        version,
+        seq,
+        session,
+        msg,
+    };
+    let n = postcard::to_slice(&env, payload)
         .map_err(|_| EncodeError::TooLong)?
         .len();
     let crc = CRC.checksum(body.get(..n).unwrap_or_default());

@@ -185,8 +185,19 @@ pub enum Command {
     /// (`Vehicle::check_flyable`); refused while armed or while the on-board estimator runs
     /// on the old one. The gains stay.
     SetVehicle(VehicleParams),
-    /// Replace the failsafe timeouts (version 5, [`Failsafe::validate`]).
+    /// Replace the failsafe timeouts (version 5, [`Failsafe::validate`]); refused while
+    /// armed (version 6: a failsafe is not relaxed mid-dive).
     SetFailsafe(Failsafe),
+    /// Open a surface session (version 6): the only command taken outside a session. The
+    /// vehicle answers `Reply::Session` with `nonce` and the session's number, which every
+    /// later frame carries in its envelope; within the session, sequence numbers must rise
+    /// (a frame not newer than the last one taken is refused `Replayed`). Opening a session
+    /// ends the previous one (a restarted topside is welcome at once; the old one's frames
+    /// are refused `NoSession`).
+    OpenSession {
+        /// The surface's random number, echoed in the answer.
+        nonce: u32,
+    },
 }
 
 /// Failsafe timeouts, microseconds of the firmware's clock.
@@ -276,6 +287,20 @@ pub enum NackReason {
     NavRefused(Refusal),
     /// Not while armed (a new vehicle description; version 5).
     Armed,
+    /// Arming in a stick mode refused: the pilot's latest input is fresh and off centre
+    /// (version 6).
+    SticksNotCentred,
+    /// The frame is not of the session in force (or none is open): send `OpenSession`
+    /// (version 6).
+    NoSession,
+    /// The frame's sequence number is not newer than the last one taken in this session
+    /// (version 6): a replay or a duplicate.
+    Replayed,
+    /// A time stamp too far ahead of the sender's previous one for the time that passed on
+    /// the vehicle's clock (version 6): one frame cannot move the vehicle's idea of time.
+    ClockAhead,
+    /// A sensor reading over the tether on a board that reads its own sensors (version 6).
+    OwnSensors,
 }
 
 impl From<controller_core::Error> for NackReason {
@@ -328,6 +353,11 @@ pub struct LinkStats {
     /// Frames not sent because the transmit queue was full (the port is slower than the
     /// replies; version 4).
     pub tx_dropped: u32,
+    /// Good frames refused because they were not of the session in force (version 6).
+    pub no_session: u32,
+    /// Good frames of the session refused as replays: sequence number not newer than the
+    /// last one taken (version 6).
+    pub replayed: u32,
 }
 
 /// What the ROV reports every control step (lock-step: the answer to each `NavState`) or
@@ -443,4 +473,11 @@ pub enum Reply {
     },
     /// The answer to a `Heartbeat` (version 3).
     Status(Status),
+    /// The answer to `OpenSession` (version 6): the session in force from now.
+    Session {
+        /// The surface's `nonce`.
+        nonce: u32,
+        /// The session's number (never 0), for every later frame's envelope.
+        session: u32,
+    },
 }

@@ -3,7 +3,7 @@
 //! A frame on the wire is
 //!
 //! ```text
-//! 0x00 ++ COBS( postcard(Envelope { version: u8, seq: u16, msg }) ++ CRC-32/ISO-HDLC(le) ) ++ 0x00
+//! 0x00 ++ COBS( postcard(Envelope { version: u8, seq: u16, session: u32, msg }) ++ CRC-32/ISO-HDLC(le) ) ++ 0x00
 //! ```
 //!
 //! - `postcard` gives a compact, stable serde encoding (varints, `f32` as 4 bytes LE,

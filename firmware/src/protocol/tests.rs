@@ -6,24 +6,27 @@ use controller_core::nav::{DvlFix, HeadingFix, ImuSample, PositionFix};
 use controller_core::reference::Reference;
 use controller_core::state::NavState;
 
+/// The session the frames of these tests carry (two varint bytes: 0xAC 0x02).
+const SESSION: u32 = 300;
+
 fn frame(seq: u16, cmd: &Command) -> Vec<u8> {
     let mut out = [0u8; MAX_FRAME_LEN];
-    encode(seq, cmd, &mut out).unwrap().to_vec()
+    encode(SESSION, seq, cmd, &mut out).unwrap().to_vec()
 }
 
 #[test]
-fn the_bytes_are_postcard_then_crc32_then_cobs_as_in_version_5() {
+fn the_bytes_are_postcard_then_crc32_then_cobs_as_in_version_6() {
     // Computed independently (Python: zlib.crc32 and a textbook COBS) from the postcard
-    // payloads [5, 7, 1] (version 5, seq 7, `Arm` = variant 1) and [5, 42, 0, 0xE8, 0x07]
-    // (seq 42, `Heartbeat` = variant 0, t_us = 1000 as a varint). Versions 4 and 5 (new
-    // messages at the end) changed only the version byte of these two.
+    // payloads [6, 7, 0xAC, 0x02, 1] (version 6, seq 7, session 300 as a varint, `Arm` =
+    // variant 1) and [6, 42, 0xAC, 0x02, 0, 0xE8, 0x07] (seq 42, `Heartbeat` = variant 0,
+    // t_us = 1000 as a varint). Version 6 put the session after the sequence number.
     assert_eq!(
         frame(7, &Command::Arm),
-        [0, 8, 5, 7, 1, 168, 189, 204, 193, 0]
+        [0, 10, 6, 7, 172, 2, 1, 20, 204, 230, 65, 0]
     );
     assert_eq!(
         frame(42, &Command::Heartbeat { t_us: 1000 }),
-        [0, 3, 5, 42, 7, 232, 7, 112, 219, 142, 201, 0]
+        [0, 5, 6, 42, 172, 2, 7, 232, 7, 79, 154, 150, 79, 0]
     );
 }
 
@@ -102,14 +105,15 @@ fn every_command_and_reply_round_trips_and_fits() {
         Command::Step { t_us: u64::MAX },
         Command::SetVehicle(controller_core::params::VehicleParams::OBSERVER),
         Command::SetFailsafe(Failsafe::DEFAULT),
+        Command::OpenSession { nonce: u32::MAX },
     ];
     for (i, cmd) in commands.iter().enumerate() {
         let f = frame(u16::MAX - i as u16, cmd);
         assert!(f.len() <= MAX_FRAME_LEN);
         assert_eq!(f.iter().filter(|&&b| b == 0).count(), 2, "{cmd:?}");
         match decode_frame::<Command>(&f) {
-            Some(Decoded::Frame { seq, msg }) => {
-                assert_eq!((seq, msg), (u16::MAX - i as u16, *cmd));
+            Some(Decoded::Frame { seq, session, msg }) => {
+                assert_eq!((seq, session, msg), (u16::MAX - i as u16, SESSION, *cmd));
             }
             other => panic!("{cmd:?}: {other:?}"),
         }
@@ -123,10 +127,14 @@ fn every_command_and_reply_round_trips_and_fits() {
         nav_pos_std_m: [f32::MAX; 3],
         ..Telemetry::default()
     });
-    let f = encode(1, &t, &mut out).unwrap().to_vec();
+    let f = encode(u32::MAX, 1, &t, &mut out).unwrap().to_vec();
     assert_eq!(
         decode_frame::<Reply>(&f),
-        Some(Decoded::Frame { seq: 1, msg: t })
+        Some(Decoded::Frame {
+            seq: 1,
+            session: u32::MAX,
+            msg: t
+        })
     );
     let mut st = Status {
         t_us: u64::MAX,
@@ -137,11 +145,16 @@ fn every_command_and_reply_round_trips_and_fits() {
     st.nav_health.imu_samples = u32::MAX;
     st.nav_health.resets = u32::MAX;
     st.link.dropped.crc = u32::MAX;
-    let f = encode(2, &Reply::Status(st), &mut out).unwrap().to_vec();
+    st.link.replayed = u32::MAX;
+    st.link.no_session = u32::MAX;
+    let f = encode(u32::MAX, 2, &Reply::Status(st), &mut out)
+        .unwrap()
+        .to_vec();
     assert_eq!(
         decode_frame::<Reply>(&f),
         Some(Decoded::Frame {
             seq: 2,
+            session: u32::MAX,
             msg: Reply::Status(st)
         })
     );
@@ -162,7 +175,7 @@ fn garbage_truncation_and_corruption_are_dropped_and_counted() {
     stream.extend(std::iter::repeat_n(7u8, 300)); // over-long
     stream.push(0);
     let mut other_version = [0u8; MAX_FRAME_LEN];
-    stream.extend(encode_with_version(9, 77, &Command::Arm, &mut other_version).unwrap());
+    stream.extend(encode_with_version(9, SESSION, 77, &Command::Arm, &mut other_version).unwrap());
     let got: Vec<_> = stream.iter().filter_map(|&b| d.push(b)).collect();
     let frames = got
         .iter()
@@ -171,6 +184,7 @@ fn garbage_truncation_and_corruption_are_dropped_and_counted() {
                 x,
                 Decoded::Frame {
                     seq: 5,
+                    session: SESSION,
                     msg: Command::Arm
                 }
             )
@@ -194,8 +208,8 @@ fn garbage_truncation_and_corruption_are_dropped_and_counted() {
 
 #[test]
 fn a_good_crc_on_a_bad_payload_is_malformed_with_its_sequence_number() {
-    // This version, seq 9, variant 200 (no such command), with a correct CRC.
-    let payload = [PROTOCOL_VERSION, 9, 200, 1];
+    // This version, seq 9, session 1, variant 200 (no such command), with a correct CRC.
+    let payload = [PROTOCOL_VERSION, 9, 1, 200, 1];
     let mut body = payload.to_vec();
     body.extend(CRC.checksum(&payload).to_le_bytes());
     let mut f = vec![0u8; 32];

@@ -121,7 +121,7 @@ impl SimVehicle {
                 |r| match r {
                     Reply::Status(_) | Reply::Telemetry(_) | Reply::Hello { .. } => Some(Ok(())),
                     Reply::Nack { reason, .. } => Some(Err(*reason)),
-                    Reply::Ack { .. } => None,
+                    Reply::Ack { .. } | Reply::Session { .. } => None,
                 },
                 |_| {},
             )?
