@@ -186,6 +186,7 @@ impl Navigation for EstimatorNav {
         let n_due = self.pending.partition_point(|(arr, _)| *arr <= t_s + 1e-9);
         let due: Vec<_> = self.pending.drain(..n_due).collect();
         let cmd = thrust_cmd_n.map(|f| f as f32);
+        self.sensors.set_thrust_n(thrust_cmd_n);
         for (arrival, m) in due {
             self.deliver(arrival, m, cmd);
         }
@@ -267,7 +268,8 @@ impl Navigation for VehicleNav {
 
     /// The launch point (what the vehicle's estimator starts from); the loop uses the
     /// vehicle's own estimate after that.
-    fn estimate(&mut self, _t_s: f64, _thrust_cmd_n: [f64; 3]) -> NavState {
+    fn estimate(&mut self, _t_s: f64, thrust_cmd_n: [f64; 3]) -> NavState {
+        self.sensors.set_thrust_n(thrust_cmd_n);
         self.initial
     }
 
