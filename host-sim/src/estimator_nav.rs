@@ -29,6 +29,8 @@ pub struct EstimatorNav {
     nees_in: u64,
     nees_n: u64,
     fixes: Vec<FixRecord>,
+    /// The first control tick at which the estimate was ready for position modes (s).
+    ready_at_s: Option<f64>,
 }
 
 /// The estimator's process noise for a sensor suite: the simulated IMU's figures, floored by
@@ -65,10 +67,11 @@ impl EstimatorNav {
             bail!("navigation.source = \"estimator\" needs {missing}");
         }
         let initial = sc.initial.to_plant();
+        sc.navigation.validate()?;
         let estimator = Estimator::new(
             sc.vehicle_model()?,
-            nav_config(&sc.sensors),
-            &to_nav(&initial),
+            start_config(sc, nav_config(&sc.sensors)),
+            &to_nav(&sc.navigation.told_start(&initial)),
             0,
         )
         .map_err(|e| anyhow!("estimator: {e}"))?;
@@ -81,7 +84,14 @@ impl EstimatorNav {
             nees_in: 0,
             nees_n: 0,
             fixes: Vec::new(),
+            ready_at_s: None,
         })
+    }
+
+    /// The first control tick at which the estimate was ready for position modes
+    /// ([`Estimator::position_ready`]), in seconds of simulated time.
+    pub fn position_ready_at_s(&self) -> Option<f64> {
+        self.ready_at_s
     }
 
     /// The estimator (for its covariance, current and counters).
@@ -191,6 +201,9 @@ impl Navigation for EstimatorNav {
             self.deliver(arrival, m, cmd);
         }
         let nav = self.estimator.state();
+        if self.ready_at_s.is_none() && self.estimator.position_ready().is_ok() {
+            self.ready_at_s = Some(t_s);
+        }
         if let Some((nees, dof)) = self.nees(&nav) {
             self.nees_n += 1;
             if nees <= CHI2_95[dof - 1] {
@@ -220,6 +233,18 @@ impl Navigation for EstimatorNav {
     }
 }
 
+/// The start uncertainties of `[navigation]` (issue 26), where given, in place of the
+/// defaults.
+fn start_config(sc: &Scenario, mut cfg: NavConfig) -> NavConfig {
+    if let Some(v) = sc.navigation.start_position_std_m {
+        cfg.initial_position_std_m = v as f32;
+    }
+    if let Some(v) = sc.navigation.start_heading_std_rad {
+        cfg.initial_heading_std_rad = v as f32;
+    }
+    cfg
+}
+
 /// The on-board estimator's settings for a scenario: the filters of [`nav_config`], sea water
 /// with the depth sensor's noise, the default sensor timeouts.
 pub fn onboard_config(sc: &Scenario) -> OnboardConfig {
@@ -229,7 +254,7 @@ pub fn onboard_config(sc: &Scenario) -> OnboardConfig {
         pressure.std_m = d.noise_m.max(1e-4) as f32;
     }
     OnboardConfig {
-        nav: nav_config(&sc.sensors),
+        nav: start_config(sc, nav_config(&sc.sensors)),
         pressure,
         ..OnboardConfig::default()
     }
@@ -255,7 +280,7 @@ impl VehicleNav {
         Ok(Self {
             sensors: SensorSuite::new(&sc.sensors, seed),
             pending: Vec::new(),
-            initial: to_nav(&sc.initial.to_plant()),
+            initial: to_nav(&sc.navigation.told_start(&sc.initial.to_plant())),
             fixes: Vec::new(),
         })
     }

@@ -711,6 +711,7 @@ impl Scenario {
         )?;
         nonneg("disturbance.noise_std.rate_rad_s", d.noise_std.rate_rad_s)?;
         self.sensors.validate()?;
+        self.navigation.validate()?;
         if self.navigation.source == NavSource::Estimator {
             if let Some(missing) = self.sensors.missing_for_estimator() {
                 bail!("navigation.source = \"estimator\" needs {missing}");

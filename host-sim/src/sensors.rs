@@ -46,6 +46,46 @@ pub enum NavSource {
 pub struct NavigationSpec {
     /// `"truth"` (default) or `"estimator"`.
     pub source: NavSource,
+    /// What the estimator is told of the launch point is off the truth by `[north, east]`
+    /// (m) (issue 26: an unknown start).
+    pub start_error_m: [f64; 2],
+    /// What the estimator is told of the start heading is off the truth by this (rad).
+    pub start_heading_error_rad: f64,
+    /// The start position's uncertainty the estimator is given (m, each horizontal axis);
+    /// default the estimator's (0.5 m).
+    pub start_position_std_m: Option<f64>,
+    /// The start heading's uncertainty the estimator is given (rad); default the
+    /// estimator's (0.05 rad).
+    pub start_heading_std_rad: Option<f64>,
+}
+
+impl NavigationSpec {
+    /// Check the start keys; the error names the key.
+    pub fn validate(&self) -> Result<()> {
+        finite("navigation.start_error_m[0]", self.start_error_m[0])?;
+        finite("navigation.start_error_m[1]", self.start_error_m[1])?;
+        finite(
+            "navigation.start_heading_error_rad",
+            self.start_heading_error_rad,
+        )?;
+        if let Some(v) = self.start_position_std_m {
+            crate::checks::pos("navigation.start_position_std_m", v)?;
+        }
+        if let Some(v) = self.start_heading_std_rad {
+            crate::checks::pos("navigation.start_heading_std_rad", v)?;
+        }
+        Ok(())
+    }
+
+    /// What the estimator is told at the start: the true initial state moved by the start
+    /// errors.
+    pub fn told_start(&self, truth: &PlantState) -> PlantState {
+        let mut told = *truth;
+        told.eta[0] += self.start_error_m[0];
+        told.eta[1] += self.start_error_m[1];
+        told.eta[5] += self.start_heading_error_rad;
+        told
+    }
 }
 
 /// `[sensors.imu]`.
@@ -232,6 +272,11 @@ pub struct UsblSpec {
     /// Latency jitter: each fix arrives `latency_s + U(0, latency_jitter_s)` after its ping
     /// (s); the fix still carries its ping time.
     pub latency_jitter_s: f64,
+    /// A persistent step `[north, east]` (m) added to every fix pinged at or after
+    /// `step_at_s`: the transceiver moved, or was re-surveyed (issue 26).
+    pub step_m: [f64; 2],
+    /// Time of the step (s).
+    pub step_at_s: f64,
 }
 
 impl Default for UsblSpec {
@@ -245,6 +290,8 @@ impl Default for UsblSpec {
             dropouts_s: Vec::new(),
             bias_m: [0.0; 2],
             latency_jitter_s: 0.0,
+            step_m: [0.0; 2],
+            step_at_s: 0.0,
         }
     }
 }
@@ -366,6 +413,9 @@ impl SensorsSpec {
             finite("sensors.usbl.bias_m[0]", s.bias_m[0])?;
             finite("sensors.usbl.bias_m[1]", s.bias_m[1])?;
             noise("sensors.usbl.latency_jitter_s", s.latency_jitter_s)?;
+            finite("sensors.usbl.step_m[0]", s.step_m[0])?;
+            finite("sensors.usbl.step_m[1]", s.step_m[1])?;
+            noise("sensors.usbl.step_at_s", s.step_at_s)?;
             if s.latency_s + s.latency_jitter_s >= 10.0 {
                 bail!(
                     "sensors.usbl.latency_s + latency_jitter_s must be < 10 s (got {})",
@@ -641,6 +691,11 @@ impl SensorSuite {
                     noisy
                 };
                 let (n, e) = (n + s.bias_m[0], e + s.bias_m[1]);
+                let (n, e) = if t_s >= s.step_at_s {
+                    (n + s.step_m[0], e + s.step_m[1])
+                } else {
+                    (n, e)
+                };
                 let jitter_s = if s.latency_jitter_s > 0.0 {
                     s.latency_jitter_s * self.jitter_rng.random::<f64>()
                 } else {

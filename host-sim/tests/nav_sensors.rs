@@ -100,8 +100,8 @@ fn dvl_scale_and_mounting_yaw_and_usbl_bias_and_jitter_are_simulated() {
     for (arrival, m) in &out {
         match m {
             Measurement::Dvl(d) => {
-                for i in 0..2 {
-                    assert!((f64::from(d.velocity_m_s[i]) - want[i]).abs() < 1e-6);
+                for (got, want) in d.velocity_m_s.iter().zip(want) {
+                    assert!((f64::from(*got) - want).abs() < 1e-6);
                 }
             }
             Measurement::Position(p, _) => {
