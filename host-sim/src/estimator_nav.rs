@@ -75,9 +75,11 @@ impl EstimatorNav {
             0,
         )
         .map_err(|e| anyhow!("estimator: {e}"))?;
+        let mut sensors = SensorSuite::new(&sc.sensors, seed);
+        sensors.set_seabed_depth_m(sc.water.seabed_depth_m);
         Ok(Self {
             estimator,
-            sensors: SensorSuite::new(&sc.sensors, seed),
+            sensors,
             pending: Vec::new(),
             axes: sc.plane.axes(),
             truth: initial,
@@ -277,8 +279,10 @@ impl VehicleNav {
         if let Some(missing) = sc.sensors.missing_for_estimator() {
             bail!("navigation.source = \"estimator\" needs {missing}");
         }
+        let mut sensors = SensorSuite::new(&sc.sensors, seed);
+        sensors.set_seabed_depth_m(sc.water.seabed_depth_m);
         Ok(Self {
-            sensors: SensorSuite::new(&sc.sensors, seed),
+            sensors,
             pending: Vec::new(),
             initial: to_nav(&sc.navigation.told_start(&sc.initial.to_plant())),
             fixes: Vec::new(),

@@ -224,6 +224,9 @@ pub struct DvlSpec {
     /// Mounting yaw: the DVL's axes are turned by this angle from the body's (rad), so it
     /// reports the body velocity rotated by `-mounting_yaw_rad`.
     pub mounting_yaw_rad: f64,
+    /// Highest altitude above the seabed with bottom lock (m); above it (with a
+    /// `water.seabed_depth_m`) the DVL gives nothing. None: always in range.
+    pub max_altitude_m: Option<f64>,
 }
 
 impl Default for DvlSpec {
@@ -234,6 +237,7 @@ impl Default for DvlSpec {
             dropouts_s: Vec::new(),
             scale_error: 0.0,
             mounting_yaw_rad: 0.0,
+            max_altitude_m: None,
         }
     }
 }
@@ -390,6 +394,9 @@ impl SensorsSpec {
                 );
             }
             plausible_angle("sensors.dvl.mounting_yaw_rad", s.mounting_yaw_rad)?;
+            if let Some(a) = s.max_altitude_m {
+                crate::checks::pos("sensors.dvl.max_altitude_m", a)?;
+            }
         }
         if let Some(s) = &self.usbl {
             rate("sensors.usbl.rate_hz", s.rate_hz)?;
@@ -539,6 +546,8 @@ pub struct SensorSuite {
     /// The USBL latency jitter draws from a stream of its own (stream 2), so a run without
     /// jitter has the draws it had before.
     jitter_rng: ChaCha8Rng,
+    /// The seabed's depth (m), for the DVL's bottom lock.
+    seabed_depth_m: Option<f64>,
 }
 
 impl SensorSuite {
@@ -569,7 +578,13 @@ impl SensorSuite {
             usbl_outliers_injected: 0,
             thrust_n: [0.0; 3],
             jitter_rng,
+            seabed_depth_m: None,
         }
+    }
+
+    /// The seabed's depth (m): the DVL has bottom lock only within its `max_altitude_m`.
+    pub fn set_seabed_depth_m(&mut self, seabed_depth_m: Option<f64>) {
+        self.seabed_depth_m = seabed_depth_m;
     }
 
     /// The thrust command `[F1x, F2x, F3z]` (N) in force: the compass's thrust offset
@@ -661,7 +676,11 @@ impl SensorSuite {
             }
         }
         if let (Some(s), Some(c)) = (&self.spec.dvl, &mut self.dvl_clock) {
-            if c.due(t_s) && !in_dropout(&s.dropouts_s, t_s) {
+            let lock = match (s.max_altitude_m, self.seabed_depth_m) {
+                (Some(a), Some(d)) => d - truth.eta[2] <= a,
+                _ => true,
+            };
+            if c.due(t_s) && lock && !in_dropout(&s.dropouts_s, t_s) {
                 let read = s.reading_m_s([truth.nu[0], truth.nu[1]]);
                 let v = [0, 1].map(|i| read[i] + s.noise_m_s * gauss(rng));
                 out.push((
