@@ -12,8 +12,9 @@ use crate::scenario::Scenario;
 use crate::sensors::{Measurement, NavSource, SensorSuite, SensorsSpec};
 use crate::sim_loop::{to_nav, FixRecord, NavReport, Navigation, TruthNav};
 use anyhow::{anyhow, bail, Result};
+use controller_core::nav::compass_cal::CompassCalibration;
 use controller_core::nav::onboard::{OnboardConfig, PressureDepth};
-use controller_core::nav::{Estimator, NavConfig, Refusal};
+use controller_core::nav::{Estimator, HeadingFix, NavConfig, Refusal};
 use controller_core::state::NavState;
 
 /// 95 % quantile of the chi-square distribution with 1, 2 and 3 degrees of freedom.
@@ -31,6 +32,8 @@ pub struct EstimatorNav {
     fixes: Vec<FixRecord>,
     /// The first control tick at which the estimate was ready for position modes (s).
     ready_at_s: Option<f64>,
+    /// The compass calibration applied to each heading fix.
+    compass_cal: CompassCalibration,
 }
 
 /// The estimator's process noise for a sensor suite: the simulated IMU's figures, floored by
@@ -87,6 +90,13 @@ impl EstimatorNav {
             nees_n: 0,
             fixes: Vec::new(),
             ready_at_s: None,
+            compass_cal: sc.navigation.compass_calibration.map_or(
+                CompassCalibration::NONE,
+                |[a, b]| CompassCalibration {
+                    sin_rad: a as f32,
+                    cos_rad: b as f32,
+                },
+            ),
         })
     }
 
@@ -118,6 +128,10 @@ impl EstimatorNav {
                 let _ = e.fuse_depth(&f);
             }
             Measurement::Heading(f) => {
+                let f = HeadingFix {
+                    yaw_rad: self.compass_cal.correct(f.yaw_rad),
+                    ..f
+                };
                 let _ = e.fuse_heading(&f);
             }
             Measurement::Dvl(f) => {

@@ -57,6 +57,10 @@ pub struct NavigationSpec {
     /// The start heading's uncertainty the estimator is given (rad); default the
     /// estimator's (0.05 rad).
     pub start_heading_std_rad: Option<f64>,
+    /// The compass calibration `[sin_rad, cos_rad]` of a swing
+    /// (`controller_core::nav::compass_cal`): each heading fix is corrected by it before the
+    /// estimator fuses it. None: no correction.
+    pub compass_calibration: Option<[f64; 2]>,
 }
 
 impl NavigationSpec {
@@ -73,6 +77,16 @@ impl NavigationSpec {
         }
         if let Some(v) = self.start_heading_std_rad {
             crate::checks::pos("navigation.start_heading_std_rad", v)?;
+        }
+        if let Some([a, b]) = self.compass_calibration {
+            finite("navigation.compass_calibration[0]", a)?;
+            finite("navigation.compass_calibration[1]", b)?;
+            if a.hypot(b) > MAX_COMPASS_ERROR_RAD {
+                bail!(
+                    "navigation.compass_calibration must have an amplitude within 30 deg (got {:.1} deg)",
+                    a.hypot(b).to_degrees()
+                );
+            }
         }
         Ok(())
     }

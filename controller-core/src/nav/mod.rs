@@ -46,6 +46,7 @@
 //! `no_std`, `f32`, no allocation, no panics; the history is a `heapless` ring.
 
 mod attitude;
+pub mod compass_cal;
 mod horizontal;
 pub mod kf;
 pub mod onboard;
