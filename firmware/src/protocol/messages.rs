@@ -276,6 +276,8 @@ pub enum NackReason {
     NavRefused(Refusal),
     /// Not while armed (a new vehicle description; version 5).
     Armed,
+    /// A mode that needs a position while the on-board estimate is not ready (issue 26).
+    NavNotReady(controller_core::nav::NotReady),
 }
 
 impl From<controller_core::Error> for NackReason {
