@@ -77,6 +77,33 @@ fn twenty_percent_near_outliers_on_the_circle_stay_within_1_cm_of_the_clean_run(
     near_outliers_within_1_cm("nav-circle-3d");
 }
 
+/// What the near outliers cost beyond the fixes they replace: the same fixes replaced by
+/// outliers 1 km off (refused by any gate, so simply missing) against 1-2 m off. The
+/// estimator handles near outliers well if the two runs agree; the difference to the clean
+/// run is then the information those fixes would have carried.
+#[test]
+fn near_outliers_cost_no_more_than_the_fixes_they_replace() {
+    for name in ["nav-circle-3d", "nav-lawnmower-3d"] {
+        let mut near = Scenario::load(name).unwrap();
+        if let Some(u) = near.sensors.usbl.as_mut() {
+            u.outlier_fraction = 0.2;
+            u.outlier_m = 1.0;
+        }
+        let mut missing = near.clone();
+        if let Some(u) = missing.sensors.usbl.as_mut() {
+            u.outlier_m = 1000.0;
+        }
+        let a = summary(&format!("{name} 20 % of fixes missing"), &missing);
+        let b = summary(&format!("{name} 20 % near outliers 1-2 m"), &near);
+        let d = b.rms_position_error_last80_m - a.rms_position_error_last80_m;
+        println!(
+            "{name}: near outliers vs missing fixes {:+.2} cm",
+            100.0 * d
+        );
+        assert!(d.abs() <= 0.01, "{name}: {:.2} cm", 100.0 * d);
+    }
+}
+
 #[test]
 fn a_23_minute_survey_with_30_percent_far_outliers_stays_within_10_cm_and_never_resets() {
     let sc = Scenario::load(concat!(
