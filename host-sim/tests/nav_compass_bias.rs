@@ -83,3 +83,20 @@ fn usbl_only_with_a_5_deg_compass_bias_within_30_cm() {
         s.rms_position_error_last80_m
     );
 }
+
+/// The state learns the bias itself (it does not only hide it in the heading): after the
+/// survey, the estimate of a 6 deg bias is within 1 deg, and inside 3 of its own sigma.
+#[test]
+fn the_compass_bias_state_learns_the_bias() {
+    use host_sim::estimator_nav::EstimatorNav;
+    use host_sim::sim_loop::{run_closed_loop, CoreEndpoint};
+    let sc = survey(6.0);
+    let mut nav = EstimatorNav::for_scenario(&sc, sc.disturbance.noise_seed).unwrap();
+    let mut ep = CoreEndpoint::for_scenario(&sc).unwrap();
+    run_closed_loop(&sc, &RunOptions::default(), &mut nav, &mut ep).unwrap();
+    let (b, sd) = nav.estimator().compass_bias_rad();
+    let (b, sd) = (f64::from(b).to_degrees(), f64::from(sd).to_degrees());
+    println!("compass bias 6 deg: estimated {b:.2} deg, sigma {sd:.2} deg");
+    assert!((b - 6.0).abs() <= 1.0, "{b}");
+    assert!((b - 6.0).abs() <= 3.0 * sd, "{b} +- {sd}");
+}
