@@ -90,13 +90,7 @@ impl EstimatorNav {
             nees_n: 0,
             fixes: Vec::new(),
             ready_at_s: None,
-            compass_cal: sc.navigation.compass_calibration.map_or(
-                CompassCalibration::NONE,
-                |[a, b]| CompassCalibration {
-                    sin_rad: a as f32,
-                    cos_rad: b as f32,
-                },
-            ),
+            compass_cal: compass_calibration(sc),
         })
     }
 
@@ -249,6 +243,16 @@ impl Navigation for EstimatorNav {
     }
 }
 
+/// The scenario's compass calibration (`[navigation] compass_calibration`), or none.
+fn compass_calibration(sc: &Scenario) -> CompassCalibration {
+    sc.navigation
+        .compass_calibration
+        .map_or(CompassCalibration::NONE, |[a, b]| CompassCalibration {
+            sin_rad: a as f32,
+            cos_rad: b as f32,
+        })
+}
+
 /// The start uncertainties of `[navigation]` (issue 26), where given, in place of the
 /// defaults.
 fn start_config(sc: &Scenario, mut cfg: NavConfig) -> NavConfig {
@@ -284,6 +288,8 @@ pub struct VehicleNav {
     pending: Vec<(f64, Measurement)>,
     initial: NavState,
     fixes: Vec<FixRecord>,
+    /// The compass calibration the surface applies before it sends a heading.
+    compass_cal: CompassCalibration,
 }
 
 impl VehicleNav {
@@ -300,6 +306,7 @@ impl VehicleNav {
             pending: Vec::new(),
             initial: to_nav(&sc.navigation.told_start(&sc.initial.to_plant())),
             fixes: Vec::new(),
+            compass_cal: compass_calibration(sc),
         })
     }
 }
@@ -333,7 +340,16 @@ impl Navigation for VehicleNav {
                 });
             }
         }
-        due.into_iter().map(|(_, m)| m).collect()
+        let cal = self.compass_cal;
+        due.into_iter()
+            .map(|(_, m)| match m {
+                Measurement::Heading(f) => Measurement::Heading(HeadingFix {
+                    yaw_rad: cal.correct(f.yaw_rad),
+                    ..f
+                }),
+                other => other,
+            })
+            .collect()
     }
 
     fn usbl_fixes(&self) -> Vec<FixRecord> {
