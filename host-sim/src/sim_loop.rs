@@ -190,6 +190,9 @@ pub struct Summary {
     pub wall_time_s: f64,
     /// Final plant state `[x, y, z, roll, pitch, yaw, u, v, w, p, q, r]`.
     pub final_state: Vec<f64>,
+    /// The first time the vehicle met the surface or the seabed (`[water]`), if it did:
+    /// "hit the seabed at t = 12.340 s".
+    pub boundary_contact: Option<String>,
 }
 
 /// One target of `[expect]` against the run.
@@ -777,6 +780,7 @@ pub fn run_closed_loop(
         saturate,
         sc.initial.to_plant(),
     )?;
+    plant.set_bounds(sc.water.surface, sc.water.seabed_depth_m);
 
     let reference = sc.reference.to_core();
     let axes = sc.plane.axes();
@@ -942,12 +946,23 @@ pub fn run_closed_loop(
             break;
         }
 
+        if sc.water.current_varies() {
+            plant.set_current(sc.water.current_at(env.current_m_s, t, truth.eta[2]));
+        }
         // Zero-order hold over the plant steps of this period.
         held_cmd = out.applied_n;
         for i in 0..n_sub {
             plant.step(out.applied_n, dt);
             s.sim_steps += 1;
             nav.observe(t + (i + 1) as f64 * dt, &plant.state());
+        }
+        if s.boundary_contact.is_none() {
+            s.boundary_contact = plant.contact().map(|b| match b {
+                crate::plant::Boundary::Surface => {
+                    format!("hit the surface at t = {:.3} s", t + tc)
+                }
+                crate::plant::Boundary::Seabed => format!("hit the seabed at t = {:.3} s", t + tc),
+            });
         }
     }
 
