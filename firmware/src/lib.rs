@@ -12,6 +12,7 @@
 
 pub mod app;
 pub mod autopilot;
+pub mod node;
 pub mod node_link;
 pub mod protocol;
 pub mod sensors;

@@ -185,5 +185,14 @@ pub fn seq_newer(seq: u16, last: u16) -> bool {
     d != 0 && d < 0x8000
 }
 
+/// A frame of any version, for the tests of version handling.
+#[cfg(test)]
+pub(crate) fn encode_frame_for_tests<M: Serialize>(version: u8, seq: u16, msg: &M) -> Vec<u8> {
+    let mut out = [0u8; MAX_FRAME_LEN];
+    crate::protocol::encode_with_version(version, seq, msg, &mut out)
+        .map(<[u8]>::to_vec)
+        .unwrap_or_default()
+}
+
 #[cfg(test)]
 mod tests;
