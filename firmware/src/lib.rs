@@ -19,6 +19,8 @@ pub mod sensors;
 
 #[cfg(target_os = "none")]
 pub mod board;
+#[cfg(target_os = "none")]
+pub mod node_board;
 
 pub use app::{App, Config, ConfigError, Monotonic, Timing};
 pub use autopilot::{Autopilot, Failsafe, StepOutput};
