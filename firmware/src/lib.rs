@@ -7,7 +7,10 @@
 //!
 //! - [`protocol`]: messages, framing (postcard + CRC-32 + COBS) and the streaming decoder;
 //! - [`autopilot`]: arming, modes, failsafes and the control step, no I/O;
-//! - [`app`]: the loop: serial in, control, PWM out, telemetry.
+//! - [`app`]: the loop: serial in, control, PWM out, telemetry;
+//! - the paper's layout (issue 25, `docs/deployment.md`): [`node_link`] (the wire between
+//!   the surface and the vehicle), [`node`] (the vehicle's thin role), [`topside_link`] (the
+//!   `App` at the surface, its thrusters and sensors over the node link).
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
 
 pub mod app;
@@ -16,6 +19,7 @@ pub mod node;
 pub mod node_link;
 pub mod protocol;
 pub mod sensors;
+pub mod topside_link;
 
 #[cfg(target_os = "none")]
 pub mod board;

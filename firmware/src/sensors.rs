@@ -18,6 +18,11 @@ pub trait Sensors {
     fn imu(&mut self, now_us: u64) -> Option<ImuSample>;
     /// A new absolute pressure (Pa) when one is ready (the sensor's own rate), else `None`.
     fn pressure_pa(&mut self, now_us: u64) -> Option<f32>;
+    /// Fault bits of the sensors' own link, ORed into the reported faults (the topside
+    /// layout's node link, `topside_link::fault`); none for sensors on the MCU's buses.
+    fn faults(&self) -> u16 {
+        0
+    }
 }
 
 /// No sensors on the MCU's buses: the emulated board and the host, where the readings come
