@@ -226,6 +226,18 @@ else
   echo "node image does not link (see $OUT/node-build.log): over its budget?"; NODE_OK=0
 fi
 
+# The topside image (issue 25): the App on the surface board, the node link on USART2.
+TOP_FLASH=""; TOP_RAM=""
+if cargo build -q -p firmware --release --target "$TARGET" --features topside-board --bin topside \
+    2>"$OUT/topside-build.log"; then
+  TOP=$TDIR/$TARGET/release/topside
+  read -r text data bss _ < <("$SIZE" -B "$TOP" | awk 'NR==2 {print $1, $2, $3}')
+  TOP_FLASH=$((text + data)); TOP_RAM=$((data + bss))
+  echo "topside $TOP: flash $TOP_FLASH B ($((TOP_FLASH / 1024)).$(((TOP_FLASH % 1024) * 10 / 1024)) KiB), static RAM $TOP_RAM B"
+else
+  echo "topside image does not build (see $OUT/topside-build.log)"
+fi
+
 # ---- 5. against the budgets ----------------------------------------------------------------
 echo
 echo "== against the budgets (loop and estimator <= 30,000 instructions, flash <= 96 KiB, RAM <= 24 KiB)"
@@ -261,6 +273,12 @@ if [ -n "$FW_FLASH" ]; then
     check "firmware RAM (stm32f4 static $FW_RAM + measured firmware stack $FW_STACK)" "$((FW_RAM + FW_STACK))" $((24 * 1024)) B
   else
     check "firmware RAM (static $FW_RAM + bench stack high-water $HW, an upper bound)" "$((FW_RAM + HW))" $((24 * 1024)) B
+  fi
+fi
+if [ -n "$TOP_FLASH" ]; then
+  check "topside flash" "$TOP_FLASH" $((96 * 1024)) B
+  if [ -n "$FW_STACK" ]; then
+    check "topside RAM (static $TOP_RAM + the onboard image's measured stack $FW_STACK, same App)" "$((TOP_RAM + FW_STACK))" $((24 * 1024)) B
   fi
 fi
 if [ -n "$NODE_FLASH" ]; then

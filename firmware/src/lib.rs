@@ -25,6 +25,8 @@ pub mod topside_link;
 pub mod board;
 #[cfg(target_os = "none")]
 pub mod node_board;
+#[cfg(all(target_os = "none", feature = "topside-board"))]
+pub mod topside_board;
 
 pub use app::{App, Config, ConfigError, Monotonic, Timing};
 pub use autopilot::{Autopilot, Failsafe, StepOutput};

@@ -1,7 +1,11 @@
 //! The topside's end of the node link, on the host: the App's thrusters into downlinks, the
 //! uplinks into the App's sensors, the silence failsafes, the refusals; and the two roles
 //! joined by an in-memory wire.
-#![allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::needless_range_loop)]
+#![allow(
+    clippy::unwrap_used,
+    clippy::indexing_slicing,
+    clippy::needless_range_loop
+)]
 
 use super::*;
 use crate::app::{App, Config, Monotonic};
