@@ -14,7 +14,7 @@
 //! down in the next downlink.
 #![allow(unsafe_code)]
 
-use crate::app::{App, Config, Monotonic};
+use crate::app::{App, Config, Monotonic, Timing};
 use crate::board::{start_tether, Tim2Clock, HSE_HZ, SYSCLK_HZ, WATCHDOG_MS};
 use crate::protocol::Board;
 use crate::topside_link::{NodeBridge, TopsideConfig, TopsideLink};
@@ -30,6 +30,9 @@ use stm32f4xx_hal::{
     serial::{Rx, Tx},
     watchdog::IndependentWatchdog,
 };
+
+/// The App's own control period, the fallback when no uplink arrives, microseconds.
+pub const FALLBACK_PERIOD_US: u32 = 25_000;
 
 /// The node link's baud rate.
 pub const NODE_BAUD: u32 = crate::node_link::LINK_BAUD;
@@ -185,7 +188,16 @@ pub fn run() -> ! {
     // SAFETY: the handler touches `LINK` only inside critical sections, initialized above.
     unsafe { cortex_m::peripheral::NVIC::unmask(pac::Interrupt::USART2) };
     let clock = Tim2Clock::start(dp.TIM2.counter::<1_000_000>(&mut rcc));
-    let config = Config::fixed_rate(Board::Stm32f4);
+    // The step runs when an uplink arrives (every 20 ms); the App's own period is the
+    // fallback, longer than the link's so that a slightly late uplink does not find a step
+    // just run by the fallback.
+    let config = Config {
+        timing: Timing::FixedRate {
+            control_period_us: FALLBACK_PERIOD_US,
+            telemetry_period_us: 100_000,
+        },
+        ..Config::fixed_rate(Board::Stm32f4)
+    };
     let bridge = NodeBridge::new(config.pwm_period_us());
     let Ok(controller) = Controller::new(Vehicle::observer(), Gains::default()) else {
         halt()

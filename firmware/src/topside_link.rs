@@ -24,6 +24,7 @@
 //! | armed, and the node reports itself latched or timed out to neutral | (the node needs a `Disarmed` then `Armed`: disarm and arm again) | [`fault::NODE_NOT_ARMED`] |
 //! | an uplink with NaN, a rate above 40 rad/s, a specific force above 160 m/s^2, a `dt` of 0 or above 4 periods, a pressure outside 10 kPa-4 MPa | refused, counted ([`TopsideCounters::bad_data`]); the estimate unchanged | |
 //! | an uplink of another session (crossed wires), a repeated or older sequence, another version, a bad CRC | refused, counted | |
+//! | after 250 ms without a valid uplink | the next uplink's sequence is taken whatever it is (a node restarted by its watchdog counts from 0) | |
 
 use crate::node_link::{
     seal, seq_newer, status, ArmCommand, Downlink, LinkDecoder, LinkFrame, NodeCounters, Uplink,
@@ -304,6 +305,9 @@ where
     /// when an uplink was accepted (the App's step may run now).
     pub fn poll(&mut self, now: u64, armed: bool) -> bool {
         self.flush_tx();
+        // The silence limits first: a sequence restart is taken from the first uplink after
+        // 250 ms of silence.
+        self.update_faults(now, armed);
         let mut fresh = false;
         let mut budget = 128usize;
         while budget > 0 && self.serial.read_ready().unwrap_or(false) {
@@ -332,6 +336,7 @@ where
     }
 
     /// Check one uplink; an accepted one feeds the bridge.
+    #[cfg_attr(feature = "no-panic", no_panic::no_panic)]
     pub fn on_frame(&mut self, now: u64, frame: LinkFrame<Uplink>) -> Result<(), UplinkRefusal> {
         let r = self.check(frame);
         let c = &mut self.counters;
@@ -402,6 +407,11 @@ where
         b.predict_only.set(silent_us >= predict);
         b.neutral
             .set(silent_us >= u64::from(self.config.neutral_after_us));
+        if b.neutral.get() {
+            // A node reset by its watchdog numbers its uplinks from 0 again: after 250 ms
+            // without a valid uplink, any sequence is taken (the replay check restarts).
+            self.last_up_seq = None;
+        }
         let mut f = 0;
         if b.predict_only.get() {
             f |= fault::NODE_LINK_LOST;

@@ -264,6 +264,7 @@ where
 
     /// Check and apply one frame from the link at `now`; a refused frame changes nothing
     /// but its counter.
+    #[cfg_attr(feature = "no-panic", no_panic::no_panic)]
     pub fn on_frame(&mut self, now: u64, frame: LinkFrame<Downlink>) -> Result<(), Refusal> {
         let r = self.check(frame);
         let c = &mut self.counters;

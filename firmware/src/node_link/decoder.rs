@@ -2,17 +2,19 @@
 //!
 //! The tether's `FrameDecoder` checks the tether's version and holds a 252-byte payload;
 //! the node link has its own version and frames of at most [`MAX_LINK_FRAME_LEN`] bytes, so
-//! this receiver keeps the encoded bytes of one frame (a small buffer, for the node's 8 KiB
-//! of RAM) and at the delimiter undoes COBS in place (`cobs` crate), checks the tether's
-//! CRC-32 ([`CRC`]) and decodes the tether's [`Envelope`] with postcard. Resynchronizes on
-//! the next zero after garbage or an over-long frame; an empty frame is ignored.
+//! this receiver undoes COBS as the bytes arrive (the `cobs` crate's state machine, as the
+//! tether's decoder: `cobs::decode_in_place` keeps index panics the optimizer cannot
+//! remove) into a buffer of one frame (small, for the node's 8 KiB of RAM), and at the
+//! delimiter checks the tether's CRC-32 ([`CRC`]) and decodes the tether's [`Envelope`] with
+//! postcard. Resynchronizes on the next zero after garbage or an over-long frame; an empty
+//! frame is ignored.
 
 use super::{MAX_LINK_FRAME_LEN, NODE_LINK_VERSION};
 use crate::protocol::{DropCounters, DropReason, Envelope, Header, CRC, CRC_LEN};
 use serde::de::DeserializeOwned;
 
-/// Encoded bytes of one frame at most (the delimiters are not kept).
-const BUF_LEN: usize = MAX_LINK_FRAME_LEN - 2;
+/// Decoded bytes of one frame at most (COBS adds at least one byte; no delimiters).
+const BUF_LEN: usize = MAX_LINK_FRAME_LEN - 3;
 
 /// What a delimiter ended.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -31,10 +33,12 @@ pub enum LinkFrame<M> {
 /// The node link's streaming receiver.
 #[derive(Debug)]
 pub struct LinkDecoder<M> {
+    cobs: cobs::DecoderState,
+    /// The decoded bytes of the frame being gathered.
     buf: [u8; BUF_LEN],
     len: usize,
-    /// More bytes than a frame can hold arrived since the last delimiter.
-    overflow: bool,
+    /// The frame is already lost: over-long (`Overflow`) or not valid COBS.
+    lost: Option<DropReason>,
     /// Frames accepted.
     pub frames: u32,
     /// Frames dropped, by reason.
@@ -52,9 +56,10 @@ impl<M> LinkDecoder<M> {
     /// An empty receiver.
     pub const fn new() -> Self {
         Self {
+            cobs: cobs::DecoderState::Idle,
             buf: [0; BUF_LEN],
             len: 0,
-            overflow: false,
+            lost: None,
             frames: 0,
             dropped: DropCounters {
                 overflow: 0,
@@ -74,31 +79,38 @@ impl<M: DeserializeOwned> LinkDecoder<M> {
     #[cfg_attr(feature = "no-panic", no_panic::no_panic)]
     pub fn push(&mut self, byte: u8) -> Option<LinkFrame<M>> {
         if byte != 0 {
-            match self.buf.get_mut(self.len) {
-                Some(slot) => {
-                    *slot = byte;
-                    self.len += 1;
+            if self.lost.is_none() {
+                match self.cobs.feed(byte) {
+                    Ok(cobs::DecodeResult::DataContinue(b)) => match self.buf.get_mut(self.len) {
+                        Some(slot) => {
+                            *slot = b;
+                            self.len += 1;
+                        }
+                        None => self.lost = Some(DropReason::Overflow),
+                    },
+                    Ok(_) => {}
+                    Err(_) => self.lost = Some(DropReason::Cobs),
                 }
-                None => self.overflow = true,
             }
             return None;
         }
+        // A delimiter: the frame gathered since the last one ends here.
         let len = core::mem::replace(&mut self.len, 0);
-        if core::mem::replace(&mut self.overflow, false) {
-            return Some(self.drop_frame(DropReason::Overflow));
+        let lost = self.lost.take();
+        let end = core::mem::replace(&mut self.cobs, cobs::DecoderState::Idle).feed(0);
+        if let Some(reason) = lost {
+            return Some(self.drop_frame(reason));
         }
-        if len == 0 {
-            return None;
+        match end {
+            // Two delimiters in a row: an empty frame, ignored.
+            Ok(cobs::DecodeResult::NoData) if len == 0 => None,
+            Ok(cobs::DecodeResult::DataComplete) => Some(self.decode(len)),
+            _ => Some(self.drop_frame(DropReason::Cobs)),
         }
-        Some(self.decode(len))
     }
 
     fn decode(&mut self, len: usize) -> LinkFrame<M> {
-        let encoded = self.buf.get_mut(..len).unwrap_or_default();
-        let Ok(n) = cobs::decode_in_place(encoded) else {
-            return self.drop_frame(DropReason::Cobs);
-        };
-        let data = self.buf.get(..n).unwrap_or_default();
+        let data = self.buf.get(..len).unwrap_or_default();
         let Some((payload, crc)) = data.split_last_chunk::<CRC_LEN>() else {
             return self.drop_frame(DropReason::TooShort);
         };

@@ -153,7 +153,7 @@ pub struct Uplink {
     pub echo_seq: u16,
     /// Time the increments cover, microseconds (first to last sample of the period).
     pub dt_us: u32,
-    /// IMU samples integrated.
+    /// IMU intervals integrated (consecutive samples at most four IMU periods apart).
     pub samples: u16,
     /// Integrated angular rate, body axes, rad.
     pub delta_angle_rad: [f32; 3],

@@ -486,3 +486,27 @@ fn topside_and_node_joined_by_a_wire() {
     assert!(lost_at.unwrap() <= 3 * PERIOD, "{lost_at:?}");
     assert!(!node.armed(), "latched");
 }
+
+#[test]
+fn a_restarted_node_is_heard_again_after_250_ms() {
+    let mut b = Bench::new();
+    for i in 0..10u16 {
+        assert!(b.send_up_seq(u64::from(i) * PERIOD, 1_000 + i, &uplink(0, 1)));
+    }
+    // The node's watchdog resets it: its uplinks count from 0 again, refused as replays...
+    let t0 = 10 * PERIOD;
+    let mut heard = None;
+    for i in 0..20u16 {
+        let now = t0 + u64::from(i) * PERIOD;
+        let up = Uplink {
+            session: 0,
+            ..uplink(0, 1)
+        };
+        if b.send_up_seq(now, i, &up) && heard.is_none() {
+            heard = Some(now - t0);
+        }
+    }
+    // ... until 250 ms after the last valid one (at t0 - PERIOD).
+    assert_eq!(heard, Some(240_000), "{:?}", b.link.counters());
+    assert_eq!(b.link.counters().replayed, 12);
+}
