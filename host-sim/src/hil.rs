@@ -707,7 +707,9 @@ fn parse_probability(s: &str) -> std::result::Result<f64, String> {
 }
 
 /// `host-sim hil`.
-pub fn main(a: HilArgs) -> Result<()> {
+/// Run `host-sim hil`; the output decides the exit code (`main.rs`: 1 when the run diverged,
+/// went non-finite or missed its scenario's targets, as `run`).
+pub fn main(a: HilArgs) -> Result<HilOutput> {
     let sc = Scenario::load(&a.scenario).map_err(crate::checks::refused)?;
     let target = if let Some(dev) = a.serial {
         HilTarget::Board(Endpoint::Serial {
@@ -802,5 +804,5 @@ pub fn main(a: HilArgs) -> Result<()> {
         );
     }
     println!("outputs in {}", dir.display());
-    Ok(())
+    Ok(out)
 }
