@@ -19,15 +19,16 @@
 #    in it; then the `node-bench` build of the same image in QEMU: instructions per pass (the
 #    IMU-rate pass alone, with a downlink frame decoded and applied, with the uplink encoded;
 #    TIM2 under -icount) and the stack it used (painting).
-# 5. Compares with the budgets (issues 11, 12, 15): every loop iteration <= 30,000
-#    instructions (mean and max), `loop.onboard_3d` (the board's pass with the estimator and
-#    its sensors) included, and the estimator's worst step (predict + every update + the
-#    control step) <= 30,000; flash <= 96 KiB; RAM
+# 5. Compares with the budgets (issues 11, 12, 15, 26): every loop iteration <= 40,000
+#    instructions (mean and max; 30,000 until issue 26's estimator states), `loop.onboard_3d`
+#    (the board's pass with the estimator and its sensors) included, and the estimator's worst
+#    step (predict + every update + the control step) <= 40,000; flash <= 96 KiB; RAM
 #    (static + measured stack) <= 24 KiB; the node image (issue 25): flash <= 32 KiB, static
-#    RAM + measured stack <= 8 KiB, every pass <= 5,000 instructions. Over-budget figures are reported as OVER; with
-#    MCU_COST_STRICT=1 they also make the script fail. Below a budget the clearest code wins:
-#    the control steps' figures are printed, not judged (the 1,000-instruction target of
-#    issue 5 is withdrawn).
+#    RAM + measured stack <= 8 KiB. A figure over a budget in force prints OVER and makes the
+#    script exit 1. The node's passes (<= 5,000 instructions) are a target of issue 25, still
+#    open: printed as NOT MET, not failing. Below a budget the clearest code wins: the control
+#    steps' figures are printed, not judged (the 1,000-instruction target of issue 5 is
+#    withdrawn).
 #
 # Honors CARGO_TARGET_DIR. Needs qemu-system-arm (Debian package) and, for nm/size, the
 # rustup component llvm-tools (named in rust-toolchain.toml) or binutils.
@@ -38,7 +39,6 @@ TARGET=thumbv7em-none-eabihf
 TDIR=${CARGO_TARGET_DIR:-target}
 OUT=$TDIR/mcu-cost
 mkdir -p "$OUT"
-STRICT=${MCU_COST_STRICT:-0}
 
 # ---- tools ------------------------------------------------------------------------------
 llvm_bin() {
@@ -243,14 +243,18 @@ fi
 
 # ---- 5. against the budgets ----------------------------------------------------------------
 echo
-echo "== against the budgets (loop and estimator <= 30,000 instructions, flash <= 96 KiB, RAM <= 24 KiB)"
+echo "== against the budgets (loop and estimator <= 40,000 instructions since issue 26's estimator states, flash <= 96 KiB, RAM <= 24 KiB)"
 over=0
-check() { # LABEL VALUE LIMIT UNIT
+check() { # LABEL VALUE LIMIT UNIT [open]: "open" = a target of an open issue, reported, not failing
   local v=${2%.*}
-  if [ "$v" -le "$3" ]; then echo "  ok    $1: $2 $4 (<= $3)"; else echo "  OVER  $1: $2 $4 (> $3)"; over=1; fi
+  if [ "$v" -le "$3" ]; then echo "  ok    $1: $2 $4 (<= $3)"
+  elif [ "${5:-}" = open ]; then echo "  NOT MET (open issue's target) $1: $2 $4 (> $3)"
+  else echo "  OVER  $1: $2 $4 (> $3)"; over=1; fi
 }
 field() { sed -n "s/.* $1=\([0-9.]*\).*/\1/p"; }
-BUDGET=30000
+# 30,000 until issue 26 gave the estimator its compass-bias state; 40,000 since (400 Hz in
+# 10 % of a 168 MHz Cortex-M4F).
+BUDGET=40000
 LOOP_STACK=""
 LOOP_MAX=0
 while read -r line; do
@@ -290,11 +294,11 @@ if [ -n "$NODE_FLASH" ]; then
 fi
 while read -r line; do
   name=$(echo "$line" | awk '{print $2}')
-  check "$name (max)" "$(echo "$line" | field max)" 5000 instructions
+  check "$name (max)" "$(echo "$line" | field max)" 5000 instructions open
 done < <(grep -a '^BENCH node\.' "$OUT/node-bench.log" 2>/dev/null || true)
 [ "$NODE_OK" = 1 ] && echo "  ok    node image: links in its budget, no controller core" || echo "  FAIL  node image (see above)"
 [ "$NM_OK" = 1 ] && echo "  ok    no soft f64 in the control path" || echo "  FAIL  soft f64 in the control path"
 
 if [ "$NM_OK" != 1 ] || [ "$NODE_OK" != 1 ]; then exit 1; fi
-if [ "$over" = 1 ] && [ "$STRICT" = 1 ]; then exit 1; fi
+if [ "$over" = 1 ]; then echo "over a budget in force: failing"; exit 1; fi
 exit 0
