@@ -471,6 +471,11 @@ impl Autopilot {
         pos_m: [f32; 3],
         speed_m_s: f32,
     ) -> Result<(), NackReason> {
+        // AUTO flies the mission it entered with; a new one while it flies would be
+        // acknowledged and not flown (issue 22): refused, as `MissionClear` is.
+        if self.mode == Mode::Auto {
+            return Err(NackReason::Unsupported);
+        }
         let [x, y, z] = pos_m;
         if !(x.is_finite() && y.is_finite() && z.is_finite() && speed_m_s.is_finite()) {
             return Err(NackReason::NonFinite);

@@ -670,6 +670,14 @@ fn missions_are_uploaded_whole_refused_with_a_reason_and_flown_in_auto() {
         Some(NackReason::Unsupported),
         "not while flying it"
     );
+    // Nor a new mission (issue 22: it was acknowledged and the old one flown on).
+    let (s, r) = t.send(&mut a, &wp(0, [1.0, 1.0, 1.0]));
+    assert_eq!(
+        nacked(&r, s),
+        Some(NackReason::Unsupported),
+        "no new mission while AUTO flies one"
+    );
+    assert_eq!(a.autopilot().mission_len(), 3);
     let mut reached = 0;
     for _ in 0..5_000 {
         c.advance_us(20_000);

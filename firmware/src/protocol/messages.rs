@@ -162,7 +162,8 @@ pub enum Command {
     /// A heading from a compass at the surface's end (when the vehicle's is not used).
     Compass(HeadingFix),
     /// Waypoint `index` (from 0) of a mission of `count` (at most 32), local NED frame; the
-    /// mission in use is replaced when the last one arrives (version 4).
+    /// mission in use is replaced when the last one arrives (version 4); refused while AUTO
+    /// flies a mission (`Unsupported`, issue 22).
     MissionItem {
         /// This waypoint's place in the mission.
         index: u16,
