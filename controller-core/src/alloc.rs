@@ -139,15 +139,9 @@ struct CurveInv {
     quadratic: bool,
 }
 
-/// Neutral pulse of the thrusters' ESCs, microseconds: a constant of the ESC (its arming and
-/// stop point), not of a vehicle description. The firmware writes it at boot, when disarmed
-/// and on every failsafe, whatever description it holds; a description whose pulse curve
-/// names another neutral is refused (`Vehicle::check_flyable`; issue 22).
-pub const ESC_NEUTRAL_US: f32 = 1500.0;
-/// Shortest pulse the ESCs take (full reverse), microseconds.
-pub const ESC_MIN_US: f32 = 1100.0;
-/// Longest pulse the ESCs take (full forward), microseconds.
-pub const ESC_MAX_US: f32 = 1900.0;
+// The ESC's constants live with the pulse curve they bound (`params`, which the vehicle's
+// checks read without a module circle); the allocation's callers find them here too.
+pub use crate::params::{ESC_MAX_US, ESC_MIN_US, ESC_NEUTRAL_US};
 
 impl PwmMap {
     /// The vehicle's pulse curve and thrust limits.

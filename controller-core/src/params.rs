@@ -73,6 +73,16 @@ pub struct VehicleParams {
     pub pulse: PulseCurve,
 }
 
+/// Neutral pulse of the thrusters' ESCs, microseconds: a constant of the ESC (its arming and
+/// stop point), not of a vehicle description. The firmware writes it at boot, when disarmed
+/// and on every failsafe, whatever description it holds; a description whose pulse curve
+/// names another neutral is refused (`Vehicle::check_flyable`; issue 22).
+pub const ESC_NEUTRAL_US: f32 = 1500.0;
+/// Shortest pulse the ESCs take (full reverse), microseconds.
+pub const ESC_MIN_US: f32 = 1100.0;
+/// Longest pulse the ESCs take (full forward), microseconds.
+pub const ESC_MAX_US: f32 = 1900.0;
+
 /// The ESC pulse-width curve of the thrusters (all three alike): pulse widths from `min_us`
 /// to `max_us`, `neutral_us` at rest, no thrust within `deadband_us` of neutral, and beyond
 /// it thrust `F_max (k x + (1 - k) x^2)` of the normalized travel `x`, `k = linear_fraction`
@@ -279,9 +289,8 @@ pub mod flyable {
 
 impl Vehicle {
     /// Every mass, drag, thrust and pulse value within [`flyable`], and the neutral pulse
-    /// the ESC's ([`crate::alloc::ESC_NEUTRAL_US`]).
+    /// the ESC's ([`ESC_NEUTRAL_US`]).
     fn check_bounds(&self) -> Result<(), Error> {
-        use crate::alloc::{ESC_MAX_US, ESC_MIN_US, ESC_NEUTRAL_US};
         use flyable::*;
         let p = &self.params;
         let within = |name: &'static str, v: f32, (lo, hi): (f32, f32)| {
