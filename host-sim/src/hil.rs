@@ -31,6 +31,7 @@
 //! `telemetry.csv` with what the firmware reported each step.
 
 use crate::in_process::InProcessFirmware;
+use crate::clock::us;
 use crate::link::{open, Endpoint, HostLinkStats, Link, Noise, NoiseSpec, Port};
 use crate::output::write_run;
 use crate::qemu::{qemu_firmware_image, start_qemu_link, workspace_root, FirmwareImage};
@@ -40,14 +41,11 @@ use crate::sensors::NavSource;
 use crate::sim_loop::{run_closed_loop, ControllerEndpoint, RunOptions, RunOutput, StepReply};
 use anyhow::{anyhow, bail, Result};
 use controller_core::alloc::PwmMap;
-use controller_core::controller::ControlMode;
 use controller_core::nav::onboard::OnboardConfig;
 use controller_core::params::VehicleParams;
 use controller_core::reference::{RefSample, Reference};
 use controller_core::state::NavState;
-use firmware::protocol::{
-    fault, Command, Law, LinkStats, Mode, NavSample, Plane as FwPlane, Reply, Telemetry,
-};
+use firmware::protocol::{fault, Command, LinkStats, Mode, NavSample, Reply, Telemetry};
 use serde::Serialize;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -197,22 +195,6 @@ pub struct HilOutput {
     pub telemetry: Vec<TelemetryRow>,
 }
 
-/// The firmware's mode for a scenario's control mode.
-pub fn firmware_mode(m: ControlMode) -> Mode {
-    let (plane, law) = match m {
-        ControlMode::PaperXz => (FwPlane::Xz, Law::Paper),
-        ControlMode::PaperXy => (FwPlane::Xy, Law::Paper),
-        ControlMode::TrackingXz => (FwPlane::Xz, Law::Tracking),
-        ControlMode::TrackingXy => (FwPlane::Xy, Law::Tracking),
-        ControlMode::Tracking3d => (FwPlane::ThreeD, Law::Tracking),
-    };
-    Mode::Track { plane, law }
-}
-
-fn us(t_s: f64) -> u64 {
-    (t_s * 1e6).round().max(0.0) as u64
-}
-
 /// The firmware at the other end of the tether as the loop's controller: each control tick
 /// is one lock-step exchange (`Heartbeat` and `Nav` out, `Telemetry` back), sent again with
 /// the same sequence numbers until answered.
@@ -276,7 +258,7 @@ impl TetherEndpoint {
         };
         Ok(Self {
             link,
-            mode: firmware_mode(sc.control_mode()?),
+            mode: Mode::from(sc.control_mode()?),
             reference: sc.reference.to_core(),
             noise: opts.noise.map(Noise::new),
             pwm: PwmMap::for_vehicle(&sc.vehicle_model()?),

@@ -62,7 +62,8 @@ use crate::qemu::{qemu_firmware_image, start_qemu_link, workspace_root, Firmware
 use crate::scenario::Scenario;
 use anyhow::{bail, Result};
 use controller_core::reference::Reference;
-use firmware::protocol::{fault, Command, Law, ManualThrust, Mode, Plane};
+use controller_core::controller::ControlMode;
+use firmware::protocol::{fault, Command, ManualThrust, Mode};
 use mavlink::dialects::ardupilotmega::{
     MavCmd, MavMessage, MavMissionResult, MavResult, MavSeverity, GPS_GLOBAL_ORIGIN_DATA,
 };
@@ -517,10 +518,7 @@ impl Topside {
             ardusub_mode::ALT_HOLD => (Mode::DepthHold, None),
             ardusub_mode::POSHOLD => (Mode::Hold, None),
             ardusub_mode::GUIDED => (
-                Mode::Track {
-                    plane: Plane::ThreeD,
-                    law: Law::Tracking,
-                },
+                Mode::from(ControlMode::Tracking3d),
                 Some(Reference::Hold {
                     pos_m: [v.state.x_m, v.state.y_m, v.state.z_m],
                 }),

@@ -4,6 +4,7 @@
 //! replace the simulated body).
 
 use crate::estimator_nav::navigation_for;
+use crate::clock::us;
 use crate::link::Link;
 use crate::params::{Group, Settings};
 use crate::plant::Plant;
@@ -48,10 +49,6 @@ struct Body {
 const HEARTBEAT_EVERY: u64 = 5;
 
 const TETHER_TIMEOUT: Duration = Duration::from_millis(500);
-
-fn us(t_s: f64) -> u64 {
-    (t_s * 1e6).round().max(0.0) as u64
-}
 
 impl SimVehicle {
     /// The scenario's plant and navigation with the firmware behind `port`, waiting up to
