@@ -30,8 +30,8 @@
 //! the link statistics), `timeseries.csv` and plots as `host-sim run`, and
 //! `telemetry.csv` with what the firmware reported each step.
 
-use crate::in_process::InProcessFirmware;
 use crate::clock::us;
+use crate::in_process::InProcessFirmware;
 use crate::link::{open, Endpoint, HostLinkStats, Link, Noise, NoiseSpec, Port};
 use crate::output::write_run;
 use crate::qemu::{qemu_firmware_image, start_qemu_link, workspace_root, FirmwareImage};

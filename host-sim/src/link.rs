@@ -411,8 +411,8 @@ fn nums(w: &[&str], n: usize) -> Result<Vec<f32>> {
 
 /// Parse one console line.
 pub fn parse_console(line: &str) -> Result<Option<ConsoleCmd>> {
-    use controller_core::reference::{PaperPolynomial, Reference};
     use controller_core::controller::ControlMode;
+    use controller_core::reference::{PaperPolynomial, Reference};
     use firmware::protocol::{ManualThrust, Mode};
     let w: Vec<&str> = line.split_whitespace().collect();
     let Some((&head, rest)) = w.split_first() else {

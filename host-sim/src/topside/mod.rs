@@ -61,8 +61,8 @@ use crate::params::{self, PARAMS};
 use crate::qemu::{qemu_firmware_image, start_qemu_link, workspace_root, FirmwareImage};
 use crate::scenario::Scenario;
 use anyhow::{bail, Result};
-use controller_core::reference::Reference;
 use controller_core::controller::ControlMode;
+use controller_core::reference::Reference;
 use firmware::protocol::{fault, Command, ManualThrust, Mode};
 use mavlink::dialects::ardupilotmega::{
     MavCmd, MavMessage, MavMissionResult, MavResult, MavSeverity, GPS_GLOBAL_ORIGIN_DATA,

@@ -3,8 +3,8 @@
 //! (`--serial`). Behaviour unchanged from the single-file topside (issue 24's one loop will
 //! replace the simulated body).
 
-use crate::estimator_nav::navigation_for;
 use crate::clock::us;
+use crate::estimator_nav::navigation_for;
 use crate::link::Link;
 use crate::params::{Group, Settings};
 use crate::plant::Plant;
