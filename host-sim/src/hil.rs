@@ -93,6 +93,10 @@ pub struct HilOptions {
     pub record: bool,
     /// With `--qemu`: save the emulated SRAM here at the end of the run (stack high-water).
     pub ram_dump: Option<PathBuf>,
+    /// At the start, set the scenario's reference and mode and arm (`hil`); without, only
+    /// the vehicle description and the navigation are sent, and the rest comes from the
+    /// ground stations (`topside --sim`).
+    pub fly_scenario: bool,
 }
 
 impl HilOptions {
@@ -110,6 +114,7 @@ impl HilOptions {
             wall_limit: Duration::from_secs(600),
             record: true,
             ram_dump: None,
+            fly_scenario: true,
         }
     }
 }
@@ -219,6 +224,12 @@ pub struct TetherEndpoint {
     onboard: Option<OnboardConfig>,
     /// Sequence numbers of the measurements sent since the last step (their `Nack`s count).
     sent_measurements: Vec<u16>,
+    /// Keep a telemetry row per step.
+    record: bool,
+    /// Set the scenario's reference and mode and arm at the start.
+    fly_scenario: bool,
+    /// The latest telemetry.
+    latest: Telemetry,
 }
 
 impl TetherEndpoint {
@@ -281,7 +292,26 @@ impl TetherEndpoint {
             onboard: (sc.navigation.source == NavSource::Estimator)
                 .then(|| crate::estimator_nav::onboard_config(sc)),
             sent_measurements: Vec::new(),
+            record: opts.record,
+            fly_scenario: opts.fly_scenario,
+            latest: Telemetry::default(),
         })
+    }
+
+    /// The link to the firmware (for commands between the steps: the topside's ground
+    /// stations).
+    pub fn link(&mut self) -> &mut Link {
+        &mut self.link
+    }
+
+    /// The link's counters.
+    pub fn link_stats(&self) -> &HostLinkStats {
+        &self.link.stats
+    }
+
+    /// The telemetry of the latest step.
+    pub fn latest(&self) -> &Telemetry {
+        &self.latest
     }
 
     /// After the run: ask the firmware for its counters (the answer to one more heartbeat
@@ -378,6 +408,22 @@ impl TetherEndpoint {
         }
     }
 
+    /// What the loop gets of a step's telemetry.
+    fn reply(&self, tel: &Telemetry, applied: [f64; 3]) -> StepReply {
+        StepReply {
+            requested: tel.requested,
+            achieved: tel.achieved,
+            thrust_cmd_n: tel.thrust_n,
+            applied_n: applied,
+            pulse_us: tel.pulse_us.map(f64::from),
+            errors: tel.errors,
+            saturated: tel.faults & fault::SATURATED != 0,
+            estimate: self
+                .onboard
+                .map(|_| (tel.nav, tel.nav_pos_std_m.map(f64::from))),
+        }
+    }
+
     /// Failsafe timings of a link-loss run.
     fn note_failsafes(&mut self, t_s: f64, tel: &Telemetry) {
         let rep = &mut self.report;
@@ -454,7 +500,8 @@ impl ControllerEndpoint for TetherEndpoint {
             Command::SetMode(self.mode),
             Command::Arm,
         ];
-        for cmd in &setup {
+        let setup = if self.fly_scenario { &setup[..] } else { &[] };
+        for cmd in setup {
             if let Err(reason) = self.link.command(cmd, tmo, 5, |_| {})? {
                 bail!("the firmware refused {cmd:?}: {reason:?}");
             }
@@ -482,6 +529,10 @@ impl ControllerEndpoint for TetherEndpoint {
         self.ticks_sum += u64::from(tel.loop_ticks);
         self.report.loop_ticks_max = self.report.loop_ticks_max.max(tel.loop_ticks);
         self.note_failsafes(t_s, &tel);
+        self.latest = tel;
+        if !self.record {
+            return Ok(self.reply(&tel, applied));
+        }
         self.telemetry.push(TelemetryRow {
             t_s,
             armed: tel.armed,
@@ -497,18 +548,7 @@ impl ControllerEndpoint for TetherEndpoint {
                 .last_status
                 .map_or(0, |st| st.link.dropped.total()),
         });
-        Ok(StepReply {
-            requested: tel.requested,
-            achieved: tel.achieved,
-            thrust_cmd_n: tel.thrust_n,
-            applied_n: applied,
-            pulse_us: tel.pulse_us.map(f64::from),
-            errors: tel.errors,
-            saturated: tel.faults & fault::SATURATED != 0,
-            estimate: self
-                .onboard
-                .map(|_| (tel.nav, tel.nav_pos_std_m.map(f64::from))),
-        })
+        Ok(self.reply(&tel, applied))
     }
 
     /// The measurements, as the commands the firmware takes; a depth travels as the pressure

@@ -992,6 +992,11 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
         self.done
     }
 
+    /// Why the run stopped (`completed` while it runs).
+    pub fn stop_reason(&self) -> &str {
+        &self.s.stop_reason
+    }
+
     /// One control tick at `t = k * control_period_s` (see the module doc), then, unless the
     /// run stops here, the plant through the period with the endpoint's thrust held. Returns
     /// whether the run goes on.
