@@ -14,11 +14,17 @@
 #    comparison (that image does contain soft f64, by design) and each law alone (`law.*`,
 #    closed loop; the allocation, PWM map and anti-windup untimed).
 # 4. Prints flash and static RAM of the STM32F4 firmware image (`llvm-size`), if it builds.
+# 4c. The node image (issue 25, docs/deployment.md): flash and static RAM of `node`
+#    (linked into 32 KiB / 8 KiB by memory-node.x), no soft f64 and no controller-core symbol
+#    in it; then the `node-bench` build of the same image in QEMU: instructions per pass (the
+#    IMU-rate pass alone, with a downlink frame decoded and applied, with the uplink encoded;
+#    TIM2 under -icount) and the stack it used (painting).
 # 5. Compares with the budgets (issues 11, 12, 15): every loop iteration <= 30,000
 #    instructions (mean and max), `loop.onboard_3d` (the board's pass with the estimator and
 #    its sensors) included, and the estimator's worst step (predict + every update + the
 #    control step) <= 30,000; flash <= 96 KiB; RAM
-#    (static + measured stack) <= 24 KiB. Over-budget figures are reported as OVER; with
+#    (static + measured stack) <= 24 KiB; the node image (issue 25): flash <= 32 KiB, static
+#    RAM + measured stack <= 8 KiB, every pass <= 5,000 instructions. Over-budget figures are reported as OVER; with
 #    MCU_COST_STRICT=1 they also make the script fail. Below a budget the clearest code wins:
 #    the control steps' figures are printed, not judged (the 1,000-instruction target of
 #    issue 5 is withdrawn).
@@ -162,9 +168,12 @@ if [ -f "$QEMU_ELF" ]; then
   echo "== firmware stack: host-sim hil nav-circle-3d --qemu $QEMU_ELF --duration 10 --ram-dump"
   if cargo build -q -p host-sim --release 2>"$OUT/host-sim-build.log"; then
     rm -f "$OUT/ram.bin"
-    if timeout 300 "$TDIR/release/host-sim" hil nav-circle-3d --qemu "$QEMU_ELF" --duration 10 \
-        --out "$OUT/hil-nav-circle-3d" --ram-dump "$OUT/ram.bin" >"$OUT/hil.log" 2>&1 \
-        && [ -f "$OUT/ram.bin" ]; then
+    # Exit 0 or 1 is a run that completed (1: the 10 s run misses the 120 s scenario's
+    # targets, as it must); 2 and 3 are a refusal or a failure (host-sim's exit codes).
+    hil_rc=0
+    timeout 300 "$TDIR/release/host-sim" hil nav-circle-3d --qemu "$QEMU_ELF" --duration 10 \
+        --out "$OUT/hil-nav-circle-3d" --ram-dump "$OUT/ram.bin" >"$OUT/hil.log" 2>&1 || hil_rc=$?
+    if [ "$hil_rc" -le 1 ] && [ -f "$OUT/ram.bin" ]; then
       grep -E '^(nav-circle-3d|board):' "$OUT/hil.log" || true
       SEND=$("$NM" "$QEMU_ELF" | awk '$NF == "_stack_end" {print $1}')
       STOP=$("$NM" "$QEMU_ELF" | awk '$NF == "_stack_start" {print $1}')
@@ -185,6 +194,51 @@ if [ -f "$QEMU_ELF" ]; then
   else
     echo "host-sim does not build (see $OUT/host-sim-build.log); firmware stack not measured"
   fi
+fi
+
+# ---- 4c. the node image (issue 25) ---------------------------------------------------------------
+echo
+echo "== node image: cargo build -p firmware --release --target $TARGET --bin node [--features node-bench]"
+NODE_FLASH=""; NODE_RAM=""; NODE_STACK=""; NODE_OK=1
+if cargo build -q -p firmware --release --target "$TARGET" --bin node --features node-bench \
+    2>"$OUT/node-build.log"; then
+  cp "$TDIR/$TARGET/release/node" "$OUT/node-bench.elf"
+  rc=0
+  timeout 120 qemu-system-arm -M netduinoplus2 -nographic -monitor none \
+    -semihosting-config enable=on,target=native -icount shift=0,align=off,sleep=off \
+    -serial null -kernel "$OUT/node-bench.elf" </dev/null >"$OUT/node-bench.log" 2>&1 || rc=$?
+  if [ "$rc" -ne 0 ] || ! grep -qa '^BENCH node' "$OUT/node-bench.log"; then
+    echo "node bench failed in QEMU (exit $rc), see $OUT/node-bench.log"; NODE_OK=0
+  else
+    grep -a -E '^(BENCH node|NODE )' "$OUT/node-bench.log"
+    NODE_STACK=$(grep -a '^NODE ' "$OUT/node-bench.log" | sed -n 's/.* stack=\([0-9]*\).*/\1/p')
+  fi
+fi
+if cargo build -q -p firmware --release --target "$TARGET" --bin node 2>>"$OUT/node-build.log"; then
+  NODE=$TDIR/$TARGET/release/node
+  read -r text data bss _ < <("$SIZE" -B "$NODE" | awk 'NR==2 {print $1, $2, $3}')
+  NODE_FLASH=$((text + data)); NODE_RAM=$((data + bss))
+  echo "node $NODE: flash $NODE_FLASH B ($((NODE_FLASH / 1024)).$(((NODE_FLASH % 1024) * 10 / 1024)) KiB), static RAM $NODE_RAM B${NODE_STACK:+, stack measured in the bench $NODE_STACK B}"
+  NF64=$(soft_f64_symbols "$NODE")
+  if [ -z "$NF64" ]; then echo "node nm: no soft-f64 symbol"; else
+    echo "node nm: soft f64 present:"; echo "$NF64" | sed 's/^/    /'; fi
+  NCORE=$("$NM" -C "$NODE" | grep -c 'controller_core::' || true)
+  if [ "$NCORE" = 0 ]; then echo "node nm: no controller_core symbol (the controller core is not linked)"; else
+    echo "node nm: $NCORE controller_core symbols linked"; NODE_OK=0; fi
+else
+  echo "node image does not link (see $OUT/node-build.log): over its budget?"; NODE_OK=0
+fi
+
+# The topside image (issue 25): the App on the surface board, the node link on USART2.
+TOP_FLASH=""; TOP_RAM=""
+if cargo build -q -p firmware --release --target "$TARGET" --features topside-board --bin topside \
+    2>"$OUT/topside-build.log"; then
+  TOP=$TDIR/$TARGET/release/topside
+  read -r text data bss _ < <("$SIZE" -B "$TOP" | awk 'NR==2 {print $1, $2, $3}')
+  TOP_FLASH=$((text + data)); TOP_RAM=$((data + bss))
+  echo "topside $TOP: flash $TOP_FLASH B ($((TOP_FLASH / 1024)).$(((TOP_FLASH % 1024) * 10 / 1024)) KiB), static RAM $TOP_RAM B"
+else
+  echo "topside image does not build (see $OUT/topside-build.log)"
 fi
 
 # ---- 5. against the budgets ----------------------------------------------------------------
@@ -224,8 +278,23 @@ if [ -n "$FW_FLASH" ]; then
     check "firmware RAM (static $FW_RAM + bench stack high-water $HW, an upper bound)" "$((FW_RAM + HW))" $((24 * 1024)) B
   fi
 fi
+if [ -n "$TOP_FLASH" ]; then
+  check "topside flash" "$TOP_FLASH" $((96 * 1024)) B
+  if [ -n "$FW_STACK" ]; then
+    check "topside RAM (static $TOP_RAM + the onboard image's measured stack $FW_STACK, same App)" "$((TOP_RAM + FW_STACK))" $((24 * 1024)) B
+  fi
+fi
+if [ -n "$NODE_FLASH" ]; then
+  check "node flash" "$NODE_FLASH" $((32 * 1024)) B
+  check "node RAM (static $NODE_RAM + bench stack ${NODE_STACK:-?})" "$((NODE_RAM + ${NODE_STACK:-8192}))" $((8 * 1024)) B
+fi
+while read -r line; do
+  name=$(echo "$line" | awk '{print $2}')
+  check "$name (max)" "$(echo "$line" | field max)" 5000 instructions
+done < <(grep -a '^BENCH node\.' "$OUT/node-bench.log" 2>/dev/null || true)
+[ "$NODE_OK" = 1 ] && echo "  ok    node image: links in its budget, no controller core" || echo "  FAIL  node image (see above)"
 [ "$NM_OK" = 1 ] && echo "  ok    no soft f64 in the control path" || echo "  FAIL  soft f64 in the control path"
 
-if [ "$NM_OK" != 1 ]; then exit 1; fi
+if [ "$NM_OK" != 1 ] || [ "$NODE_OK" != 1 ]; then exit 1; fi
 if [ "$over" = 1 ] && [ "$STRICT" = 1 ]; then exit 1; fi
 exit 0

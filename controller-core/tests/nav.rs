@@ -8,8 +8,8 @@
 )]
 
 use controller_core::nav::{
-    DepthFix, DvlFix, Estimator, HeadingFix, ImuSample, NavConfig, PositionFix, Refusal,
-    GRAVITY_M_S2, HISTORY_LEN, HISTORY_STEP_US, RESET_AFTER_REJECTS,
+    DepthFix, DvlFix, Estimator, HeadingFix, ImuSample, NavConfig, NotReady, PositionFix, Refusal,
+    CLUSTER_MIN, GRAVITY_M_S2, HISTORY_LEN, HISTORY_STEP_US, POSITION_READY_STD_M,
 };
 use controller_core::params::Vehicle;
 use controller_core::state::NavState;
@@ -211,7 +211,7 @@ fn a_late_fix_is_compared_with_the_estimate_at_its_time_of_validity() {
 }
 
 #[test]
-fn an_outlier_is_gated_and_counted_and_a_run_of_them_resets_the_position() {
+fn an_outlier_is_gated_and_counted_and_a_cluster_of_agreeing_ones_moves_the_position() {
     let mut e = at_rest();
     fly(&mut e, 200, 0.0);
     let fix = |t_us| PositionFix {
@@ -224,7 +224,7 @@ fn an_outlier_is_gated_and_counted_and_a_run_of_them_resets_the_position() {
     assert_eq!(e.fuse_position(&fix(e.time_us())), Err(Refusal::Outlier));
     assert_eq!(e.state(), before);
     assert_eq!(e.health().position_outliers, 1);
-    for k in 1..RESET_AFTER_REJECTS - 1 {
+    for k in 1..CLUSTER_MIN - 1 {
         fly(&mut e, 100, 0.0);
         assert_eq!(
             e.fuse_position(&fix(e.time_us())),
@@ -233,7 +233,7 @@ fn an_outlier_is_gated_and_counted_and_a_run_of_them_resets_the_position() {
         );
     }
     fly(&mut e, 100, 0.0);
-    // The fifth in a row: the estimate, not the sensor, is wrong.
+    // The fifth that agrees with the others: the estimate, not the sensor, is wrong.
     assert_eq!(e.fuse_position(&fix(e.time_us())), Ok(()));
     assert!((e.state().x_m - 15.0).abs() < 0.01, "{:?}", e.state());
     assert_eq!(e.health().resets, 1);
@@ -292,4 +292,143 @@ fn the_configuration_is_validated_by_name() {
         ..NavState::default()
     };
     assert!(Estimator::new(Vehicle::observer(), NavConfig::default(), &nan_start, 0).is_err());
+}
+
+/// A fix `dist_m` from the origin in the direction `k` times the golden angle.
+fn scattered(t_us: u64, k: u32, dist_m: f32) -> PositionFix {
+    let a = k as f32 * 2.399_963;
+    PositionFix {
+        t_us,
+        north_m: dist_m * a.cos(),
+        east_m: dist_m * a.sin(),
+        std_m: 0.3,
+    }
+}
+
+#[test]
+fn outliers_that_do_not_agree_with_each_other_never_move_the_estimate_however_many() {
+    let mut e = at_rest();
+    fly(&mut e, 200, 0.0);
+    // Two fixes in three are outliers 10-19 m off in scattered directions (the majority),
+    // every third a true fix at the origin.
+    for k in 0..90 {
+        fly(&mut e, 100, 0.0);
+        if k % 3 == 2 {
+            e.fuse_position(&scattered(e.time_us(), k, 0.0)).unwrap();
+        } else {
+            let d = 10.0 + (k % 7) as f32 * 1.5;
+            assert_eq!(
+                e.fuse_position(&scattered(e.time_us(), k, d)),
+                Err(Refusal::Outlier),
+                "{k}"
+            );
+        }
+        let s = e.state();
+        assert!(s.x_m.abs() < 1e-3 && s.y_m.abs() < 1e-3, "{k}: {s:?}");
+    }
+    assert_eq!(e.health().resets, 0);
+    assert_eq!(e.health().position_outliers, 60);
+}
+
+#[test]
+fn a_persistent_step_is_followed_through_outliers_and_a_minority_of_agreeing_ones_is_not() {
+    let mut e = at_rest();
+    fly(&mut e, 200, 0.0);
+    // True fixes at the origin, with every third an outlier 3 m north: the outliers agree
+    // with each other but are the minority, so the estimate stays.
+    for k in 0..30u32 {
+        fly(&mut e, 100, 0.0);
+        let n = if k % 3 == 0 {
+            3.0
+        } else {
+            0.05 * ((k % 5) as f32 - 2.0)
+        };
+        let _ = e.fuse_position(&PositionFix {
+            t_us: e.time_us(),
+            north_m: n,
+            east_m: 0.0,
+            std_m: 0.3,
+        });
+        assert!(e.state().x_m.abs() < 0.2, "{k}: {:?}", e.state());
+    }
+    assert_eq!(e.health().resets, 0);
+    // Then the transceiver moves 3 m east: every fix after is 3 m off (with noise), with a
+    // far outlier every fourth fix. Followed within CLUSTER_MIN agreeing fixes plus the
+    // outliers between them.
+    let mut followed_after = None;
+    for k in 0..30u32 {
+        fly(&mut e, 100, 0.0);
+        let fix = if k % 4 == 3 {
+            scattered(e.time_us(), k, 15.0)
+        } else {
+            PositionFix {
+                t_us: e.time_us(),
+                north_m: 0.1 * ((k % 3) as f32 - 1.0),
+                east_m: 3.0 + 0.1 * ((k % 5) as f32 - 2.0),
+                std_m: 0.3,
+            }
+        };
+        let _ = e.fuse_position(&fix);
+        if followed_after.is_none() && (e.state().y_m - 3.0).abs() < 0.3 {
+            followed_after = Some(k + 1);
+        }
+    }
+    let n = followed_after.expect("the step was never followed");
+    assert!(n as usize <= CLUSTER_MIN + 2, "followed after {n} fixes");
+    assert_eq!(e.health().resets, 1);
+    assert!((e.state().y_m - 3.0).abs() < 0.2, "{:?}", e.state());
+}
+
+#[test]
+fn an_uncertain_start_is_not_ready_for_position_modes_until_the_fixes_say_where_it_is() {
+    // The launch point known to 5 m and the heading to 0.6 rad (the estimator is told both
+    // 5 m and 30 degrees off; the compass reads north).
+    let start = NavState {
+        x_m: 5.0,
+        z_m: 2.0,
+        yaw_rad: 0.52,
+        ..NavState::default()
+    };
+    let cfg = NavConfig {
+        initial_position_std_m: 5.0,
+        initial_heading_std_rad: 0.6,
+        ..NavConfig::default()
+    };
+    let mut e = Estimator::new(Vehicle::observer(), cfg, &start, 0).unwrap();
+    assert_eq!(e.position_ready(), Err(NotReady::PositionUncertain));
+    // The compass alone: the heading comes to north, the position stays unknown.
+    fly(&mut e, 100, 0.0);
+    assert!(e.state().yaw_rad.abs() < 0.15, "{:?}", e.state());
+    assert_eq!(e.position_ready(), Err(NotReady::PositionUncertain));
+    let mut ready_after = None;
+    for k in 0..30u32 {
+        fly(&mut e, 100, 0.0);
+        e.fuse_position(&PositionFix {
+            t_us: e.time_us(),
+            north_m: 0.1 * ((k % 5) as f32 - 2.0),
+            east_m: 0.0,
+            std_m: 0.3,
+        })
+        .unwrap();
+        if ready_after.is_none() && e.position_ready().is_ok() {
+            ready_after = Some(k + 1);
+        }
+    }
+    let n = ready_after.expect("never ready");
+    assert!(n <= 3, "ready after {n} fixes");
+    let std = e.position_covariance()[0][0].sqrt();
+    assert!(std < POSITION_READY_STD_M, "{std}");
+    assert!(e.state().x_m.abs() < 0.2, "{:?}", e.state());
+    // A known heading but an unknown one: not ready for the heading's sake.
+    let e = Estimator::new(
+        Vehicle::observer(),
+        NavConfig {
+            initial_heading_std_rad: 0.6,
+            ..NavConfig::default()
+        },
+        &start,
+        0,
+    )
+    .unwrap();
+    assert_eq!(e.position_ready(), Err(NotReady::HeadingUncertain));
 }

@@ -439,6 +439,25 @@ where
         }
     }
 
+    /// Run the control step now (fixed-rate timing), the sensors read first, and restart the
+    /// period from now. The topside layout (issue 25, `topside_link.rs`) steps when the
+    /// node's uplink arrives; the period stays the fallback when the node is silent. Nothing
+    /// in lock-step, where the host's `Nav` runs the step.
+    pub fn step_now(&mut self) {
+        let Timing::FixedRate {
+            control_period_us, ..
+        } = self.config.timing
+        else {
+            return;
+        };
+        self.work_t0 = self.clock.ticks();
+        let now = self.clock.now_us();
+        self.next_control_us = Some(now.saturating_add(u64::from(control_period_us)));
+        self.read_sensors(now);
+        self.control(now);
+        self.end_work();
+    }
+
     /// Feed the on-board estimator from the MCU's own sensors (when it runs). A missing or
     /// refused reading changes nothing; the estimator's timeouts raise `SENSOR_LOST`.
     fn read_sensors(&mut self, now: u64) {
@@ -672,7 +691,7 @@ where
     /// Fault flags now: the latest step's, the I/O ones and the overrun flag.
     fn faults(&self) -> u16 {
         let overrun = if self.overruns > 0 { fault::OVERRUN } else { 0 };
-        self.last.faults | self.io_faults | overrun
+        self.last.faults | self.io_faults | overrun | self.sensors.faults()
     }
 
     /// The answer to the heartbeat `heartbeat_seq`: link counters and health.

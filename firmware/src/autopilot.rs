@@ -538,6 +538,10 @@ impl Autopilot {
         if needs_nav && !self.nav_fresh(now_us) {
             return Err(NackReason::NavStale);
         }
+        // A position mode waits for the on-board estimate to be ready (issue 26).
+        if let (Mode::Auto | Mode::Hold | Mode::Track { .. }, Some(o)) = (mode, &self.onboard) {
+            o.position_ready().map_err(NackReason::NavNotReady)?;
+        }
         let s = self.nav_state();
         let here_m = [s.x_m, s.y_m, s.z_m];
         match mode {

@@ -208,7 +208,7 @@ impl<const FREQ: u32> Tim2Clock<FREQ> {
     const ARR: u32 = u32::MAX - 1;
 
     /// Start the counter free-running over its whole range (resets the MCU if it cannot).
-    fn start(mut counter: Counter<TIM2, FREQ>) -> Self {
+    pub fn start(mut counter: Counter<TIM2, FREQ>) -> Self {
         if counter
             .start(fugit::TimerDurationU32::<FREQ>::from_ticks(u32::MAX))
             .is_err()
@@ -457,4 +457,23 @@ where
             faults = f;
         }
     }
+}
+
+/// USART1 as the interrupt-driven [`Tether`] (for the node image, issue 25; the onboard
+/// image sets it up the same way in [`run`]). Resets the MCU if the port cannot be set up.
+pub fn start_tether(
+    usart: USART1,
+    pins: (stm32f4xx_hal::gpio::PA9, stm32f4xx_hal::gpio::PA10),
+    rcc: &mut stm32f4xx_hal::rcc::Rcc,
+) -> Tether {
+    let Ok(serial) = usart.serial::<u8>(pins, BAUD.bps(), rcc) else {
+        halt()
+    };
+    let (tx, mut rx) = serial.split();
+    rx.listen();
+    with_port(|_, serial| *serial = Some((rx, tx)));
+    // SAFETY: as in `run`: the handler only touches `RINGS` and `SERIAL` inside critical
+    // sections, initialized just above.
+    unsafe { cortex_m::peripheral::NVIC::unmask(pac::Interrupt::USART1) };
+    Tether
 }

@@ -7,17 +7,27 @@
 //!
 //! - [`protocol`]: messages, framing (postcard + CRC-32 + COBS) and the streaming decoder;
 //! - [`autopilot`]: arming, modes, failsafes and the control step, no I/O;
-//! - [`app`]: the loop: serial in, control, PWM out, telemetry.
+//! - [`app`]: the loop: serial in, control, PWM out, telemetry;
+//! - the paper's layout (issue 25, `docs/deployment.md`): [`node_link`] (the wire between
+//!   the surface and the vehicle), [`node`] (the vehicle's thin role), [`topside_link`] (the
+//!   `App` at the surface, its thrusters and sensors over the node link).
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
 
 pub mod app;
 pub mod autopilot;
+pub mod node;
+pub mod node_link;
 pub mod protocol;
 pub mod sensors;
 pub mod startup;
+pub mod topside_link;
 
 #[cfg(target_os = "none")]
 pub mod board;
+#[cfg(target_os = "none")]
+pub mod node_board;
+#[cfg(all(target_os = "none", feature = "topside-board"))]
+pub mod topside_board;
 
 pub use app::{App, Config, ConfigError, Monotonic, Timing};
 pub use autopilot::{Autopilot, Failsafe, StepOutput};

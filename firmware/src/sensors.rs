@@ -24,6 +24,12 @@ pub trait Sensors {
     fn own_sensors(&self) -> bool {
         true
     }
+
+    /// Fault bits of the sensors' own link, ORed into the reported faults (the topside
+    /// layout's node link, `topside_link::fault`); none for sensors on the MCU's buses.
+    fn faults(&self) -> u16 {
+        0
+    }
 }
 
 /// No sensors on the MCU's buses: the emulated board and the host, where the readings come

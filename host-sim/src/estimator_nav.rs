@@ -12,8 +12,9 @@ use crate::scenario::Scenario;
 use crate::sensors::{Measurement, NavSource, SensorSuite, SensorsSpec};
 use crate::sim_loop::{to_nav, FixRecord, NavReport, Navigation, TruthNav};
 use anyhow::{anyhow, bail, Result};
+use controller_core::nav::compass_cal::CompassCalibration;
 use controller_core::nav::onboard::{OnboardConfig, PressureDepth};
-use controller_core::nav::{Estimator, NavConfig, Refusal};
+use controller_core::nav::{Estimator, HeadingFix, NavConfig, Refusal};
 use controller_core::state::NavState;
 
 /// 95 % quantile of the chi-square distribution with 1, 2 and 3 degrees of freedom.
@@ -29,6 +30,10 @@ pub struct EstimatorNav {
     nees_in: u64,
     nees_n: u64,
     fixes: Vec<FixRecord>,
+    /// The first control tick at which the estimate was ready for position modes (s).
+    ready_at_s: Option<f64>,
+    /// The compass calibration applied to each heading fix.
+    compass_cal: CompassCalibration,
 }
 
 /// The estimator's process noise for a sensor suite: the simulated IMU's figures, floored by
@@ -65,23 +70,34 @@ impl EstimatorNav {
             bail!("navigation.source = \"estimator\" needs {missing}");
         }
         let initial = sc.initial.to_plant();
+        sc.navigation.validate()?;
         let estimator = Estimator::new(
             sc.vehicle_model()?,
-            nav_config(&sc.sensors),
-            &to_nav(&initial),
+            start_config(sc, nav_config(&sc.sensors)),
+            &to_nav(&sc.navigation.told_start(&initial)),
             0,
         )
         .map_err(|e| anyhow!("estimator: {e}"))?;
+        let mut sensors = SensorSuite::new(&sc.sensors, seed);
+        sensors.set_seabed_depth_m(sc.water.seabed_depth_m);
         Ok(Self {
             estimator,
-            sensors: SensorSuite::new(&sc.sensors, seed),
+            sensors,
             pending: Vec::new(),
             axes: sc.plane.axes(),
             truth: initial,
             nees_in: 0,
             nees_n: 0,
             fixes: Vec::new(),
+            ready_at_s: None,
+            compass_cal: compass_calibration(sc),
         })
+    }
+
+    /// The first control tick at which the estimate was ready for position modes
+    /// ([`Estimator::position_ready`]), in seconds of simulated time.
+    pub fn position_ready_at_s(&self) -> Option<f64> {
+        self.ready_at_s
     }
 
     /// The estimator (for its covariance, current and counters).
@@ -106,6 +122,10 @@ impl EstimatorNav {
                 let _ = e.fuse_depth(&f);
             }
             Measurement::Heading(f) => {
+                let f = HeadingFix {
+                    yaw_rad: self.compass_cal.correct(f.yaw_rad),
+                    ..f
+                };
                 let _ = e.fuse_heading(&f);
             }
             Measurement::Dvl(f) => {
@@ -186,10 +206,14 @@ impl Navigation for EstimatorNav {
         let n_due = self.pending.partition_point(|(arr, _)| *arr <= t_s + 1e-9);
         let due: Vec<_> = self.pending.drain(..n_due).collect();
         let cmd = thrust_cmd_n.map(|f| f as f32);
+        self.sensors.set_thrust_n(thrust_cmd_n);
         for (arrival, m) in due {
             self.deliver(arrival, m, cmd);
         }
         let nav = self.estimator.state();
+        if self.ready_at_s.is_none() && self.estimator.position_ready().is_ok() {
+            self.ready_at_s = Some(t_s);
+        }
         if let Some((nees, dof)) = self.nees(&nav) {
             self.nees_n += 1;
             if nees <= CHI2_95[dof - 1] {
@@ -219,6 +243,28 @@ impl Navigation for EstimatorNav {
     }
 }
 
+/// The scenario's compass calibration (`[navigation] compass_calibration`), or none.
+fn compass_calibration(sc: &Scenario) -> CompassCalibration {
+    sc.navigation
+        .compass_calibration
+        .map_or(CompassCalibration::NONE, |[a, b]| CompassCalibration {
+            sin_rad: a as f32,
+            cos_rad: b as f32,
+        })
+}
+
+/// The start uncertainties of `[navigation]` (issue 26), where given, in place of the
+/// defaults.
+fn start_config(sc: &Scenario, mut cfg: NavConfig) -> NavConfig {
+    if let Some(v) = sc.navigation.start_position_std_m {
+        cfg.initial_position_std_m = v as f32;
+    }
+    if let Some(v) = sc.navigation.start_heading_std_rad {
+        cfg.initial_heading_std_rad = v as f32;
+    }
+    cfg
+}
+
 /// The on-board estimator's settings for a scenario: the filters of [`nav_config`], sea water
 /// with the depth sensor's noise, the default sensor timeouts.
 pub fn onboard_config(sc: &Scenario) -> OnboardConfig {
@@ -228,7 +274,7 @@ pub fn onboard_config(sc: &Scenario) -> OnboardConfig {
         pressure.std_m = d.noise_m.max(1e-4) as f32;
     }
     OnboardConfig {
-        nav: nav_config(&sc.sensors),
+        nav: start_config(sc, nav_config(&sc.sensors)),
         pressure,
         ..OnboardConfig::default()
     }
@@ -242,6 +288,8 @@ pub struct VehicleNav {
     pending: Vec<(f64, Measurement)>,
     initial: NavState,
     fixes: Vec<FixRecord>,
+    /// The compass calibration the surface applies before it sends a heading.
+    compass_cal: CompassCalibration,
 }
 
 impl VehicleNav {
@@ -251,11 +299,14 @@ impl VehicleNav {
         if let Some(missing) = sc.sensors.missing_for_estimator() {
             bail!("navigation.source = \"estimator\" needs {missing}");
         }
+        let mut sensors = SensorSuite::new(&sc.sensors, seed);
+        sensors.set_seabed_depth_m(sc.water.seabed_depth_m);
         Ok(Self {
-            sensors: SensorSuite::new(&sc.sensors, seed),
+            sensors,
             pending: Vec::new(),
-            initial: to_nav(&sc.initial.to_plant()),
+            initial: to_nav(&sc.navigation.told_start(&sc.initial.to_plant())),
             fixes: Vec::new(),
+            compass_cal: compass_calibration(sc),
         })
     }
 }
@@ -267,7 +318,8 @@ impl Navigation for VehicleNav {
 
     /// The launch point (what the vehicle's estimator starts from); the loop uses the
     /// vehicle's own estimate after that.
-    fn estimate(&mut self, _t_s: f64, _thrust_cmd_n: [f64; 3]) -> NavState {
+    fn estimate(&mut self, _t_s: f64, thrust_cmd_n: [f64; 3]) -> NavState {
+        self.sensors.set_thrust_n(thrust_cmd_n);
         self.initial
     }
 
@@ -288,7 +340,16 @@ impl Navigation for VehicleNav {
                 });
             }
         }
-        due.into_iter().map(|(_, m)| m).collect()
+        let cal = self.compass_cal;
+        due.into_iter()
+            .map(|(_, m)| match m {
+                Measurement::Heading(f) => Measurement::Heading(HeadingFix {
+                    yaw_rad: cal.correct(f.yaw_rad),
+                    ..f
+                }),
+                other => other,
+            })
+            .collect()
     }
 
     fn usbl_fixes(&self) -> Vec<FixRecord> {

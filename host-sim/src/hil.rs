@@ -67,6 +67,9 @@ pub enum HilTarget {
     InProcess,
 }
 
+/// The longest wait for one reply in a lock-step exchange ([`HilOptions::reply_timeout`]).
+pub const MAX_REPLY_WAIT: Duration = Duration::from_secs(1);
+
 /// Options of a HIL run.
 #[derive(Debug, Clone)]
 pub struct HilOptions {
@@ -78,7 +81,10 @@ pub struct HilOptions {
     pub noise: Option<NoiseSpec>,
     /// Run this long instead of the scenario's duration.
     pub duration_s: Option<f64>,
-    /// Wall-clock time to wait for a reply before sending again.
+    /// Wall-clock time to wait for a reply before sending again; each resend of the same
+    /// step waits twice as long as the one before, up to [`MAX_REPLY_WAIT`] (an emulator
+    /// starved for a moment by a loaded machine is not a lost link, and a resend storm only
+    /// deepens the backlog).
     pub reply_timeout: Duration,
     /// Sends of one `NavState` before the run is declared lost.
     pub max_tries: u32,
@@ -366,8 +372,9 @@ impl TetherEndpoint {
         let sent = std::mem::take(&mut self.sent_measurements);
         loop {
             let refused = &mut self.report.measurements_refused;
+            let wait = (self.reply_timeout * 2u32.saturating_pow(tries - 1)).min(MAX_REPLY_WAIT);
             let got = self.link.wait_for(
-                self.reply_timeout,
+                wait,
                 |r| match r {
                     Reply::Telemetry(tl) if nav_seqs.contains(&tl.nav_seq) => Some(Ok(*tl)),
                     Reply::Nack { seq, reason } if nav_seqs.contains(seq) => Some(Err(*reason)),
@@ -729,7 +736,9 @@ fn parse_probability(s: &str) -> std::result::Result<f64, String> {
 }
 
 /// `host-sim hil`.
-pub fn main(a: HilArgs) -> Result<()> {
+/// Run `host-sim hil`; the output decides the exit code (`main.rs`: 1 when the run diverged,
+/// went non-finite or missed its scenario's targets, as `run`).
+pub fn main(a: HilArgs) -> Result<HilOutput> {
     let sc = Scenario::load(&a.scenario).map_err(crate::checks::refused)?;
     let target = if let Some(dev) = a.serial {
         HilTarget::Board(Endpoint::Serial {
@@ -824,5 +833,5 @@ pub fn main(a: HilArgs) -> Result<()> {
         );
     }
     println!("outputs in {}", dir.display());
-    Ok(())
+    Ok(out)
 }

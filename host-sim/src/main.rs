@@ -284,7 +284,7 @@ fn main() -> ExitCode {
 fn dispatch(cli: Cli) -> Result<ExitCode> {
     let done = |r: Result<()>| r.map(|()| ExitCode::SUCCESS);
     match cli.command {
-        Some(Command::Hil(a)) => done(host_sim::hil::main(a)),
+        Some(Command::Hil(a)) => host_sim::hil::main(a).map(|o| run_code(&o.run)),
         Some(Command::Link(a)) => done(host_sim::link::main(a)),
         Some(Command::Topside(a)) => done(host_sim::topside::main(a)),
         Some(Command::Replay(a)) => done(host_sim::replay::main(a)),

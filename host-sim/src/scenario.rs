@@ -580,6 +580,9 @@ pub struct Scenario {
     /// The sensors fitted (used by `navigation.source = "estimator"`).
     #[serde(default)]
     pub sensors: SensorsSpec,
+    /// The seabed and a current that changes in time and with depth (issue 26).
+    #[serde(default)]
+    pub water: crate::plant::water::WaterSpec,
     /// The vehicle file (`vehicles/observer.toml`'s format); the Observer when absent. A
     /// relative path is taken from the scenario file's folder, else the working directory.
     #[serde(default)]
@@ -870,6 +873,10 @@ impl Scenario {
         )?;
         nonneg("disturbance.noise_std.rate_rad_s", d.noise_std.rate_rad_s)?;
         self.sensors.validate()?;
+        self.navigation.validate()?;
+        self.water.validate()?;
+        self.water
+            .check_start_depth(self.initial.to_plant().eta[2])?;
         if self.navigation.source == NavSource::Estimator {
             if let Some(missing) = self.sensors.missing_for_estimator() {
                 bail!("navigation.source = \"estimator\" needs {missing}");

@@ -45,6 +45,60 @@ pub enum NavSource {
 pub struct NavigationSpec {
     /// `"truth"` (default) or `"estimator"`.
     pub source: NavSource,
+    /// What the estimator is told of the launch point is off the truth by `[north, east]`
+    /// (m) (issue 26: an unknown start).
+    pub start_error_m: [f64; 2],
+    /// What the estimator is told of the start heading is off the truth by this (rad).
+    pub start_heading_error_rad: f64,
+    /// The start position's uncertainty the estimator is given (m, each horizontal axis);
+    /// default the estimator's (0.5 m).
+    pub start_position_std_m: Option<f64>,
+    /// The start heading's uncertainty the estimator is given (rad); default the
+    /// estimator's (0.05 rad).
+    pub start_heading_std_rad: Option<f64>,
+    /// The compass calibration `[sin_rad, cos_rad]` of a swing
+    /// (`controller_core::nav::compass_cal`): each heading fix is corrected by it before the
+    /// estimator fuses it. None: no correction.
+    pub compass_calibration: Option<[f64; 2]>,
+}
+
+impl NavigationSpec {
+    /// Check the start keys; the error names the key.
+    pub fn validate(&self) -> Result<()> {
+        finite("navigation.start_error_m[0]", self.start_error_m[0])?;
+        finite("navigation.start_error_m[1]", self.start_error_m[1])?;
+        finite(
+            "navigation.start_heading_error_rad",
+            self.start_heading_error_rad,
+        )?;
+        if let Some(v) = self.start_position_std_m {
+            crate::checks::pos("navigation.start_position_std_m", v)?;
+        }
+        if let Some(v) = self.start_heading_std_rad {
+            crate::checks::pos("navigation.start_heading_std_rad", v)?;
+        }
+        if let Some([a, b]) = self.compass_calibration {
+            finite("navigation.compass_calibration[0]", a)?;
+            finite("navigation.compass_calibration[1]", b)?;
+            if a.hypot(b) > MAX_COMPASS_ERROR_RAD {
+                bail!(
+                    "navigation.compass_calibration must have an amplitude within 30 deg (got {:.1} deg)",
+                    a.hypot(b).to_degrees()
+                );
+            }
+        }
+        Ok(())
+    }
+
+    /// What the estimator is told at the start: the true initial state moved by the start
+    /// errors.
+    pub fn told_start(&self, truth: &PlantState) -> PlantState {
+        let mut told = *truth;
+        told.eta[0] += self.start_error_m[0];
+        told.eta[1] += self.start_error_m[1];
+        told.eta[5] += self.start_heading_error_rad;
+        told
+    }
 }
 
 /// `[sensors.imu]`.
@@ -113,6 +167,14 @@ pub struct CompassSpec {
     pub noise_rad: f64,
     /// Fixed offset (rad).
     pub bias_rad: f64,
+    /// Amplitude of the hard-iron deviation, a one-cycle sine in heading (rad):
+    /// `hard_iron_rad sin(psi + hard_iron_phase_rad)` (issue 26).
+    pub hard_iron_rad: f64,
+    /// Phase of the hard-iron deviation (rad).
+    pub hard_iron_phase_rad: f64,
+    /// Offset proportional to the thrusters' effort (rad per newton of `|F1x| + |F2x| + |F3z|`,
+    /// the commanded thrusts): the field of the motor currents next to the magnetometer.
+    pub thrust_offset_rad_per_n: f64,
 }
 
 impl Default for CompassSpec {
@@ -121,8 +183,43 @@ impl Default for CompassSpec {
             rate_hz: 10.0,
             noise_rad: 0.02,
             bias_rad: 0.0,
+            hard_iron_rad: 0.0,
+            hard_iron_phase_rad: 0.0,
+            thrust_offset_rad_per_n: 0.0,
         }
     }
+}
+
+/// Largest compass error accepted in a scenario (30 degrees): beyond it the magnetometer is
+/// not calibrated at all, and no estimator should be asked to fly on it.
+pub const MAX_COMPASS_ERROR_RAD: f64 = 30.0 * std::f64::consts::PI / 180.0;
+/// Total thrust the compass's thrust offset is checked at (N): three 20 N thrusters at full.
+pub const COMPASS_CHECK_THRUST_N: f64 = 60.0;
+/// Largest DVL scale-factor error accepted in a scenario (10 %).
+pub const MAX_DVL_SCALE_ERROR: f64 = 0.10;
+
+impl CompassSpec {
+    /// The heading the compass reads for the true heading `psi` with the thrusters making
+    /// `thrust_n` (before its white noise): `psi + bias + A sin(psi + phase) + k sum|F|`.
+    pub fn reading_rad(&self, psi_rad: f64, thrust_n: [f64; 3]) -> f64 {
+        let effort_n: f64 = thrust_n.iter().map(|f| f.abs()).sum();
+        psi_rad
+            + self.bias_rad
+            + self.hard_iron_rad * (psi_rad + self.hard_iron_phase_rad).sin()
+            + self.thrust_offset_rad_per_n * effort_n
+    }
+}
+
+/// `key`, an angle error, must be finite and within [`MAX_COMPASS_ERROR_RAD`].
+fn plausible_angle(key: &str, v: f64) -> Result<()> {
+    finite(key, v)?;
+    if v.abs() > MAX_COMPASS_ERROR_RAD {
+        bail!(
+            "{key} must be within +-30 deg = +-{MAX_COMPASS_ERROR_RAD:.4} rad (got {v}: {:.1} deg)",
+            v.to_degrees()
+        );
+    }
+    Ok(())
 }
 
 /// `[sensors.dvl]`.
@@ -135,6 +232,14 @@ pub struct DvlSpec {
     pub noise_m_s: f64,
     /// Intervals without bottom lock `[[t0, t1], ...]` (s).
     pub dropouts_s: Vec<[f64; 2]>,
+    /// Scale-factor error: the DVL reads `(1 + scale_error)` times the true speed (issue 26).
+    pub scale_error: f64,
+    /// Mounting yaw: the DVL's axes are turned by this angle from the body's (rad), so it
+    /// reports the body velocity rotated by `-mounting_yaw_rad`.
+    pub mounting_yaw_rad: f64,
+    /// Highest altitude above the seabed with bottom lock (m); above it (with a
+    /// `water.seabed_depth_m`) the DVL gives nothing. None: always in range.
+    pub max_altitude_m: Option<f64>,
 }
 
 impl Default for DvlSpec {
@@ -143,7 +248,22 @@ impl Default for DvlSpec {
             rate_hz: 5.0,
             noise_m_s: 0.01,
             dropouts_s: Vec::new(),
+            scale_error: 0.0,
+            mounting_yaw_rad: 0.0,
+            max_altitude_m: None,
         }
+    }
+}
+
+impl DvlSpec {
+    /// The body-axis velocity `[u, v]` as this DVL reports it (before its white noise).
+    pub fn reading_m_s(&self, uv_m_s: [f64; 2]) -> [f64; 2] {
+        let (s, c) = self.mounting_yaw_rad.sin_cos();
+        let k = 1.0 + self.scale_error;
+        [
+            k * (c * uv_m_s[0] + s * uv_m_s[1]),
+            k * (-s * uv_m_s[0] + c * uv_m_s[1]),
+        ]
     }
 }
 
@@ -163,6 +283,17 @@ pub struct UsblSpec {
     pub outlier_m: f64,
     /// Intervals without fixes `[[t0, t1], ...]` (s).
     pub dropouts_s: Vec<[f64; 2]>,
+    /// Constant offset of every fix `[north, east]` (m): a transceiver's position or
+    /// alignment error (issue 26).
+    pub bias_m: [f64; 2],
+    /// Latency jitter: each fix arrives `latency_s + U(0, latency_jitter_s)` after its ping
+    /// (s); the fix still carries its ping time.
+    pub latency_jitter_s: f64,
+    /// A persistent step `[north, east]` (m) added to every fix pinged at or after
+    /// `step_at_s`: the transceiver moved, or was re-surveyed (issue 26).
+    pub step_m: [f64; 2],
+    /// Time of the step (s).
+    pub step_at_s: f64,
 }
 
 impl Default for UsblSpec {
@@ -174,6 +305,10 @@ impl Default for UsblSpec {
             outlier_fraction: 0.0,
             outlier_m: 10.0,
             dropouts_s: Vec::new(),
+            bias_m: [0.0; 2],
+            latency_jitter_s: 0.0,
+            step_m: [0.0; 2],
+            step_at_s: 0.0,
         }
     }
 }
@@ -245,12 +380,36 @@ impl SensorsSpec {
         if let Some(s) = &self.compass {
             rate("sensors.compass.rate_hz", s.rate_hz)?;
             noise("sensors.compass.noise_rad", s.noise_rad)?;
-            finite("sensors.compass.bias_rad", s.bias_rad)?;
+            plausible_angle("sensors.compass.bias_rad", s.bias_rad)?;
+            plausible_angle("sensors.compass.hard_iron_rad", s.hard_iron_rad)?;
+            finite("sensors.compass.hard_iron_phase_rad", s.hard_iron_phase_rad)?;
+            finite(
+                "sensors.compass.thrust_offset_rad_per_n",
+                s.thrust_offset_rad_per_n,
+            )?;
+            if (s.thrust_offset_rad_per_n * COMPASS_CHECK_THRUST_N).abs() > MAX_COMPASS_ERROR_RAD {
+                bail!(
+                    "sensors.compass.thrust_offset_rad_per_n must keep the offset at {COMPASS_CHECK_THRUST_N} N within +-30 deg (got {} rad/N: {:.1} deg)",
+                    s.thrust_offset_rad_per_n,
+                    (s.thrust_offset_rad_per_n * COMPASS_CHECK_THRUST_N).to_degrees()
+                );
+            }
         }
         if let Some(s) = &self.dvl {
             rate("sensors.dvl.rate_hz", s.rate_hz)?;
             noise("sensors.dvl.noise_m_s", s.noise_m_s)?;
             dropouts("sensors.dvl.dropouts_s", &s.dropouts_s)?;
+            finite("sensors.dvl.scale_error", s.scale_error)?;
+            if s.scale_error.abs() > MAX_DVL_SCALE_ERROR {
+                bail!(
+                    "sensors.dvl.scale_error must be within +-0.1 (10 %) (got {})",
+                    s.scale_error
+                );
+            }
+            plausible_angle("sensors.dvl.mounting_yaw_rad", s.mounting_yaw_rad)?;
+            if let Some(a) = s.max_altitude_m {
+                crate::checks::pos("sensors.dvl.max_altitude_m", a)?;
+            }
         }
         if let Some(s) = &self.usbl {
             rate("sensors.usbl.rate_hz", s.rate_hz)?;
@@ -271,6 +430,18 @@ impl SensorsSpec {
             }
             noise("sensors.usbl.outlier_m", s.outlier_m)?;
             dropouts("sensors.usbl.dropouts_s", &s.dropouts_s)?;
+            finite("sensors.usbl.bias_m[0]", s.bias_m[0])?;
+            finite("sensors.usbl.bias_m[1]", s.bias_m[1])?;
+            noise("sensors.usbl.latency_jitter_s", s.latency_jitter_s)?;
+            finite("sensors.usbl.step_m[0]", s.step_m[0])?;
+            finite("sensors.usbl.step_m[1]", s.step_m[1])?;
+            noise("sensors.usbl.step_at_s", s.step_at_s)?;
+            if s.latency_s + s.latency_jitter_s >= 10.0 {
+                bail!(
+                    "sensors.usbl.latency_s + latency_jitter_s must be < 10 s (got {})",
+                    s.latency_s + s.latency_jitter_s
+                );
+            }
         }
         Ok(())
     }
@@ -384,6 +555,13 @@ pub struct SensorSuite {
     /// USBL fixes drawn as outliers, delivered or not (one drawn in a run's last latency
     /// window never arrives; the run's summary counts the delivered ones, from the fixes).
     pub usbl_outliers_injected: u64,
+    /// The thrust command `[F1x, F2x, F3z]` (N) the compass's thrust offset sees.
+    thrust_n: [f64; 3],
+    /// The USBL latency jitter draws from a stream of its own (stream 2), so a run without
+    /// jitter has the draws it had before.
+    jitter_rng: ChaCha8Rng,
+    /// The seabed's depth (m), for the DVL's bottom lock.
+    seabed_depth_m: Option<f64>,
 }
 
 impl SensorSuite {
@@ -392,6 +570,8 @@ impl SensorSuite {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let mut outlier_rng = ChaCha8Rng::seed_from_u64(seed);
         outlier_rng.set_stream(1);
+        let mut jitter_rng = ChaCha8Rng::seed_from_u64(seed);
+        jitter_rng.set_stream(2);
         let mut draw3 = |sd: f64| [0; 3].map(|_| sd * gauss(&mut rng));
         let (gyro_bias, accel_bias) = match &spec.imu {
             Some(s) => (draw3(s.gyro_bias_rad_s), draw3(s.accel_bias_m_s2)),
@@ -410,7 +590,21 @@ impl SensorSuite {
             accel_bias,
             prev: None,
             usbl_outliers_injected: 0,
+            thrust_n: [0.0; 3],
+            jitter_rng,
+            seabed_depth_m: None,
         }
+    }
+
+    /// The seabed's depth (m): the DVL has bottom lock only within its `max_altitude_m`.
+    pub fn set_seabed_depth_m(&mut self, seabed_depth_m: Option<f64>) {
+        self.seabed_depth_m = seabed_depth_m;
+    }
+
+    /// The thrust command `[F1x, F2x, F3z]` (N) in force: the compass's thrust offset
+    /// follows it from the next sample on.
+    pub fn set_thrust_n(&mut self, thrust_n: [f64; 3]) {
+        self.thrust_n = thrust_n;
     }
 
     /// The drawn constant IMU biases `(gyro, accel)`.
@@ -482,7 +676,7 @@ impl SensorSuite {
         }
         if let (Some(s), Some(c)) = (&self.spec.compass, &mut self.compass_clock) {
             if c.due(t_s) {
-                let psi = truth.eta[5] + s.bias_rad + s.noise_rad * gauss(rng);
+                let psi = s.reading_rad(truth.eta[5], self.thrust_n) + s.noise_rad * gauss(rng);
                 let psi = (psi + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
                     - std::f64::consts::PI;
                 out.push((
@@ -496,8 +690,13 @@ impl SensorSuite {
             }
         }
         if let (Some(s), Some(c)) = (&self.spec.dvl, &mut self.dvl_clock) {
-            if c.due(t_s) && !in_dropout(&s.dropouts_s, t_s) {
-                let v = [0, 1].map(|i| truth.nu[i] + s.noise_m_s * gauss(rng));
+            let lock = match (s.max_altitude_m, self.seabed_depth_m) {
+                (Some(a), Some(d)) => d - truth.eta[2] <= a,
+                _ => true,
+            };
+            if c.due(t_s) && lock && !in_dropout(&s.dropouts_s, t_s) {
+                let read = s.reading_m_s([truth.nu[0], truth.nu[1]]);
+                let v = [0, 1].map(|i| read[i] + s.noise_m_s * gauss(rng));
                 out.push((
                     t_s,
                     Measurement::Dvl(controller_core::nav::DvlFix {
@@ -524,8 +723,19 @@ impl SensorSuite {
                 } else {
                     noisy
                 };
+                let (n, e) = (n + s.bias_m[0], e + s.bias_m[1]);
+                let (n, e) = if t_s >= s.step_at_s {
+                    (n + s.step_m[0], e + s.step_m[1])
+                } else {
+                    (n, e)
+                };
+                let jitter_s = if s.latency_jitter_s > 0.0 {
+                    s.latency_jitter_s * self.jitter_rng.random::<f64>()
+                } else {
+                    0.0
+                };
                 out.push((
-                    t_s + s.latency_s,
+                    t_s + s.latency_s + jitter_s,
                     Measurement::Position(
                         controller_core::nav::PositionFix {
                             t_us,

@@ -27,6 +27,7 @@
 use crate::plant::six_dof_factory;
 use crate::plant::xy::XyPlant;
 use crate::plant::xz::XzPlant;
+use crate::plant::water::WaterSpec;
 use crate::plant::{Environment, Plant, PlantState};
 use crate::scenario::{ExpectSpec, NoiseStd, Plane, Scenario, MAX_CONTROL_TICKS};
 use crate::sensors::Measurement;
@@ -193,6 +194,9 @@ pub struct Summary {
     pub wall_time_s: f64,
     /// Final plant state `[x, y, z, roll, pitch, yaw, u, v, w, p, q, r]`.
     pub final_state: Vec<f64>,
+    /// The first time the vehicle met the surface or the seabed (`[water]`), if it did:
+    /// "hit the seabed at t = 12.340 s".
+    pub boundary_contact: Option<String>,
 }
 
 /// One target of `[expect]` against the run.
@@ -834,6 +838,10 @@ pub struct ClosedLoop<N: Navigation, E: ControllerEndpoint> {
     endpoint: E,
     plant: Box<dyn Plant>,
     reference: Reference,
+    /// The water: a current varying in time or with depth is set each period.
+    water: WaterSpec,
+    /// The constant current the varying one starts from (m/s).
+    current_m_s: [f64; 3],
     plane: Plane,
     axes: [bool; 3],
     expect: Option<ExpectSpec>,
@@ -882,13 +890,14 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
         let env = Environment {
             current_m_s: opts.current_m_s.unwrap_or(sc.disturbance.current_m_s),
         };
-        let plant = make_plant(
+        let mut plant = make_plant(
             sc.plane,
             &plant_params,
             env,
             saturate,
             sc.initial.to_plant(),
         )?;
+        plant.set_bounds(sc.water.surface, sc.water.seabed_depth_m);
 
         let n_sub = sc.plant_steps_per_control().max(1);
         let dt = sc.plant_dt_s;
@@ -941,6 +950,8 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
             endpoint,
             plant,
             reference: sc.reference.to_core(),
+            water: sc.water.clone(),
+            current_m_s: env.current_m_s,
             plane: sc.plane,
             axes: sc.plane.axes(),
             expect: sc.expect,
@@ -1131,6 +1142,12 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
             return Ok(false);
         }
 
+        if self.water.current_varies() {
+            self.plant.set_current(
+                self.water
+                    .current_at(self.current_m_s, t, truth.eta[2]),
+            );
+        }
         // Zero-order hold over the plant steps of this period.
         self.held_cmd = out.applied_n;
         for i in 0..self.n_sub {
@@ -1138,6 +1155,13 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
             self.s.sim_steps += 1;
             self.nav
                 .observe(t + (i + 1) as f64 * self.dt, &self.plant.state());
+        }
+        if self.s.boundary_contact.is_none() {
+            let t_end = t + self.tc;
+            self.s.boundary_contact = self.plant.contact().map(|b| match b {
+                crate::plant::Boundary::Surface => format!("hit the surface at t = {t_end:.3} s"),
+                crate::plant::Boundary::Seabed => format!("hit the seabed at t = {t_end:.3} s"),
+            });
         }
         self.k += 1;
         Ok(true)

@@ -86,3 +86,40 @@ fn the_usbl_circle_meets_its_own_30_cm_and_does_not_say_it_does_not_track() {
     assert!(text(&o).contains("meets its targets"), "{}", text(&o));
     assert!(!text(&o).contains("does not track"), "{}", text(&o));
 }
+
+/// `hil` judges its run as `run` does (it exited 0 on a miss before): the firmware library
+/// in process (`--in-process`, no QEMU needed) on a scenario whose target it cannot meet.
+#[test]
+fn hil_exits_1_when_its_run_misses_its_targets_and_0_when_it_meets_them() {
+    let dir = scratch("hil");
+    let misses = from_builtin(
+        &dir,
+        "line-3d",
+        "hil-misses",
+        "[expect]\nrms_last80_m = 1e-9\n",
+    );
+    let args = |f: &Path| {
+        vec![
+            "hil".to_string(),
+            f.to_str().unwrap().to_string(),
+            "--in-process".into(),
+            "--duration".into(),
+            "20".into(),
+        ]
+    };
+    let run = |f: &Path| {
+        let a = args(f);
+        host_sim(&dir, &a.iter().map(String::as_str).collect::<Vec<_>>())
+    };
+    let o = run(&misses);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(text(&o).contains("MISSES its targets"), "{}", text(&o));
+    let meets = from_builtin(
+        &dir,
+        "line-3d",
+        "hil-meets",
+        "[expect]\nrms_last80_m = 0.02\n",
+    );
+    let o = run(&meets);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+}

@@ -1,4 +1,4 @@
-//! Horizontal plane: an extended Kalman filter over `[N, E, u_r, v_r, c_N, c_E, psi, b_r]`
+//! Horizontal plane: an extended Kalman filter over `[N, E, u_r, v_r, c_N, c_E, psi, b_r, b_c]`
 //! whose prediction is the vehicle's own model (eq. (34), [`crate::model::xy::derivative`]):
 //!
 //! ```text
@@ -18,7 +18,16 @@
 //!
 //! A DVL measures the velocity over the bottom in body axes, `[u_r, v_r] + R(psi)^T c`; a USBL
 //! fix measures `[N, E]` at its time of validity (see the module docs of [`super`]); a
-//! compass measures `psi`.
+//! compass measures `psi + b_c`.
+//!
+//! **Compass bias** `b_c` (issue 26): a magnetometer next to thrusters, batteries and a frame
+//! reads a few degrees off. Taken as the heading, that error rotates the DVL's dead reckoning
+//! and the filter drifts along the wrong course while refusing the USBL fixes that say so.
+//! With `b_c` a state (a slow random walk, like PX4 EKF2's magnetometer bias states), the
+//! compass fixes only `psi + b_c`; `psi` itself is fixed by the gyro's integration and by the
+//! position: a heading error `d_psi` moves the dead-reckoned position by `d_psi` times the
+//! distance run, across the track, which the USBL fixes see. The turns of a survey make the
+//! two apart (the error's direction turns with the track, a current's does not).
 
 use super::kf::{nis2, unit, within_gate, Kf, Mat};
 use super::{NavConfig, Refusal, GATE_CHI2_1DOF, GATE_CHI2_2DOF};
@@ -36,13 +45,37 @@ const CN: usize = 4;
 const CE: usize = 5;
 const PSI: usize = 6;
 const BR: usize = 7;
+/// Compass bias: the compass reads `psi + b_c` (issue 26).
+const BC: usize = 8;
 /// States.
-const NX: usize = 8;
+const NX: usize = 9;
 
 /// Interval between two entries of the position history (us).
 pub const HISTORY_STEP_US: u64 = 20_000;
 /// Entries in the position history: 128 x 20 ms = 2.56 s, the oldest fix accepted.
 pub const HISTORY_LEN: usize = 128;
+
+/// Refused USBL fixes kept for the cluster test (issue 26).
+pub const CLUSTER_LEN: usize = 8;
+/// Refused fixes that must agree with each other before the position is moved to them.
+pub const CLUSTER_MIN: usize = 5;
+/// The oldest refused fix a cluster may hold, counted back from the newest (us).
+pub const CLUSTER_WINDOW_US: u64 = 30_000_000;
+/// Two refused fixes agree when their offsets differ by less than this chi-square (99 %,
+/// 2 degrees of freedom) times the sum of their variances.
+const CLUSTER_CHI2: f32 = 9.21;
+
+/// A USBL fix the gate refused: its offset from the history's (uncorrected) estimate at its
+/// time of validity. Offsets of different fixes are comparable with each other whatever
+/// corrections were applied in between, because none of them includes a correction.
+#[derive(Debug, Clone, Copy, Default)]
+struct RefusedFix {
+    t_us: u64,
+    /// Sequence number of the fix among every fix that reached the gate.
+    seq: u32,
+    offset: [f32; 2],
+    var: f32,
+}
 
 /// Process noise on the position itself (m^2/s): what the kinematics miss (pitch, the
 /// plant's small sway from roll).
@@ -62,6 +95,10 @@ pub(super) struct Horizontal {
     /// Sum of every position correction applied so far `[N, E]`.
     correction: [f32; 2],
     history: HistoryBuffer<Past, HISTORY_LEN>,
+    /// The last refused USBL fixes, for the cluster test.
+    refused: HistoryBuffer<RefusedFix, CLUSTER_LEN>,
+    /// USBL fixes that reached the gate so far.
+    fix_seq: u32,
 }
 
 impl Horizontal {
@@ -71,6 +108,7 @@ impl Horizontal {
         let sv = 0.1;
         let s_psi = cfg.initial_heading_std_rad;
         let s_b = cfg.initial_gyro_bias_std_rad_s;
+        let s_c = cfg.initial_compass_bias_std_rad;
         let kf = Kf::new(
             [
                 initial.x_m,
@@ -80,6 +118,7 @@ impl Horizontal {
                 0.0,
                 0.0,
                 initial.yaw_rad,
+                0.0,
                 0.0,
             ],
             [
@@ -91,6 +130,7 @@ impl Horizontal {
                 sc * sc,
                 s_psi * s_psi,
                 s_b * s_b,
+                s_c * s_c,
             ],
         );
         let mut history = HistoryBuffer::new();
@@ -102,6 +142,8 @@ impl Horizontal {
             kf,
             correction: [0.0; 2],
             history,
+            refused: HistoryBuffer::new(),
+            fix_seq: 0,
         }
     }
 
@@ -115,6 +157,11 @@ impl Horizontal {
 
     pub(super) fn yaw_variance(&self) -> f32 {
         self.kf.var(PSI)
+    }
+
+    /// The compass bias estimate (rad) and its variance.
+    pub(super) fn compass_bias(&self) -> (f32, f32) {
+        (self.kf.x[BC], self.kf.var(BC))
     }
 
     pub(super) fn gyro_bias_r(&self) -> f32 {
@@ -193,8 +240,8 @@ impl Horizontal {
         let mut phi: Mat<NX> = [[0.0; NX]; NX];
         let dn_dpsi = -s * u - co * v;
         let de_dpsi = co * u - s * v;
-        phi[N] = [1.0, 0.0, co * dt, -s * dt, dt, 0.0, dn_dpsi * dt, 0.0];
-        phi[E] = [0.0, 1.0, s * dt, co * dt, 0.0, dt, de_dpsi * dt, 0.0];
+        phi[N] = [1.0, 0.0, co * dt, -s * dt, dt, 0.0, dn_dpsi * dt, 0.0, 0.0];
+        phi[E] = [0.0, 1.0, s * dt, co * dt, 0.0, dt, de_dpsi * dt, 0.0, 0.0];
         // r = r_gyro - b_r enters the Coriolis terms: d(u_dot)/d(b_r) = alpha3 v.
         phi[U] = [
             0.0,
@@ -205,6 +252,7 @@ impl Horizontal {
             0.0,
             0.0,
             c.alpha3 * v * dt,
+            0.0,
         ];
         phi[V] = [
             0.0,
@@ -215,20 +263,35 @@ impl Horizontal {
             0.0,
             0.0,
             c.beta3 * u * dt,
+            0.0,
         ];
         phi[CN] = unit(CN);
         phi[CE] = unit(CE);
         phi[PSI] = unit(PSI);
         phi[PSI][BR] = -cr * inv_cp * dt;
         phi[BR] = unit(BR);
+        phi[BC] = unit(BC);
         let m = cfg.model_accel_noise_m_s2_sqrt_hz;
         let w = cfg.current_walk_m_s_sqrt_s;
         let ng = cfg.gyro_noise_rad_s_sqrt_hz;
         let wb = cfg.gyro_bias_walk_rad_s_sqrt_s;
+        let wc = cfg.compass_bias_walk_rad_sqrt_s;
         let qp = POSITION_NOISE_M2_S * dt;
         let (qm, qc) = (m * m * dt, w * w * dt);
-        self.kf
-            .propagate(&phi, &[qp, qp, qm, qm, qc, qc, ng * ng * dt, wb * wb * dt]);
+        self.kf.propagate(
+            &phi,
+            &[
+                qp,
+                qp,
+                qm,
+                qm,
+                qc,
+                qc,
+                ng * ng * dt,
+                wb * wb * dt,
+                wc * wc * dt,
+            ],
+        );
 
         let due = self
             .history
@@ -262,33 +325,79 @@ impl Horizontal {
             .reset_state(V, velocity_m_s[1] - (-s * cn + c * ce), var);
     }
 
-    /// Position to the fix (moved on by the displacement since its time of validity).
-    pub(super) fn reset_position(&mut self, t_us: u64, now_us: u64, fix: [f32; 2], std_m: f32) {
-        let Some(past) = self.past_position(t_us, now_us) else {
-            return;
+    /// After a refused fix: if the last refused fixes form a cluster, move the position to
+    /// the cluster and return true. A cluster is [`CLUSTER_MIN`] or more refused fixes within
+    /// [`CLUSTER_WINDOW_US`] of the newest whose offsets all agree with the newest's (99 %
+    /// chi-square on their difference), and that are the majority of every fix that reached
+    /// the gate since the oldest of them. One refused fix, however far, never moves the
+    /// estimate: multipath outliers scatter in every direction and never agree with each
+    /// other, while a transceiver that moved, or an estimate that is lost, gives fixes that
+    /// all say the same thing. The position moves by the cluster's mean offset (not to the
+    /// last fix), with the variance of one fix, its correlations cleared.
+    fn cluster_reset(&mut self) -> bool {
+        let Some(newest) = self.refused.recent().copied() else {
+            return false;
         };
-        let var = std_m * std_m;
+        let mut n = 0u32;
+        let mut oldest_seq = newest.seq;
+        let mut sum = [0.0f32; 2];
+        let mut var_sum = 0.0f32;
+        for f in self.refused.oldest_ordered() {
+            let dn = f.offset[0] - newest.offset[0];
+            let de = f.offset[1] - newest.offset[1];
+            let recent = newest.t_us.saturating_sub(f.t_us) <= CLUSTER_WINDOW_US;
+            if recent && dn * dn + de * de <= CLUSTER_CHI2 * (f.var + newest.var) {
+                n += 1;
+                oldest_seq = oldest_seq.min(f.seq);
+                sum[0] += f.offset[0];
+                sum[1] += f.offset[1];
+                var_sum += f.var;
+            }
+        }
+        let seen = newest.seq.saturating_sub(oldest_seq) + 1;
+        if (n as usize) < CLUSTER_MIN || 2 * n <= seen {
+            return false;
+        }
+        let inv_n = 1.0 / n as f32;
+        // Mean offset against today's (corrected) estimate.
+        let shift = [
+            sum[0] * inv_n - self.correction[0],
+            sum[1] * inv_n - self.correction[1],
+        ];
+        let var = var_sum * inv_n;
         let now = self.position();
         self.corrected(|kf| {
-            kf.reset_state(N, fix[0] + (now[0] - past[0]), var);
-            kf.reset_state(E, fix[1] + (now[1] - past[1]), var);
+            kf.reset_state(N, now[0] + shift[0], var);
+            kf.reset_state(E, now[1] + shift[1], var);
         });
+        self.refused.clear();
+        true
     }
 
-    /// Heading to the compass fix, its variance to the fix's, its correlations cleared.
+    /// Heading to the compass fix less the compass bias, its variance to the fix's plus the
+    /// bias's, its correlations cleared.
     pub(super) fn reset_heading(&mut self, yaw_rad: f32, std_rad: f32) {
+        let var = std_rad * std_rad + self.kf.var(BC);
         self.kf
-            .reset_state(PSI, wrap_angle(yaw_rad), std_rad * std_rad);
+            .reset_state(PSI, wrap_angle(yaw_rad - self.kf.x[BC]), var);
+    }
+
+    /// The compass's measurement row: `psi + b_c`.
+    fn compass_row() -> [f32; NX] {
+        let mut h = unit(PSI);
+        h[BC] = 1.0;
+        h
     }
 
     pub(super) fn fuse_heading(&mut self, yaw_rad: f32, std_rad: f32) -> Result<(), Refusal> {
-        let nu = wrap_angle(yaw_rad - self.kf.x[PSI]);
+        let nu = wrap_angle(yaw_rad - self.kf.x[PSI] - self.kf.x[BC]);
         let r = std_rad * std_rad;
-        if !within_gate(nu * nu / (self.kf.var(PSI) + r), GATE_CHI2_1DOF) {
+        let h = Self::compass_row();
+        if !within_gate(nu * nu / (self.kf.cross(&h, &h) + r), GATE_CHI2_1DOF) {
             return Err(Refusal::Outlier);
         }
         self.corrected(|kf| {
-            kf.update(&unit(PSI), nu, r);
+            kf.update(&h, nu, r);
         });
         self.kf.x[PSI] = wrap_angle(self.kf.x[PSI]);
         Ok(())
@@ -357,7 +466,23 @@ impl Horizontal {
         })
     }
 
-    pub(super) fn fuse_position(
+    /// Fuse a USBL fix; a refused one is kept for the cluster test, and `Ok(true)` says the
+    /// refused fixes formed a cluster and the position moved to it.
+    pub(super) fn fuse_position_or_cluster(
+        &mut self,
+        t_us: u64,
+        now_us: u64,
+        fix: [f32; 2],
+        std_m: f32,
+    ) -> Result<bool, Refusal> {
+        match self.fuse_position(t_us, now_us, fix, std_m) {
+            Ok(()) => Ok(false),
+            Err(Refusal::Outlier) if self.cluster_reset() => Ok(true),
+            Err(e) => Err(e),
+        }
+    }
+
+    fn fuse_position(
         &mut self,
         t_us: u64,
         now_us: u64,
@@ -365,6 +490,7 @@ impl Horizontal {
         std_m: f32,
     ) -> Result<(), Refusal> {
         let past = self.past_position(t_us, now_us).ok_or(Refusal::TooOld)?;
+        self.fix_seq = self.fix_seq.wrapping_add(1);
         let nu = [fix[0] - past[0], fix[1] - past[1]];
         // The displacement since the time of validity is known up to the velocity's
         // uncertainty over the latency.
@@ -375,6 +501,12 @@ impl Horizontal {
         let s01 = self.kf.cov(N, E);
         let s11 = self.kf.var(E) + r;
         if !within_gate(nis2(nu, s00, s01, s11), GATE_CHI2_2DOF) {
+            self.refused.write(RefusedFix {
+                t_us,
+                seq: self.fix_seq,
+                offset: [nu[0] + self.correction[0], nu[1] + self.correction[1]],
+                var: r,
+            });
             return Err(Refusal::Outlier);
         }
         self.corrected(|kf| {
@@ -399,7 +531,7 @@ fn dvl_rows(x: &[f32; NX]) -> ([f32; NX], [f32; NX]) {
     let (s, c) = sin_cos(x[PSI]);
     let (cn, ce) = (x[CN], x[CE]);
     (
-        [0.0, 0.0, 1.0, 0.0, c, s, -s * cn + c * ce, 0.0],
-        [0.0, 0.0, 0.0, 1.0, -s, c, -c * cn - s * ce, 0.0],
+        [0.0, 0.0, 1.0, 0.0, c, s, -s * cn + c * ce, 0.0, 0.0],
+        [0.0, 0.0, 0.0, 1.0, -s, c, -c * cn - s * ce, 0.0, 0.0],
     )
 }

@@ -20,13 +20,15 @@
 //!   gravity direction the accelerometer sees (`attitude.rs`);
 //! - **vertical** `[z, z_dot, b_a]`: a Kalman filter driven by the accelerometer rotated to the
 //!   vertical, updated by the pressure depth (`vertical.rs`);
-//! - **horizontal** `[N, E, u_r, v_r, c_N, c_E, psi, b_r]`: an extended Kalman filter whose prediction is
+//! - **horizontal** `[N, E, u_r, v_r, c_N, c_E, psi, b_r, b_c]`: an extended Kalman filter whose prediction is
 //!   the vehicle's own horizontal model (eq. (34), `crate::model::xy`) driven by the surge
 //!   thrust command through the thrusters' first-order lag: `u_r, v_r` are the velocity
 //!   through the water, `c_N, c_E` the ocean current. This is what makes it *model-aided*: with
 //!   USBL and no DVL the velocity still comes from the thrust the vehicle is making, and the
 //!   current is what the position fixes say the model misses. The heading and the yaw-gyro
-//!   bias are propagated with the gyro and updated by the compass (`horizontal.rs`).
+//!   bias are propagated with the gyro and updated by the compass, whose own constant bias
+//!   `b_c` is a state (issue 26), fixed by the USBL track against the dead reckoning
+//!   (`horizontal.rs`).
 //!
 //! A USBL fix arrives `latency` after the acoustic ping it measures. It is compared with the
 //! estimate *at its time of validity*: the filter keeps a short history of its position
@@ -44,6 +46,7 @@
 //! `no_std`, `f32`, no allocation, no panics; the history is a `heapless` ring.
 
 mod attitude;
+pub mod compass_cal;
 mod horizontal;
 pub mod kf;
 pub mod onboard;
@@ -59,7 +62,7 @@ use horizontal::Horizontal;
 use serde::{Deserialize, Serialize};
 use vertical::Vertical;
 
-pub use horizontal::{HISTORY_LEN, HISTORY_STEP_US};
+pub use horizontal::{CLUSTER_MIN, CLUSTER_WINDOW_US, HISTORY_LEN, HISTORY_STEP_US};
 
 /// Standard gravity (m/s^2).
 pub const GRAVITY_M_S2: f32 = 9.806_65;
@@ -155,6 +158,25 @@ pub enum Refusal {
     Outlier,
 }
 
+/// Largest horizontal position standard deviation (m, each axis) at which the estimate is
+/// ready for the modes that need a position (issue 26). A launch point known to half a metre
+/// is ready at once; one known to a few metres becomes ready after the first USBL fixes.
+pub const POSITION_READY_STD_M: f32 = 1.0;
+/// Largest heading standard deviation (rad, 10 degrees) at which the estimate is ready.
+pub const HEADING_READY_STD_RAD: f32 = 0.175;
+
+/// Why the estimate is not ready for a mode that needs a position (like ArduSub's "EKF not
+/// ready"): the vehicle refuses `Track`, `Hold`, AUTO and GUIDED until it is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum NotReady {
+    /// The position's standard deviation is above [`POSITION_READY_STD_M`].
+    PositionUncertain,
+    /// The heading's standard deviation is above [`HEADING_READY_STD_RAD`].
+    HeadingUncertain,
+}
+
 /// Counters of what the estimator fused and refused.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -175,12 +197,17 @@ pub struct NavHealth {
     pub other_outliers: u32,
     /// Measurements refused as invalid (non-finite, out of range, bad time or accuracy).
     pub invalid: u32,
-    /// Filter resets: a sensor's fixes failed the gate [`RESET_AFTER_REJECTS`] times in a
-    /// row, so the estimate, not the sensor, is taken to be wrong and is reset to the fix.
+    /// Filter resets: a depth, compass or DVL sensor's fixes failed the gate
+    /// [`RESET_AFTER_REJECTS`] times in a row, so the estimate, not the sensor, is taken to be
+    /// wrong and is reset to the fix; or refused USBL fixes formed a consistent cluster
+    /// ([`CLUSTER_MIN`] agreeing fixes, the majority of the fixes since the first
+    /// of them) and the position moved to the cluster's mean.
     pub resets: u32,
 }
 
-/// Consecutive gated fixes of one sensor after which the next one resets its states.
+/// Consecutive gated fixes of a depth, compass or DVL sensor after which the next one resets
+/// its states. USBL fixes reset only as a consistent cluster (`horizontal.rs`): a refused
+/// fix is never a reason to jump to it.
 pub const RESET_AFTER_REJECTS: u8 = 5;
 
 /// Consecutive gate failures of each sensor.
@@ -189,7 +216,6 @@ struct Streaks {
     depth: u8,
     heading: u8,
     dvl: u8,
-    position: u8,
 }
 
 /// Apply the gate's verdict with recovery: after [`RESET_AFTER_REJECTS`] outliers in a row,
@@ -254,6 +280,12 @@ pub struct NavConfig {
     pub initial_current_std_m_s: f32,
     /// Time constant of the tilt filter's pull toward the accelerometer (s).
     pub tilt_time_constant_s: f32,
+    /// Uncertainty of the compass's constant bias at start (rad): how far off the
+    /// magnetometer may read next to the thrusters (issue 26).
+    pub initial_compass_bias_std_rad: f32,
+    /// Random walk of the compass bias (rad/sqrt(s)): the part that changes with the
+    /// thrusters' currents and the heading.
+    pub compass_bias_walk_rad_sqrt_s: f32,
 }
 
 impl Default for NavConfig {
@@ -278,6 +310,8 @@ impl Default for NavConfig {
             initial_accel_bias_std_m_s2: 0.1,
             initial_current_std_m_s: 0.1,
             tilt_time_constant_s: 1.0,
+            initial_compass_bias_std_rad: 0.1,
+            compass_bias_walk_rad_sqrt_s: 1.0e-4,
         }
     }
 }
@@ -314,6 +348,14 @@ impl NavConfig {
         )?;
         positive("initial_current_std_m_s", self.initial_current_std_m_s)?;
         positive("tilt_time_constant_s", self.tilt_time_constant_s)?;
+        positive(
+            "initial_compass_bias_std_rad",
+            self.initial_compass_bias_std_rad,
+        )?;
+        non_negative(
+            "compass_bias_walk_rad_sqrt_s",
+            self.compass_bias_walk_rad_sqrt_s,
+        )?;
         Ok(*self)
     }
 }
@@ -547,14 +589,14 @@ impl Estimator {
             .and_then(|()| self.check_time(m.t_us))
             .and_then(|()| {
                 let now = self.t_us;
-                let h = &mut self.horizontal;
-                let fused = h.fuse_position(m.t_us, now, [m.north_m, m.east_m], m.std_m);
-                gated(
-                    &mut self.streaks.position,
-                    &mut self.health.resets,
-                    fused,
-                    || h.reset_position(m.t_us, now, [m.north_m, m.east_m], m.std_m),
-                )
+                let fix = [m.north_m, m.east_m];
+                let moved = self
+                    .horizontal
+                    .fuse_position_or_cluster(m.t_us, now, fix, m.std_m)?;
+                if moved {
+                    self.health.resets += 1;
+                }
+                Ok(())
             });
         match r {
             Ok(()) => self.health.position_fused += 1,
@@ -612,9 +654,33 @@ impl Estimator {
         self.horizontal.current()
     }
 
+    /// The compass's bias as estimated (rad: the compass reads the heading plus this) and
+    /// its standard deviation (rad).
+    pub fn compass_bias_rad(&self) -> (f32, f32) {
+        let (b, var) = self.horizontal.compass_bias();
+        (b, crate::math::sqrt(var))
+    }
+
     /// Standard deviation of the heading (rad).
     pub fn heading_std_rad(&self) -> f32 {
         crate::math::sqrt(self.horizontal.yaw_variance())
+    }
+
+    /// Is the estimate good enough for a mode that needs a position? Its horizontal
+    /// standard deviation must be within [`POSITION_READY_STD_M`] on both axes and its
+    /// heading's within [`HEADING_READY_STD_RAD`]; otherwise the reason. A NaN covariance is
+    /// never ready.
+    pub fn position_ready(&self) -> Result<(), NotReady> {
+        // A NaN compares false: never within.
+        let within = |var: f32, std: f32| var <= std * std;
+        let [[nn, _], [_, ee]] = self.horizontal.position_covariance();
+        if !(within(nn, POSITION_READY_STD_M) && within(ee, POSITION_READY_STD_M)) {
+            Err(NotReady::PositionUncertain)
+        } else if !within(self.horizontal.yaw_variance(), HEADING_READY_STD_RAD) {
+            Err(NotReady::HeadingUncertain)
+        } else {
+            Ok(())
+        }
     }
 }
 

@@ -182,6 +182,13 @@ impl OnboardNav {
         &self.estimator
     }
 
+    /// Is the estimate ready for the modes that need a position (`Track`, `Hold`, AUTO,
+    /// GUIDED)? See [`Estimator::position_ready`]; the firmware refuses those modes with the
+    /// reason until it is.
+    pub fn position_ready(&self) -> Result<(), super::NotReady> {
+        self.estimator.position_ready()
+    }
+
     /// Standard deviation of the position estimate `[north, east, down]` (m).
     pub fn position_std_m(&self) -> [f32; 3] {
         let [[pxx, ..], [_, pyy, _], [.., pzz]] = self.estimator.position_covariance();

@@ -332,6 +332,9 @@ pub enum NackReason {
     ClockAhead,
     /// A sensor reading over the tether on a board that reads its own sensors (version 6).
     OwnSensors,
+    /// A mode that needs a position while the on-board estimate is not ready (issue 26;
+    /// version 6).
+    NavNotReady(controller_core::nav::NotReady),
 }
 
 impl From<controller_core::Error> for NackReason {

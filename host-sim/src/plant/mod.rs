@@ -33,10 +33,54 @@ pub trait Plant: Send {
     fn state(&self) -> PlantState;
     /// The thrust the thrusters really deliver now (after lag and limits).
     fn thrust_n(&self) -> [f64; 3];
+    /// Set the ocean current `[cx, cy, cz]` (inertial, m/s) from now on (issue 26: a current
+    /// that changes in time and with depth).
+    fn set_current(&mut self, current_m_s: [f64; 3]);
+    /// The water's bounds: the surface `z = 0` when `surface`, and the seabed's depth (m,
+    /// down) if any; the plant cannot pass them. A plant without depth (XY) ignores them.
+    fn set_bounds(&mut self, _surface: bool, _seabed_depth_m: Option<f64>) {}
+    /// The first boundary the vehicle met, if any (sticky).
+    fn contact(&self) -> Option<Boundary> {
+        None
+    }
+}
+
+/// A boundary of the water.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Boundary {
+    /// The surface, `z = 0`.
+    Surface,
+    /// The seabed.
+    Seabed,
+}
+
+impl Boundary {
+    /// Where the vehicle is kept when it meets a boundary: `z` clamped to
+    /// `[0 (if surface), seabed]`, and the boundary met if it was clamped.
+    pub fn clamp(z_m: f64, surface: bool, seabed_depth_m: Option<f64>) -> (f64, Option<Boundary>) {
+        if surface && z_m < 0.0 {
+            (0.0, Some(Boundary::Surface))
+        } else {
+            match seabed_depth_m {
+                Some(d) if z_m > d => (d, Some(Boundary::Seabed)),
+                _ => (z_m, None),
+            }
+        }
+    }
+
+    /// The inertial vertical velocity that points through this boundary is removed
+    /// (an inelastic contact): up at the surface, down at the seabed.
+    pub fn blocks(self, z_dot_m_s: f64) -> bool {
+        match self {
+            Boundary::Surface => z_dot_m_s < 0.0,
+            Boundary::Seabed => z_dot_m_s > 0.0,
+        }
+    }
 }
 
 pub mod six_dof;
 pub mod thrusters;
+pub mod water;
 pub mod xy;
 pub mod xz;
 

@@ -23,7 +23,7 @@
 //! One [`Plant::step`] is one classic RK4 step.
 
 use super::thrusters::Thrusters;
-use super::{Environment, Plant, PlantState};
+use super::{Boundary, Environment, Plant, PlantState};
 use controller_core::params::VehicleParams;
 
 /// Constants of the model, precomputed.
@@ -249,6 +249,9 @@ pub struct SixDof {
     env: Environment,
     x: X,
     thr: Thrusters,
+    surface: bool,
+    seabed_depth_m: Option<f64>,
+    contact: Option<Boundary>,
 }
 
 impl SixDof {
@@ -268,6 +271,9 @@ impl SixDof {
             env,
             x: [x, y, z, e0, e1, e2, e3, u, v, w, p, q, r],
             thr: Thrusters::new(params, saturate),
+            surface: false,
+            seabed_depth_m: None,
+            contact: None,
         }
     }
 
@@ -349,8 +355,35 @@ impl Plant for SixDof {
                 *e /= n;
             }
         }
+        // The surface and the seabed: z clamped, the inertial velocity through them removed
+        // (`r2` is the inertial z axis in body axes, the third row of R).
+        let (z, met) = Boundary::clamp(o[2], self.surface, self.seabed_depth_m);
+        if let Some(b) = met {
+            o[2] = z;
+            let [_, _, r2] = rot([o[3], o[4], o[5], o[6]]);
+            let z_dot = r2[0] * o[7] + r2[1] * o[8] + r2[2] * o[9];
+            if b.blocks(z_dot) {
+                for (v, r) in o.iter_mut().skip(7).take(3).zip(r2) {
+                    *v -= z_dot * r;
+                }
+            }
+            self.contact.get_or_insert(b);
+        }
         self.x = o;
         self.thr.force_n = fe;
+    }
+
+    fn set_current(&mut self, current_m_s: [f64; 3]) {
+        self.env.current_m_s = current_m_s;
+    }
+
+    fn set_bounds(&mut self, surface: bool, seabed_depth_m: Option<f64>) {
+        self.surface = surface;
+        self.seabed_depth_m = seabed_depth_m;
+    }
+
+    fn contact(&self) -> Option<Boundary> {
+        self.contact
     }
 
     fn state(&self) -> PlantState {

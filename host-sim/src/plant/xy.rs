@@ -96,6 +96,10 @@ impl XyPlant {
 }
 
 impl Plant for XyPlant {
+    fn set_current(&mut self, current_m_s: [f64; 3]) {
+        self.env.current_m_s = current_m_s;
+    }
+
     fn step(&mut self, thrust_cmd_n: [f64; 3], dt_s: f64) {
         let seg = self.thrusters.segment(thrust_cmd_n);
         let p = self.params;

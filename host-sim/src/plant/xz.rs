@@ -20,7 +20,7 @@
 //! at their initial values.
 
 use super::thrusters::Thrusters;
-use super::{generalized_forces, rk4, Environment, Plant, PlantParams, PlantState};
+use super::{generalized_forces, rk4, Boundary, Environment, Plant, PlantParams, PlantState};
 use controller_core::params::VehicleParams;
 
 /// Index of each state in the plane's state vector `[x, z, theta, u, w, q]`.
@@ -82,6 +82,9 @@ pub struct XzPlant {
     env: Environment,
     thrusters: Thrusters,
     state: PlantState,
+    surface: bool,
+    seabed_depth_m: Option<f64>,
+    contact: Option<Boundary>,
 }
 
 impl XzPlant {
@@ -98,6 +101,9 @@ impl XzPlant {
             env,
             thrusters: Thrusters::new(params, saturate),
             state: initial,
+            surface: false,
+            seabed_depth_m: None,
+            contact: None,
         }
     }
 
@@ -129,6 +135,31 @@ impl Plant for XzPlant {
         st.nu[0] = x[3];
         st.nu[2] = x[4];
         st.nu[4] = x[5];
+        // The surface and the seabed: z clamped, the velocity through them removed.
+        let (z, met) = Boundary::clamp(st.eta[2], self.surface, self.seabed_depth_m);
+        if let Some(b) = met {
+            st.eta[2] = z;
+            let (s, c) = st.eta[4].sin_cos();
+            let z_dot = -s * st.nu[0] + c * st.nu[2];
+            if b.blocks(z_dot) {
+                st.nu[0] += z_dot * s;
+                st.nu[2] -= z_dot * c;
+            }
+            self.contact.get_or_insert(b);
+        }
+    }
+
+    fn set_current(&mut self, current_m_s: [f64; 3]) {
+        self.env.current_m_s = current_m_s;
+    }
+
+    fn set_bounds(&mut self, surface: bool, seabed_depth_m: Option<f64>) {
+        self.surface = surface;
+        self.seabed_depth_m = seabed_depth_m;
+    }
+
+    fn contact(&self) -> Option<Boundary> {
+        self.contact
     }
 
     fn state(&self) -> PlantState {

@@ -1,0 +1,200 @@
+//! The node link (issue 25): the wire between the topside MCU, which runs the control loop
+//! at the surface (the paper's layout: the Observer's 150 m cable "enables communication
+//! between the vehicle sensors and the surface equipment"), and the vehicle's thin node,
+//! which reads the IMU and the pressure sensor and drives the three ESCs.
+//!
+//! Frames are the tether's: postcard + CRC-32 + COBS between zero delimiters, written by the
+//! tether's own [`crate::protocol::encode_with_version`] (one call, in [`seal`]) with the
+//! node link's version [`NODE_LINK_VERSION`]; the envelope's sequence number is the frame's
+//! sequence. The message set is its own and small:
+//!
+//! - [`Downlink`] (topside -> node, every link period): the topside's session, the three
+//!   pulse widths (us), a time to live and the arm command;
+//! - [`Uplink`] (node -> topside, every link period): the session the node serves, the
+//!   sequence of the latest downlink it applied (the round trip on every frame), the IMU
+//!   increments integrated over the period (delta angle, delta velocity, their dt), the latest
+//!   pressure, the node's status and counters.
+//!
+//! Sizes: every message is tested to encode within [`MAX_DOWNLINK_FRAME_LEN`] /
+//! [`MAX_UPLINK_FRAME_LEN`] bytes (largest field values), and the wire time of both at
+//! [`LINK_BAUD`] at most half of the [`LINK_PERIOD_US`] (`docs/deployment.md`).
+
+mod decoder;
+
+pub use decoder::{LinkDecoder, LinkFrame};
+
+use crate::protocol::{EncodeError, MAX_FRAME_LEN};
+use serde::{Deserialize, Serialize};
+
+/// Version of the node link's messages; a frame of another version is never applied.
+pub const NODE_LINK_VERSION: u8 = 1;
+
+/// The link's default rate on the wire, 8N1 (10 bits a byte).
+pub const LINK_BAUD: u32 = 115_200;
+/// Bits on the wire per byte (start, 8 data, stop).
+pub const BITS_PER_BYTE: u32 = 10;
+/// One downlink and one uplink frame per period: 50 Hz, the control rate.
+pub const LINK_PERIOD_US: u32 = 20_000;
+
+/// The ESC's neutral pulse width (no thrust), microseconds.
+pub const ESC_NEUTRAL_US: u16 = 1500;
+/// The ESC's shortest pulse (full reverse), microseconds.
+pub const ESC_MIN_US: u16 = 1100;
+/// The ESC's longest pulse (full forward), microseconds.
+pub const ESC_MAX_US: u16 = 1900;
+/// The longest time to live a downlink may ask for, milliseconds.
+pub const MAX_TTL_MS: u8 = 100;
+
+/// Largest downlink frame on the wire, both delimiters included (every field at its
+/// largest postcard encoding; tested).
+pub const MAX_DOWNLINK_FRAME_LEN: usize = frame_len(MAX_DOWNLINK_PAYLOAD_LEN);
+/// Largest uplink frame on the wire, both delimiters included (tested).
+pub const MAX_UPLINK_FRAME_LEN: usize = frame_len(MAX_UPLINK_PAYLOAD_LEN);
+/// Largest frame either way: the receive buffers' size.
+pub const MAX_LINK_FRAME_LEN: usize = if MAX_UPLINK_FRAME_LEN > MAX_DOWNLINK_FRAME_LEN {
+    MAX_UPLINK_FRAME_LEN
+} else {
+    MAX_DOWNLINK_FRAME_LEN
+};
+
+/// Envelope: version (1 byte), session (the tether's, issue 22: a `u32` varint, at most 5;
+/// the node link sends 0, one byte, and carries its own session in its messages), sequence
+/// (`u16` varint, at most 3). The bounds count the envelope's session at its largest.
+const ENVELOPE_MAX: usize = 1 + 3 + 5;
+/// Downlink postcard payload at most: envelope, session (`u32`, 5), three pulses (`u16`, 3
+/// each), time to live (`u8`, 1), arm (1).
+const MAX_DOWNLINK_PAYLOAD_LEN: usize = ENVELOPE_MAX + 5 + 3 * 3 + 1 + 1;
+/// Uplink postcard payload at most: envelope, session (5), echoed sequence (3), dt (`u32`,
+/// 5), samples (`u16`, 3), delta angle and velocity (6 `f32`, 24), pressure (4), pressure
+/// count (1), status (1), eight `u16` counters (24).
+const MAX_UPLINK_PAYLOAD_LEN: usize = ENVELOPE_MAX + 5 + 3 + 5 + 3 + 24 + 4 + 1 + 1 + 8 * 3;
+
+/// Frame length for a payload: CRC-32 appended, COBS, two delimiters.
+const fn frame_len(payload: usize) -> usize {
+    cobs::max_encoding_length(payload + crate::protocol::CRC_LEN) + 2
+}
+
+/// Wire time of `bytes` at `baud` (8N1), microseconds, rounded up.
+pub const fn wire_time_us(bytes: usize, baud: u32) -> u32 {
+    let bits = bytes as u64 * BITS_PER_BYTE as u64 * 1_000_000;
+    let baud = if baud == 0 { 1 } else { baud as u64 };
+    bits.div_ceil(baud) as u32
+}
+
+/// What the topside asks of the node's thrusters.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+pub enum ArmCommand {
+    /// Outputs at neutral whatever the pulses say.
+    Disarmed,
+    /// Apply the pulses. After a boot or a latched disarm the node arms only on a
+    /// `Disarmed` -> `Armed` transition seen in two valid frames.
+    Armed,
+}
+
+/// Topside -> node, once a link period.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Downlink {
+    /// The topside's session, chosen at its boot, never 0. The node serves one session at
+    /// a time; a frame of another is refused (crossed wires, or a second topside).
+    pub session: u32,
+    /// Pulse widths of `F1x`, `F2x`, `F3z`, microseconds, [`ESC_MIN_US`]..=[`ESC_MAX_US`].
+    pub pulse_us: [u16; 3],
+    /// How long the pulses hold, from the frame's arrival, milliseconds: 1..=[`MAX_TTL_MS`].
+    pub ttl_ms: u8,
+    /// Arm command.
+    pub arm: ArmCommand,
+}
+
+/// Status bits of the node ([`Uplink::status`]).
+pub mod status {
+    /// The outputs follow the topside's pulses (armed).
+    pub const ARMED: u8 = 1 << 0;
+    /// Disarmed and waiting for an explicit arm transition (at boot, and after 1 s without
+    /// a valid frame).
+    pub const LATCHED: u8 = 1 << 1;
+    /// The latest command outlived its time to live: outputs at neutral.
+    pub const TTL_NEUTRAL: u8 = 1 << 2;
+    /// The IMU gave no sample in the period (the increments are empty).
+    pub const IMU_LOST: u8 = 1 << 3;
+    /// The pressure sensor gave no reading for 0.5 s.
+    pub const PRESSURE_LOST: u8 = 1 << 4;
+    /// A PWM output reported an error.
+    pub const PWM_ERROR: u8 = 1 << 5;
+}
+
+/// The node's counters of refused downlink frames, and of its own troubles (wrapping).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct NodeCounters {
+    /// Downlink frames applied.
+    pub accepted: u16,
+    /// Frames dropped by the framing: COBS, CRC, too short, too long, not a `Downlink`.
+    pub corrupt: u16,
+    /// Frames whose sequence repeats or goes back (a replay).
+    pub replayed: u16,
+    /// Frames with a pulse outside the ESC's range or a time to live outside 1..=100 ms.
+    pub out_of_range: u16,
+    /// Frames of another topside's session.
+    pub foreign: u16,
+    /// Frames of another link version.
+    pub version: u16,
+    /// Commands that outlived their time to live (each counted once).
+    pub ttl_expired: u16,
+    /// IMU reads that failed.
+    pub imu_errors: u16,
+}
+
+/// Node -> topside, once a link period.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Uplink {
+    /// The session the node serves (0: none yet).
+    pub session: u32,
+    /// Sequence number of the latest downlink applied (the topside's round trip).
+    pub echo_seq: u16,
+    /// Time the increments cover, microseconds (first to last sample of the period).
+    pub dt_us: u32,
+    /// IMU intervals integrated (consecutive samples at most four IMU periods apart).
+    pub samples: u16,
+    /// Integrated angular rate, body axes, rad.
+    pub delta_angle_rad: [f32; 3],
+    /// Integrated specific force, body axes, m/s.
+    pub delta_velocity_m_s: [f32; 3],
+    /// Latest absolute pressure, Pa.
+    pub pressure_pa: f32,
+    /// Count of pressure readings (wraps): a new value when it changes.
+    pub pressure_count: u8,
+    /// [`status`] bits.
+    pub status: u8,
+    /// Counters.
+    pub counters: NodeCounters,
+}
+
+/// Encode `msg` as a node-link frame with sequence `seq` into `out`; returns the frame.
+/// The tether's framing (`protocol::encode_with_version`) with [`NODE_LINK_VERSION`].
+pub fn seal<'a, M: Serialize>(
+    seq: u16,
+    msg: &M,
+    out: &'a mut [u8; MAX_FRAME_LEN],
+) -> Result<&'a [u8], EncodeError> {
+    // The envelope's session is the tether's (issue 22); the node link carries its own in
+    // its messages, so the envelope's is 0 (one byte).
+    crate::protocol::encode_with_version(NODE_LINK_VERSION, 0, seq, msg, out)
+}
+
+/// `true` when `seq` is newer than `last` (wrapping; a half range ahead at most).
+pub fn seq_newer(seq: u16, last: u16) -> bool {
+    let d = seq.wrapping_sub(last);
+    d != 0 && d < 0x8000
+}
+
+/// A frame of any version, for the tests of version handling.
+#[cfg(test)]
+pub(crate) fn encode_frame_for_tests<M: Serialize>(version: u8, seq: u16, msg: &M) -> Vec<u8> {
+    let mut out = [0u8; MAX_FRAME_LEN];
+    crate::protocol::encode_with_version(version, 0, seq, msg, &mut out)
+        .map(<[u8]>::to_vec)
+        .unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests;

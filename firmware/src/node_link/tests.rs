@@ -1,0 +1,215 @@
+use super::*;
+use crate::protocol::{encode_with_version, DropReason};
+
+fn largest_downlink() -> Downlink {
+    Downlink {
+        session: u32::MAX,
+        pulse_us: [u16::MAX; 3],
+        ttl_ms: u8::MAX,
+        arm: ArmCommand::Armed,
+    }
+}
+
+fn largest_uplink() -> Uplink {
+    Uplink {
+        session: u32::MAX,
+        echo_seq: u16::MAX,
+        dt_us: u32::MAX,
+        samples: u16::MAX,
+        delta_angle_rad: [f32::MAX; 3],
+        delta_velocity_m_s: [f32::MIN; 3],
+        pressure_pa: f32::NAN,
+        pressure_count: u8::MAX,
+        status: u8::MAX,
+        counters: NodeCounters {
+            accepted: u16::MAX,
+            corrupt: u16::MAX,
+            replayed: u16::MAX,
+            out_of_range: u16::MAX,
+            foreign: u16::MAX,
+            version: u16::MAX,
+            ttl_expired: u16::MAX,
+            imu_errors: u16::MAX,
+        },
+    }
+}
+
+fn frame_of<M: Serialize>(seq: u16, msg: &M) -> heapless::Vec<u8, MAX_FRAME_LEN> {
+    let mut out = [0u8; MAX_FRAME_LEN];
+    let f = seal(seq, msg, &mut out).unwrap();
+    heapless::Vec::from_slice(f).unwrap()
+}
+
+fn decode_all<M: DeserializeOwnedDebug>(d: &mut LinkDecoder<M>, bytes: &[u8]) -> Vec<LinkFrame<M>> {
+    bytes.iter().filter_map(|&b| d.push(b)).collect()
+}
+
+trait DeserializeOwnedDebug: serde::de::DeserializeOwned + core::fmt::Debug {}
+impl<T: serde::de::DeserializeOwned + core::fmt::Debug> DeserializeOwnedDebug for T {}
+
+#[test]
+fn largest_messages_fit_their_frame_lengths() {
+    let down = frame_of(u16::MAX, &largest_downlink());
+    let up = frame_of(u16::MAX, &largest_uplink());
+    // The computed bounds allow the envelope's session (issue 22) its 5 varint bytes; the
+    // node link sends 0 there (one byte): the frames are within the bound by that slack.
+    assert!(down.len() <= MAX_DOWNLINK_FRAME_LEN, "{}", down.len());
+    assert!(up.len() <= MAX_UPLINK_FRAME_LEN, "{}", up.len());
+    assert!(MAX_DOWNLINK_FRAME_LEN - down.len() <= 5);
+    assert!(MAX_UPLINK_FRAME_LEN - up.len() <= 5);
+    println!(
+        "largest downlink frame {} B (bound {MAX_DOWNLINK_FRAME_LEN}), uplink {} B (bound {MAX_UPLINK_FRAME_LEN})",
+        down.len(),
+        up.len()
+    );
+}
+
+#[test]
+fn both_directions_at_50_hz_keep_the_115200_link_at_most_half_busy() {
+    let down_us = wire_time_us(MAX_DOWNLINK_FRAME_LEN, LINK_BAUD);
+    let up_us = wire_time_us(MAX_UPLINK_FRAME_LEN, LINK_BAUD);
+    // Full duplex: each direction has the whole period; the busier one is the uplink.
+    const { assert!(LINK_PERIOD_US <= 20_000, "at least 50 Hz") };
+    assert!(
+        2 * up_us <= LINK_PERIOD_US,
+        "uplink {up_us} us a {LINK_PERIOD_US} us period"
+    );
+    assert!(2 * down_us <= LINK_PERIOD_US, "downlink {down_us} us");
+    // And both in one half-duplex period (an RS-485 pair) still fit.
+    assert!(down_us + up_us <= LINK_PERIOD_US);
+    println!(
+        "wire time at {LINK_BAUD} Bd: downlink {down_us} us ({:.1} %), uplink {up_us} us ({:.1} %)",
+        100.0 * f64::from(down_us) / f64::from(LINK_PERIOD_US),
+        100.0 * f64::from(up_us) / f64::from(LINK_PERIOD_US)
+    );
+}
+
+#[test]
+fn wire_time_is_ten_bits_a_byte() {
+    assert_eq!(wire_time_us(1, 115_200), 87); // 86.8 us rounded up
+    assert_eq!(wire_time_us(1152, 115_200), 100_000);
+    assert_eq!(wire_time_us(10, 0), 100_000_000);
+}
+
+#[test]
+fn frames_round_trip_in_a_stream() {
+    let mut d = LinkDecoder::<Downlink>::new();
+    let a = largest_downlink();
+    let b = Downlink {
+        session: 7,
+        pulse_us: [1500, 1100, 1900],
+        ttl_ms: 60,
+        arm: ArmCommand::Disarmed,
+    };
+    let mut stream = frame_of(3, &a).to_vec();
+    stream.extend_from_slice(&frame_of(4, &b));
+    let got = decode_all(&mut d, &stream);
+    assert_eq!(
+        got,
+        vec![
+            LinkFrame::Frame { seq: 3, msg: a },
+            LinkFrame::Frame { seq: 4, msg: b }
+        ]
+    );
+    assert_eq!(d.frames, 2);
+
+    let mut u = LinkDecoder::<Uplink>::new();
+    let up = Uplink {
+        pressure_pa: 101_325.0,
+        ..largest_uplink()
+    };
+    let got = decode_all(&mut u, &frame_of(9, &up));
+    assert_eq!(got, vec![LinkFrame::Frame { seq: 9, msg: up }]);
+}
+
+#[test]
+fn every_flipped_bit_is_dropped_and_counted() {
+    let msg = Downlink {
+        session: 0x1234_5678,
+        pulse_us: [1600, 1400, 1500],
+        ttl_ms: 50,
+        arm: ArmCommand::Armed,
+    };
+    let frame = frame_of(1, &msg);
+    let inner = frame.len() - 2;
+    for i in 1..=inner {
+        for bit in 0..8 {
+            let mut f = frame.clone();
+            f[i] ^= 1 << bit;
+            let mut d = LinkDecoder::<Downlink>::new();
+            let got = decode_all(&mut d, &f);
+            assert!(
+                got.iter().all(|g| !matches!(g, LinkFrame::Frame { .. })),
+                "byte {i} bit {bit}: {got:?}"
+            );
+            assert_eq!(d.frames, 0);
+            assert!(d.dropped.total() >= 1 || got.is_empty());
+        }
+    }
+}
+
+#[test]
+fn another_version_is_dropped_as_version() {
+    let mut out = [0u8; MAX_FRAME_LEN];
+    let msg = largest_downlink();
+    let f = encode_with_version(NODE_LINK_VERSION + 1, 0, 1, &msg, &mut out).unwrap();
+    let mut d = LinkDecoder::<Downlink>::new();
+    assert_eq!(
+        decode_all(&mut d, f),
+        vec![LinkFrame::Dropped(DropReason::Version)]
+    );
+    assert_eq!(d.dropped.version, 1);
+    // A tether frame (the tether's version) on the node link is refused the same way.
+    let f = crate::protocol::encode(0, 1, &msg, &mut out).unwrap();
+    assert_eq!(
+        decode_all(&mut d, f),
+        vec![LinkFrame::Dropped(DropReason::Version)]
+    );
+}
+
+#[test]
+fn garbage_and_overlong_frames_resynchronize() {
+    let msg = Downlink {
+        session: 1,
+        pulse_us: [1500; 3],
+        ttl_ms: 100,
+        arm: ArmCommand::Disarmed,
+    };
+    let mut d = LinkDecoder::<Downlink>::new();
+    let mut stream = vec![0x55u8; 3 * MAX_LINK_FRAME_LEN];
+    stream.extend_from_slice(&frame_of(2, &msg));
+    let got = decode_all(&mut d, &stream);
+    assert_eq!(
+        got,
+        vec![
+            LinkFrame::Dropped(DropReason::Overflow),
+            LinkFrame::Frame { seq: 2, msg }
+        ]
+    );
+    // An uplink is not a downlink: CRC good, message malformed.
+    let mut d = LinkDecoder::<Downlink>::new();
+    let got = decode_all(&mut d, &frame_of(2, &largest_uplink()));
+    assert_eq!(got, vec![LinkFrame::Dropped(DropReason::Malformed)]);
+    // Cut short: a too-short frame.
+    let mut d = LinkDecoder::<Downlink>::new();
+    let got = decode_all(&mut d, &[0, 3, 1, 2, 0]);
+    assert!(matches!(got.as_slice(), [LinkFrame::Dropped(_)]), "{got:?}");
+}
+
+#[test]
+fn sequence_order_wraps() {
+    assert!(seq_newer(1, 0));
+    assert!(seq_newer(0, u16::MAX));
+    assert!(!seq_newer(5, 5));
+    assert!(!seq_newer(4, 5));
+    assert!(!seq_newer(5 + 0x8000, 5));
+    assert!(seq_newer(5 + 0x7fff, 5));
+}
+
+#[test]
+fn esc_range_is_the_controllers() {
+    let map = controller_core::params::PulseCurve::STANDARD;
+    assert_eq!(f32::from(ESC_NEUTRAL_US), map.neutral_us);
+    assert_eq!(f32::from(ESC_MIN_US), map.min_us);
+    assert_eq!(f32::from(ESC_MAX_US), map.max_us);
+}
