@@ -25,9 +25,9 @@
 //! the link was lost) ends the run with an error.
 
 use crate::plant::six_dof_factory;
+use crate::plant::water::WaterSpec;
 use crate::plant::xy::XyPlant;
 use crate::plant::xz::XzPlant;
-use crate::plant::water::WaterSpec;
 use crate::plant::{Environment, Plant, PlantState};
 use crate::scenario::{ExpectSpec, NoiseStd, Plane, Scenario, MAX_CONTROL_TICKS};
 use crate::sensors::Measurement;
@@ -751,50 +751,36 @@ impl Turns {
     }
 }
 
-/// Forwarding impls, so that a loop can borrow its stage and endpoint (`run_closed_loop`) or
-/// own them (the topside's loop over its tether).
-impl<T: Navigation + ?Sized> Navigation for &mut T {
-    fn observe(&mut self, t_s: f64, truth: &PlantState) {
-        (**self).observe(t_s, truth)
-    }
-    fn estimate(&mut self, t_s: f64, thrust_cmd_n: [f64; 3]) -> NavState {
-        (**self).estimate(t_s, thrust_cmd_n)
-    }
-    fn report(&self) -> NavReport {
-        (**self).report()
-    }
-    fn position_std_m(&self) -> Option<[f64; 3]> {
-        (**self).position_std_m()
-    }
-    fn usbl_fixes(&self) -> Vec<FixRecord> {
-        (**self).usbl_fixes()
-    }
-    fn for_vehicle(&mut self, t_s: f64) -> Vec<Measurement> {
-        (**self).for_vehicle(t_s)
-    }
+/// A navigation stage behind a pointer is one: a loop can borrow its stage
+/// (`run_closed_loop`) or own it (the topside's loop).
+macro_rules! forward_navigation {
+    ($($head:tt)*) => {
+        $($head)* {
+            fn observe(&mut self, t_s: f64, truth: &PlantState) {
+                (**self).observe(t_s, truth)
+            }
+            fn estimate(&mut self, t_s: f64, thrust_cmd_n: [f64; 3]) -> NavState {
+                (**self).estimate(t_s, thrust_cmd_n)
+            }
+            fn report(&self) -> NavReport {
+                (**self).report()
+            }
+            fn position_std_m(&self) -> Option<[f64; 3]> {
+                (**self).position_std_m()
+            }
+            fn usbl_fixes(&self) -> Vec<FixRecord> {
+                (**self).usbl_fixes()
+            }
+            fn for_vehicle(&mut self, t_s: f64) -> Vec<Measurement> {
+                (**self).for_vehicle(t_s)
+            }
+        }
+    };
 }
+forward_navigation!(impl<T: Navigation + ?Sized> Navigation for &mut T);
+forward_navigation!(impl<T: Navigation + ?Sized> Navigation for Box<T>);
 
-impl<T: Navigation + ?Sized> Navigation for Box<T> {
-    fn observe(&mut self, t_s: f64, truth: &PlantState) {
-        (**self).observe(t_s, truth)
-    }
-    fn estimate(&mut self, t_s: f64, thrust_cmd_n: [f64; 3]) -> NavState {
-        (**self).estimate(t_s, thrust_cmd_n)
-    }
-    fn report(&self) -> NavReport {
-        (**self).report()
-    }
-    fn position_std_m(&self) -> Option<[f64; 3]> {
-        (**self).position_std_m()
-    }
-    fn usbl_fixes(&self) -> Vec<FixRecord> {
-        (**self).usbl_fixes()
-    }
-    fn for_vehicle(&mut self, t_s: f64) -> Vec<Measurement> {
-        (**self).for_vehicle(t_s)
-    }
-}
-
+/// A borrowed endpoint is one (`run_closed_loop`).
 impl<T: ControllerEndpoint + ?Sized> ControllerEndpoint for &mut T {
     fn start(&mut self, nav0: &NavState) -> Result<()> {
         (**self).start(nav0)
@@ -1143,10 +1129,8 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
         }
 
         if self.water.current_varies() {
-            self.plant.set_current(
-                self.water
-                    .current_at(self.current_m_s, t, truth.eta[2]),
-            );
+            self.plant
+                .set_current(self.water.current_at(self.current_m_s, t, truth.eta[2]));
         }
         // Zero-order hold over the plant steps of this period.
         self.held_cmd = out.applied_n;

@@ -50,7 +50,7 @@ enum Tether {
         truth: BufWriter<File>,
     },
     /// A real vehicle.
-    Real(Link),
+    Real(Box<Link>),
 }
 
 /// A real vehicle is sent a heartbeat every this many control periods (10 Hz): its
@@ -140,7 +140,7 @@ impl SimVehicle {
             bail!("the vehicle refused our heartbeat: {why:?} (another protocol version?)");
         }
         let mut v = Self {
-            tether: Tether::Real(link),
+            tether: Tether::Real(Box::new(link)),
             t_s: 0.0,
             period_s: 0.02,
             periods: 0,
