@@ -103,6 +103,9 @@ pub struct HilOptions {
     /// the vehicle description and the navigation are sent, and the rest comes from the
     /// ground stations (`topside --sim`).
     pub fly_scenario: bool,
+    /// Keep a telemetry row per step (`telemetry.csv`, the failsafe checks); the topside,
+    /// which runs for hours, keeps none.
+    pub telemetry_rows: bool,
 }
 
 impl HilOptions {
@@ -121,6 +124,7 @@ impl HilOptions {
             record: true,
             ram_dump: None,
             fly_scenario: true,
+            telemetry_rows: true,
         }
     }
 }
@@ -231,7 +235,7 @@ pub struct TetherEndpoint {
     /// Sequence numbers of the measurements sent since the last step (their `Nack`s count).
     sent_measurements: Vec<u16>,
     /// Keep a telemetry row per step.
-    record: bool,
+    telemetry_rows: bool,
     /// Set the scenario's reference and mode and arm at the start.
     fly_scenario: bool,
     /// The latest telemetry.
@@ -298,7 +302,7 @@ impl TetherEndpoint {
             onboard: (sc.navigation.source == NavSource::Estimator)
                 .then(|| crate::estimator_nav::onboard_config(sc)),
             sent_measurements: Vec::new(),
-            record: opts.record,
+            telemetry_rows: opts.telemetry_rows,
             fly_scenario: opts.fly_scenario,
             latest: Telemetry::default(),
         })
@@ -537,7 +541,7 @@ impl ControllerEndpoint for TetherEndpoint {
         self.report.loop_ticks_max = self.report.loop_ticks_max.max(tel.loop_ticks);
         self.note_failsafes(t_s, &tel);
         self.latest = tel;
-        if !self.record {
+        if !self.telemetry_rows {
             return Ok(self.reply(&tel, applied));
         }
         self.telemetry.push(TelemetryRow {

@@ -77,6 +77,7 @@ impl SimVehicle {
         // The ground stations arm and choose the modes; the topside runs until stopped.
         opts.fly_scenario = false;
         opts.record = false;
+        opts.telemetry_rows = false;
         opts.wall_limit = Duration::MAX;
         let endpoint = TetherEndpoint::connect(
             Link::new(port, None),
