@@ -22,7 +22,7 @@
 //! vehicle's IMU and pressure sensor and by the fixes that come down the tether.
 
 pub use crate::protocol::Failsafe;
-use crate::protocol::{fault, Command, Law, ManualThrust, Mode, NackReason, NavSample, Plane};
+use crate::protocol::{fault, Command, ManualThrust, Mode, NackReason, NavSample};
 use controller_core::alloc::{allocate, Allocation, ESC_NEUTRAL_US};
 use controller_core::controller::{ControlMode, ControlOutput, Controller};
 use controller_core::law::pilot::Sticks;
@@ -560,7 +560,7 @@ impl Autopilot {
                 self.auto = Some((path, now_us));
             }
             Mode::Track { plane, law } => {
-                control_mode(plane, law).ok_or(NackReason::Unsupported)?;
+                law.in_plane(plane).ok_or(NackReason::Unsupported)?;
                 if self.reference.is_none() {
                     return Err(NackReason::NoReference);
                 }
@@ -639,7 +639,7 @@ impl Autopilot {
                 let law = self.controller.pilot_step(&nav, &sticks, hold_depth, dt_s);
                 return self.law_output(&law, faults);
             }
-            (Mode::Track { plane, law }, Some((r, start)), _) => match control_mode(plane, law) {
+            (Mode::Track { plane, law }, Some((r, start)), _) => match law.in_plane(plane) {
                 // Never from before the arming or the mode's entry.
                 Some(cm) => (
                     r.sample(seconds_since(now_us, (*start).max(self.engaged_us))),
@@ -712,18 +712,6 @@ impl Autopilot {
             law_ran: false,
             ..self.law_output(&out, faults)
         }
-    }
-}
-
-/// The core's law for a tracking mode, `None` for the paper law in 3-D.
-pub fn control_mode(plane: Plane, law: Law) -> Option<ControlMode> {
-    match (law, plane) {
-        (Law::Paper, Plane::Xz) => Some(ControlMode::PaperXz),
-        (Law::Paper, Plane::Xy) => Some(ControlMode::PaperXy),
-        (Law::Paper, Plane::ThreeD) => None,
-        (Law::Tracking, Plane::Xz) => Some(ControlMode::TrackingXz),
-        (Law::Tracking, Plane::Xy) => Some(ControlMode::TrackingXy),
-        (Law::Tracking, Plane::ThreeD) => Some(ControlMode::Tracking3d),
     }
 }
 

@@ -30,6 +30,7 @@
 //! the link statistics), `timeseries.csv` and plots as `host-sim run`, and
 //! `telemetry.csv` with what the firmware reported each step.
 
+use crate::clock::us;
 use crate::in_process::InProcessFirmware;
 use crate::link::{open, Endpoint, HostLinkStats, Link, Noise, NoiseSpec, Port};
 use crate::output::write_run;
@@ -40,14 +41,11 @@ use crate::sensors::NavSource;
 use crate::sim_loop::{run_closed_loop, ControllerEndpoint, RunOptions, RunOutput, StepReply};
 use anyhow::{anyhow, bail, Result};
 use controller_core::alloc::PwmMap;
-use controller_core::controller::ControlMode;
 use controller_core::nav::onboard::OnboardConfig;
 use controller_core::params::VehicleParams;
 use controller_core::reference::{RefSample, Reference};
 use controller_core::state::NavState;
-use firmware::protocol::{
-    fault, Command, Law, LinkStats, Mode, NavSample, Plane as FwPlane, Reply, Telemetry,
-};
+use firmware::protocol::{fault, Command, LinkStats, Mode, NavSample, Reply, Telemetry};
 use serde::Serialize;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -101,6 +99,13 @@ pub struct HilOptions {
     pub record: bool,
     /// With `--qemu`: save the emulated SRAM here at the end of the run (stack high-water).
     pub ram_dump: Option<PathBuf>,
+    /// At the start, set the scenario's reference and mode and arm (`hil`); without, only
+    /// the vehicle description and the navigation are sent, and the rest comes from the
+    /// ground stations (`topside --sim`).
+    pub fly_scenario: bool,
+    /// Keep a telemetry row per step (`telemetry.csv`, the failsafe checks); the topside,
+    /// which runs for hours, keeps none.
+    pub telemetry_rows: bool,
 }
 
 impl HilOptions {
@@ -118,6 +123,8 @@ impl HilOptions {
             wall_limit: Duration::from_secs(600),
             record: true,
             ram_dump: None,
+            fly_scenario: true,
+            telemetry_rows: true,
         }
     }
 }
@@ -203,22 +210,6 @@ pub struct HilOutput {
     pub telemetry: Vec<TelemetryRow>,
 }
 
-/// The firmware's mode for a scenario's control mode.
-pub fn firmware_mode(m: ControlMode) -> Mode {
-    let (plane, law) = match m {
-        ControlMode::PaperXz => (FwPlane::Xz, Law::Paper),
-        ControlMode::PaperXy => (FwPlane::Xy, Law::Paper),
-        ControlMode::TrackingXz => (FwPlane::Xz, Law::Tracking),
-        ControlMode::TrackingXy => (FwPlane::Xy, Law::Tracking),
-        ControlMode::Tracking3d => (FwPlane::ThreeD, Law::Tracking),
-    };
-    Mode::Track { plane, law }
-}
-
-fn us(t_s: f64) -> u64 {
-    (t_s * 1e6).round().max(0.0) as u64
-}
-
 /// The firmware at the other end of the tether as the loop's controller: each control tick
 /// is one lock-step exchange (`Heartbeat` and `Nav` out, `Telemetry` back), sent again with
 /// the same sequence numbers until answered.
@@ -243,6 +234,12 @@ pub struct TetherEndpoint {
     onboard: Option<OnboardConfig>,
     /// Sequence numbers of the measurements sent since the last step (their `Nack`s count).
     sent_measurements: Vec<u16>,
+    /// Keep a telemetry row per step.
+    telemetry_rows: bool,
+    /// Set the scenario's reference and mode and arm at the start.
+    fly_scenario: bool,
+    /// The latest telemetry.
+    latest: Telemetry,
 }
 
 impl TetherEndpoint {
@@ -282,7 +279,7 @@ impl TetherEndpoint {
         };
         Ok(Self {
             link,
-            mode: firmware_mode(sc.control_mode()?),
+            mode: Mode::from(sc.control_mode()?),
             reference: sc.reference.to_core(),
             noise: opts.noise.map(Noise::new),
             pwm: PwmMap::for_vehicle(&sc.vehicle_model()?),
@@ -305,7 +302,26 @@ impl TetherEndpoint {
             onboard: (sc.navigation.source == NavSource::Estimator)
                 .then(|| crate::estimator_nav::onboard_config(sc)),
             sent_measurements: Vec::new(),
+            telemetry_rows: opts.telemetry_rows,
+            fly_scenario: opts.fly_scenario,
+            latest: Telemetry::default(),
         })
+    }
+
+    /// The link to the firmware (for commands between the steps: the topside's ground
+    /// stations).
+    pub fn link(&mut self) -> &mut Link {
+        &mut self.link
+    }
+
+    /// The link's counters.
+    pub fn link_stats(&self) -> &HostLinkStats {
+        &self.link.stats
+    }
+
+    /// The telemetry of the latest step.
+    pub fn latest(&self) -> &Telemetry {
+        &self.latest
     }
 
     /// After the run: ask the firmware for its counters (the answer to one more heartbeat
@@ -403,6 +419,22 @@ impl TetherEndpoint {
         }
     }
 
+    /// What the loop gets of a step's telemetry.
+    fn reply(&self, tel: &Telemetry, applied: [f64; 3]) -> StepReply {
+        StepReply {
+            requested: tel.requested,
+            achieved: tel.achieved,
+            thrust_cmd_n: tel.thrust_n,
+            applied_n: applied,
+            pulse_us: tel.pulse_us.map(f64::from),
+            errors: tel.errors,
+            saturated: tel.faults & fault::SATURATED != 0,
+            estimate: self
+                .onboard
+                .map(|_| (tel.nav, tel.nav_pos_std_m.map(f64::from))),
+        }
+    }
+
     /// Failsafe timings of a link-loss run.
     fn note_failsafes(&mut self, t_s: f64, tel: &Telemetry) {
         let rep = &mut self.report;
@@ -479,7 +511,8 @@ impl ControllerEndpoint for TetherEndpoint {
             Command::SetMode(self.mode),
             Command::Arm,
         ];
-        for cmd in &setup {
+        let setup = if self.fly_scenario { &setup[..] } else { &[] };
+        for cmd in setup {
             if let Err(reason) = self.link.command(cmd, tmo, 5, |_| {})? {
                 bail!("the firmware refused {cmd:?}: {reason:?}");
             }
@@ -507,6 +540,10 @@ impl ControllerEndpoint for TetherEndpoint {
         self.ticks_sum += u64::from(tel.loop_ticks);
         self.report.loop_ticks_max = self.report.loop_ticks_max.max(tel.loop_ticks);
         self.note_failsafes(t_s, &tel);
+        self.latest = tel;
+        if !self.telemetry_rows {
+            return Ok(self.reply(&tel, applied));
+        }
         self.telemetry.push(TelemetryRow {
             t_s,
             armed: tel.armed,
@@ -522,18 +559,7 @@ impl ControllerEndpoint for TetherEndpoint {
                 .last_status
                 .map_or(0, |st| st.link.dropped.total()),
         });
-        Ok(StepReply {
-            requested: tel.requested,
-            achieved: tel.achieved,
-            thrust_cmd_n: tel.thrust_n,
-            applied_n: applied,
-            pulse_us: tel.pulse_us.map(f64::from),
-            errors: tel.errors,
-            saturated: tel.faults & fault::SATURATED != 0,
-            estimate: self
-                .onboard
-                .map(|_| (tel.nav, tel.nav_pos_std_m.map(f64::from))),
-        })
+        Ok(self.reply(&tel, applied))
     }
 
     /// The measurements, as the commands the firmware takes; a depth travels as the pressure

@@ -43,11 +43,15 @@ impl embedded_hal::pwm::SetDutyCycle for SimPwm {
     }
 }
 
-/// The App's side of the in-memory serial line.
-#[derive(Debug, Default)]
+/// The App's side of an in-memory serial line: bytes queued in `rx` are read by the
+/// firmware; bytes the firmware writes are kept in `tx`. The one fake serial port: the
+/// cross-crate tests use it too (`rov_tests::FakeSerial`).
+#[derive(Debug, Default, Clone)]
 pub struct SimSerial {
-    rx: VecDeque<u8>,
-    tx: VecDeque<u8>,
+    /// Waiting to be read by the firmware.
+    pub rx: VecDeque<u8>,
+    /// Written by the firmware.
+    pub tx: Vec<u8>,
 }
 
 impl embedded_io::ErrorType for SimSerial {
@@ -79,7 +83,7 @@ impl embedded_io::ReadReady for SimSerial {
 
 impl embedded_io::Write for SimSerial {
     fn write(&mut self, buf: &[u8]) -> Result<usize, Infallible> {
-        self.tx.extend(buf);
+        self.tx.extend_from_slice(buf);
         Ok(buf.len())
     }
 

@@ -16,6 +16,7 @@
 //! - [`current_sweep`]: currents from every direction, as heat maps (issue 14).
 
 pub mod checks;
+pub mod clock;
 pub mod current_sweep;
 pub mod estimator_nav;
 pub mod hil;

@@ -411,8 +411,9 @@ fn nums(w: &[&str], n: usize) -> Result<Vec<f32>> {
 
 /// Parse one console line.
 pub fn parse_console(line: &str) -> Result<Option<ConsoleCmd>> {
+    use controller_core::controller::ControlMode;
     use controller_core::reference::{PaperPolynomial, Reference};
-    use firmware::protocol::{Law, ManualThrust, Mode, Plane};
+    use firmware::protocol::{ManualThrust, Mode};
     let w: Vec<&str> = line.split_whitespace().collect();
     let Some((&head, rest)) = w.split_first() else {
         return Ok(None);
@@ -424,16 +425,15 @@ pub fn parse_console(line: &str) -> Result<Option<ConsoleCmd>> {
         "help" | "?" => ConsoleCmd::Help,
         "wait" => ConsoleCmd::Wait(Duration::from_secs_f32(nums(rest, 1)?[0].max(0.0))),
         "mode" => {
-            let track = |plane, law| Mode::Track { plane, law };
             let m = match rest.first().copied().unwrap_or("") {
                 "idle" => Mode::Idle,
                 "manual" => Mode::Manual,
                 "hold" => Mode::Hold,
-                "track-xz" => track(Plane::Xz, Law::Tracking),
-                "track-xy" => track(Plane::Xy, Law::Tracking),
-                "track-3d" => track(Plane::ThreeD, Law::Tracking),
-                "paper-xz" => track(Plane::Xz, Law::Paper),
-                "paper-xy" => track(Plane::Xy, Law::Paper),
+                "track-xz" => Mode::from(ControlMode::TrackingXz),
+                "track-xy" => Mode::from(ControlMode::TrackingXy),
+                "track-3d" => Mode::from(ControlMode::Tracking3d),
+                "paper-xz" => Mode::from(ControlMode::PaperXz),
+                "paper-xy" => Mode::from(ControlMode::PaperXy),
                 m => bail!("unknown mode {m:?}"),
             };
             ConsoleCmd::Send(Command::SetMode(m))

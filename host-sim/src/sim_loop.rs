@@ -1,8 +1,11 @@
 //! The one closed loop: the `f64` plant at `plant_dt_s`, a navigation stage, and a controller
 //! endpoint at `control_period_s` with a zero-order hold. Every run uses it: the software run
 //! (`host-sim run`, Monte Carlo), the firmware library's `App` in process, and the firmware
-//! over the tether (hardware in the loop, `host-sim hil`). Only the endpoint differs, so the
-//! plant, the measurement path, the logging, the metrics and the stop rules are the same code.
+//! over the tether (hardware in the loop, `host-sim hil`, and the simulated vehicle behind
+//! `host-sim topside --sim`). Only the endpoint differs, so the plant, the measurement path,
+//! the logging, the metrics and the stop rules are the same code. [`ClosedLoop`] is stepped
+//! one control period at a time (`new`, `step`, `finish`); [`run_closed_loop`] steps it to
+//! the end, the topside in (scaled) real time between its ground stations' commands.
 //!
 //! Each control tick at `t = k * control_period_s`:
 //! 1. the [`Navigation`] stage gives the state the controller sees (today's truth path: the
@@ -25,6 +28,7 @@
 //! the link was lost) ends the run with an error.
 
 use crate::plant::six_dof_factory;
+use crate::plant::water::WaterSpec;
 use crate::plant::xy::XyPlant;
 use crate::plant::xz::XzPlant;
 use crate::plant::{Environment, Plant, PlantState};
@@ -37,7 +41,7 @@ use anyhow::{anyhow, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::controller::{ControlMode, Controller, Gains};
 use controller_core::params::VehicleParams;
-use controller_core::reference::RefSample;
+use controller_core::reference::{RefSample, Reference};
 use controller_core::state::{BodyForces, NavState, TrackingErrors};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -58,6 +62,9 @@ pub struct RunOptions {
     pub noise_seed: Option<u64>,
     /// Simulated duration instead of the scenario's (s).
     pub duration_s: Option<f64>,
+    /// No end: the loop runs until its driver stops stepping it (the topside). The windows
+    /// of the end (the last 20 %, the last 80 %) are those of the scenario's duration.
+    pub open_ended: bool,
 }
 
 /// One logged control tick.
@@ -747,99 +754,273 @@ impl Turns {
     }
 }
 
-/// Run a scenario in closed loop with `nav` as the navigation stage and `endpoint` as the
-/// controller.
-pub fn run_closed_loop(
-    sc: &Scenario,
-    opts: &RunOptions,
-    nav: &mut dyn Navigation,
-    endpoint: &mut dyn ControllerEndpoint,
-) -> Result<RunOutput> {
-    sc.validate()?;
-    let wall = Instant::now();
-    let saturate = sc.thrusters.saturate;
-    let nominal = sc.vehicle_model()?;
-    let (lim_fwd, lim_rev) = (
-        f64::from(nominal.params().thrust_max_forward_n),
-        f64::from(nominal.params().thrust_max_reverse_n),
-    );
-
-    let plant_params = opts
-        .plant_params
-        .unwrap_or_else(|| nominal_plant_params(sc));
-    plant_params
-        .validate()
-        .map_err(|e| anyhow!("plant parameters: {e}"))?;
-    let env = Environment {
-        current_m_s: opts.current_m_s.unwrap_or(sc.disturbance.current_m_s),
+/// A navigation stage behind a pointer is one: a loop can borrow its stage
+/// (`run_closed_loop`) or own it (the topside's loop).
+macro_rules! forward_navigation {
+    ($($head:tt)*) => {
+        $($head)* {
+            fn observe(&mut self, t_s: f64, truth: &PlantState) {
+                (**self).observe(t_s, truth)
+            }
+            fn estimate(&mut self, t_s: f64, thrust_cmd_n: [f64; 3]) -> NavState {
+                (**self).estimate(t_s, thrust_cmd_n)
+            }
+            fn report(&self) -> NavReport {
+                (**self).report()
+            }
+            fn position_std_m(&self) -> Option<[f64; 3]> {
+                (**self).position_std_m()
+            }
+            fn usbl_fixes(&self) -> Vec<FixRecord> {
+                (**self).usbl_fixes()
+            }
+            fn for_vehicle(&mut self, t_s: f64) -> Vec<Measurement> {
+                (**self).for_vehicle(t_s)
+            }
+        }
     };
-    let mut plant = make_plant(
-        sc.plane,
-        &plant_params,
-        env,
-        saturate,
-        sc.initial.to_plant(),
-    )?;
-    plant.set_bounds(sc.water.surface, sc.water.seabed_depth_m);
+}
+forward_navigation!(impl<T: Navigation + ?Sized> Navigation for &mut T);
+forward_navigation!(impl<T: Navigation + ?Sized> Navigation for Box<T>);
 
-    let reference = sc.reference.to_core();
-    let axes = sc.plane.axes();
-    let n_sub = sc.plant_steps_per_control().max(1);
-    let dt = sc.plant_dt_s;
-    let tc = dt * n_sub as f64;
-    let duration = opts.duration_s.unwrap_or(sc.duration_s);
-    let n_ctrl = (duration / tc).round() as u64;
-    if n_ctrl as f64 > MAX_CONTROL_TICKS {
-        return Err(anyhow!(
-            "{duration} s is {n_ctrl} control ticks: at most {MAX_CONTROL_TICKS:.0e} in one run"
-        ));
+/// A borrowed endpoint is one (`run_closed_loop`).
+impl<T: ControllerEndpoint + ?Sized> ControllerEndpoint for &mut T {
+    fn start(&mut self, nav0: &NavState) -> Result<()> {
+        (**self).start(nav0)
+    }
+    fn step(&mut self, t_s: f64, nav: &NavState, reference: &RefSample) -> Result<StepReply> {
+        (**self).step(t_s, nav, reference)
+    }
+    fn forward(&mut self, measurements: &[Measurement]) -> Result<()> {
+        (**self).forward(measurements)
+    }
+}
+
+/// What the loop accumulates for the summary: the RMS windows, the largest figures, the
+/// control-lost judgement's first-half and tail extremes, the turns against the path.
+#[derive(Debug)]
+struct Metrics {
+    all: Rms,
+    tail: Rms,
+    last80: Rms,
+    est: Rms,
+    n_sat: u64,
+    /// Start of the last 20 % and of the last 80 % (s).
+    t_tail: f64,
+    t_80: f64,
+    settle_s: f64,
+    first_half_max: f64,
+    first_half_depth_max: f64,
+    tail_min: f64,
+    tail_depth_min: f64,
+    heading_judged: bool,
+    depth_judged: bool,
+    turns: Turns,
+}
+
+/// The closed loop of one run, stepped one control period at a time: the plant, the
+/// navigation stage `N`, the controller endpoint `E`, the metrics, the log and the stop rules.
+/// [`run_closed_loop`] steps it to the end; the topside steps it in (scaled) real time
+/// between the ground stations' commands.
+pub struct ClosedLoop<N: Navigation, E: ControllerEndpoint> {
+    nav: N,
+    endpoint: E,
+    plant: Box<dyn Plant>,
+    reference: Reference,
+    /// The water: a current varying in time or with depth is set each period.
+    water: WaterSpec,
+    /// The constant current the varying one starts from (m/s).
+    current_m_s: [f64; 3],
+    plane: Plane,
+    axes: [bool; 3],
+    expect: Option<ExpectSpec>,
+    lim_fwd: f64,
+    lim_rev: f64,
+    /// Plant steps per control period, their length, the control period (s).
+    n_sub: usize,
+    dt: f64,
+    tc: f64,
+    /// The last control tick (`None`: open-ended, run until the driver stops).
+    n_ctrl: Option<u64>,
+    record: bool,
+    /// The next control tick.
+    k: u64,
+    /// The thrust command held over the period that just ended (N).
+    held_cmd: [f64; 3],
+    /// The run has stopped (completed, diverged or not finite).
+    done: bool,
+    wall: Instant,
+    s: Summary,
+    m: Metrics,
+    last: Sample,
+    log: Vec<Sample>,
+}
+
+impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
+    /// The loop of a scenario with `nav` as the navigation stage and `endpoint` as the
+    /// controller: the scenario checked, the plant built, nothing stepped yet (the endpoint
+    /// is started by the first [`step`](Self::step)).
+    pub fn new(sc: &Scenario, opts: &RunOptions, nav: N, endpoint: E) -> Result<Self> {
+        sc.validate()?;
+        let wall = Instant::now();
+        let saturate = sc.thrusters.saturate;
+        let nominal = sc.vehicle_model()?;
+        let (lim_fwd, lim_rev) = (
+            f64::from(nominal.params().thrust_max_forward_n),
+            f64::from(nominal.params().thrust_max_reverse_n),
+        );
+
+        let plant_params = opts
+            .plant_params
+            .unwrap_or_else(|| nominal_plant_params(sc));
+        plant_params
+            .validate()
+            .map_err(|e| anyhow!("plant parameters: {e}"))?;
+        let env = Environment {
+            current_m_s: opts.current_m_s.unwrap_or(sc.disturbance.current_m_s),
+        };
+        let mut plant = make_plant(
+            sc.plane,
+            &plant_params,
+            env,
+            saturate,
+            sc.initial.to_plant(),
+        )?;
+        plant.set_bounds(sc.water.surface, sc.water.seabed_depth_m);
+
+        let n_sub = sc.plant_steps_per_control().max(1);
+        let dt = sc.plant_dt_s;
+        let tc = dt * n_sub as f64;
+        let duration = opts.duration_s.unwrap_or(sc.duration_s);
+        let n_ctrl = if opts.open_ended {
+            None
+        } else {
+            let n_ctrl = (duration / tc).round() as u64;
+            if n_ctrl as f64 > MAX_CONTROL_TICKS {
+                return Err(anyhow!(
+                    "{duration} s is {n_ctrl} control ticks: at most {MAX_CONTROL_TICKS:.0e} in one run"
+                ));
+            }
+            Some(n_ctrl)
+        };
+        let log = match n_ctrl {
+            Some(n) if opts.record => Vec::with_capacity(n as usize + 1),
+            _ => Vec::new(),
+        };
+        let s = Summary {
+            scenario: sc.name.clone(),
+            plane: sc.plane.as_str().into(),
+            controller: sc.controller.as_str().into(),
+            reference: sc.reference.kind().into(),
+            saturate,
+            duration_s: duration,
+            stop_reason: "completed".into(),
+            ..Summary::default()
+        };
+        let m = Metrics {
+            all: Rms::default(),
+            tail: Rms::default(),
+            last80: Rms::default(),
+            est: Rms::default(),
+            n_sat: 0,
+            t_tail: 0.8 * duration,
+            t_80: 0.2 * duration,
+            settle_s: sc.expect.map_or(10.0, |e| e.settle_s),
+            first_half_max: 0.0,
+            first_half_depth_max: 0.0,
+            tail_min: f64::INFINITY,
+            tail_depth_min: f64::INFINITY,
+            heading_judged: sc.plane != Plane::Xz,
+            depth_judged: sc.plane != Plane::Xy,
+            turns: Turns::default(),
+        };
+        Ok(Self {
+            nav,
+            endpoint,
+            plant,
+            reference: sc.reference.to_core(),
+            water: sc.water.clone(),
+            current_m_s: env.current_m_s,
+            plane: sc.plane,
+            axes: sc.plane.axes(),
+            expect: sc.expect,
+            lim_fwd,
+            lim_rev,
+            n_sub,
+            dt,
+            tc,
+            n_ctrl,
+            record: opts.record,
+            k: 0,
+            held_cmd: [0.0; 3],
+            done: false,
+            wall,
+            s,
+            m,
+            last: Sample::default(),
+            log,
+        })
     }
 
-    let mut log = Vec::with_capacity(if opts.record { n_ctrl as usize + 1 } else { 0 });
-    let (mut all, mut tail, mut last80, mut est) = (
-        Rms::default(),
-        Rms::default(),
-        Rms::default(),
-        Rms::default(),
-    );
-    let mut s = Summary {
-        scenario: sc.name.clone(),
-        plane: sc.plane.as_str().into(),
-        controller: sc.controller.as_str().into(),
-        reference: sc.reference.kind().into(),
-        saturate,
-        duration_s: duration,
-        stop_reason: "completed".into(),
-        ..Summary::default()
-    };
-    let mut n_sat = 0u64;
-    let mut last = Sample::default();
-    let t_tail = 0.8 * duration;
-    let t_80 = 0.2 * duration;
-    let mut held_cmd = [0.0f64; 3];
-    let settle_s = sc.expect.map_or(10.0, |e| e.settle_s);
-    let (mut first_half_max, mut first_half_depth_max) = (0.0f64, 0.0f64);
-    let (mut tail_min, mut tail_depth_min) = (f64::INFINITY, f64::INFINITY);
-    let heading_judged = sc.plane != Plane::Xz;
-    let depth_judged = sc.plane != Plane::Xy;
-    let mut turns = Turns::default();
+    /// The control period (s).
+    pub fn period_s(&self) -> f64 {
+        self.tc
+    }
 
-    for k in 0..=n_ctrl {
-        let t = k as f64 * tc;
-        let truth = plant.state();
-        let nav_state = nav.estimate(t, held_cmd);
-        if k == 0 {
-            endpoint.start(&nav_state)?;
+    /// Simulated time of the next control tick (s).
+    pub fn t_s(&self) -> f64 {
+        self.k as f64 * self.tc
+    }
+
+    /// The latest control tick: the true state, what the controller was given, the errors.
+    pub fn sample(&self) -> &Sample {
+        &self.last
+    }
+
+    /// The controller endpoint (the topside sends its ground stations' commands through it).
+    pub fn endpoint(&self) -> &E {
+        &self.endpoint
+    }
+
+    /// The controller endpoint, mutable.
+    pub fn endpoint_mut(&mut self) -> &mut E {
+        &mut self.endpoint
+    }
+
+    /// The run stopped (completed, diverged or not finite): [`step`](Self::step) does nothing.
+    pub fn stopped(&self) -> bool {
+        self.done
+    }
+
+    /// Why the run stopped (`completed` while it runs).
+    pub fn stop_reason(&self) -> &str {
+        &self.s.stop_reason
+    }
+
+    /// One control tick at `t = k * control_period_s` (see the module doc), then, unless the
+    /// run stops here, the plant through the period with the endpoint's thrust held. Returns
+    /// whether the run goes on.
+    pub fn step(&mut self) -> Result<bool> {
+        if self.done {
+            return Ok(false);
         }
-        let r: RefSample = reference.sample(t as f32);
-        endpoint.forward(&nav.for_vehicle(t))?;
-        let out = endpoint.step(t, &nav_state, &r)?;
+        let k = self.k;
+        let t = k as f64 * self.tc;
+        let truth = self.plant.state();
+        let nav_state = self.nav.estimate(t, self.held_cmd);
+        if k == 0 {
+            self.endpoint.start(&nav_state)?;
+        }
+        let r: RefSample = self.reference.sample(t as f32);
+        self.endpoint.forward(&self.nav.for_vehicle(t))?;
+        let out = self.endpoint.step(t, &nav_state, &r)?;
         let (nav_state, nav_std) = match out.estimate {
             Some((e, std)) => (e, Some(std)),
-            None => (nav_state, nav.position_std_m()),
+            None => (nav_state, self.nav.position_std_m()),
         };
 
         // Metrics on the true state.
+        let axes = self.axes;
         let ref_pos = r.pos_m.map(f64::from);
         let ref_vel = r.vel_m_s.map(f64::from);
         let nav_pos = [nav_state.x_m, nav_state.y_m, nav_state.z_m].map(f64::from);
@@ -854,7 +1035,7 @@ pub fn run_closed_loop(
         }
         let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
         let pen = norm(pe);
-        let angle_err = f64::from(match sc.plane {
+        let angle_err = f64::from(match self.plane {
             Plane::Xz => out.errors.pitch_rad,
             _ => out.errors.yaw_rad,
         });
@@ -863,7 +1044,7 @@ pub fn run_closed_loop(
         let cmd = out.thrust_cmd_n.map(f64::from);
         let exceeds = cmd
             .iter()
-            .any(|&f| f > lim_fwd + 1e-6 || f < -lim_rev - 1e-6);
+            .any(|&f| f > self.lim_fwd + 1e-6 || f < -self.lim_rev - 1e-6);
         let saturated = out.saturated || exceeds;
         let sample = Sample {
             t_s: t,
@@ -880,39 +1061,41 @@ pub fn run_closed_loop(
             requested,
             achieved: forces(out.achieved),
             thrust_cmd_n: cmd,
-            thrust_n: plant.thrust_n(),
+            thrust_n: self.plant.thrust_n(),
             pulse_us: out.pulse_us,
             saturated,
         };
-        last = sample;
-        if opts.record {
-            log.push(sample);
+        self.last = sample;
+        if self.record {
+            self.log.push(sample);
         }
 
+        let (s, m) = (&mut self.s, &mut self.m);
         if !truth.is_finite() || !out.requested.is_finite() || !pen.is_finite() {
             s.nan_detected = true;
             s.stop_reason = format!("non-finite state or force at t = {t:.3} s");
-            break;
+            self.done = true;
+            return Ok(false);
         }
-        all.add(pen);
-        if t >= t_tail {
-            tail.add(pen);
+        m.all.add(pen);
+        if t >= m.t_tail {
+            m.tail.add(pen);
         }
-        if t >= t_80 {
-            last80.add(pen);
+        if t >= m.t_80 {
+            m.last80.add(pen);
         }
         s.max_position_error_m = s.max_position_error_m.max(pen);
         if t >= 10.0 {
             s.max_position_error_after_10s_m = s.max_position_error_after_10s_m.max(pen);
             s.max_angle_error_after_10s_rad = s.max_angle_error_after_10s_rad.max(angle_err.abs());
-            est.add(norm(ee));
+            m.est.add(norm(ee));
         }
         for i in 0..3 {
             s.max_abs_requested_force[i] = s.max_abs_requested_force[i].max(requested[i].abs());
             s.max_abs_thruster_force_n = s.max_abs_thruster_force_n.max(cmd[i].abs());
         }
         if saturated {
-            n_sat += 1;
+            m.n_sat += 1;
         }
         s.control_steps += 1;
         s.simulated_s = t;
@@ -920,114 +1103,153 @@ pub fn run_closed_loop(
         // Control lost: the error and the depth error of the first half and of the end;
         // the turns of the vehicle against the path's.
         let depth_err = (truth.eta[2] - ref_pos[2]).abs();
-        if t < 0.5 * duration {
-            first_half_max = first_half_max.max(pen);
-            first_half_depth_max = first_half_depth_max.max(depth_err);
+        if t < 0.5 * s.duration_s {
+            m.first_half_max = m.first_half_max.max(pen);
+            m.first_half_depth_max = m.first_half_depth_max.max(depth_err);
         }
-        if t >= t_tail {
-            tail_min = tail_min.min(pen);
-            tail_depth_min = tail_depth_min.min(depth_err);
+        if t >= m.t_tail {
+            m.tail_min = m.tail_min.min(pen);
+            m.tail_depth_min = m.tail_depth_min.min(depth_err);
         }
-        if t >= settle_s {
+        if t >= m.settle_s {
             s.max_position_error_after_settle_m = s.max_position_error_after_settle_m.max(pen);
         }
-        if heading_judged {
+        if m.heading_judged {
             let path = (ref_vel[0].hypot(ref_vel[1]) > 1e-3).then(|| ref_vel[1].atan2(ref_vel[0]));
-            turns.update(truth.eta[5], path);
-            s.max_turns_off_path = s.max_turns_off_path.max(turns.off_path_turns());
+            m.turns.update(truth.eta[5], path);
+            s.max_turns_off_path = s.max_turns_off_path.max(m.turns.off_path_turns());
         }
 
         if let Some(why) = divergence(&truth, &cmd) {
             s.diverged = true;
             s.stop_reason = format!("diverged at t = {t:.3} s: {why}");
-            break;
+            self.done = true;
+            return Ok(false);
         }
-        if k == n_ctrl {
-            break;
+        if Some(k) == self.n_ctrl {
+            self.done = true;
+            return Ok(false);
         }
 
-        if sc.water.current_varies() {
-            plant.set_current(sc.water.current_at(env.current_m_s, t, truth.eta[2]));
+        if self.water.current_varies() {
+            self.plant
+                .set_current(self.water.current_at(self.current_m_s, t, truth.eta[2]));
         }
         // Zero-order hold over the plant steps of this period.
-        held_cmd = out.applied_n;
-        for i in 0..n_sub {
-            plant.step(out.applied_n, dt);
-            s.sim_steps += 1;
-            nav.observe(t + (i + 1) as f64 * dt, &plant.state());
+        self.held_cmd = out.applied_n;
+        for i in 0..self.n_sub {
+            self.plant.step(out.applied_n, self.dt);
+            self.s.sim_steps += 1;
+            self.nav
+                .observe(t + (i + 1) as f64 * self.dt, &self.plant.state());
         }
-        if s.boundary_contact.is_none() {
-            s.boundary_contact = plant.contact().map(|b| match b {
-                crate::plant::Boundary::Surface => {
-                    format!("hit the surface at t = {:.3} s", t + tc)
-                }
-                crate::plant::Boundary::Seabed => format!("hit the seabed at t = {:.3} s", t + tc),
+        if self.s.boundary_contact.is_none() {
+            let t_end = t + self.tc;
+            self.s.boundary_contact = self.plant.contact().map(|b| match b {
+                crate::plant::Boundary::Surface => format!("hit the surface at t = {t_end:.3} s"),
+                crate::plant::Boundary::Seabed => format!("hit the seabed at t = {t_end:.3} s"),
             });
         }
+        self.k += 1;
+        Ok(true)
     }
 
-    s.rms_position_error_m = all.value();
-    s.rms_position_error_tail_m = tail.value();
-    s.rms_position_error_last80_m = last80.value();
-    s.rms_estimation_error_m = est.value();
-    s.navigation = nav.report();
-    // An outlier counts when the estimator received it: the stage draws each fix at its
-    // ping and delivers it `latency_s` later, so one drawn in the last latency window of
-    // the run never arrives. The fix records are kept on delivery.
-    let fixes = nav.usbl_fixes();
-    if !fixes.is_empty() {
-        s.navigation.usbl_outliers_injected = fixes.iter().filter(|f| f.outlier).count() as u64;
-    }
-    s.final_position_error_m = last.pos_err_norm_m;
-    s.final_position_error_xyz_m = last.pos_err_m;
-    s.final_angle_error_rad = last.angle_err_rad;
-    s.saturated_fraction = if s.control_steps > 0 {
-        n_sat as f64 / s.control_steps as f64
-    } else {
-        0.0
-    };
-    if s.diverged || s.nan_detected {
-        // A run that stopped early has no meaningful tail: report it as infinite error.
-        if !s.rms_position_error_tail_m.is_finite() || tail.n == 0 {
-            s.rms_position_error_tail_m = f64::INFINITY;
+    /// The summary of the run so far (the end-of-run judgements included), with the log and
+    /// the USBL fixes when recorded, and the endpoint back (for its own report).
+    pub fn finish(self) -> (RunOutput, E) {
+        let Self {
+            nav,
+            endpoint,
+            expect,
+            record,
+            wall,
+            mut s,
+            m,
+            last,
+            log,
+            ..
+        } = self;
+        s.rms_position_error_m = m.all.value();
+        s.rms_position_error_tail_m = m.tail.value();
+        s.rms_position_error_last80_m = m.last80.value();
+        s.rms_estimation_error_m = m.est.value();
+        s.navigation = nav.report();
+        // An outlier counts when the estimator received it: the stage draws each fix at its
+        // ping and delivers it `latency_s` later, so one drawn in the last latency window of
+        // the run never arrives. The fix records are kept on delivery.
+        let fixes = nav.usbl_fixes();
+        if !fixes.is_empty() {
+            s.navigation.usbl_outliers_injected = fixes.iter().filter(|f| f.outlier).count() as u64;
         }
-        if last80.n == 0 {
-            s.rms_position_error_last80_m = f64::INFINITY;
-        }
-    }
-    if !s.diverged && !s.nan_detected {
-        s.lost_control = if depth_judged && still_growing(first_half_depth_max, tail_depth_min) {
-            let z = last.state.eta[2] - last.ref_pos_m[2];
-            Some(format!(
-                "lost depth control: {:.1} m {} its reference depth at the end, and still going",
-                z.abs(),
-                if z > 0.0 { "below" } else { "above" }
-            ))
-        } else if s.max_turns_off_path > MAX_TURNS_OFF_PATH {
-            Some(format!(
-                "lost heading control: turned {:.1} turns more than the path",
-                s.max_turns_off_path
-            ))
-        } else if still_growing(first_half_max, tail_min) {
-            Some(format!(
-                "lost position control: the error grows ({} at the end, at most {} in the first half)",
-                len(last.pos_err_norm_m),
-                len(first_half_max)
-            ))
+        s.final_position_error_m = last.pos_err_norm_m;
+        s.final_position_error_xyz_m = last.pos_err_m;
+        s.final_angle_error_rad = last.angle_err_rad;
+        s.saturated_fraction = if s.control_steps > 0 {
+            m.n_sat as f64 / s.control_steps as f64
         } else {
-            None
+            0.0
         };
-        s.diverged = s.lost_control.is_some();
+        if s.diverged || s.nan_detected {
+            // A run that stopped early has no meaningful tail: report it as infinite error.
+            if !s.rms_position_error_tail_m.is_finite() || m.tail.n == 0 {
+                s.rms_position_error_tail_m = f64::INFINITY;
+            }
+            if m.last80.n == 0 {
+                s.rms_position_error_last80_m = f64::INFINITY;
+            }
+        }
+        if !s.diverged && !s.nan_detected {
+            s.lost_control = if m.depth_judged
+                && still_growing(m.first_half_depth_max, m.tail_depth_min)
+            {
+                let z = last.state.eta[2] - last.ref_pos_m[2];
+                Some(format!(
+                    "lost depth control: {:.1} m {} its reference depth at the end, and still going",
+                    z.abs(),
+                    if z > 0.0 { "below" } else { "above" }
+                ))
+            } else if s.max_turns_off_path > MAX_TURNS_OFF_PATH {
+                Some(format!(
+                    "lost heading control: turned {:.1} turns more than the path",
+                    s.max_turns_off_path
+                ))
+            } else if still_growing(m.first_half_max, m.tail_min) {
+                Some(format!(
+                    "lost position control: the error grows ({} at the end, at most {} in the first half)",
+                    len(last.pos_err_norm_m),
+                    len(m.first_half_max)
+                ))
+            } else {
+                None
+            };
+            s.diverged = s.lost_control.is_some();
+        }
+        s.targets = expect.map(|e| judge(&e, &s));
+        s.verdict = verdict(&s);
+        let fs = last.state;
+        s.final_state = fs.eta.iter().chain(fs.nu.iter()).copied().collect();
+        s.wall_time_s = wall.elapsed().as_secs_f64();
+        let usbl_fixes = if record { fixes } else { Vec::new() };
+        (
+            RunOutput {
+                summary: s,
+                log,
+                usbl_fixes,
+            },
+            endpoint,
+        )
     }
-    s.targets = sc.expect.map(|e| judge(&e, &s));
-    s.verdict = verdict(&s);
-    let fs = last.state;
-    s.final_state = fs.eta.iter().chain(fs.nu.iter()).copied().collect();
-    s.wall_time_s = wall.elapsed().as_secs_f64();
-    let usbl_fixes = if opts.record { fixes } else { Vec::new() };
-    Ok(RunOutput {
-        summary: s,
-        log,
-        usbl_fixes,
-    })
+}
+
+/// Run a scenario in closed loop to its end with `nav` as the navigation stage and
+/// `endpoint` as the controller.
+pub fn run_closed_loop(
+    sc: &Scenario,
+    opts: &RunOptions,
+    nav: &mut dyn Navigation,
+    endpoint: &mut dyn ControllerEndpoint,
+) -> Result<RunOutput> {
+    let mut run = ClosedLoop::new(sc, opts, nav, endpoint)?;
+    while run.step()? {}
+    Ok(run.finish().0)
 }

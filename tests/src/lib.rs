@@ -13,7 +13,6 @@ use controller_core::state::{BodyForces, NavState, XyState};
 use firmware::protocol::{encode, Command, Decoded, FrameDecoder, Reply, MAX_FRAME_LEN};
 use firmware::{App, Config, Monotonic};
 use std::cell::RefCell;
-use std::collections::VecDeque;
 use std::convert::Infallible;
 use std::rc::Rc;
 
@@ -58,52 +57,8 @@ impl embedded_hal::pwm::SetDutyCycle for FakePwm {
 }
 
 /// A serial port: bytes queued by the test are read by the firmware; bytes written by the
-/// firmware are kept.
-#[derive(Debug, Default, Clone)]
-pub struct FakeSerial {
-    /// Waiting to be read by the firmware.
-    pub rx: VecDeque<u8>,
-    /// Written by the firmware.
-    pub tx: Vec<u8>,
-}
-
-impl embedded_io::ErrorType for FakeSerial {
-    type Error = Infallible;
-}
-
-impl embedded_io::Read for FakeSerial {
-    fn read(&mut self, buf: &mut [u8]) -> Result<usize, Infallible> {
-        let n = buf.len().min(self.rx.len());
-        for (b, x) in buf.iter_mut().zip(self.rx.drain(..n)) {
-            *b = x;
-        }
-        Ok(n)
-    }
-}
-
-impl embedded_io::WriteReady for FakeSerial {
-    /// Always ready: this port takes every byte at once.
-    fn write_ready(&mut self) -> Result<bool, Infallible> {
-        Ok(true)
-    }
-}
-
-impl embedded_io::ReadReady for FakeSerial {
-    fn read_ready(&mut self) -> Result<bool, Infallible> {
-        Ok(!self.rx.is_empty())
-    }
-}
-
-impl embedded_io::Write for FakeSerial {
-    fn write(&mut self, buf: &[u8]) -> Result<usize, Infallible> {
-        self.tx.extend_from_slice(buf);
-        Ok(buf.len())
-    }
-
-    fn flush(&mut self) -> Result<(), Infallible> {
-        Ok(())
-    }
-}
+/// firmware are kept. The in-process firmware's port, the same type.
+pub use host_sim::in_process::SimSerial as FakeSerial;
 
 /// A clock the test sets; shared so the test can move it while the app owns a copy.
 #[derive(Debug, Default, Clone)]

@@ -4,6 +4,7 @@
 //! `docs/protocol.md` has the table.
 
 use super::decoder::DropCounters;
+use controller_core::controller::ControlMode;
 use controller_core::law::paper_xy::PaperXyGains;
 use controller_core::law::paper_xz::PaperXzGains;
 use controller_core::law::tracking::TrackingGains;
@@ -64,6 +65,36 @@ pub enum Mode {
     /// Fly the uploaded mission from where the vehicle is, with the 3-D tracking law, and hold
     /// the last waypoint (ArduSub's AUTO; version 4).
     Auto,
+}
+
+/// The one map between the tether's tracking modes and the core's laws: a law in a plane is
+/// the core's [`ControlMode`], or `None` for the paper law in 3-D (the paper has none).
+impl Law {
+    /// The core's law this law flies in `plane`.
+    pub const fn in_plane(self, plane: Plane) -> Option<ControlMode> {
+        match (self, plane) {
+            (Law::Paper, Plane::Xz) => Some(ControlMode::PaperXz),
+            (Law::Paper, Plane::Xy) => Some(ControlMode::PaperXy),
+            (Law::Paper, Plane::ThreeD) => None,
+            (Law::Tracking, Plane::Xz) => Some(ControlMode::TrackingXz),
+            (Law::Tracking, Plane::Xy) => Some(ControlMode::TrackingXy),
+            (Law::Tracking, Plane::ThreeD) => Some(ControlMode::Tracking3d),
+        }
+    }
+}
+
+/// The tracking mode that flies a core law (the inverse of [`Law::in_plane`]).
+impl From<ControlMode> for Mode {
+    fn from(m: ControlMode) -> Self {
+        let (plane, law) = match m {
+            ControlMode::PaperXz => (Plane::Xz, Law::Paper),
+            ControlMode::PaperXy => (Plane::Xy, Law::Paper),
+            ControlMode::TrackingXz => (Plane::Xz, Law::Tracking),
+            ControlMode::TrackingXy => (Plane::Xy, Law::Tracking),
+            ControlMode::Tracking3d => (Plane::ThreeD, Law::Tracking),
+        };
+        Mode::Track { plane, law }
+    }
 }
 
 /// A time-stamped navigation state (the state estimate sent by the topside or the plant).

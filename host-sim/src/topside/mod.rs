@@ -2,11 +2,14 @@
 //! the other MAVLink 2 to ground stations (QGroundControl, MAVProxy, pymavlink), with
 //! ArduSub's conventions so that existing tools map the vehicle's modes and sticks.
 //!
-//! The vehicle side today is `--sim SCENARIO`: the scenario's plant and navigation stage with
-//! the firmware library's `App` in this process, reached through the tether protocol (the
-//! same frames, state machine and failsafes as the image), or with `--emulated` the firmware
-//! image itself in QEMU; in real time or `--speedup K` faster. The modes run on the vehicle:
-//! the topside translates.
+//! The vehicle side is `--sim SCENARIO`: the one closed loop of every run
+//! ([`crate::sim_loop::ClosedLoop`], as `hil` drives it) with the firmware library's `App` in
+//! this process at the end of the tether (the same frames, state machine and failsafes as the
+//! image), or with `--emulated` the firmware image itself in QEMU; in real time or
+//! `--speedup K` faster. With `[navigation] source = "estimator"` the simulated sensors go to
+//! the vehicle's own estimator, and the ground stations see its estimate; the true state
+//! beside it goes to a `.truth.csv` next to the logs. Or `--serial DEV`: a real vehicle. The
+//! modes run on the vehicle: the topside translates.
 //!
 //! | MAVLink in | tether out |
 //! |---|---|
@@ -56,13 +59,16 @@ pub use logs::{open_logs, utc_stamp};
 pub use missions::MISSION_MAX_ITEMS;
 pub use transport::{take_frames, GcsStats, StationId, POLL_LIMIT};
 
+use crate::hil::HilTarget;
 use crate::in_process::InProcessFirmware;
 use crate::params::{self, PARAMS};
 use crate::qemu::{qemu_firmware_image, start_qemu_link, workspace_root, FirmwareImage};
 use crate::scenario::Scenario;
+use crate::sensors::NavSource;
 use anyhow::{bail, Result};
+use controller_core::controller::ControlMode;
 use controller_core::reference::Reference;
-use firmware::protocol::{fault, Command, Law, ManualThrust, Mode, Plane};
+use firmware::protocol::{fault, Command, ManualThrust, Mode};
 use mavlink::dialects::ardupilotmega::{
     MavCmd, MavMessage, MavMissionResult, MavResult, MavSeverity, GPS_GLOBAL_ORIGIN_DATA,
 };
@@ -260,36 +266,46 @@ pub fn main(a: TopsideArgs) -> Result<()> {
         if let Some(p) = vehicle_file {
             sc.vehicle_params = p;
         }
-        let (port, hello_wait, firmware): (Box<dyn crate::port::Port>, _, _) = if a.emulated {
-            let elf = match a.qemu.clone() {
-                Some(elf) => elf,
-                None => match qemu_firmware_image(&workspace_root())? {
-                    FirmwareImage::Ready(elf) => elf,
-                    FirmwareImage::Unavailable(why) => {
-                        bail!("the emulated board cannot run here: {why}")
-                    }
-                },
+        let (port, target, hello_wait, firmware): (Box<dyn crate::port::Port>, _, _, _) =
+            if a.emulated {
+                let elf = match a.qemu.clone() {
+                    Some(elf) => elf,
+                    None => match qemu_firmware_image(&workspace_root())? {
+                        FirmwareImage::Ready(elf) => elf,
+                        FirmwareImage::Unavailable(why) => {
+                            bail!("the emulated board cannot run here: {why}")
+                        }
+                    },
+                };
+                let (q, p) = start_qemu_link("qemu-system-arm", &elf, None, false)?;
+                _qemu = Some(q);
+                (
+                    p,
+                    HilTarget::Qemu { elf: elf.clone() },
+                    Duration::from_secs(30),
+                    format!("firmware image {} in QEMU", elf.display()),
+                )
+            } else {
+                (
+                    Box::new(InProcessFirmware::new()?),
+                    HilTarget::InProcess,
+                    Duration::from_secs(2),
+                    "firmware library in process".to_string(),
+                )
             };
-            let (q, p) = start_qemu_link("qemu-system-arm", &elf, None, false)?;
-            _qemu = Some(q);
-            (
-                p,
-                Duration::from_secs(30),
-                format!("firmware image {} in QEMU", elf.display()),
-            )
-        } else {
-            (
-                Box::new(InProcessFirmware::new()?),
-                Duration::from_secs(2),
-                "firmware library in process".to_string(),
-            )
-        };
         let port = Box::new(crate::tether_log::LoggedPort::new(port, &tether_path)?);
-        let v = SimVehicle::new(&sc, port, hello_wait)?;
+        let truth = tether_path.with_extension("truth.csv");
+        let v = SimVehicle::new(&sc, port, target, hello_wait, &truth)?;
         let what = format!(
-            "simulated vehicle {:?} ({}), {firmware}",
+            "simulated vehicle {:?} ({}, navigation: {}), {firmware}, truth log {}",
             sc.name,
-            sc.plane.as_str()
+            sc.plane.as_str(),
+            if sc.navigation.source == NavSource::Estimator {
+                "its own estimator on the simulated sensors"
+            } else {
+                "the true state sent"
+            },
+            truth.display()
         );
         (v, what)
     };
@@ -359,7 +375,7 @@ impl Topside {
                 // Forwarded every period while the pilot's stream lives; when it stops,
                 // nothing is forwarded and the firmware's MANUAL_STALE failsafe neutralizes
                 // the thrusters.
-                v.link.send(&Command::ManualThrust(self.manual))?;
+                v.link().send(&Command::ManualThrust(self.manual))?;
             }
             v.step()?;
 
@@ -517,10 +533,7 @@ impl Topside {
             ardusub_mode::ALT_HOLD => (Mode::DepthHold, None),
             ardusub_mode::POSHOLD => (Mode::Hold, None),
             ardusub_mode::GUIDED => (
-                Mode::Track {
-                    plane: Plane::ThreeD,
-                    law: Law::Tracking,
-                },
+                Mode::from(ControlMode::Tracking3d),
                 Some(Reference::Hold {
                     pos_m: [v.state.x_m, v.state.y_m, v.state.z_m],
                 }),

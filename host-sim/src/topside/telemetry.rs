@@ -73,7 +73,7 @@ pub(super) fn send_heartbeat(gcs: &mut Gcs, v: &SimVehicle, guided: bool) -> Res
     if v.tel.faults & fault::PWM_ERROR != 0 {
         healthy &= !MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS;
     }
-    let drops = v.link.stats.frames_dropped.min(u64::from(u16::MAX)) as u16;
+    let drops = v.link_stats().frames_dropped.min(u64::from(u16::MAX)) as u16;
     gcs.send(MavMessage::SYS_STATUS(SYS_STATUS_DATA {
         onboard_control_sensors_present: sensors,
         onboard_control_sensors_enabled: sensors,

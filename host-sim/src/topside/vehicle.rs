@@ -1,46 +1,56 @@
-//! The vehicle behind the tether, as the topside drives it: a simulated one (the scenario's
-//! plant and navigation here, the firmware in lock-step) or a real one on its own clock
-//! (`--serial`). Behaviour unchanged from the single-file topside (issue 24's one loop will
-//! replace the simulated body).
+//! The vehicle behind the tether, as the topside drives it: a simulated one or a real one on
+//! its own clock (`--serial`).
+//!
+//! The simulated vehicle is the one closed loop of every run ([`ClosedLoop`]) with the
+//! firmware at the far end of the tether as its controller ([`TetherEndpoint`], the same as
+//! `hil`): the scenario's plant, its navigation stage (with `[navigation] source =
+//! "estimator"` the simulated sensors, delivered to the vehicle's own estimator), the
+//! lock-step exchange with its resends. The topside only adds the ground stations' commands
+//! on the same link between the steps, and logs the true state beside what the vehicle says
+//! (`truth.csv`).
 
-use crate::estimator_nav::navigation_for;
-use crate::link::Link;
+use crate::clock::us;
+use crate::estimator_nav::navigation_for_vehicle;
+use crate::hil::{HilOptions, HilTarget, TetherEndpoint};
+use crate::link::{HostLinkStats, Link};
 use crate::params::{Group, Settings};
-use crate::plant::Plant;
 use crate::scenario::Scenario;
-use crate::sim_loop::{make_plant, nominal_plant_params, Navigation};
-use anyhow::{anyhow, bail, Result};
-use controller_core::alloc::PwmMap;
+use crate::sim_loop::{ClosedLoop, Navigation, RunOptions};
+use anyhow::{anyhow, bail, Context, Result};
 use controller_core::params::VehicleParams;
 use controller_core::state::NavState;
-use firmware::protocol::{Command, NackReason, NavSample, Reply, Telemetry};
+use firmware::protocol::{Command, NackReason, Reply, Telemetry};
+use std::fs::{File, OpenOptions};
+use std::io::{BufWriter, Write};
+use std::path::Path;
 use std::time::Duration;
 
-/// The vehicle behind the tether: a simulated one (the plant and its navigation here, the
-/// firmware in lock-step) or a real one on its own clock (`--serial`).
+/// The vehicle behind the tether: a simulated one (the closed loop here, the firmware in
+/// lock-step) or a real one on its own clock (`--serial`).
 pub(super) struct SimVehicle {
-    /// The simulated body; `None` for a real vehicle.
-    body: Option<Body>,
-    pub(super) link: Link,
+    tether: Tether,
     pub(super) t_s: f64,
     pub(super) period_s: f64,
     /// Control periods run.
     pub(super) periods: u64,
-    /// The vehicle's navigation state (a real vehicle's: from its telemetry).
+    /// The vehicle's navigation state, from its telemetry (its own estimate, or the `Nav`
+    /// it was sent).
     pub(super) state: NavState,
     pub(super) tel: Telemetry,
     /// The gains, timeouts and description in force on the vehicle (as last accepted).
     pub(super) settings: Settings,
 }
 
-/// A simulated vehicle's body: plant, navigation, the ESCs' pulse curve.
-struct Body {
-    plant: Box<dyn Plant>,
-    nav: Box<dyn Navigation>,
-    pwm: PwmMap,
-    plant_dt_s: f64,
-    steps_per_period: usize,
-    held_n: [f64; 3],
+/// The two ends the topside can have.
+enum Tether {
+    /// The scenario's closed loop, the firmware its controller; the true state of each
+    /// control period beside what the vehicle said, to `truth`.
+    Sim {
+        run: Box<ClosedLoop<Box<dyn Navigation>, TetherEndpoint>>,
+        truth: BufWriter<File>,
+    },
+    /// A real vehicle.
+    Real(Box<Link>),
 }
 
 /// A real vehicle is sent a heartbeat every this many control periods (10 Hz): its
@@ -49,59 +59,60 @@ const HEARTBEAT_EVERY: u64 = 5;
 
 const TETHER_TIMEOUT: Duration = Duration::from_millis(500);
 
-fn us(t_s: f64) -> u64 {
-    (t_s * 1e6).round().max(0.0) as u64
-}
+/// The columns of the simulated vehicle's truth log.
+pub const TRUTH_HEADER: &str = "t_s,x_m,y_m,z_m,yaw_rad,nav_x_m,nav_y_m,nav_z_m,nav_yaw_rad,armed";
 
 impl SimVehicle {
-    /// The scenario's plant and navigation with the firmware behind `port`, waiting up to
-    /// `hello_wait` for its `Hello`.
+    /// The scenario's closed loop with the firmware behind `port` (`target` says where it
+    /// runs), waiting up to `hello_wait` for its `Hello`; the true state logged to `truth`.
+    /// The first control period is run: the vehicle gets its description and its navigation.
     pub(super) fn new(
         sc: &Scenario,
         port: Box<dyn crate::port::Port>,
+        target: HilTarget,
         hello_wait: Duration,
+        truth: &Path,
     ) -> Result<Self> {
-        let params = nominal_plant_params(sc);
-        let plant = make_plant(
-            sc.plane,
-            &params,
-            crate::plant::Environment {
-                current_m_s: sc.disturbance.current_m_s,
-            },
-            sc.thrusters.saturate,
-            sc.initial.to_plant(),
-        )?;
-        let nav = navigation_for(sc, None)?;
-        let mut link = Link::new(port, None);
-        link.wait_for(
+        let mut opts = HilOptions::new(target);
+        // The ground stations arm and choose the modes; the topside runs until stopped.
+        opts.fly_scenario = false;
+        opts.record = false;
+        opts.telemetry_rows = false;
+        opts.wall_limit = Duration::MAX;
+        let endpoint = TetherEndpoint::connect(
+            Link::new(port, None),
+            sc,
+            &opts,
+            "topside".into(),
             hello_wait,
-            |r| matches!(r, Reply::Hello { .. }).then_some(()),
-            |_| {},
-        )?
-        .ok_or_else(|| anyhow!("no Hello from the firmware"))?;
-        let n = sc.plant_steps_per_control().max(1);
+            true,
+        )?;
+        let run_opts = RunOptions {
+            open_ended: true,
+            ..RunOptions::default()
+        };
+        let run = ClosedLoop::new(sc, &run_opts, navigation_for_vehicle(sc)?, endpoint)?;
+        // Beside the time-stamped logs of this start: never an existing file.
+        let file = OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(truth)
+            .with_context(|| format!("create {}", truth.display()))?;
+        let mut truth = BufWriter::new(file);
+        writeln!(truth, "{TRUTH_HEADER}")?;
         let mut v = Self {
-            body: Some(Body {
-                plant,
-                nav,
-                pwm: PwmMap::for_vehicle(&sc.vehicle_model()?),
-                plant_dt_s: sc.plant_dt_s,
-                steps_per_period: n,
-                held_n: [0.0; 3],
-            }),
-            link,
+            period_s: run.period_s(),
+            tether: Tether::Sim {
+                run: Box::new(run),
+                truth,
+            },
             t_s: 0.0,
-            period_s: sc.plant_dt_s * n as f64,
             periods: 0,
             state: NavState::default(),
             tel: Telemetry::default(),
+            // What the endpoint sends at the start (the firmware boots with the Observer's).
             settings: Settings::new(sc.vehicle_params),
         };
-        // The firmware boots with the Observer's description: send the scenario's.
-        let vehicle = v.settings;
-        if let Err(why) = v.apply(vehicle, Group::Vehicle)? {
-            bail!("the vehicle refused the vehicle description: {why:?}");
-        }
         v.step()?;
         Ok(v)
     }
@@ -130,8 +141,7 @@ impl SimVehicle {
             bail!("the vehicle refused our heartbeat: {why:?} (another protocol version?)");
         }
         let mut v = Self {
-            body: None,
-            link,
+            tether: Tether::Real(Box::new(link)),
             t_s: 0.0,
             period_s: 0.02,
             periods: 0,
@@ -146,6 +156,22 @@ impl SimVehicle {
             }
         }
         Ok(v)
+    }
+
+    /// The link to the vehicle.
+    pub(super) fn link(&mut self) -> &mut Link {
+        match &mut self.tether {
+            Tether::Sim { run, .. } => run.endpoint_mut().link(),
+            Tether::Real(link) => link,
+        }
+    }
+
+    /// The link's counters.
+    pub(super) fn link_stats(&self) -> &HostLinkStats {
+        match &self.tether {
+            Tether::Sim { run, .. } => run.endpoint().link_stats(),
+            Tether::Real(link) => &link.stats,
+        }
     }
 
     /// Send one group of settings; on a refusal nothing changes, here or on the vehicle.
@@ -190,68 +216,57 @@ impl SimVehicle {
 
     /// A command answered by `Ack` / `Nack`.
     pub(super) fn command(&mut self, cmd: &Command) -> Result<std::result::Result<(), NackReason>> {
-        self.link.command(cmd, TETHER_TIMEOUT, 3, |_| {})
+        self.link().command(cmd, TETHER_TIMEOUT, 3, |_| {})
     }
 
-    /// One control period. Simulated: heartbeat and navigation to the firmware, its
-    /// telemetry back, the plant through the period with the thrust of the pulse widths.
+    /// One control period. Simulated: one step of the closed loop (the lock-step exchange,
+    /// the plant through the period with the thrust of the pulse widths), its truth logged.
     /// Real: a heartbeat every [`HEARTBEAT_EVERY`] periods and whatever the vehicle said.
     pub(super) fn step(&mut self) -> Result<()> {
-        let t_us = us(self.t_s);
-        let Some(body) = self.body.as_mut() else {
-            if self.periods.is_multiple_of(HEARTBEAT_EVERY) {
-                self.link.send(&Command::Heartbeat { t_us })?;
-            }
-            self.periods += 1;
-            while let Some((_, reply)) = self.link.recv(Duration::ZERO)? {
-                if let Reply::Telemetry(t) = reply {
-                    self.tel = t;
-                    self.state = t.nav;
+        match &mut self.tether {
+            Tether::Sim { run, truth } => {
+                if !run.step()? {
+                    bail!("the simulated vehicle stopped: {}", run.stop_reason());
                 }
+                self.tel = *run.endpoint().latest();
+                self.state = self.tel.nav;
+                let s = run.sample();
+                let (x, n) = (&s.state.eta, &self.state);
+                writeln!(
+                    truth,
+                    "{:.3},{:.4},{:.4},{:.4},{:.5},{:.4},{:.4},{:.4},{:.5},{}",
+                    s.t_s,
+                    x[0],
+                    x[1],
+                    x[2],
+                    x[5],
+                    n.x_m,
+                    n.y_m,
+                    n.z_m,
+                    n.yaw_rad,
+                    u8::from(self.tel.armed)
+                )?;
+                // A killed topside loses at most a second of it.
+                let per_second = (1.0 / self.period_s).round().max(1.0) as u64;
+                if self.periods.is_multiple_of(per_second) {
+                    truth.flush()?;
+                }
+                self.t_s = run.t_s();
             }
-            self.t_s += self.period_s;
-            return Ok(());
-        };
-        self.state = body.state_at(self.t_s);
-        self.link.send(&Command::Heartbeat { t_us })?;
-        let nav_seq = self.link.send(&Command::Nav(NavSample {
-            t_us,
-            state: self.state,
-        }))?;
-        let tel = self
-            .link
-            .wait_for(
-                TETHER_TIMEOUT,
-                |r| match r {
-                    Reply::Telemetry(tl) if tl.nav_seq == nav_seq => Some(*tl),
-                    _ => None,
-                },
-                |_| {},
-            )?
-            .ok_or_else(|| anyhow!("tether: no Telemetry at t = {:.2} s", self.t_s))?;
-        self.tel = tel;
-        body.advance(self.t_s, &tel);
-        self.t_s += self.period_s;
-        Ok(())
-    }
-}
-
-impl Body {
-    /// What the simulated vehicle's navigation says at `t_s`.
-    fn state_at(&mut self, t_s: f64) -> NavState {
-        self.nav.estimate(t_s, self.held_n)
-    }
-
-    /// The plant through one control period from `t_s` under the telemetry's pulse widths.
-    fn advance(&mut self, t_s: f64, tel: &Telemetry) {
-        let applied = tel
-            .pulse_us
-            .map(|p| f64::from(self.pwm.thrust_n(f32::from(p))));
-        for i in 0..self.steps_per_period {
-            self.plant.step(applied, self.plant_dt_s);
-            self.nav
-                .observe(t_s + (i + 1) as f64 * self.plant_dt_s, &self.plant.state());
+            Tether::Real(link) => {
+                if self.periods.is_multiple_of(HEARTBEAT_EVERY) {
+                    link.send(&Command::Heartbeat { t_us: us(self.t_s) })?;
+                }
+                while let Some((_, reply)) = link.recv(Duration::ZERO)? {
+                    if let Reply::Telemetry(t) = reply {
+                        self.tel = t;
+                        self.state = t.nav;
+                    }
+                }
+                self.t_s += self.period_s;
+            }
         }
-        self.held_n = tel.thrust_n.map(f64::from);
+        self.periods += 1;
+        Ok(())
     }
 }

@@ -1,0 +1,53 @@
+"""A pymavlink ground station flies a mission in AUTO on `host-sim topside --sim nav-circle-3d`,
+whose vehicle navigates on its own estimator (issue 24): it prints every LOCAL_POSITION_NED it
+sees while the mission flies, for the test to hold against the topside's truth log.
+
+Usage: pymavlink_estimator.py PORT SECONDS. Listens on udpin:127.0.0.1:PORT for the topside;
+flies the mission, then holds its last waypoint until the vehicle's clock reads SECONDS (the
+scenario's duration, for a figure over the same span as its software run). Prints PASS lines
+and one `POS time_boot_ms x y z` line per LOCAL_POSITION_NED in AUTO; exits 0, or raises.
+"""
+import sys
+import time
+
+from pymavlink import mavutil
+
+from gcs import arm_and_auto, expect, wait
+from pymavlink_mission import upload
+
+mav = mavutil.mavlink
+
+
+def main():
+    port, seconds = int(sys.argv[1]), float(sys.argv[2])
+    m = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=255)
+    expect(m.wait_heartbeat(timeout=30) is not None, "a HEARTBEAT arrives")
+    p0 = wait(m, "LOCAL_POSITION_NED", 5)
+    expect(p0 is not None, "LOCAL_POSITION_NED streams")
+    # A triangle 3 m on a side from where the vehicle is, 0.5 m deeper at the end.
+    pts = [(p0.x + 3, p0.y, p0.z), (p0.x + 3, p0.y + 3, p0.z), (p0.x, p0.y + 3, p0.z + 0.5)]
+    r = upload(m, pts)
+    expect(r == mav.MAV_MISSION_ACCEPTED, f"a 3-waypoint mission is accepted ({r})")
+    arm_and_auto(m)
+    reached = []
+    n = 0
+    t_ms = 0
+    end = time.time() + 240
+    while (len(reached) < 3 or t_ms < 1000 * seconds) and time.time() < end:
+        msg = m.recv_match(type=["MISSION_ITEM_REACHED", "LOCAL_POSITION_NED"], blocking=True,
+                           timeout=1)
+        if msg is None:
+            continue
+        if msg.get_type() == "LOCAL_POSITION_NED":
+            n += 1
+            t_ms = msg.time_boot_ms
+            print(f"POS {msg.time_boot_ms} {msg.x:.5f} {msg.y:.5f} {msg.z:.5f}")
+        else:
+            reached.append(msg.seq)
+    expect(t_ms >= 1000 * seconds, f"flown until {seconds:.0f} s on the vehicle's clock")
+    expect(reached == [0, 1, 2], f"every waypoint reached on the estimate ({reached})")
+    expect(n >= 100, f"LOCAL_POSITION_NED streamed in AUTO ({n})")
+
+
+if __name__ == "__main__":
+    main()
