@@ -3,23 +3,14 @@
 //! These run the built binary.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
-/// A fresh, empty folder under the system's temporary folder.
+mod common;
+use common::host_sim;
+
+/// A fresh folder for one test.
 fn scratch(tag: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("host-sim-cli-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-/// Run the binary in `cwd` with `args`.
-fn host_sim(cwd: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .current_dir(cwd)
-        .args(args)
-        .output()
-        .unwrap()
+    common::scratch("cli", tag)
 }
 
 fn stderr(o: &Output) -> String {

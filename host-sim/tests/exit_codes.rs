@@ -3,21 +3,14 @@
 //! compares with the scenario's own targets. These run the built binary.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
+mod common;
+use common::host_sim;
+
+/// A fresh folder for one test.
 fn scratch(tag: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("host-sim-exit-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn host_sim(cwd: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .current_dir(cwd)
-        .args(args)
-        .output()
-        .unwrap()
+    common::scratch("exit", tag)
 }
 
 fn text(o: &Output) -> String {
