@@ -20,6 +20,16 @@ use controller_core::state::NavState;
 /// 95 % quantile of the chi-square distribution with 1, 2 and 3 degrees of freedom.
 pub const CHI2_95: [f64; 3] = [3.841, 5.991, 7.815];
 
+/// The measurements of `pending` (`(arrival_s, measurement)`) that have arrived by `t_s`,
+/// taken out in arrival order; the rest stay. The sort is stable: measurements with the same
+/// arrival keep the order they were made in. The one order for both the host's estimator
+/// ([`EstimatorNav`]) and the vehicle's ([`VehicleNav`]).
+fn take_arrived(pending: &mut Vec<(f64, Measurement)>, t_s: f64) -> Vec<(f64, Measurement)> {
+    pending.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let n_due = pending.partition_point(|(arr, _)| *arr <= t_s + 1e-9);
+    pending.drain(..n_due).collect()
+}
+
 /// The estimator on simulated sensors.
 pub struct EstimatorNav {
     estimator: Estimator,
@@ -201,10 +211,7 @@ impl Navigation for EstimatorNav {
     }
 
     fn estimate(&mut self, t_s: f64, thrust_cmd_n: [f64; 3]) -> NavState {
-        // Stable: measurements with the same arrival keep the order they were made in.
-        self.pending.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let n_due = self.pending.partition_point(|(arr, _)| *arr <= t_s + 1e-9);
-        let due: Vec<_> = self.pending.drain(..n_due).collect();
+        let due = take_arrived(&mut self.pending, t_s);
         let cmd = thrust_cmd_n.map(|f| f as f32);
         self.sensors.set_thrust_n(thrust_cmd_n);
         for (arrival, m) in due {
@@ -324,10 +331,7 @@ impl Navigation for VehicleNav {
     }
 
     fn for_vehicle(&mut self, t_s: f64) -> Vec<Measurement> {
-        // The same order as `EstimatorNav::estimate`: by arrival, stable.
-        self.pending.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let n_due = self.pending.partition_point(|(arr, _)| *arr <= t_s + 1e-9);
-        let due: Vec<_> = self.pending.drain(..n_due).collect();
+        let due = take_arrived(&mut self.pending, t_s);
         for (arrival, m) in &due {
             if let Measurement::Position(f, outlier) = m {
                 self.fixes.push(FixRecord {

@@ -7,6 +7,7 @@ use crate::checks::{fin, nonneg, pos, vec3};
 pub use crate::sensors::{NavSource, NavigationSpec, SensorsSpec};
 use anyhow::{anyhow, bail, Context, Result};
 use controller_core::controller::ControlMode;
+use controller_core::error::Error as CoreError;
 use controller_core::params::{Vehicle, VehicleParams};
 use controller_core::reference::{PaperPolynomial, Reference};
 use serde::{Deserialize, Serialize};
@@ -214,6 +215,104 @@ impl ReferenceSpec {
             ReferenceSpec::Circle { .. } => "circle",
             ReferenceSpec::Lawnmower { .. } => "lawnmower",
             ReferenceSpec::Helix { .. } => "helix",
+        }
+    }
+
+    /// The core's reference, checked by the core's own [`Reference::validate`]: the one check
+    /// of what the core refuses (a line's speed must be > 0, as on the vehicle). Its refusal
+    /// names the scenario key (`reference.<field>`), the value given and the kind.
+    pub fn validate(&self) -> Result<Reference> {
+        let core = self.to_core();
+        core.validate().map_err(|e| self.refusal(e))?;
+        Ok(core)
+    }
+
+    /// The core's refusal `e` as the scenario's: the core names the field, this the key.
+    fn refusal(&self, e: CoreError) -> anyhow::Error {
+        let field = match e {
+            CoreError::NonFinite(f)
+            | CoreError::NotPositive(f)
+            | CoreError::Negative(f)
+            | CoreError::OutOfRange(f) => Some(f),
+            // "non-physical parameters: .." does not read as a key's refusal: said as is below.
+            _ => None,
+        };
+        let kind = self.kind();
+        let given = field.and_then(|f| self.values().into_iter().find(|(k, _)| *k == f));
+        let Some((_, given)) = given else {
+            return anyhow!("reference (kind = {kind:?}) refused by the core: {e}");
+        };
+        let shown = match given.as_slice() {
+            [v] => format!("{v}"),
+            vs => format!(
+                "[{}]",
+                vs.iter().map(f64::to_string).collect::<Vec<_>>().join(", ")
+            ),
+        };
+        // The vehicle computes in f32: a value finite or non-zero in f64 may not be in f32.
+        let lost = given.iter().any(|&v| {
+            let v32 = v as f32;
+            (v.is_finite() && !v32.is_finite()) || (v != 0.0 && v32 == 0.0)
+        });
+        let note = if lost {
+            " (the vehicle computes in f32: the value is beyond its range)"
+        } else {
+            ""
+        };
+        anyhow!("reference.{e} (got {shown}; kind = {kind:?}){note}")
+    }
+
+    /// Every field of the kind with its value(s), named as the core names them.
+    fn values(&self) -> Vec<(&'static str, Vec<f64>)> {
+        match *self {
+            ReferenceSpec::Paper { h_r_m, t_f_s } => {
+                vec![("h_r_m", vec![h_r_m]), ("t_f_s", vec![t_f_s])]
+            }
+            ReferenceSpec::Hold { pos_m } => vec![("pos_m", pos_m.to_vec())],
+            ReferenceSpec::Line {
+                start_m,
+                heading_rad,
+                speed_m_s,
+            } => vec![
+                ("start_m", start_m.to_vec()),
+                ("heading_rad", vec![heading_rad]),
+                ("speed_m_s", vec![speed_m_s]),
+            ],
+            ReferenceSpec::Circle {
+                center_m,
+                radius_m,
+                speed_m_s,
+            } => vec![
+                ("center_m", center_m.to_vec()),
+                ("radius_m", vec![radius_m]),
+                ("speed_m_s", vec![speed_m_s]),
+            ],
+            ReferenceSpec::Lawnmower {
+                start_m,
+                heading_rad,
+                leg_length_m,
+                spacing_m,
+                legs,
+                speed_m_s,
+            } => vec![
+                ("start_m", start_m.to_vec()),
+                ("heading_rad", vec![heading_rad]),
+                ("leg_length_m", vec![leg_length_m]),
+                ("spacing_m", vec![spacing_m]),
+                ("legs", vec![f64::from(legs)]),
+                ("speed_m_s", vec![speed_m_s]),
+            ],
+            ReferenceSpec::Helix {
+                center_m,
+                radius_m,
+                speed_m_s,
+                depth_rate_m_s,
+            } => vec![
+                ("center_m", center_m.to_vec()),
+                ("radius_m", vec![radius_m]),
+                ("speed_m_s", vec![speed_m_s]),
+                ("depth_rate_m_s", vec![depth_rate_m_s]),
+            ],
         }
     }
 
@@ -775,65 +874,7 @@ impl Scenario {
         for (k, v) in self.initial.values() {
             fin(&format!("initial.{k}"), v)?;
         }
-        match self.reference {
-            ReferenceSpec::Paper { h_r_m, t_f_s } => {
-                fin("reference.h_r_m", h_r_m)?;
-                pos("reference.t_f_s", t_f_s)?;
-            }
-            ReferenceSpec::Hold { pos_m } => vec3("reference.pos_m", pos_m)?,
-            ReferenceSpec::Line {
-                start_m,
-                heading_rad,
-                speed_m_s,
-            } => {
-                vec3("reference.start_m", start_m)?;
-                fin("reference.heading_rad", heading_rad)?;
-                nonneg("reference.speed_m_s", speed_m_s)?;
-            }
-            ReferenceSpec::Circle {
-                center_m,
-                radius_m,
-                speed_m_s,
-            } => {
-                vec3("reference.center_m", center_m)?;
-                pos("reference.radius_m", radius_m)?;
-                pos("reference.speed_m_s", speed_m_s)?;
-            }
-            ReferenceSpec::Lawnmower {
-                start_m,
-                heading_rad,
-                leg_length_m,
-                spacing_m,
-                legs,
-                speed_m_s,
-            } => {
-                vec3("reference.start_m", start_m)?;
-                fin("reference.heading_rad", heading_rad)?;
-                pos("reference.leg_length_m", leg_length_m)?;
-                pos("reference.spacing_m", spacing_m)?;
-                if legs == 0 {
-                    bail!("reference.legs must be >= 1");
-                }
-                pos("reference.speed_m_s", speed_m_s)?;
-            }
-            ReferenceSpec::Helix {
-                center_m,
-                radius_m,
-                speed_m_s,
-                depth_rate_m_s,
-            } => {
-                vec3("reference.center_m", center_m)?;
-                pos("reference.radius_m", radius_m)?;
-                pos("reference.speed_m_s", speed_m_s)?;
-                fin("reference.depth_rate_m_s", depth_rate_m_s)?;
-            }
-        }
-        self.reference.to_core().validate().map_err(|e| {
-            anyhow!(
-                "reference (kind = {:?}) refused by the core: {e}",
-                self.reference.kind()
-            )
-        })?;
+        self.reference.validate()?;
         let d = &self.disturbance;
         vec3("disturbance.current_m_s", d.current_m_s)?;
         fin("disturbance.buoyancy_offset_n", d.buoyancy_offset_n)?;

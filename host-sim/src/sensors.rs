@@ -22,6 +22,7 @@
 //! - `dropouts_s = [[t0, t1], ...]`: no samples with `t0 <= t < t1`.
 
 use crate::checks::{fin as finite, nonneg as noise};
+use crate::clock::us;
 use crate::plant::PlantState;
 use anyhow::{bail, Result};
 use rand::{Rng, SeedableRng};
@@ -531,10 +532,6 @@ fn in_dropout(d: &[[f64; 2]], t: f64) -> bool {
     d.iter().any(|[a, b]| t >= *a && t < *b)
 }
 
-fn micros(t_s: f64) -> u64 {
-    (t_s * 1.0e6).round().max(0.0) as u64
-}
-
 /// The simulated sensors of a scenario: they see every plant step and emit measurements
 /// with their arrival times.
 #[derive(Debug)]
@@ -621,7 +618,7 @@ impl SensorSuite {
         };
         let dt_prev = self.prev.map_or(0.0, |(t0, _)| t_s - t0);
         self.prev = Some((t_s, vel));
-        let t_us = micros(t_s);
+        let t_us = us(t_s);
         let rng = &mut self.rng;
 
         if let (Some(s), Some(c)) = (&self.spec.imu, &mut self.imu_clock) {

@@ -120,3 +120,46 @@ fn every_reference_kind_parses_with_defaults() {
         assert_eq!(s.reference.kind(), kind);
     }
 }
+
+/// A line's speed is checked once, by the core's `Reference::validate`: the scenario file and
+/// the core refuse the same speeds (0 and below) with the same words, and accept the same.
+#[test]
+fn line_speed_is_refused_by_the_scenario_as_by_the_core() {
+    use controller_core::reference::Reference;
+    use controller_core::Error;
+    let line = |speed: &str| {
+        format!(
+            "name = \"l\"\nplane = \"3d\"\ncontroller = \"tracking\"\nduration_s = 1.0\n\
+             [reference]\nkind = \"line\"\nspeed_m_s = {speed}\n"
+        )
+    };
+    let core = |speed_m_s: f32| {
+        Reference::Line {
+            start_m: [0.0; 3],
+            heading_rad: 0.0,
+            speed_m_s,
+        }
+        .validate()
+    };
+    for (text, value) in [("0.0", 0.0_f32), ("-0.2", -0.2)] {
+        let core_err = core(value).unwrap_err();
+        assert_eq!(
+            core_err,
+            Error::NotPositive("speed_m_s"),
+            "core, speed {text}"
+        );
+        let e = err(&line(text));
+        assert!(
+            e.contains(&format!("reference.{core_err}")),
+            "speed {text}: the scenario's refusal is the core's, named by key: {e}"
+        );
+        assert!(e.contains("reference.speed_m_s must be > 0"), "{e}");
+        assert!(e.contains("kind = \"line\""), "{e}");
+    }
+    assert_eq!(core(0.2), Ok(()));
+    Scenario::from_toml(&line("0.2"), "l.toml").unwrap();
+    // A speed finite in f64 but not in the vehicle's f32 is refused, and said so.
+    let e = err(&line("1e40"));
+    assert!(e.contains("reference.speed_m_s is not finite"), "{e}");
+    assert!(e.contains("f32"), "{e}");
+}
