@@ -3,15 +3,13 @@
 
 use host_sim::runner::{nominal_plant_params, run, RunOptions};
 use host_sim::scenario::Scenario;
+use host_sim::sim_loop::Summary;
 
-#[test]
-fn an_18_n_heavy_vehicle_that_sinks_has_lost_depth_control() {
+/// `line-3d` flown by a controller told the nominal vehicle, on a plant `heavy_n` heavier.
+fn line_3d_heavier_by(heavy_n: f32) -> Summary {
     let sc = Scenario::load("line-3d").unwrap();
-    // The controller is told the nominal vehicle; the plant is 18 N heavy, more than the
-    // vertical thruster's 15 N reverse thrust (the scenario check refuses such a file, the
-    // plant of a Monte Carlo run or a real vehicle can still be so).
     let mut plant = nominal_plant_params(&sc);
-    plant.buoyancy_offset_n -= 18.0;
+    plant.buoyancy_offset_n -= heavy_n;
     let out = run(
         &sc,
         &RunOptions {
@@ -20,7 +18,14 @@ fn an_18_n_heavy_vehicle_that_sinks_has_lost_depth_control() {
         },
     )
     .unwrap();
-    let s = &out.summary;
+    out.summary
+}
+
+#[test]
+fn an_18_n_heavy_vehicle_that_sinks_has_lost_depth_control() {
+    // 18 N heavy: more than the vertical thruster's 15 N reverse thrust (the scenario check
+    // refuses such a file, the plant of a Monte Carlo run or a real vehicle can still be so).
+    let s = &line_3d_heavier_by(18.0);
     assert!(s.diverged, "{}", s.verdict);
     let lost = s.lost_control.as_deref().unwrap_or("");
     assert!(lost.starts_with("lost depth control"), "{lost}");
@@ -31,17 +36,6 @@ fn an_18_n_heavy_vehicle_that_sinks_has_lost_depth_control() {
 
 #[test]
 fn a_vehicle_just_within_its_thruster_holds_its_depth() {
-    let sc = Scenario::load("line-3d").unwrap();
-    let mut plant = nominal_plant_params(&sc);
-    plant.buoyancy_offset_n -= 14.0;
-    let out = run(
-        &sc,
-        &RunOptions {
-            plant_params: Some(plant),
-            ..RunOptions::default()
-        },
-    )
-    .unwrap();
-    let s = &out.summary;
+    let s = &line_3d_heavier_by(14.0);
     assert!(!s.diverged && s.lost_control.is_none(), "{}", s.verdict);
 }
