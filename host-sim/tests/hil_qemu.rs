@@ -35,7 +35,9 @@ fn out_dir(name: &str) -> PathBuf {
 fn hil(sc: &Scenario, f: impl FnOnce(&mut HilOptions), name: &str) -> Option<HilOutput> {
     let elf = firmware_elf()?;
     let mut o = HilOptions::new(HilTarget::Qemu { elf });
-    o.wall_limit = Duration::from_secs(300);
+    // A guard against a hung emulator, not a speed figure: four of these runs share two
+    // cores with the rest of `cargo test`, and one took over 300 s on a loaded machine.
+    o.wall_limit = Duration::from_secs(900);
     f(&mut o);
     let dir = out_dir(name);
     let out = run_hil(sc, &o, Some(&dir.join("qemu-stdout.bin")))
