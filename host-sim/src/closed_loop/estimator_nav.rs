@@ -1,5 +1,5 @@
 //! The navigation stage of `[navigation] source = "estimator"`: the scenario's simulated
-//! sensors ([`crate::sensors`]) feed the core's [`OnboardNav`] - the estimator as the vehicle
+//! sensors ([`crate::world::sensors`]) feed the core's [`OnboardNav`] - the estimator as the vehicle
 //! runs it, through its entry points, one per sensor (as PX4's EKF2 has its `set*Data`) - and
 //! the laws see only its output. Measurements reach the estimator when they *arrive* (a USBL fix `latency_s` after
 //! its ping), in arrival order, at the control tick; the IMU samples drive the prediction
@@ -9,10 +9,11 @@
 //! position NEES `e^T P^-1 e` on the plane's axes against the 95 % chi-square bound.
 
 use crate::clock::us;
-use crate::plant::PlantState;
+use crate::closed_loop::{to_nav, FixRecord, NavReport, Navigation, TruthNav};
 use crate::scenario::Scenario;
-use crate::sensors::{Measurement, NavSource, SensorSuite, SensorsSpec};
-use crate::sim_loop::{to_nav, FixRecord, NavReport, Navigation, TruthNav};
+use crate::world::plant::PlantState;
+use crate::world::sensor_sim::SensorSuite;
+use crate::world::sensors::{Measurement, NavSource, SensorsSpec};
 use anyhow::{anyhow, bail, Result};
 use controller_core::nav::compass_cal::CompassCalibration;
 use controller_core::nav::onboard::{OnboardConfig, OnboardNav, PressureDepth};
