@@ -16,6 +16,7 @@ pub mod sim_loop;
 pub use endpoint::{ControllerEndpoint, CoreEndpoint, StepReply};
 pub use navigation::{to_nav, FixRecord, Navigation, TruthNav};
 pub use report::{
-    figures, judge, verdict, verdict_word, NavReport, RunOutput, Summary, TargetCheck, Targets,
+    figures, judge, ratio, verdict, verdict_word, NavReport, RunOutput, Summary, TargetCheck,
+    Targets,
 };
 pub use sim_loop::*;

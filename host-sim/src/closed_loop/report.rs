@@ -176,6 +176,16 @@ pub fn figures(s: &Summary) -> String {
 }
 
 /// A length in words for the verdict: mm under 1 cm, cm under 1 m, m above.
+/// `part / whole`, 0 for nothing counted: a share of the control steps, or a mean per step.
+/// One rule for the loop's figures and the firmware's.
+pub fn ratio(part: u64, whole: u64) -> f64 {
+    if whole > 0 {
+        part as f64 / whole as f64
+    } else {
+        0.0
+    }
+}
+
 pub(super) fn len(m: f64) -> String {
     if !m.is_finite() {
         format!("{m}")

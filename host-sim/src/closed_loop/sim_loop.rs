@@ -29,7 +29,7 @@
 
 use super::endpoint::ControllerEndpoint;
 use super::navigation::Navigation;
-use super::report::{judge, len, verdict, RunOutput, Summary};
+use super::report::{judge, len, ratio, verdict, RunOutput, Summary};
 use crate::scenario::{ExpectSpec, Plane, Scenario, MAX_CONTROL_TICKS};
 use crate::world::frames::body_to_inertial;
 use crate::world::plant::six_dof_factory;
@@ -613,11 +613,7 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
         s.final_position_error_m = last.pos_err_norm_m;
         s.final_position_error_xyz_m = last.pos_err_m;
         s.final_angle_error_rad = last.angle_err_rad;
-        s.saturated_fraction = if s.control_steps > 0 {
-            m.n_sat as f64 / s.control_steps as f64
-        } else {
-            0.0
-        };
+        s.saturated_fraction = ratio(m.n_sat, s.control_steps);
         if s.diverged || s.nan_detected {
             // A run that stopped early has no meaningful tail: report it as infinite error.
             if !s.rms_position_error_tail_m.is_finite() || m.tail.n == 0 {

@@ -31,7 +31,7 @@
 //! `telemetry.csv` with what the firmware reported each step.
 
 use crate::clock::us;
-use crate::closed_loop::{ControllerEndpoint, RunOutput, StepReply};
+use crate::closed_loop::{ratio, ControllerEndpoint, RunOutput, StepReply};
 use crate::scenario::Scenario;
 use crate::tether::link::{Endpoint, HostLinkStats, Link, Noise, NoiseSpec};
 use crate::world::sensors::Measurement;
@@ -343,11 +343,7 @@ impl TetherEndpoint {
         rep.firmware_dropped_frames = fw.dropped.total();
         rep.firmware_tx_frames = fw.tx_frames;
         rep.firmware_nacks = fw.nacks;
-        rep.loop_ticks_mean = if rep.steps > 0 {
-            self.ticks_sum as f64 / rep.steps as f64
-        } else {
-            0.0
-        };
+        rep.loop_ticks_mean = ratio(self.ticks_sum, rep.steps);
         rep.host = self.link.stats;
         rep.wall_time_s = self.wall.elapsed().as_secs_f64();
         Ok((self.report, self.telemetry))
