@@ -11,12 +11,12 @@
 use anyhow::{bail, Context, Result};
 use controller_core::reference::RefSample;
 use controller_core::state::NavState;
-use host_sim::current_sweep::{first_course, sweep, RMS_BOUND_M};
-use host_sim::estimator_nav::navigation_for;
-use host_sim::scenario::Scenario;
-use host_sim::sim_loop::{
+use host_sim::closed_loop::estimator_nav::navigation_for;
+use host_sim::closed_loop::{
     run_closed_loop, ControllerEndpoint, CoreEndpoint, RunOptions, StepReply,
 };
+use host_sim::commands::current_sweep::{first_course, sweep, RMS_BOUND_M};
+use host_sim::scenario::Scenario;
 
 /// The core in process, recording the law's current estimate after every step.
 struct Probe {

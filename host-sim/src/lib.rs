@@ -1,39 +1,27 @@
 //! host-sim library: `f64` plants, scenarios, the closed-loop runner around the `f32`
-//! controller core, outputs (summary, CSV, PNG figures) and Monte Carlo.
+//! controller core, the tether to the firmware, the topside, outputs (summary, CSV, PNG
+//! figures) and the command line's commands. Each layer uses only the ones listed before it
+//! (docs/host-sim.md, "Where things are"):
 //!
-//! - [`plant`]: the planar plants ([`plant::xz`], [`plant::xy`]) and the 6-DOF plant.
-//! - [`scenario`]: TOML scenarios, built-ins embedded from `scenarios/`.
-//! - [`sim_loop`]: the one closed loop (plant, navigation, a controller endpoint, metrics).
-//! - [`runner`]: a software run (the core in process); [`hil`]: the firmware over the
-//!   tether; [`qemu`]: the emulated board.
-//! - [`sensors`]: simulated IMU, depth, compass, DVL and USBL; [`estimator_nav`]: the core's
-//!   estimator on them as the navigation stage.
+//! - [`checks`], [`clock`]: the number checks every user input goes through; simulated time
+//!   as microsecond stamps.
+//! - [`world`]: the plants (rigid body, thrusters, water), frames, sensors and noise.
+//! - [`scenario`]: what to run: TOML scenarios (built-ins embedded from `scenarios/`), the
+//!   reference, vehicle files.
+//! - [`closed_loop`]: the one closed loop (plant, navigation stage, a controller endpoint,
+//!   metrics), the navigation stages, the core in process, a software run.
+//! - [`output`]: what a run writes (summary, CSV, plots).
+//! - [`tether`]: the port, the framed link, the firmware as an endpoint (in process, in
+//!   QEMU, a board), the tether log.
 //! - [`topside`]: the surface side: MAVLink 2 to ground stations, the tether to the vehicle.
-//! - [`tether_log`]: the raw tether log of the topside.
-//! - [`vehicle`]: vehicle files (the Observer's is the default).
-//! - [`output`], [`plots`]: what a run writes.
-//! - [`monte_carlo`]: perturbed-parameter runs in parallel.
-//! - [`current_sweep`]: currents from every direction, as heat maps (issue 14).
+//! - [`commands`]: one file per command of the command line.
 
 pub mod checks;
 pub mod clock;
-pub mod current_sweep;
-pub mod estimator_nav;
-pub mod hil;
-pub mod in_process;
-pub mod link;
-pub mod monte_carlo;
+pub mod closed_loop;
+pub mod commands;
 pub mod output;
-pub mod params;
-pub mod plant;
-pub mod plots;
-pub mod port;
-pub mod qemu;
-pub mod replay;
-pub mod runner;
 pub mod scenario;
-pub mod sensors;
-pub mod sim_loop;
-pub mod tether_log;
+pub mod tether;
 pub mod topside;
-pub mod vehicle;
+pub mod world;

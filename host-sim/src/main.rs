@@ -19,14 +19,14 @@
 use anyhow::{anyhow, bail, Result};
 use clap::{Parser, Subcommand};
 use host_sim::checks::{is_refused, refused};
-use host_sim::monte_carlo::{
+use host_sim::closed_loop::runner::{run, RunOptions, RunOutput};
+use host_sim::closed_loop::verdict_word;
+use host_sim::commands::monte_carlo::{
     check_campaign, merge_shards, parse_shard, run_batch, write_batch, McConfig,
 };
+use host_sim::output::plots::compare_plot;
 use host_sim::output::write_run;
-use host_sim::plots::compare_plot;
-use host_sim::runner::{run, RunOptions, RunOutput};
 use host_sim::scenario::{ControllerKind, ExpectSpec, Scenario, BUILT_IN};
-use host_sim::sim_loop::verdict_word;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -112,13 +112,13 @@ enum Command {
         out: PathBuf,
     },
     /// Hardware in the loop: the firmware (QEMU or a board) closes the loop, lock-step.
-    Hil(host_sim::hil::HilArgs),
+    Hil(host_sim::commands::hil::HilArgs),
     /// Topside console: arm, disarm, mode, reference; telemetry to CSV with a status line.
-    Link(host_sim::link::LinkArgs),
+    Link(host_sim::commands::link::LinkArgs),
     /// The surface side: MAVLink 2 to QGroundControl / MAVProxy / pymavlink, the tether to the vehicle (`--sim SCENARIO`: simulated, with the firmware library in process)
     Topside(host_sim::topside::TopsideArgs),
     /// Draw the figures of a run from a recorded dive (.tlog)
-    Replay(host_sim::replay::ReplayArgs),
+    Replay(host_sim::commands::replay::ReplayArgs),
 }
 
 fn print_table(rows: &[&RunOutput]) {
@@ -284,13 +284,13 @@ fn main() -> ExitCode {
 fn dispatch(cli: Cli) -> Result<ExitCode> {
     let done = |r: Result<()>| r.map(|()| ExitCode::SUCCESS);
     match cli.command {
-        Some(Command::Hil(a)) => host_sim::hil::main(a).map(|o| run_code(&o.run)),
-        Some(Command::Link(a)) => done(host_sim::link::main(a)),
+        Some(Command::Hil(a)) => host_sim::commands::hil::main(a).map(|o| run_code(&o.run)),
+        Some(Command::Link(a)) => done(host_sim::commands::link::main(a)),
         Some(Command::Topside(a)) => done(host_sim::topside::main(a)),
-        Some(Command::Replay(a)) => done(host_sim::replay::main(a)),
+        Some(Command::Replay(a)) => done(host_sim::commands::replay::main(a)),
         Some(Command::CurrentSweep { out }) => {
-            let cells = host_sim::current_sweep::sweep()?;
-            host_sim::current_sweep::write(&out, &cells)?;
+            let cells = host_sim::commands::current_sweep::sweep()?;
+            host_sim::commands::current_sweep::write(&out, &cells)?;
             println!("wrote {}", out.display());
             Ok(ExitCode::SUCCESS)
         }

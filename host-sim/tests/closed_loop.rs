@@ -4,10 +4,10 @@
 //! The bounds on the paper laws are the numbers measured with `cargo run -p host-sim
 //! --release` (see the report in `docs/` / README), with a margin.
 
-use host_sim::plant::PlantState;
-use host_sim::runner::{run, RunOptions, Summary};
+use host_sim::closed_loop::runner::{run, RunOptions, Summary};
+use host_sim::closed_loop::{Navigation, TruthNav};
 use host_sim::scenario::{NoiseStd, Scenario};
-use host_sim::sim_loop::{Navigation, TruthNav};
+use host_sim::world::plant::PlantState;
 
 fn run_builtin(name: &str) -> Summary {
     let sc = Scenario::load(name).unwrap();

@@ -1,7 +1,7 @@
 //! The current sweep (issue 14's measurement) computes real runs and draws them: a cell is a
 //! closed-loop run in the given current, and the files are written.
 
-use host_sim::current_sweep::{cell, write, RMS_BOUND_M};
+use host_sim::commands::current_sweep::{cell, write, RMS_BOUND_M};
 
 #[test]
 fn a_light_current_from_the_side_is_tracked_and_the_sweep_files_are_written() {

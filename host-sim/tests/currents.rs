@@ -3,11 +3,11 @@
 //! the 6-DOF plant with the tracking law (current observer on, nothing told about the
 //! current).
 
-use host_sim::current_sweep::{cell, sweep, RMS_BOUND_M};
-use host_sim::monte_carlo::{run_batch, McConfig};
-use host_sim::runner::run;
+use host_sim::closed_loop::runner::run;
+use host_sim::closed_loop::{RunOptions, RunOutput};
+use host_sim::commands::current_sweep::{cell, sweep, RMS_BOUND_M};
+use host_sim::commands::monte_carlo::{run_batch, McConfig};
 use host_sim::scenario::Scenario;
-use host_sim::sim_loop::{RunOptions, RunOutput};
 
 fn fly(name: &str, current_m_s: Option<[f64; 3]>) -> RunOutput {
     let sc = Scenario::load(name).unwrap();

@@ -3,8 +3,9 @@
 //! Skipped, with a message, when `qemu-system-arm` is not installed.
 
 use firmware::protocol::Reply;
-use host_sim::link::{console, Link};
-use host_sim::qemu::{image_or_skip, start_qemu_link};
+use host_sim::commands::link::console;
+use host_sim::tether::link::Link;
+use host_sim::tether::qemu::{image_or_skip, start_qemu_link};
 use std::path::PathBuf;
 use std::time::Duration;
 

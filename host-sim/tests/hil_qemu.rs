@@ -6,11 +6,11 @@
 //! `HIL_FIRMWARE_ELF`).
 
 use firmware::protocol::fault;
-use host_sim::hil::{run_hil, write_hil, HilOptions, HilOutput, HilTarget};
-use host_sim::link::NoiseSpec;
-use host_sim::qemu::image_or_skip;
-use host_sim::runner::{run, RunOptions};
+use host_sim::closed_loop::runner::{run, RunOptions};
+use host_sim::commands::hil::{run_hil, write_hil, HilOptions, HilOutput, HilTarget};
 use host_sim::scenario::Scenario;
+use host_sim::tether::link::NoiseSpec;
+use host_sim::tether::qemu::image_or_skip;
 use std::path::PathBuf;
 use std::sync::OnceLock;
 use std::time::Duration;

@@ -2,12 +2,15 @@
 //! machine and PWM quantization as the firmware image, through the same closed loop as a
 //! software run. No emulator needed, so these run everywhere.
 
-use host_sim::hil::{run_hil, HilOptions, HilTarget};
-use host_sim::runner::{run, RunOptions};
+use host_sim::closed_loop::runner::{run, RunOptions};
+use host_sim::commands::hil::{run_hil, HilOptions, HilTarget};
 use host_sim::scenario::{ControllerKind, Scenario};
 use std::time::Duration;
 
-fn in_process(sc: &Scenario, f: impl FnOnce(&mut HilOptions)) -> host_sim::hil::HilOutput {
+fn in_process(
+    sc: &Scenario,
+    f: impl FnOnce(&mut HilOptions),
+) -> host_sim::commands::hil::HilOutput {
     let mut o = HilOptions::new(HilTarget::InProcess);
     o.wall_limit = Duration::from_secs(300);
     o.record = false;

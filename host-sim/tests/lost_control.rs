@@ -1,9 +1,9 @@
 //! Divergence judged on the true state (issue 23): a vehicle that cannot hold its depth is
 //! named so, not "completed"; a run that ends where it should is not judged lost.
 
-use host_sim::runner::{nominal_plant_params, run, RunOptions};
+use host_sim::closed_loop::runner::{nominal_plant_params, run, RunOptions};
+use host_sim::closed_loop::Summary;
 use host_sim::scenario::Scenario;
-use host_sim::sim_loop::Summary;
 
 /// `line-3d` flown by a controller told the nominal vehicle, on a plant `heavy_n` heavier.
 fn line_3d_heavier_by(heavy_n: f32) -> Summary {

@@ -1,7 +1,7 @@
 //! Monte Carlo: reproducible for a seed, different for another seed, perturbations bounded.
 
 use controller_core::params::VehicleParams;
-use host_sim::monte_carlo::{
+use host_sim::commands::monte_carlo::{
     merge_shards, perturb_params, random_current, run_batch, shard_range, write_batch, McConfig,
 };
 use host_sim::scenario::{Plane, Scenario};

@@ -3,7 +3,7 @@
 //! the compass off by 1, 3, 6 and 10 degrees; and the circle with USBL only, 5 degrees off.
 //! Every tracking figure is the TRUE position against the reference, RMS over the last 80 %.
 
-use host_sim::runner::{run, RunOptions, Summary};
+use host_sim::closed_loop::runner::{run, RunOptions, Summary};
 use host_sim::scenario::Scenario;
 
 /// `nav-lawnmower-3d` in a 0.2 m/s current across its legs (east; the legs run north).
@@ -88,8 +88,8 @@ fn usbl_only_with_a_5_deg_compass_bias_within_30_cm() {
 /// survey, the estimate of a 6 deg bias is within 1 deg, and inside 3 of its own sigma.
 #[test]
 fn the_compass_bias_state_learns_the_bias() {
-    use host_sim::estimator_nav::EstimatorNav;
-    use host_sim::sim_loop::{run_closed_loop, CoreEndpoint};
+    use host_sim::closed_loop::estimator_nav::EstimatorNav;
+    use host_sim::closed_loop::{run_closed_loop, CoreEndpoint};
     let sc = survey(6.0);
     let mut nav = EstimatorNav::for_scenario(&sc, sc.disturbance.noise_seed).unwrap();
     let mut ep = CoreEndpoint::for_scenario(&sc).unwrap();

@@ -5,10 +5,11 @@
 //! Figures on the TRUE position.
 
 use controller_core::nav::compass_cal::{CalRefusal, CompassCalibration, CompassSwing};
-use host_sim::plant::PlantState;
-use host_sim::runner::{run, RunOptions};
+use host_sim::closed_loop::runner::{run, RunOptions};
 use host_sim::scenario::Scenario;
-use host_sim::sensors::{CompassSpec, ImuSpec, Measurement, SensorSuite, SensorsSpec};
+use host_sim::world::plant::PlantState;
+use host_sim::world::sensor_sim::SensorSuite;
+use host_sim::world::sensors::{CompassSpec, ImuSpec, Measurement, SensorsSpec};
 
 const HARD_IRON_RAD: f64 = 0.0873; // 5 deg
 const PHASE_RAD: f64 = 0.7;

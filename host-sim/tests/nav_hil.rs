@@ -3,10 +3,10 @@
 //! `qemu` image against the software run: within 10 % + 1 cm. Skipped, with a message,
 //! without `qemu-system-arm` or the thumbv7em target (the pattern of `hil_qemu.rs`).
 
-use host_sim::hil::{run_hil, HilOptions, HilTarget};
-use host_sim::qemu::image_or_skip;
-use host_sim::runner::{run, RunOptions};
+use host_sim::closed_loop::runner::{run, RunOptions};
+use host_sim::commands::hil::{run_hil, HilOptions, HilTarget};
 use host_sim::scenario::Scenario;
+use host_sim::tether::qemu::image_or_skip;
 use std::time::Duration;
 
 #[test]

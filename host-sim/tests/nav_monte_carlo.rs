@@ -5,7 +5,7 @@
 //! +-5 deg off, with that uncertainty). Figures on the TRUE position, RMS over the last
 //! 80 %.
 
-use host_sim::runner::{run, RunOptions};
+use host_sim::closed_loop::runner::{run, RunOptions};
 use host_sim::scenario::Scenario;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

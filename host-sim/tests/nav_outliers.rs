@@ -3,10 +3,10 @@
 //! majority of the fixes since the first of them) moves the estimate. Every tracking figure is
 //! the TRUE position against the reference, RMS over the last 80 %.
 
-use host_sim::estimator_nav::EstimatorNav;
-use host_sim::runner::{run, RunOptions, Summary};
+use host_sim::closed_loop::estimator_nav::EstimatorNav;
+use host_sim::closed_loop::runner::{run, RunOptions, Summary};
+use host_sim::closed_loop::{run_closed_loop, CoreEndpoint};
 use host_sim::scenario::Scenario;
-use host_sim::sim_loop::{run_closed_loop, CoreEndpoint};
 
 /// A run with the estimator kept, for its counters.
 fn run_nav(sc: &Scenario) -> (Summary, EstimatorNav) {

@@ -1,9 +1,10 @@
 //! Issue 26 (a): the sensors' real errors are simulated as specified, and implausible ones
 //! are refused with the key named.
 
-use host_sim::plant::PlantState;
 use host_sim::scenario::Scenario;
-use host_sim::sensors::{CompassSpec, DvlSpec, Measurement, SensorSuite, SensorsSpec, UsblSpec};
+use host_sim::world::plant::PlantState;
+use host_sim::world::sensor_sim::SensorSuite;
+use host_sim::world::sensors::{CompassSpec, DvlSpec, Measurement, SensorsSpec, UsblSpec};
 
 fn state(psi_rad: f64, uv_m_s: [f64; 2]) -> PlantState {
     PlantState {

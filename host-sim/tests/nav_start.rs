@@ -4,10 +4,10 @@
 //! uncertainty is below the core's threshold. Figures on the TRUE position.
 
 use controller_core::nav::{HEADING_READY_STD_RAD, POSITION_READY_STD_M};
-use host_sim::estimator_nav::EstimatorNav;
-use host_sim::runner::RunOptions;
+use host_sim::closed_loop::estimator_nav::EstimatorNav;
+use host_sim::closed_loop::runner::RunOptions;
+use host_sim::closed_loop::{run_closed_loop, CoreEndpoint};
 use host_sim::scenario::Scenario;
-use host_sim::sim_loop::{run_closed_loop, CoreEndpoint};
 
 fn unknown_start(name: &str) -> Scenario {
     let mut sc = Scenario::load(name).unwrap();
@@ -38,7 +38,7 @@ fn check(name: &str) {
     let ready = nav.position_ready_at_s();
     // The tracking error and the estimation error (true position) from 120 s on.
     let after: Vec<_> = out.log.iter().filter(|x| x.t_s >= 120.0).collect();
-    let rms = |f: &dyn Fn(&host_sim::sim_loop::Sample) -> f64| {
+    let rms = |f: &dyn Fn(&host_sim::closed_loop::Sample) -> f64| {
         (after.iter().map(|x| f(x).powi(2)).sum::<f64>() / after.len() as f64).sqrt()
     };
     let tracking = rms(&|x| x.pos_err_norm_m);

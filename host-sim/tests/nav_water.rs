@@ -3,12 +3,13 @@
 //! current changes in time and with depth. Figures on the TRUE position.
 
 use controller_core::params::VehicleParams;
-use host_sim::plant::six_dof::SixDof;
-use host_sim::plant::water::WaterSpec;
-use host_sim::plant::{Boundary, Environment, Plant, PlantState};
-use host_sim::runner::{run, RunOptions};
+use host_sim::closed_loop::runner::{run, RunOptions};
 use host_sim::scenario::Scenario;
-use host_sim::sensors::{DvlSpec, Measurement, SensorSuite, SensorsSpec};
+use host_sim::world::plant::six_dof::SixDof;
+use host_sim::world::plant::water::WaterSpec;
+use host_sim::world::plant::{Boundary, Environment, Plant, PlantState};
+use host_sim::world::sensor_sim::SensorSuite;
+use host_sim::world::sensors::{DvlSpec, Measurement, SensorsSpec};
 
 #[test]
 fn a_buoyant_vehicle_stops_at_the_surface_and_says_so() {

@@ -2,11 +2,11 @@
 //! issue's numbers. Every tracking figure is the **true** position against the reference;
 //! the estimation figure is the estimate against the truth.
 
-use host_sim::estimator_nav::EstimatorNav;
-use host_sim::monte_carlo::{run_batch, McConfig};
-use host_sim::runner::{run, RunOptions, RunOutput, Summary};
+use host_sim::closed_loop::estimator_nav::EstimatorNav;
+use host_sim::closed_loop::runner::{run, RunOptions, RunOutput, Summary};
+use host_sim::closed_loop::{run_closed_loop, CoreEndpoint};
+use host_sim::commands::monte_carlo::{run_batch, McConfig};
 use host_sim::scenario::Scenario;
-use host_sim::sim_loop::{run_closed_loop, CoreEndpoint};
 
 fn load(name: &str) -> Scenario {
     Scenario::load(name).unwrap()
@@ -167,7 +167,7 @@ fn a_60_s_usbl_dropout_with_dvl_grows_the_error_by_under_1_percent_of_the_distan
     let out = run_sc(&sc, true);
     print(&out.summary);
     assert_healthy(&out.summary);
-    let err = |s: &host_sim::runner::Sample| {
+    let err = |s: &host_sim::closed_loop::runner::Sample| {
         (0..3)
             .map(|i| (s.nav_pos_m[i] - s.state.eta[i]).powi(2))
             .sum::<f64>()

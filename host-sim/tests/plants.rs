@@ -4,9 +4,9 @@
 use controller_core::model;
 use controller_core::params::{Vehicle, VehicleParams};
 use controller_core::state::{BodyForces, XyState, XzState};
-use host_sim::plant::xy::{self as pxy, XyPlant};
-use host_sim::plant::xz::{self as pxz, XzPlant};
-use host_sim::plant::{Environment, Plant, PlantParams, PlantState};
+use host_sim::world::plant::xy::{self as pxy, XyPlant};
+use host_sim::world::plant::xz::{self as pxz, XzPlant};
+use host_sim::world::plant::{Environment, Plant, PlantParams, PlantState};
 use proptest::prelude::*;
 
 fn params() -> PlantParams {

@@ -3,7 +3,7 @@
 //! same situation is an error. The toolchain is faked with a `RUSTC` whose sysroot lacks the
 //! target (this test binary holds only this test, so setting the variables races nothing).
 
-use host_sim::qemu::{
+use host_sim::tether::qemu::{
     firmware_target_installed, image_or_skip, qemu_firmware_image, workspace_root, FirmwareImage,
 };
 use std::path::PathBuf;

@@ -41,7 +41,10 @@ fn defaults_apply() {
         }
     );
     assert!(s.thrusters.saturate);
-    assert_eq!(s.initial.to_plant(), host_sim::plant::PlantState::default());
+    assert_eq!(
+        s.initial.to_plant(),
+        host_sim::world::plant::PlantState::default()
+    );
     assert!(!s.disturbance.noise);
     assert_eq!(s.disturbance.delay_s, 0.0);
 }

@@ -54,7 +54,7 @@ fn pymavlink_flies_the_emulated_board() {
     if !pymavlink_or_skip() {
         return;
     }
-    let Some(elf) = host_sim::qemu::image_or_skip().unwrap() else {
+    let Some(elf) = host_sim::tether::qemu::image_or_skip().unwrap() else {
         return;
     };
     let elf = elf.to_string_lossy().to_string();
@@ -120,8 +120,8 @@ fn fly_session(name: &str, extra: &[&str]) {
 
     // The raw tether log beside it: every frame both ways decodes, and it holds what the
     // session did on the vehicle (arming, modes, the pilot's thrust) and its telemetry.
-    let frames = host_sim::tether_log::decode(
-        &host_sim::tether_log::read(&only_file(&dir, "tether")).unwrap(),
+    let frames = host_sim::tether::tether_log::decode(
+        &host_sim::tether::tether_log::read(&only_file(&dir, "tether")).unwrap(),
     );
     use firmware::protocol::{Command as Cmd, Reply};
     let commands = |f: &dyn Fn(&Cmd) -> bool| frames.commands.iter().filter(|c| f(&c.2)).count();
@@ -145,7 +145,7 @@ fn fly_session(name: &str, extra: &[&str]) {
 
     // The dive drawn from its log: the same files as a simulated run.
     let replay_dir = dir.join("replay");
-    let out = host_sim::replay::replay(&tlog, &replay_dir).unwrap();
+    let out = host_sim::commands::replay::replay(&tlog, &replay_dir).unwrap();
     println!(
         "replay: {} / {}",
         out.summary.stop_reason, out.summary.verdict

@@ -7,8 +7,8 @@
 
 use firmware::protocol::{fault, Command as Cmd, Reply};
 use firmware::Config;
-use host_sim::in_process::InProcessFirmware;
-use host_sim::tether_log;
+use host_sim::tether::in_process::InProcessFirmware;
+use host_sim::tether::tether_log;
 use mavlink::dialects::ardupilotmega::{
     MavCmd, MavMessage, MavModeFlag, MavParamType, MavResult, MavType, COMMAND_LONG_DATA,
     PARAM_SET_DATA,

@@ -7,7 +7,7 @@ mod tracking_common;
 use controller_core::controller::ControlMode;
 use controller_core::params::VehicleParams;
 use controller_core::reference::{PaperPolynomial, Reference};
-use host_sim::plant::Environment;
+use host_sim::world::plant::Environment;
 use tracking_common::{at_rest, run};
 
 #[test]

@@ -1,10 +1,10 @@
 //! Vehicle files: `host-sim run` flies another vehicle given by the scenario key `vehicle`,
 //! and a vehicle the laws would not be safe on is refused by name.
 
-use host_sim::runner::run;
+use host_sim::closed_loop::runner::run;
+use host_sim::closed_loop::RunOptions;
+use host_sim::scenario::vehicle::OBSERVER_TOML;
 use host_sim::scenario::Scenario;
-use host_sim::sim_loop::RunOptions;
-use host_sim::vehicle::OBSERVER_TOML;
 use std::path::PathBuf;
 
 const CIRCLE: &str = r#"

@@ -43,7 +43,7 @@ impl embedded_hal::pwm::SetDutyCycle for FakePwm {
 
 /// A serial port in RAM: bytes queued for the firmware, bytes it wrote.
 ///
-/// Not the host's shared fake port (`host_sim::in_process::SimSerial`, which the tests use as
+/// Not the host's shared fake port (`host_sim::tether::in_process::SimSerial`, which the tests use as
 /// `rov_tests::FakeSerial`): that one keeps its bytes in a `VecDeque`/`Vec`, which needs an
 /// allocator this `no_std` image has not, and lives in a std crate; and this port's copies are
 /// part of the measured loop (docs/hil-and-mcu-cost.md), so they stay fixed-size and fixed.

@@ -58,7 +58,7 @@ impl embedded_hal::pwm::SetDutyCycle for FakePwm {
 
 /// A serial port: bytes queued by the test are read by the firmware; bytes written by the
 /// firmware are kept. The in-process firmware's port, the same type.
-pub use host_sim::in_process::SimSerial as FakeSerial;
+pub use host_sim::tether::in_process::SimSerial as FakeSerial;
 
 /// A clock the test sets; shared so the test can move it while the app owns a copy.
 #[derive(Debug, Default, Clone)]

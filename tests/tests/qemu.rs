@@ -31,7 +31,7 @@ fn image() -> Option<PathBuf> {
     if let Some(p) = std::env::var_os("ROV_QEMU_ELF") {
         return Some(PathBuf::from(p));
     }
-    host_sim::qemu::image_or_skip().expect("the firmware's qemu image")
+    host_sim::tether::qemu::image_or_skip().expect("the firmware's qemu image")
 }
 
 /// Kills QEMU when the test ends, also on a panic.

@@ -140,14 +140,22 @@ impl OnboardNav {
         r
     }
 
-    /// A pressure reading (Pa, absolute) made at `t_us`.
+    /// A pressure reading (Pa, absolute) made at `t_us`: converted to depth with the
+    /// configured fluid and accuracy, then fused as [`depth`](Self::depth).
     pub fn pressure(&mut self, now_us: u64, t_us: u64, pressure_pa: f32) -> Result<(), Refusal> {
         let fix = super::DepthFix {
             t_us,
             depth_m: self.cfg.pressure.depth_m(pressure_pa),
             std_m: self.cfg.pressure.std_m,
         };
-        let r = self.estimator.fuse_depth(&fix);
+        self.depth(now_us, &fix)
+    }
+
+    /// A depth already converted from pressure (a simulated depth sensor, whose reading
+    /// carries its own accuracy), received at `now_us`; it counts for the pressure sensor's
+    /// freshness as [`pressure`](Self::pressure) does.
+    pub fn depth(&mut self, now_us: u64, fix: &super::DepthFix) -> Result<(), Refusal> {
+        let r = self.estimator.fuse_depth(fix);
         // A gated reading still proves the sensor answers; a refused one does not.
         if matches!(r, Ok(()) | Err(Refusal::Outlier)) {
             self.last_pressure_rx_us = now_us;

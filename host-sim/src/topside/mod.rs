@@ -3,7 +3,7 @@
 //! ArduSub's conventions so that existing tools map the vehicle's modes and sticks.
 //!
 //! The vehicle side is `--sim SCENARIO`: the one closed loop of every run
-//! ([`crate::sim_loop::ClosedLoop`], as `hil` drives it) with the firmware library's `App` in
+//! ([`crate::closed_loop::ClosedLoop`], as `hil` drives it) with the firmware library's `App` in
 //! this process at the end of the tether (the same frames, state machine and failsafes as the
 //! image), or with `--emulated` the firmware image itself in QEMU; in real time or
 //! `--speedup K` faster. With `[navigation] source = "estimator"` the simulated sensors go to
@@ -49,6 +49,7 @@ mod commander;
 mod geodesy;
 mod logs;
 mod missions;
+pub mod params;
 mod telemetry;
 mod transport;
 mod vehicle;
@@ -59,12 +60,11 @@ pub use logs::{open_logs, utc_stamp};
 pub use missions::MISSION_MAX_ITEMS;
 pub use transport::{take_frames, GcsStats, StationId, POLL_LIMIT};
 
-use crate::hil::HilTarget;
-use crate::in_process::InProcessFirmware;
-use crate::params::{self, PARAMS};
-use crate::qemu::{qemu_firmware_image, start_qemu_link, workspace_root, FirmwareImage};
 use crate::scenario::Scenario;
-use crate::sensors::NavSource;
+use crate::tether::endpoint::HilTarget;
+use crate::tether::in_process::InProcessFirmware;
+use crate::tether::qemu::{qemu_firmware_image, start_qemu_link, workspace_root, FirmwareImage};
+use crate::world::sensors::NavSource;
 use anyhow::{bail, Result};
 use controller_core::controller::ControlMode;
 use controller_core::reference::Reference;
@@ -74,6 +74,7 @@ use mavlink::dialects::ardupilotmega::{
 };
 use mavlink::MavHeader;
 use missions::Missions;
+use params::PARAMS;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 use transport::Gcs;
@@ -242,7 +243,11 @@ struct Topside {
 
 /// Run the topside until `--duration` (or forever).
 pub fn main(a: TopsideArgs) -> Result<()> {
-    let vehicle_file = a.vehicle.as_deref().map(crate::vehicle::load).transpose()?;
+    let vehicle_file = a
+        .vehicle
+        .as_deref()
+        .map(crate::scenario::vehicle::load)
+        .transpose()?;
     if !(a.speedup.is_finite() && a.speedup > 0.0) {
         bail!("--speedup must be > 0 (got {})", a.speedup);
     }
@@ -251,8 +256,11 @@ pub fn main(a: TopsideArgs) -> Result<()> {
     // The QEMU child lives as long as this guard.
     let mut _qemu = None;
     let (mut v, what) = if let Some(device) = &a.serial {
-        let port = crate::port::serial_port(device, a.baud)?;
-        let port = Box::new(crate::tether_log::LoggedPort::new(port, &tether_path)?);
+        let port = crate::tether::port::serial_port(device, a.baud)?;
+        let port = Box::new(crate::tether::tether_log::LoggedPort::new(
+            port,
+            &tether_path,
+        )?);
         let v = SimVehicle::real(port, vehicle_file)?;
         (
             v,
@@ -266,7 +274,7 @@ pub fn main(a: TopsideArgs) -> Result<()> {
         if let Some(p) = vehicle_file {
             sc.vehicle_params = p;
         }
-        let (port, target, hello_wait, firmware): (Box<dyn crate::port::Port>, _, _, _) =
+        let (port, target, hello_wait, firmware): (Box<dyn crate::tether::port::Port>, _, _, _) =
             if a.emulated {
                 let elf = match a.qemu.clone() {
                     Some(elf) => elf,
@@ -293,7 +301,10 @@ pub fn main(a: TopsideArgs) -> Result<()> {
                     "firmware library in process".to_string(),
                 )
             };
-        let port = Box::new(crate::tether_log::LoggedPort::new(port, &tether_path)?);
+        let port = Box::new(crate::tether::tether_log::LoggedPort::new(
+            port,
+            &tether_path,
+        )?);
         let truth = tether_path.with_extension("truth.csv");
         let v = SimVehicle::new(&sc, port, target, hello_wait, &truth)?;
         let what = format!(

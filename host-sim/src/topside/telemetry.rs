@@ -4,7 +4,7 @@
 use super::transport::Gcs;
 use super::vehicle::SimVehicle;
 use super::{custom_mode_of, StationId};
-use crate::params::{Settings, PARAMS};
+use crate::topside::params::{Settings, PARAMS};
 use anyhow::Result;
 use firmware::protocol::fault;
 use mavlink::dialects::ardupilotmega::{

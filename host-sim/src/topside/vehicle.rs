@@ -10,12 +10,12 @@
 //! (`truth.csv`).
 
 use crate::clock::us;
-use crate::estimator_nav::navigation_for_vehicle;
-use crate::hil::{HilOptions, HilTarget, TetherEndpoint};
-use crate::link::{HostLinkStats, Link};
-use crate::params::{Group, Settings};
+use crate::closed_loop::estimator_nav::navigation_for_vehicle;
+use crate::closed_loop::{ClosedLoop, Navigation, RunOptions};
 use crate::scenario::Scenario;
-use crate::sim_loop::{ClosedLoop, Navigation, RunOptions};
+use crate::tether::endpoint::{HilOptions, HilTarget, TetherEndpoint};
+use crate::tether::link::{HostLinkStats, Link};
+use crate::topside::params::{Group, Settings};
 use anyhow::{anyhow, bail, Context, Result};
 use controller_core::params::VehicleParams;
 use controller_core::state::NavState;
@@ -68,7 +68,7 @@ impl SimVehicle {
     /// The first control period is run: the vehicle gets its description and its navigation.
     pub(super) fn new(
         sc: &Scenario,
-        port: Box<dyn crate::port::Port>,
+        port: Box<dyn crate::tether::port::Port>,
         target: HilTarget,
         hello_wait: Duration,
         truth: &Path,
@@ -121,7 +121,7 @@ impl SimVehicle {
     /// within 2 s. Its description is sent only when `vehicle` is given (a real vehicle
     /// keeps its own otherwise; the parameter list shows the Observer's until then).
     pub(super) fn real(
-        port: Box<dyn crate::port::Port>,
+        port: Box<dyn crate::tether::port::Port>,
         vehicle: Option<VehicleParams>,
     ) -> Result<Self> {
         let mut link = Link::new(port, None);

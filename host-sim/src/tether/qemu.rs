@@ -5,7 +5,7 @@
 //! machine without `qemu-system-arm` or without the `thumbv7em-none-eabihf` target gets
 //! [`FirmwareImage::Unavailable`] with the command that fixes it, never a failed build.
 
-use crate::port::{tcp_port, Port};
+use crate::tether::port::{tcp_port, Port};
 use anyhow::{anyhow, bail, Context, Result};
 use std::io::Write;
 use std::net::TcpListener;

@@ -7,14 +7,14 @@
 //! time), plus `fig_thrusters.png`. 3-D runs get `fig_xy.png`, `fig_xz.png`, `fig_errors.png`,
 //! `fig_thrusters.png`. [`compare_plot`] draws the paper law beside the tracking law.
 
-use crate::sim_loop::{RunOutput, Sample};
+use crate::closed_loop::{RunOutput, Sample};
 use anyhow::{anyhow, Result};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
 use std::sync::Once;
 
-static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
+static FONT: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
 static FONT_INIT: Once = Once::new();
 /// The font family the figures use (registered by [`init_font`]).
 pub const FONT_NAME: &str = "sans-serif";

@@ -7,7 +7,7 @@
 //! length and the bytes as they were written or read (COBS frames, possibly split between
 //! records). [`read`] gives the records back and [`decode`] the frames in them.
 
-use crate::port::Port;
+use crate::tether::port::Port;
 use anyhow::{bail, Context, Result};
 use firmware::protocol::{Command, Decoded, FrameDecoder, Reply};
 use std::fs::File;

@@ -1,5 +1,5 @@
 //! A software run: the scenario's plant and navigation around the core's [`Controller`]
-//! in process, through the one closed loop of [`crate::sim_loop`].
+//! in process, through the one closed loop of [`crate::closed_loop`].
 //!
 //! With `[thrusters] saturate = false` (the paper's setting) the controller is built with
 //! unlimited thrusters (1 MN), so its allocation passes the request through, and the plant
@@ -7,15 +7,15 @@
 //!
 //! [`Controller`]: controller_core::controller::Controller
 
-use crate::estimator_nav::navigation_for;
+use crate::closed_loop::estimator_nav::navigation_for;
+use crate::closed_loop::{run_closed_loop, CoreEndpoint};
 use crate::scenario::Scenario;
-use crate::sim_loop::{run_closed_loop, CoreEndpoint};
 use anyhow::Result;
 
-pub use crate::sim_loop::{
-    body_to_inertial, make_plant, nominal_plant_params, to_nav, verdict, RunOptions, RunOutput,
-    Sample, Summary,
+pub use crate::closed_loop::{
+    make_plant, nominal_plant_params, to_nav, verdict, RunOptions, RunOutput, Sample, Summary,
 };
+pub use crate::world::frames::body_to_inertial;
 
 /// Run one scenario with the core controller in process.
 pub fn run(sc: &Scenario, opts: &RunOptions) -> Result<RunOutput> {

@@ -3,13 +3,18 @@
 //! Parsing is strict: unknown keys are rejected (`deny_unknown_fields`) and every number is
 //! checked by [`Scenario::validate`] before a run starts, with an error that names the key.
 
+mod built_in;
+mod reference;
+pub mod vehicle;
+
+pub use built_in::{BuiltIn, BUILT_IN};
+pub use reference::ReferenceSpec;
+
 use crate::checks::{fin, nonneg, pos, vec3};
-pub use crate::sensors::{NavSource, NavigationSpec, SensorsSpec};
+pub use crate::world::sensors::{NavSource, NavigationSpec, SensorsSpec};
 use anyhow::{anyhow, bail, Context, Result};
 use controller_core::controller::ControlMode;
-use controller_core::error::Error as CoreError;
 use controller_core::params::{Vehicle, VehicleParams};
-use controller_core::reference::{PaperPolynomial, Reference};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -124,255 +129,6 @@ fn d_rate_std() -> f64 {
     0.002
 }
 
-/// The `[reference]` table. `kind` selects the variant; the other keys are its fields.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
-pub enum ReferenceSpec {
-    /// The paper's polynomial `h_r t^5 / (t^5 + (t_f - t)^5)` on x, y and z.
-    Paper {
-        /// Final value (m).
-        #[serde(default = "d_hr")]
-        h_r_m: f64,
-        /// Final time (s).
-        #[serde(default = "d_tf")]
-        t_f_s: f64,
-    },
-    /// Hold a fixed point.
-    Hold {
-        /// The point `[x, y, z]` (m).
-        #[serde(default)]
-        pos_m: [f64; 3],
-    },
-    /// Straight line.
-    Line {
-        /// Start point.
-        #[serde(default)]
-        start_m: [f64; 3],
-        /// Direction of travel (rad).
-        #[serde(default)]
-        heading_rad: f64,
-        /// Speed (m/s).
-        #[serde(default = "d_speed")]
-        speed_m_s: f64,
-    },
-    /// Horizontal circle.
-    Circle {
-        /// Centre.
-        #[serde(default)]
-        center_m: [f64; 3],
-        /// Radius (m).
-        #[serde(default = "d_radius")]
-        radius_m: f64,
-        /// Speed along the circle (m/s).
-        #[serde(default = "d_speed")]
-        speed_m_s: f64,
-    },
-    /// Lawnmower survey.
-    Lawnmower {
-        /// Start point.
-        #[serde(default)]
-        start_m: [f64; 3],
-        /// Heading of the first leg (rad).
-        #[serde(default)]
-        heading_rad: f64,
-        /// Leg length (m).
-        #[serde(default = "d_leg")]
-        leg_length_m: f64,
-        /// Distance between legs (m).
-        #[serde(default = "d_spacing")]
-        spacing_m: f64,
-        /// Number of legs.
-        #[serde(default = "d_legs")]
-        legs: u16,
-        /// Speed (m/s).
-        #[serde(default = "d_speed")]
-        speed_m_s: f64,
-    },
-    /// Descending helix.
-    Helix {
-        /// Centre at the start.
-        #[serde(default)]
-        center_m: [f64; 3],
-        /// Radius (m).
-        #[serde(default = "d_radius")]
-        radius_m: f64,
-        /// Horizontal speed (m/s).
-        #[serde(default = "d_speed")]
-        speed_m_s: f64,
-        /// Depth rate, positive descending (m/s).
-        #[serde(default = "d_depth_rate")]
-        depth_rate_m_s: f64,
-    },
-}
-
-impl ReferenceSpec {
-    /// The name of the kind.
-    pub fn kind(&self) -> &'static str {
-        match self {
-            ReferenceSpec::Paper { .. } => "paper",
-            ReferenceSpec::Hold { .. } => "hold",
-            ReferenceSpec::Line { .. } => "line",
-            ReferenceSpec::Circle { .. } => "circle",
-            ReferenceSpec::Lawnmower { .. } => "lawnmower",
-            ReferenceSpec::Helix { .. } => "helix",
-        }
-    }
-
-    /// The core's reference, checked by the core's own [`Reference::validate`]: the one check
-    /// of what the core refuses (a line's speed must be > 0, as on the vehicle). Its refusal
-    /// names the scenario key (`reference.<field>`), the value given and the kind.
-    pub fn validate(&self) -> Result<Reference> {
-        let core = self.to_core();
-        core.validate().map_err(|e| self.refusal(e))?;
-        Ok(core)
-    }
-
-    /// The core's refusal `e` as the scenario's: the core names the field, this the key.
-    fn refusal(&self, e: CoreError) -> anyhow::Error {
-        let field = match e {
-            CoreError::NonFinite(f)
-            | CoreError::NotPositive(f)
-            | CoreError::Negative(f)
-            | CoreError::OutOfRange(f) => Some(f),
-            // "non-physical parameters: .." does not read as a key's refusal: said as is below.
-            _ => None,
-        };
-        let kind = self.kind();
-        let given = field.and_then(|f| self.values().into_iter().find(|(k, _)| *k == f));
-        let Some((_, given)) = given else {
-            return anyhow!("reference (kind = {kind:?}) refused by the core: {e}");
-        };
-        let shown = match given.as_slice() {
-            [v] => format!("{v}"),
-            vs => format!(
-                "[{}]",
-                vs.iter().map(f64::to_string).collect::<Vec<_>>().join(", ")
-            ),
-        };
-        // The vehicle computes in f32: a value finite or non-zero in f64 may not be in f32.
-        let lost = given.iter().any(|&v| {
-            let v32 = v as f32;
-            (v.is_finite() && !v32.is_finite()) || (v != 0.0 && v32 == 0.0)
-        });
-        let note = if lost {
-            " (the vehicle computes in f32: the value is beyond its range)"
-        } else {
-            ""
-        };
-        anyhow!("reference.{e} (got {shown}; kind = {kind:?}){note}")
-    }
-
-    /// Every field of the kind with its value(s), named as the core names them.
-    fn values(&self) -> Vec<(&'static str, Vec<f64>)> {
-        match *self {
-            ReferenceSpec::Paper { h_r_m, t_f_s } => {
-                vec![("h_r_m", vec![h_r_m]), ("t_f_s", vec![t_f_s])]
-            }
-            ReferenceSpec::Hold { pos_m } => vec![("pos_m", pos_m.to_vec())],
-            ReferenceSpec::Line {
-                start_m,
-                heading_rad,
-                speed_m_s,
-            } => vec![
-                ("start_m", start_m.to_vec()),
-                ("heading_rad", vec![heading_rad]),
-                ("speed_m_s", vec![speed_m_s]),
-            ],
-            ReferenceSpec::Circle {
-                center_m,
-                radius_m,
-                speed_m_s,
-            } => vec![
-                ("center_m", center_m.to_vec()),
-                ("radius_m", vec![radius_m]),
-                ("speed_m_s", vec![speed_m_s]),
-            ],
-            ReferenceSpec::Lawnmower {
-                start_m,
-                heading_rad,
-                leg_length_m,
-                spacing_m,
-                legs,
-                speed_m_s,
-            } => vec![
-                ("start_m", start_m.to_vec()),
-                ("heading_rad", vec![heading_rad]),
-                ("leg_length_m", vec![leg_length_m]),
-                ("spacing_m", vec![spacing_m]),
-                ("legs", vec![f64::from(legs)]),
-                ("speed_m_s", vec![speed_m_s]),
-            ],
-            ReferenceSpec::Helix {
-                center_m,
-                radius_m,
-                speed_m_s,
-                depth_rate_m_s,
-            } => vec![
-                ("center_m", center_m.to_vec()),
-                ("radius_m", vec![radius_m]),
-                ("speed_m_s", vec![speed_m_s]),
-                ("depth_rate_m_s", vec![depth_rate_m_s]),
-            ],
-        }
-    }
-
-    /// The core's reference (f32).
-    pub fn to_core(&self) -> Reference {
-        let v3 = |a: [f64; 3]| [a[0] as f32, a[1] as f32, a[2] as f32];
-        match *self {
-            ReferenceSpec::Paper { h_r_m, t_f_s } => Reference::Paper(PaperPolynomial {
-                h_r_m: h_r_m as f32,
-                t_f_s: t_f_s as f32,
-            }),
-            ReferenceSpec::Hold { pos_m } => Reference::Hold { pos_m: v3(pos_m) },
-            ReferenceSpec::Line {
-                start_m,
-                heading_rad,
-                speed_m_s,
-            } => Reference::Line {
-                start_m: v3(start_m),
-                heading_rad: heading_rad as f32,
-                speed_m_s: speed_m_s as f32,
-            },
-            ReferenceSpec::Circle {
-                center_m,
-                radius_m,
-                speed_m_s,
-            } => Reference::Circle {
-                center_m: v3(center_m),
-                radius_m: radius_m as f32,
-                speed_m_s: speed_m_s as f32,
-            },
-            ReferenceSpec::Lawnmower {
-                start_m,
-                heading_rad,
-                leg_length_m,
-                spacing_m,
-                legs,
-                speed_m_s,
-            } => Reference::Lawnmower {
-                start_m: v3(start_m),
-                heading_rad: heading_rad as f32,
-                leg_length_m: leg_length_m as f32,
-                spacing_m: spacing_m as f32,
-                legs,
-                speed_m_s: speed_m_s as f32,
-            },
-            ReferenceSpec::Helix {
-                center_m,
-                radius_m,
-                speed_m_s,
-                depth_rate_m_s,
-            } => Reference::Helix {
-                center_m: v3(center_m),
-                radius_m: radius_m as f32,
-                speed_m_s: speed_m_s as f32,
-                depth_rate_m_s: depth_rate_m_s as f32,
-            },
-        }
-    }
-}
-
 /// The `[initial]` table: the plant's initial state (absent = 0).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -401,8 +157,8 @@ pub struct InitialSpec {
 
 impl InitialSpec {
     /// As a plant state.
-    pub fn to_plant(&self) -> crate::plant::PlantState {
-        crate::plant::PlantState {
+    pub fn to_plant(&self) -> crate::world::plant::PlantState {
+        crate::world::plant::PlantState {
             eta: [
                 self.x_m,
                 self.y_m,
@@ -633,7 +389,7 @@ impl ExpectSpec {
 /// of the time; 0.40 s: 29 cm, 39 %; on `circle-3d`: 0.30 s 2.4 mm RMS, 0.35 s 10 cm).
 pub const MAX_KNOWN_DELAY_S: f64 = 0.30;
 
-/// The most control ticks of one run (one recorded [`crate::sim_loop::Sample`] of about
+/// The most control ticks of one run (one recorded [`crate::closed_loop::Sample`] of about
 /// 400 B each, and one CSV row): 1,000,000 ticks, 10,000 s at 10 ms, about 0.4 GB in memory.
 pub const MAX_CONTROL_TICKS: f64 = 1.0e6;
 
@@ -681,7 +437,7 @@ pub struct Scenario {
     pub sensors: SensorsSpec,
     /// The seabed and a current that changes in time and with depth (issue 26).
     #[serde(default)]
-    pub water: crate::plant::water::WaterSpec,
+    pub water: crate::world::plant::water::WaterSpec,
     /// The vehicle file (`vehicles/observer.toml`'s format); the Observer when absent. A
     /// relative path is taken from the scenario file's folder, else the working directory.
     #[serde(default)]
@@ -702,51 +458,6 @@ fn observer_params() -> VehicleParams {
     VehicleParams::OBSERVER
 }
 
-/// A built-in scenario: its name and TOML text, embedded in the binary.
-#[derive(Debug, Clone, Copy)]
-pub struct BuiltIn {
-    /// Name (the file stem).
-    pub name: &'static str,
-    /// TOML text.
-    pub toml: &'static str,
-}
-
-macro_rules! builtin {
-    ($name:literal) => {
-        BuiltIn {
-            name: $name,
-            toml: include_str!(concat!("../../scenarios/", $name, ".toml")),
-        }
-    };
-}
-
-/// Every built-in scenario, in the order the no-argument run uses.
-pub const BUILT_IN: &[BuiltIn] = &[
-    builtin!("paper-xz"),
-    builtin!("paper-xy"),
-    builtin!("paper-xz-saturated"),
-    builtin!("paper-xy-saturated"),
-    builtin!("tracking-xz"),
-    builtin!("tracking-xy"),
-    builtin!("circle-3d"),
-    builtin!("lawnmower-3d"),
-    builtin!("helix-3d"),
-    builtin!("current-3d"),
-    builtin!("line-3d"),
-    builtin!("current-line-behind-3d"),
-    builtin!("current-line-cross-3d"),
-    builtin!("current-hold-end-3d"),
-    builtin!("delay-line-3d"),
-    builtin!("mc-circle-3d"),
-    builtin!("nav-circle-3d"),
-    builtin!("nav-lawnmower-3d"),
-    builtin!("nav-current-3d"),
-    builtin!("nav-usbl-circle-3d"),
-    builtin!("nav-usbl-current-3d"),
-    builtin!("nav-usbl-outliers-3d"),
-    builtin!("nav-usbl-dropout-3d"),
-];
-
 impl Scenario {
     /// Parse and validate TOML text. `origin` names the source in error messages.
     pub fn from_toml(text: &str, origin: &str) -> Result<Self> {
@@ -760,7 +471,7 @@ impl Scenario {
         if let Some(file) = &s.vehicle {
             let beside = dir.map(|d| d.join(file)).filter(|p| p.exists());
             let path = beside.unwrap_or_else(|| Path::new(file).to_path_buf());
-            s.vehicle_params = crate::vehicle::load(&path)
+            s.vehicle_params = crate::scenario::vehicle::load(&path)
                 .with_context(|| format!("scenario {origin}: key `vehicle`"))?;
         }
         s.validate().with_context(|| format!("scenario {origin}"))?;
@@ -769,7 +480,7 @@ impl Scenario {
 
     /// The vehicle model of the scenario (validated when the scenario was loaded).
     pub fn vehicle_model(&self) -> Result<Vehicle> {
-        crate::vehicle::check(&self.vehicle_params)
+        crate::scenario::vehicle::check(&self.vehicle_params)
     }
 
     /// A built-in by name, or a `.toml` file by path.

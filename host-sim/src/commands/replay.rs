@@ -8,7 +8,7 @@
 //! the Observer's pulse curve. There is no reference in a log, so the error panels stay empty;
 //! `summary.json` counts what was read.
 
-use crate::sim_loop::{RunOutput, Sample, Summary};
+use crate::closed_loop::{RunOutput, Sample, Summary};
 use anyhow::{bail, Context, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::params::{Vehicle, VehicleParams};

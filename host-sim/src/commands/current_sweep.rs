@@ -4,10 +4,10 @@
 //! heat map per path. A measurement, not a fix: it shows where the tracking law holds in a
 //! current and where it does not.
 
-use crate::plots::{init_font, FONT_NAME};
-use crate::runner::run;
+use crate::closed_loop::runner::run;
+use crate::closed_loop::RunOptions;
+use crate::output::plots::{init_font, FONT_NAME};
 use crate::scenario::Scenario;
-use crate::sim_loop::RunOptions;
 use anyhow::{anyhow, Result};
 use plotters::prelude::*;
 use rayon::prelude::*;

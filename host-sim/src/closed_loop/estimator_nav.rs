@@ -1,20 +1,23 @@
 //! The navigation stage of `[navigation] source = "estimator"`: the scenario's simulated
-//! sensors ([`crate::sensors`]) feed the core's [`Estimator`], and the laws see only its
-//! output. Measurements reach the estimator when they *arrive* (a USBL fix `latency_s` after
+//! sensors ([`crate::world::sensors`]) feed the core's [`OnboardNav`] - the estimator as the vehicle
+//! runs it, through its entry points, one per sensor (as PX4's EKF2 has its `set*Data`) - and
+//! the laws see only its output. Measurements reach the estimator when they *arrive* (a USBL fix `latency_s` after
 //! its ping), in arrival order, at the control tick; the IMU samples drive the prediction
 //! with the thrust commands held over the period.
 //!
 //! At every control tick the estimate is compared with the truth for the summary: the
 //! position NEES `e^T P^-1 e` on the plane's axes against the 95 % chi-square bound.
 
-use crate::plant::PlantState;
+use crate::clock::us;
+use crate::closed_loop::{to_nav, FixRecord, NavReport, Navigation, TruthNav};
 use crate::scenario::Scenario;
-use crate::sensors::{Measurement, NavSource, SensorSuite, SensorsSpec};
-use crate::sim_loop::{to_nav, FixRecord, NavReport, Navigation, TruthNav};
+use crate::world::plant::PlantState;
+use crate::world::sensor_sim::SensorSuite;
+use crate::world::sensors::{Measurement, NavSource, SensorsSpec};
 use anyhow::{anyhow, bail, Result};
 use controller_core::nav::compass_cal::CompassCalibration;
-use controller_core::nav::onboard::{OnboardConfig, PressureDepth};
-use controller_core::nav::{Estimator, HeadingFix, NavConfig, Refusal};
+use controller_core::nav::onboard::{OnboardConfig, OnboardNav, PressureDepth};
+use controller_core::nav::{Estimator, HeadingFix, NavConfig};
 use controller_core::state::NavState;
 
 /// 95 % quantile of the chi-square distribution with 1, 2 and 3 degrees of freedom.
@@ -30,9 +33,9 @@ fn take_arrived(pending: &mut Vec<(f64, Measurement)>, t_s: f64) -> Vec<(f64, Me
     pending.drain(..n_due).collect()
 }
 
-/// The estimator on simulated sensors.
+/// The vehicle's estimator ([`OnboardNav`]) on simulated sensors, in process.
 pub struct EstimatorNav {
-    estimator: Estimator,
+    onboard: OnboardNav,
     sensors: SensorSuite,
     pending: Vec<(f64, Measurement)>,
     axes: [bool; 3],
@@ -81,17 +84,18 @@ impl EstimatorNav {
         }
         let initial = sc.initial.to_plant();
         sc.navigation.validate()?;
-        let estimator = Estimator::new(
+        let onboard = OnboardNav::new(
             sc.vehicle_model()?,
-            start_config(sc, nav_config(&sc.sensors)),
+            onboard_config(sc),
             &to_nav(&sc.navigation.told_start(&initial)),
+            0,
             0,
         )
         .map_err(|e| anyhow!("estimator: {e}"))?;
         let mut sensors = SensorSuite::new(&sc.sensors, seed);
         sensors.set_seabed_depth_m(sc.water.seabed_depth_m);
         Ok(Self {
-            estimator,
+            onboard,
             sensors,
             pending: Vec::new(),
             axes: sc.plane.axes(),
@@ -112,7 +116,7 @@ impl EstimatorNav {
 
     /// The estimator (for its covariance, current and counters).
     pub fn estimator(&self) -> &Estimator {
-        &self.estimator
+        self.onboard.estimator()
     }
 
     /// Every USBL fix so far.
@@ -120,29 +124,30 @@ impl EstimatorNav {
         &self.fixes
     }
 
+    /// One measurement into its entry point of [`OnboardNav`], received at `arrival_s`. A
+    /// refusal is the estimator's to count (its health); the stage records the USBL fixes'.
     fn deliver(&mut self, arrival_s: f64, m: Measurement, thrust_cmd_n: [f32; 3]) {
-        let e = &mut self.estimator;
+        let now_us = us(arrival_s);
+        let nav = &mut self.onboard;
         match m {
             Measurement::Imu(s) => {
-                if e.predict(&s, thrust_cmd_n) == Err(Refusal::ImuGap) {
-                    e.resume_at(s.t_us);
-                }
+                let _ = nav.imu(now_us, &s, thrust_cmd_n);
             }
             Measurement::Depth(f) => {
-                let _ = e.fuse_depth(&f);
+                let _ = nav.depth(now_us, &f);
             }
             Measurement::Heading(f) => {
                 let f = HeadingFix {
                     yaw_rad: self.compass_cal.correct(f.yaw_rad),
                     ..f
                 };
-                let _ = e.fuse_heading(&f);
+                let _ = nav.heading(&f);
             }
             Measurement::Dvl(f) => {
-                let _ = e.fuse_dvl(&f);
+                let _ = nav.dvl(&f);
             }
             Measurement::Position(f, outlier) => {
-                let r = e.fuse_position(&f);
+                let r = nav.position(&f);
                 self.fixes.push(FixRecord {
                     t_valid_s: f.t_us as f64 * 1e-6,
                     t_arrival_s: arrival_s,
@@ -156,7 +161,7 @@ impl EstimatorNav {
 
     /// Position NEES on the plane's axes, and its degrees of freedom.
     fn nees(&self, nav: &NavState) -> Option<(f64, usize)> {
-        let p = self.estimator.position_covariance();
+        let p = self.estimator().position_covariance();
         let est = [nav.x_m, nav.y_m, nav.z_m];
         let idx: Vec<usize> = (0..3).filter(|&i| self.axes[i]).collect();
         let e: Vec<f64> = idx
@@ -217,8 +222,8 @@ impl Navigation for EstimatorNav {
         for (arrival, m) in due {
             self.deliver(arrival, m, cmd);
         }
-        let nav = self.estimator.state();
-        if self.ready_at_s.is_none() && self.estimator.position_ready().is_ok() {
+        let nav = self.estimator().state();
+        if self.ready_at_s.is_none() && self.onboard.position_ready().is_ok() {
             self.ready_at_s = Some(t_s);
         }
         if let Some((nees, dof)) = self.nees(&nav) {
@@ -231,7 +236,7 @@ impl Navigation for EstimatorNav {
     }
 
     fn position_std_m(&self) -> Option<[f64; 3]> {
-        let p = self.estimator.position_covariance();
+        let p = self.estimator().position_covariance();
         Some([0, 1, 2].map(|i| f64::from(p[i][i]).sqrt()))
     }
 
@@ -245,7 +250,7 @@ impl Navigation for EstimatorNav {
             nees_in_bounds_fraction: (self.nees_n > 0)
                 .then(|| self.nees_in as f64 / self.nees_n as f64),
             usbl_outliers_injected: self.sensors.usbl_outliers_injected,
-            usbl_fixes_rejected: u64::from(self.estimator.health().position_outliers),
+            usbl_fixes_rejected: u64::from(self.estimator().health().position_outliers),
         }
     }
 }

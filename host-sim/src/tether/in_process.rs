@@ -1,6 +1,6 @@
 //! The firmware library's `App` in this process, behind an in-memory serial port.
 //!
-//! [`InProcessFirmware`] is a byte [`Port`](crate::port::Port) like the TCP socket of the
+//! [`InProcessFirmware`] is a byte [`Port`](crate::tether::port::Port) like the TCP socket of the
 //! emulated board or a serial device: what the host writes is the App's received bytes, and a
 //! read first lets the App run one pass of its main loop (`App::tick`, which decodes the
 //! frames, runs the control step on a lock-step `Nav` and writes its replies), then returns

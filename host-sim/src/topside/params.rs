@@ -121,7 +121,7 @@ impl Settings {
                 self.failsafe.to_firmware()?;
             }
             Group::Vehicle => {
-                crate::vehicle::check(&self.vehicle)?;
+                crate::scenario::vehicle::check(&self.vehicle)?;
             }
             Group::Mission => {
                 let max = firmware::autopilot::MAX_MISSION_SPEED_M_S;

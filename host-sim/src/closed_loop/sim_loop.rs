@@ -27,26 +27,21 @@
 //! scenario's `[expect]` ([`judge`]). An endpoint that fails (the firmware refused a command,
 //! the link was lost) ends the run with an error.
 
-use crate::plant::six_dof_factory;
-use crate::plant::water::WaterSpec;
-use crate::plant::xy::XyPlant;
-use crate::plant::xz::XzPlant;
-use crate::plant::{Environment, Plant, PlantState};
-use crate::scenario::{ExpectSpec, NoiseStd, Plane, Scenario, MAX_CONTROL_TICKS};
-use crate::sensors::Measurement;
-// The rotation and the noise draw live with the sensors that use them most (beside the
-// transpose `inertial_to_body`); re-exported here, where callers have found them.
-pub use crate::sensors::{body_to_inertial, gauss};
+use super::endpoint::ControllerEndpoint;
+use super::navigation::Navigation;
+use super::report::{judge, len, ratio, verdict, RunOutput, Summary};
+use crate::scenario::{ExpectSpec, Plane, Scenario, MAX_CONTROL_TICKS};
+use crate::world::frames::body_to_inertial;
+use crate::world::plant::six_dof_factory;
+use crate::world::plant::water::WaterSpec;
+use crate::world::plant::xy::XyPlant;
+use crate::world::plant::xz::XzPlant;
+use crate::world::plant::{Environment, Plant, PlantState};
 use anyhow::{anyhow, Result};
-use controller_core::alloc::PwmMap;
-use controller_core::controller::{ControlMode, Controller, Gains};
 use controller_core::params::VehicleParams;
 use controller_core::reference::{RefSample, Reference};
-use controller_core::state::{BodyForces, NavState, TrackingErrors};
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
+use controller_core::state::{BodyForces, TrackingErrors};
 use serde::Serialize;
-use std::collections::VecDeque;
 use std::time::Instant;
 
 /// What a run may change from the scenario (Monte Carlo and HIL use these).
@@ -108,360 +103,6 @@ pub struct Sample {
     pub saturated: bool,
 }
 
-/// Figures of the navigation stage for `summary.json` (the truth path leaves them empty).
-#[derive(Debug, Clone, Default, Serialize)]
-pub struct NavReport {
-    /// `truth` or `estimator`.
-    pub source: String,
-    /// Share of control ticks whose position NEES lies inside the 95 % chi-square bound.
-    pub nees_in_bounds_fraction: Option<f64>,
-    /// USBL fixes replaced by multipath outliers and delivered to the estimator (an outlier
-    /// drawn in the run's last latency window never arrives and is not counted).
-    pub usbl_outliers_injected: u64,
-    /// USBL fixes the estimator rejected on its innovation gate.
-    pub usbl_fixes_rejected: u64,
-}
-
-/// The per-run summary, written as `summary.json`.
-#[derive(Debug, Clone, Default, Serialize)]
-pub struct Summary {
-    /// Scenario name.
-    pub scenario: String,
-    /// `xz`, `xy` or `3d`.
-    pub plane: String,
-    /// `paper` or `tracking`.
-    pub controller: String,
-    /// Reference kind.
-    pub reference: String,
-    /// Thruster limits applied.
-    pub saturate: bool,
-    /// Requested simulated time (s).
-    pub duration_s: f64,
-    /// Simulated time reached (s).
-    pub simulated_s: f64,
-    /// Position error at the end (m).
-    pub final_position_error_m: f64,
-    /// Largest position error (m).
-    pub max_position_error_m: f64,
-    /// Largest position error after the first 10 s (m).
-    pub max_position_error_after_10s_m: f64,
-    /// RMS position error over the whole run (m).
-    pub rms_position_error_m: f64,
-    /// RMS position error over the last 20 % of the run (m).
-    pub rms_position_error_tail_m: f64,
-    /// RMS position error over the last 80 % of the run (m).
-    pub rms_position_error_last80_m: f64,
-    /// Final position error per axis `[x, y, z]` (m).
-    pub final_position_error_xyz_m: [f64; 3],
-    /// Angle error at the end, as the law reports it (rad).
-    pub final_angle_error_rad: f64,
-    /// Largest |angle error| after the first 10 s (rad).
-    pub max_angle_error_after_10s_rad: f64,
-    /// Largest |thruster command| (N).
-    pub max_abs_thruster_force_n: f64,
-    /// Largest |requested generalized force| `[tau_1 (N), tau_2 (N m), tau_3 (N)]`.
-    pub max_abs_requested_force: [f64; 3],
-    /// Share of control ticks with saturated thrusters.
-    pub saturated_fraction: f64,
-    /// RMS of the navigation position (what the controller saw) against the true position,
-    /// on the plane's axes, after the first 10 s (m).
-    pub rms_estimation_error_m: f64,
-    /// The navigation stage's own figures.
-    pub navigation: NavReport,
-    /// Largest position error after the `[expect]` table's `settle_s` (10 s without it) (m).
-    pub max_position_error_after_settle_m: f64,
-    /// The vehicle's net yaw rotation minus the path's, largest over the run (turns; XY and
-    /// 3-D only, 0 otherwise).
-    pub max_turns_off_path: f64,
-    /// The run diverged: a state or force beyond the physical (the run stopped), or, judged
-    /// at the end, control lost (`lost_control`).
-    pub diverged: bool,
-    /// Control lost, judged on the true state: depth (the depth error at the end larger than
-    /// all of the first half and over 1 m), heading (over 2 turns more than the path), or
-    /// position (the same growth rule on the position error).
-    pub lost_control: Option<String>,
-    /// A NaN or infinity appeared.
-    pub nan_detected: bool,
-    /// Why the run stopped.
-    pub stop_reason: String,
-    /// The run against its scenario's `[expect]` table (absent without one).
-    pub targets: Option<Targets>,
-    /// One-line verdict: against the targets when the scenario declares them, else the
-    /// figures (final error, last-20 % RMS) and no judgement; a divergence is named.
-    pub verdict: String,
-    /// Plant RK4 steps done.
-    pub sim_steps: u64,
-    /// Control steps done.
-    pub control_steps: u64,
-    /// Wall-clock time of the simulation (s).
-    pub wall_time_s: f64,
-    /// Final plant state `[x, y, z, roll, pitch, yaw, u, v, w, p, q, r]`.
-    pub final_state: Vec<f64>,
-    /// The first time the vehicle met the surface or the seabed (`[water]`), if it did:
-    /// "hit the seabed at t = 12.340 s".
-    pub boundary_contact: Option<String>,
-}
-
-/// One target of `[expect]` against the run.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct TargetCheck {
-    /// What was expected, e.g. `RMS last 80 % <= 2.0 cm`.
-    pub target: String,
-    /// What the run did (the figure, or a word).
-    pub measured: String,
-    /// Met.
-    pub met: bool,
-}
-
-/// A run against its scenario's `[expect]` table.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Targets {
-    /// Every target met.
-    pub met: bool,
-    /// Each target.
-    pub checks: Vec<TargetCheck>,
-}
-
-/// One USBL fix as the estimator saw it, for plots and logs.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FixRecord {
-    /// Time of validity (s).
-    pub t_valid_s: f64,
-    /// Arrival (s).
-    pub t_arrival_s: f64,
-    /// North, east (m).
-    pub pos_m: [f64; 2],
-    /// Injected as an outlier.
-    pub outlier: bool,
-    /// Why the estimator refused it, if it did.
-    pub refused: Option<controller_core::nav::Refusal>,
-}
-
-/// The result of one run.
-#[derive(Debug, Clone, Default)]
-pub struct RunOutput {
-    /// Summary figures.
-    pub summary: Summary,
-    /// Per-tick log (empty unless `record`).
-    pub log: Vec<Sample>,
-    /// The USBL fixes of an estimator run (empty unless `record`).
-    pub usbl_fixes: Vec<FixRecord>,
-}
-
-/// The navigation stage: what the controller is told about the vehicle.
-pub trait Navigation {
-    /// After every plant step: the true state at `t_s`.
-    fn observe(&mut self, t_s: f64, truth: &PlantState);
-    /// At each control tick: the state handed to the controller. `thrust_cmd_n` is the
-    /// command `[F1x, F2x, F3z]` (N) held over the period that just ended.
-    fn estimate(&mut self, t_s: f64, thrust_cmd_n: [f64; 3]) -> NavState;
-    /// Figures for `summary.json`.
-    fn report(&self) -> NavReport;
-    /// Standard deviation of the position estimate `[x, y, z]` (m), if the stage has one.
-    fn position_std_m(&self) -> Option<[f64; 3]> {
-        None
-    }
-    /// The USBL fixes so far, if the stage has any.
-    fn usbl_fixes(&self) -> Vec<FixRecord> {
-        Vec::new()
-    }
-    /// At each control tick, before the step: the measurements that have arrived for an
-    /// estimator on the vehicle (empty when the stage estimates itself), in arrival order.
-    fn for_vehicle(&mut self, _t_s: f64) -> Vec<Measurement> {
-        Vec::new()
-    }
-}
-
-/// The truth path: the plant state `delay` plant steps old (the initial state until enough
-/// steps have passed), converted to the core's `f32` [`NavState`], with Gaussian noise.
-#[derive(Debug, Clone)]
-pub struct TruthNav {
-    history: VecDeque<PlantState>,
-    noise: Option<NoiseStd>,
-    rng: ChaCha8Rng,
-}
-
-impl TruthNav {
-    /// A truth path `delay_steps` plant steps late, with noise of `noise` standard
-    /// deviations if given.
-    pub fn new(
-        initial: PlantState,
-        delay_steps: usize,
-        noise: Option<NoiseStd>,
-        seed: u64,
-    ) -> Self {
-        let mut history = VecDeque::with_capacity(delay_steps + 1);
-        for _ in 0..=delay_steps {
-            history.push_back(initial);
-        }
-        Self {
-            history,
-            noise,
-            rng: ChaCha8Rng::seed_from_u64(seed),
-        }
-    }
-
-    /// The truth path of a scenario (`[disturbance] delay_s`, `noise`, `noise_seed`).
-    pub fn for_scenario(sc: &Scenario, seed: Option<u64>) -> Self {
-        let d = &sc.disturbance;
-        Self::new(
-            sc.initial.to_plant(),
-            (d.delay_s / sc.plant_dt_s).round() as usize,
-            d.noise.then_some(d.noise_std),
-            seed.unwrap_or(d.noise_seed),
-        )
-    }
-
-    /// The measurement now.
-    pub fn measure(&mut self) -> NavState {
-        let st = self.history.front().copied().unwrap_or_default();
-        let mut nav = to_nav(&st);
-        if let Some(ns) = self.noise {
-            let rng = &mut self.rng;
-            let mut g = |sd: f64| (sd * gauss(rng)) as f32;
-            nav.x_m += g(ns.position_m);
-            nav.y_m += g(ns.position_m);
-            nav.z_m += g(ns.position_m);
-            nav.roll_rad += g(ns.angle_rad);
-            nav.pitch_rad += g(ns.angle_rad);
-            nav.yaw_rad += g(ns.angle_rad);
-            nav.u_m_s += g(ns.velocity_m_s);
-            nav.v_m_s += g(ns.velocity_m_s);
-            nav.w_m_s += g(ns.velocity_m_s);
-            nav.p_rad_s += g(ns.rate_rad_s);
-            nav.q_rad_s += g(ns.rate_rad_s);
-            nav.r_rad_s += g(ns.rate_rad_s);
-        }
-        nav
-    }
-}
-
-impl Navigation for TruthNav {
-    fn observe(&mut self, _t_s: f64, truth: &PlantState) {
-        self.history.pop_front();
-        self.history.push_back(*truth);
-    }
-
-    fn estimate(&mut self, _t_s: f64, _thrust_cmd_n: [f64; 3]) -> NavState {
-        self.measure()
-    }
-
-    fn report(&self) -> NavReport {
-        NavReport {
-            source: "truth".into(),
-            ..NavReport::default()
-        }
-    }
-}
-
-/// What the controller end answered for one control tick.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct StepReply {
-    /// Forces the law asked for.
-    pub requested: BodyForces,
-    /// Forces the allocated thrusts make.
-    pub achieved: BodyForces,
-    /// Thruster commands `[F1x, F2x, F3z]` (N).
-    pub thrust_cmd_n: [f32; 3],
-    /// Thrust the plant gets over the next period (N): the commands, or the thrust of the
-    /// pulse widths the ESCs see.
-    pub applied_n: [f64; 3],
-    /// Pulse widths of the three outputs (us).
-    pub pulse_us: [f64; 3],
-    /// The law's tracking errors.
-    pub errors: TrackingErrors,
-    /// The allocation clamped the request.
-    pub saturated: bool,
-    /// The state the controller estimated itself (an on-board estimator), with the standard
-    /// deviation of its position; the loop then logs and scores it instead of the stage's.
-    pub estimate: Option<(NavState, [f64; 3])>,
-}
-
-/// The controller end of the loop: the core in process, the firmware library's `App` in
-/// process, or the firmware over the tether.
-pub trait ControllerEndpoint {
-    /// Before the first step, with the first navigation state (set-up: mode, reference, arm).
-    fn start(&mut self, _nav0: &NavState) -> Result<()> {
-        Ok(())
-    }
-    /// One control step at `t_s` on `nav`; `reference` is the loop's sample of the scenario's
-    /// reference at `t_s` (a firmware samples its own).
-    fn step(&mut self, t_s: f64, nav: &NavState, reference: &RefSample) -> Result<StepReply>;
-    /// Before the step: measurements for the endpoint's own estimator.
-    fn forward(&mut self, measurements: &[Measurement]) -> Result<()> {
-        if measurements.is_empty() {
-            Ok(())
-        } else {
-            Err(anyhow!(
-                "this controller endpoint has no on-board estimator"
-            ))
-        }
-    }
-}
-
-/// The core's [`Controller`] in process, stepped at the control period.
-pub struct CoreEndpoint {
-    controller: Controller,
-    mode: ControlMode,
-    period_s: f32,
-    pwm: PwmMap,
-}
-
-impl CoreEndpoint {
-    /// The controller of a scenario: the nominal Observer and default gains, with
-    /// unlimited thrusters when the scenario says `saturate = false` (the paper's setting).
-    pub fn for_scenario(sc: &Scenario) -> Result<Self> {
-        let mut p = sc.vehicle_params;
-        if !sc.thrusters.saturate {
-            p.thrust_max_forward_n = 1.0e6;
-            p.thrust_max_reverse_n = 1.0e6;
-        }
-        let vehicle = p
-            .validate()
-            .map_err(|e| anyhow!("controller parameters: {e}"))?;
-        let mut controller = Controller::new(vehicle, Gains::default())
-            .map_err(|e| anyhow!("controller gains: {e}"))?;
-        if sc.disturbance.delay_known {
-            controller
-                .set_measurement_delay_s(sc.disturbance.delay_s as f32)
-                .map_err(|e| anyhow!("disturbance.delay_s: {e}"))?;
-        }
-        Ok(Self {
-            controller,
-            mode: sc.control_mode()?,
-            period_s: (sc.plant_dt_s * sc.plant_steps_per_control().max(1) as f64) as f32,
-            pwm: PwmMap::for_vehicle(&sc.vehicle_model()?),
-        })
-    }
-}
-
-impl CoreEndpoint {
-    /// The controller (its laws' state for logs and tests).
-    pub fn controller(&self) -> &Controller {
-        &self.controller
-    }
-}
-
-impl ControllerEndpoint for CoreEndpoint {
-    fn step(&mut self, _t_s: f64, nav: &NavState, reference: &RefSample) -> Result<StepReply> {
-        let out = self
-            .controller
-            .step(self.mode, nav, reference, self.period_s);
-        let cmd = out.allocation.thrust_n;
-        Ok(StepReply {
-            requested: out.requested,
-            achieved: out.allocation.achieved,
-            thrust_cmd_n: cmd,
-            applied_n: cmd.map(f64::from),
-            // The real map (clamped), also when the controller's thrusters are unlimited.
-            pulse_us: cmd.map(|f| f64::from(self.pwm.pulse_us(f))),
-            errors: out.errors,
-            saturated: out.allocation.saturated,
-            estimate: None,
-        })
-    }
-}
-
 /// Build the plant for a scenario.
 pub fn make_plant(
     plane: Plane,
@@ -477,24 +118,6 @@ pub fn make_plant(
     })
 }
 
-/// The plant state as the core's `f32` navigation state.
-pub fn to_nav(s: &PlantState) -> NavState {
-    NavState {
-        x_m: s.eta[0] as f32,
-        y_m: s.eta[1] as f32,
-        z_m: s.eta[2] as f32,
-        roll_rad: s.eta[3] as f32,
-        pitch_rad: s.eta[4] as f32,
-        yaw_rad: s.eta[5] as f32,
-        u_m_s: s.nu[0] as f32,
-        v_m_s: s.nu[1] as f32,
-        w_m_s: s.nu[2] as f32,
-        p_rad_s: s.nu[3] as f32,
-        q_rad_s: s.nu[4] as f32,
-        r_rad_s: s.nu[5] as f32,
-    }
-}
-
 /// The nominal plant parameters of a scenario: its vehicle (the Observer unless the key
 /// `vehicle` names another) with the scenario's buoyancy offset added to the vehicle's.
 pub fn nominal_plant_params(sc: &Scenario) -> VehicleParams {
@@ -503,166 +126,10 @@ pub fn nominal_plant_params(sc: &Scenario) -> VehicleParams {
     p
 }
 
-/// The verdict in a word for a table: against the targets `meets` / `MISSES`; without
-/// targets `-`, or `DIVERGED` / `NaN` / the control lost.
-pub fn verdict_word(s: &Summary) -> &'static str {
-    match &s.targets {
-        Some(t) if t.met => "meets",
-        Some(_) => "MISSES",
-        None if s.nan_detected => "NaN",
-        None if s.diverged => "DIVERGED",
-        None => "-",
-    }
-}
-
-/// The figures of a run in words: a divergence or loss of control named, else the final
-/// error and the last-20 % RMS.
-pub fn figures(s: &Summary) -> String {
-    if s.nan_detected || s.diverged {
-        let mut why = s
-            .lost_control
-            .clone()
-            .unwrap_or_else(|| s.stop_reason.clone());
-        if s.lost_control.is_some() && s.stop_reason != "completed" {
-            why = format!("{}; {why}", s.stop_reason);
-        }
-        return why;
-    }
-    let (f, t) = (s.final_position_error_m, s.rms_position_error_tail_m);
-    let worst = f.max(t);
-    if worst < 0.01 {
-        format!(
-            "final error {:.3} mm, last-20 % RMS {:.3} mm",
-            1e3 * f,
-            1e3 * t
-        )
-    } else if worst < 0.1 {
-        format!(
-            "final error {:.1} cm, last-20 % RMS {:.1} cm",
-            1e2 * f,
-            1e2 * t
-        )
-    } else {
-        format!("final error {f:.2} m, last-20 % RMS {t:.2} m")
-    }
-}
-
-/// A length in words for the verdict: mm under 1 cm, cm under 1 m, m above.
-fn len(m: f64) -> String {
-    if !m.is_finite() {
-        format!("{m}")
-    } else if m < 0.01 {
-        format!("{:.3} mm", 1e3 * m)
-    } else if m < 1.0 {
-        format!("{:.1} cm", 1e2 * m)
-    } else {
-        format!("{m:.2} m")
-    }
-}
-
-/// The run `s` against `expect` (see [`ExpectSpec`]).
-pub fn judge(expect: &ExpectSpec, s: &Summary) -> Targets {
-    let mut checks = Vec::new();
-    let lost = s.diverged || s.nan_detected;
-    if expect.diverges {
-        checks.push(TargetCheck {
-            target: "diverges".into(),
-            measured: if lost {
-                figures(s)
-            } else {
-                "did not diverge".into()
-            },
-            met: lost,
-        });
-    }
-    if let Some(tracks) = expect.tracks {
-        let worst = s.final_position_error_m.max(s.rms_position_error_tail_m);
-        let tracked = !lost && worst < 0.1;
-        checks.push(TargetCheck {
-            target: if tracks {
-                "tracks (final and last-20 % RMS < 10 cm)".into()
-            } else {
-                "does not track (final or last-20 % RMS >= 10 cm, or diverges)".into()
-            },
-            measured: if lost { figures(s) } else { len(worst) },
-            met: tracked == tracks,
-        });
-    }
-    if !expect.diverges && lost && expect.tracks.is_none() {
-        checks.push(TargetCheck {
-            target: "no divergence".into(),
-            measured: figures(s),
-            met: false,
-        });
-    }
-    for (key, bound) in expect.bounds() {
-        let v = match key {
-            "final_m" => s.final_position_error_m,
-            "max_m" => s.max_position_error_after_settle_m,
-            "rms_m" => s.rms_position_error_m,
-            "rms_last80_m" => s.rms_position_error_last80_m,
-            "tail_rms_m" => s.rms_position_error_tail_m,
-            _ => s.rms_estimation_error_m,
-        };
-        let name = match key {
-            "final_m" => "final".to_string(),
-            "max_m" => format!("max after {} s", expect.settle_s),
-            "rms_m" => "RMS".into(),
-            "rms_last80_m" => "RMS last 80 %".into(),
-            "tail_rms_m" => "RMS last 20 %".into(),
-            _ => "estimation RMS".into(),
-        };
-        checks.push(TargetCheck {
-            target: format!("{name} <= {}", len(bound)),
-            measured: len(v),
-            // A NaN (no estimate, an empty window) does not meet a bound.
-            met: !lost && v <= bound,
-        });
-    }
-    if expect.outliers_rejected {
-        let n = &s.navigation;
-        checks.push(TargetCheck {
-            target: "every outlier received rejected".into(),
-            measured: format!(
-                "{} of {} rejected",
-                n.usbl_fixes_rejected, n.usbl_outliers_injected
-            ),
-            met: n.usbl_fixes_rejected >= n.usbl_outliers_injected,
-        });
-    }
-    Targets {
-        met: checks.iter().all(|c| c.met),
-        checks,
-    }
-}
-
-/// The one-line verdict of a summary: against its targets when it has them (`meets its
-/// targets: ...`, `MISSES its targets: ...`), else the figures.
-pub fn verdict(s: &Summary) -> String {
-    match &s.targets {
-        None => format!("no targets declared: {}", figures(s)),
-        Some(t) => {
-            let list = |met: bool| {
-                t.checks
-                    .iter()
-                    .filter(|c| c.met == met)
-                    .map(|c| format!("{}: {}", c.target, c.measured))
-                    .collect::<Vec<_>>()
-                    .join("; ")
-            };
-            if t.met {
-                format!("meets its targets: {}", list(true))
-            } else {
-                format!("MISSES its targets: {}", list(false))
-            }
-        }
-    }
-}
-
 /// The control lost, judged at the end of a run that completed: `first_half` is the largest
 /// error of the first half, `tail_min` the smallest of the last 20 %. The error still
 /// growing: the whole end larger than anything of the first half, and over 1 m.
-fn still_growing(first_half: f64, tail_min: f64) -> bool {
+pub(super) fn still_growing(first_half: f64, tail_min: f64) -> bool {
     tail_min > 1.0 && tail_min > first_half
 }
 
@@ -751,48 +218,6 @@ impl Turns {
 
     fn off_path_turns(&self) -> f64 {
         self.off
-    }
-}
-
-/// A navigation stage behind a pointer is one: a loop can borrow its stage
-/// (`run_closed_loop`) or own it (the topside's loop).
-macro_rules! forward_navigation {
-    ($($head:tt)*) => {
-        $($head)* {
-            fn observe(&mut self, t_s: f64, truth: &PlantState) {
-                (**self).observe(t_s, truth)
-            }
-            fn estimate(&mut self, t_s: f64, thrust_cmd_n: [f64; 3]) -> NavState {
-                (**self).estimate(t_s, thrust_cmd_n)
-            }
-            fn report(&self) -> NavReport {
-                (**self).report()
-            }
-            fn position_std_m(&self) -> Option<[f64; 3]> {
-                (**self).position_std_m()
-            }
-            fn usbl_fixes(&self) -> Vec<FixRecord> {
-                (**self).usbl_fixes()
-            }
-            fn for_vehicle(&mut self, t_s: f64) -> Vec<Measurement> {
-                (**self).for_vehicle(t_s)
-            }
-        }
-    };
-}
-forward_navigation!(impl<T: Navigation + ?Sized> Navigation for &mut T);
-forward_navigation!(impl<T: Navigation + ?Sized> Navigation for Box<T>);
-
-/// A borrowed endpoint is one (`run_closed_loop`).
-impl<T: ControllerEndpoint + ?Sized> ControllerEndpoint for &mut T {
-    fn start(&mut self, nav0: &NavState) -> Result<()> {
-        (**self).start(nav0)
-    }
-    fn step(&mut self, t_s: f64, nav: &NavState, reference: &RefSample) -> Result<StepReply> {
-        (**self).step(t_s, nav, reference)
-    }
-    fn forward(&mut self, measurements: &[Measurement]) -> Result<()> {
-        (**self).forward(measurements)
     }
 }
 
@@ -1146,8 +571,12 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
         if self.s.boundary_contact.is_none() {
             let t_end = t + self.tc;
             self.s.boundary_contact = self.plant.contact().map(|b| match b {
-                crate::plant::Boundary::Surface => format!("hit the surface at t = {t_end:.3} s"),
-                crate::plant::Boundary::Seabed => format!("hit the seabed at t = {t_end:.3} s"),
+                crate::world::plant::Boundary::Surface => {
+                    format!("hit the surface at t = {t_end:.3} s")
+                }
+                crate::world::plant::Boundary::Seabed => {
+                    format!("hit the seabed at t = {t_end:.3} s")
+                }
             });
         }
         self.k += 1;
@@ -1184,11 +613,7 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
         s.final_position_error_m = last.pos_err_norm_m;
         s.final_position_error_xyz_m = last.pos_err_m;
         s.final_angle_error_rad = last.angle_err_rad;
-        s.saturated_fraction = if s.control_steps > 0 {
-            m.n_sat as f64 / s.control_steps as f64
-        } else {
-            0.0
-        };
+        s.saturated_fraction = ratio(m.n_sat, s.control_steps);
         if s.diverged || s.nan_detected {
             // A run that stopped early has no meaningful tail: report it as infinite error.
             if !s.rms_position_error_tail_m.is_finite() || m.tail.n == 0 {

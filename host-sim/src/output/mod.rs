@@ -1,6 +1,8 @@
 //! Run outputs: `summary.json` and `timeseries.csv`.
 
-use crate::sim_loop::{RunOutput, Sample};
+pub mod plots;
+
+use crate::closed_loop::{RunOutput, Sample};
 use anyhow::{Context, Result};
 use std::io::{BufWriter, Write};
 use std::path::Path;
@@ -112,7 +114,7 @@ pub fn write_run(dir: &Path, out: &RunOutput) -> Result<()> {
         .with_context(|| format!("cannot write {}", dir.join("summary.json").display()))?;
     if !out.log.is_empty() {
         write_csv(&dir.join("timeseries.csv"), &out.log)?;
-        crate::plots::run_plots(dir, out)?;
+        crate::output::plots::run_plots(dir, out)?;
     }
     Ok(())
 }

@@ -17,7 +17,7 @@
 //! run of the whole campaign, byte for byte (`docs/monte-carlo.md`: a Slurm job array and a
 //! Kubernetes indexed Job).
 
-use crate::runner::{run, RunOptions};
+use crate::closed_loop::runner::{run, RunOptions};
 use crate::scenario::{Plane, Scenario};
 use anyhow::{Context, Result};
 use controller_core::params::VehicleParams;
@@ -328,7 +328,7 @@ pub fn run_batch(
         ),
     };
     let mag = campaign.current_magnitude_m_s;
-    let base = crate::runner::nominal_plant_params(sc);
+    let base = crate::closed_loop::runner::nominal_plant_params(sc);
     let indices = shard_range(cfg.runs, shard.0, shard.1);
     let pb = if cfg.progress {
         ProgressBar::new(indices.len() as u64)
@@ -545,7 +545,7 @@ pub fn write_batch(dir: &Path, summary: &McSummary, shard: &ShardRuns) -> Result
     }
     std::fs::write(dir.join("runs.csv"), csv)?;
     let v: Vec<f64> = runs.iter().map(|r| r.rms_position_error_m).collect();
-    crate::plots::histogram(
+    crate::output::plots::histogram(
         &dir.join("histogram.png"),
         &format!(
             "{}: RMS position error over {} runs (+-{:.0} % parameters, {:.2} m/s current)",

@@ -1,0 +1,22 @@
+//! The one closed loop ([`ClosedLoop`]): a plant, a navigation stage, a controller endpoint,
+//! the metrics and the stop rules, stepped one control period at a time.
+//!
+//! - [`sim_loop`]: the loop itself; [`navigation`]: the navigation stages' trait and the
+//!   truth path; [`estimator_nav`]: the vehicle's estimator on simulated sensors;
+//!   [`endpoint`]: the controller end (the core in process); [`report`]: the summary, targets
+//!   and verdicts; [`runner`]: a software run.
+
+pub mod endpoint;
+pub mod estimator_nav;
+pub mod navigation;
+pub mod report;
+pub mod runner;
+pub mod sim_loop;
+
+pub use endpoint::{ControllerEndpoint, CoreEndpoint, StepReply};
+pub use navigation::{to_nav, FixRecord, Navigation, TruthNav};
+pub use report::{
+    figures, judge, ratio, verdict, verdict_word, NavReport, RunOutput, Summary, TargetCheck,
+    Targets,
+};
+pub use sim_loop::*;

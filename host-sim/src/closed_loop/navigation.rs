@@ -1,0 +1,182 @@
+//! The navigation stage: what the controller is told about the vehicle ([`Navigation`]);
+//! the truth path ([`TruthNav`]: the plant state `delay_s` ago with Gaussian noise).
+
+use super::report::NavReport;
+use crate::scenario::{NoiseStd, Scenario};
+use crate::world::noise::gauss;
+use crate::world::plant::PlantState;
+use crate::world::sensors::Measurement;
+use controller_core::state::NavState;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use std::collections::VecDeque;
+
+/// One USBL fix as the estimator saw it, for plots and logs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FixRecord {
+    /// Time of validity (s).
+    pub t_valid_s: f64,
+    /// Arrival (s).
+    pub t_arrival_s: f64,
+    /// North, east (m).
+    pub pos_m: [f64; 2],
+    /// Injected as an outlier.
+    pub outlier: bool,
+    /// Why the estimator refused it, if it did.
+    pub refused: Option<controller_core::nav::Refusal>,
+}
+
+/// The navigation stage: what the controller is told about the vehicle.
+pub trait Navigation {
+    /// After every plant step: the true state at `t_s`.
+    fn observe(&mut self, t_s: f64, truth: &PlantState);
+    /// At each control tick: the state handed to the controller. `thrust_cmd_n` is the
+    /// command `[F1x, F2x, F3z]` (N) held over the period that just ended.
+    fn estimate(&mut self, t_s: f64, thrust_cmd_n: [f64; 3]) -> NavState;
+    /// Figures for `summary.json`.
+    fn report(&self) -> NavReport;
+    /// Standard deviation of the position estimate `[x, y, z]` (m), if the stage has one.
+    fn position_std_m(&self) -> Option<[f64; 3]> {
+        None
+    }
+    /// The USBL fixes so far, if the stage has any.
+    fn usbl_fixes(&self) -> Vec<FixRecord> {
+        Vec::new()
+    }
+    /// At each control tick, before the step: the measurements that have arrived for an
+    /// estimator on the vehicle (empty when the stage estimates itself), in arrival order.
+    fn for_vehicle(&mut self, _t_s: f64) -> Vec<Measurement> {
+        Vec::new()
+    }
+}
+
+/// The truth path: the plant state `delay` plant steps old (the initial state until enough
+/// steps have passed), converted to the core's `f32` [`NavState`], with Gaussian noise.
+#[derive(Debug, Clone)]
+pub struct TruthNav {
+    history: VecDeque<PlantState>,
+    noise: Option<NoiseStd>,
+    rng: ChaCha8Rng,
+}
+
+impl TruthNav {
+    /// A truth path `delay_steps` plant steps late, with noise of `noise` standard
+    /// deviations if given.
+    pub fn new(
+        initial: PlantState,
+        delay_steps: usize,
+        noise: Option<NoiseStd>,
+        seed: u64,
+    ) -> Self {
+        let mut history = VecDeque::with_capacity(delay_steps + 1);
+        for _ in 0..=delay_steps {
+            history.push_back(initial);
+        }
+        Self {
+            history,
+            noise,
+            rng: ChaCha8Rng::seed_from_u64(seed),
+        }
+    }
+
+    /// The truth path of a scenario (`[disturbance] delay_s`, `noise`, `noise_seed`).
+    pub fn for_scenario(sc: &Scenario, seed: Option<u64>) -> Self {
+        let d = &sc.disturbance;
+        Self::new(
+            sc.initial.to_plant(),
+            (d.delay_s / sc.plant_dt_s).round() as usize,
+            d.noise.then_some(d.noise_std),
+            seed.unwrap_or(d.noise_seed),
+        )
+    }
+
+    /// The measurement now.
+    pub fn measure(&mut self) -> NavState {
+        let st = self.history.front().copied().unwrap_or_default();
+        let mut nav = to_nav(&st);
+        if let Some(ns) = self.noise {
+            let rng = &mut self.rng;
+            let mut g = |sd: f64| (sd * gauss(rng)) as f32;
+            nav.x_m += g(ns.position_m);
+            nav.y_m += g(ns.position_m);
+            nav.z_m += g(ns.position_m);
+            nav.roll_rad += g(ns.angle_rad);
+            nav.pitch_rad += g(ns.angle_rad);
+            nav.yaw_rad += g(ns.angle_rad);
+            nav.u_m_s += g(ns.velocity_m_s);
+            nav.v_m_s += g(ns.velocity_m_s);
+            nav.w_m_s += g(ns.velocity_m_s);
+            nav.p_rad_s += g(ns.rate_rad_s);
+            nav.q_rad_s += g(ns.rate_rad_s);
+            nav.r_rad_s += g(ns.rate_rad_s);
+        }
+        nav
+    }
+}
+
+impl Navigation for TruthNav {
+    fn observe(&mut self, _t_s: f64, truth: &PlantState) {
+        self.history.pop_front();
+        self.history.push_back(*truth);
+    }
+
+    fn estimate(&mut self, _t_s: f64, _thrust_cmd_n: [f64; 3]) -> NavState {
+        self.measure()
+    }
+
+    fn report(&self) -> NavReport {
+        NavReport {
+            source: "truth".into(),
+            ..NavReport::default()
+        }
+    }
+}
+
+/// The plant state as the core's `f32` navigation state.
+pub fn to_nav(s: &PlantState) -> NavState {
+    NavState {
+        x_m: s.eta[0] as f32,
+        y_m: s.eta[1] as f32,
+        z_m: s.eta[2] as f32,
+        roll_rad: s.eta[3] as f32,
+        pitch_rad: s.eta[4] as f32,
+        yaw_rad: s.eta[5] as f32,
+        u_m_s: s.nu[0] as f32,
+        v_m_s: s.nu[1] as f32,
+        w_m_s: s.nu[2] as f32,
+        p_rad_s: s.nu[3] as f32,
+        q_rad_s: s.nu[4] as f32,
+        r_rad_s: s.nu[5] as f32,
+    }
+}
+
+/// A navigation stage behind a pointer is one: a loop can borrow its stage
+/// (`run_closed_loop`) or own it (the topside's loop).
+macro_rules! forward_navigation {
+    ($($head:tt)*) => {
+        $($head)* {
+            fn observe(&mut self, t_s: f64, truth: &PlantState) {
+                (**self).observe(t_s, truth)
+            }
+            fn estimate(&mut self, t_s: f64, thrust_cmd_n: [f64; 3]) -> NavState {
+                (**self).estimate(t_s, thrust_cmd_n)
+            }
+            fn report(&self) -> NavReport {
+                (**self).report()
+            }
+            fn position_std_m(&self) -> Option<[f64; 3]> {
+                (**self).position_std_m()
+            }
+            fn usbl_fixes(&self) -> Vec<FixRecord> {
+                (**self).usbl_fixes()
+            }
+            fn for_vehicle(&mut self, t_s: f64) -> Vec<Measurement> {
+                (**self).for_vehicle(t_s)
+            }
+        }
+    };
+}
+
+forward_navigation!(impl<T: Navigation + ?Sized> Navigation for &mut T);
+
+forward_navigation!(impl<T: Navigation + ?Sized> Navigation for Box<T>);

@@ -1,0 +1,271 @@
+//! `host-sim hil`: hardware in the loop. The firmware (QEMU, a board, or the library in
+//! process) closes the loop through [`TetherEndpoint`], lock-step, and the run is written as a
+//! software run's plus the telemetry and the link's figures.
+
+use crate::closed_loop::{run_closed_loop, RunOptions};
+use crate::output::write_run;
+use crate::scenario::Scenario;
+pub use crate::tether::endpoint::{
+    HilOptions, HilOutput, HilReport, HilTarget, TelemetryRow, TetherEndpoint, MAX_REPLY_WAIT,
+};
+use crate::tether::in_process::InProcessFirmware;
+use crate::tether::link::{open, Endpoint, Link, NoiseSpec, Port};
+use crate::tether::qemu::{qemu_firmware_image, start_qemu_link, workspace_root, FirmwareImage};
+use anyhow::{bail, Result};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+/// Run a scenario with the firmware in the loop. `qemu_log`: where QEMU's standard output
+/// (semihosting, defmt frames) goes.
+pub fn run_hil(sc: &Scenario, opts: &HilOptions, qemu_log: Option<&Path>) -> Result<HilOutput> {
+    sc.validate()?;
+    let mut qemu_guard = None;
+    let (port, target_name, hello_wait, hello_required): (Box<dyn Port>, _, _, _) =
+        match &opts.target {
+            HilTarget::Qemu { elf } => {
+                let (q, p) = start_qemu_link(&opts.qemu, elf, qemu_log, opts.ram_dump.is_some())?;
+                qemu_guard = Some(q);
+                (
+                    p,
+                    "qemu netduinoplus2".to_string(),
+                    Duration::from_secs(30),
+                    true,
+                )
+            }
+            HilTarget::InProcess => (
+                Box::new(InProcessFirmware::new()?),
+                "in-process firmware library".to_string(),
+                Duration::from_secs(1),
+                true,
+            ),
+            HilTarget::Board(ep) => (open(ep)?, format!("{ep:?}"), Duration::from_secs(2), false),
+        };
+    let link = Link::new(port, None);
+    let mut endpoint =
+        TetherEndpoint::connect(link, sc, opts, target_name, hello_wait, hello_required)?;
+    let mut nav = crate::closed_loop::estimator_nav::navigation_for_vehicle(sc)?;
+    let run_opts = RunOptions {
+        record: opts.record,
+        duration_s: opts.duration_s,
+        ..RunOptions::default()
+    };
+    let run = run_closed_loop(sc, &run_opts, nav.as_mut(), &mut endpoint)?;
+    if let (Some(q), Some(p)) = (qemu_guard.as_mut(), opts.ram_dump.as_deref()) {
+        q.dump_ram(p)?;
+    }
+    let (mut report, telemetry) = endpoint.finish(run.summary.simulated_s)?;
+    report.wall_time_s = run.summary.wall_time_s;
+    Ok(HilOutput {
+        run,
+        report,
+        telemetry,
+    })
+}
+
+/// Write `summary.json` (with a `hil` object), `timeseries.csv`, the plots and
+/// `telemetry.csv` into `dir`.
+pub fn write_hil(dir: &Path, out: &HilOutput) -> Result<()> {
+    write_run(dir, &out.run)?;
+    let mut v = serde_json::to_value(&out.run.summary)?;
+    if let Some(o) = v.as_object_mut() {
+        o.insert("hil".into(), serde_json::to_value(&out.report)?);
+    }
+    std::fs::write(
+        dir.join("summary.json"),
+        serde_json::to_string_pretty(&v)? + "\n",
+    )?;
+    let f = std::fs::File::create(dir.join("telemetry.csv"))?;
+    let mut w = std::io::BufWriter::new(f);
+    writeln!(
+        w,
+        "t_s,armed,faults,pwm1_us,pwm2_us,pwm3_us,f1x_cmd_n,f2x_cmd_n,f3z_cmd_n,\
+         f1x_applied_n,f2x_applied_n,f3z_applied_n,loop_ticks,fw_rx_frames,fw_dropped"
+    )?;
+    for r in &out.telemetry {
+        writeln!(
+            w,
+            "{:.6},{},{},{},{},{},{},{},{},{:.6},{:.6},{:.6},{},{},{}",
+            r.t_s,
+            u8::from(r.armed),
+            r.faults,
+            r.pulse_us[0],
+            r.pulse_us[1],
+            r.pulse_us[2],
+            r.thrust_n[0],
+            r.thrust_n[1],
+            r.thrust_n[2],
+            r.applied_n[0],
+            r.applied_n[1],
+            r.applied_n[2],
+            r.loop_ticks,
+            r.fw_rx_frames,
+            r.fw_dropped
+        )?;
+    }
+    w.flush()?;
+    Ok(())
+}
+
+/// Arguments of `host-sim hil`.
+#[derive(Debug, clap::Args)]
+pub struct HilArgs {
+    /// Built-in scenario name or path to a scenario file.
+    pub scenario: String,
+    /// Run this firmware image in QEMU (default, without --serial/--tcp/--in-process: the
+    /// workspace's `qemu` image, built if needed into `<target>/hil-firmware`).
+    #[arg(long, value_name = "ELF", conflicts_with_all = ["serial", "tcp", "in_process"])]
+    pub qemu: Option<PathBuf>,
+    /// Run the firmware library's `App` in this process (no emulator needed).
+    #[arg(long, conflicts_with_all = ["serial", "tcp"])]
+    pub in_process: bool,
+    /// A board on a serial device (lock-step firmware).
+    #[arg(long, value_name = "DEVICE", conflicts_with = "tcp")]
+    pub serial: Option<PathBuf>,
+    /// Baud rate of `--serial`.
+    #[arg(long, default_value_t = 115_200)]
+    pub baud: u32,
+    /// A board or emulator at HOST:PORT (lock-step firmware).
+    #[arg(long, value_name = "HOST:PORT")]
+    pub tcp: Option<String>,
+    /// Output folder (default out/hil-<scenario>).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Simulated duration instead of the scenario's (s).
+    #[arg(long)]
+    pub duration: Option<f64>,
+    /// Stop sending heartbeats at this simulated time (s): the link-loss failsafes.
+    #[arg(long, value_name = "SECONDS")]
+    pub heartbeat_stop: Option<f64>,
+    /// Inject noise: probability that a frame sent is corrupted (and that garbage precedes
+    /// it); received bytes are corrupted with probability NOISE / 100. A probability, in
+    /// [0, 1]. Every corrupted frame costs a reply timeout and a resend, so the wall time
+    /// grows fast: one simulated second of `line-3d --in-process` took 0.06 s at 0, 2.6 s at
+    /// 0.1 and 30 s at 0.5 (2026-11-26, 2 shared cores); keep --duration short.
+    #[arg(long, value_name = "PROB", value_parser = parse_probability)]
+    pub noise: Option<f64>,
+    /// Seed of the noise.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Apply the firmware's thrust commands instead of the thrust of its PWM pulse widths.
+    #[arg(long)]
+    pub apply_thrust: bool,
+    /// The QEMU binary.
+    #[arg(long, default_value = "qemu-system-arm")]
+    pub qemu_bin: String,
+    /// With --qemu: save the emulated 128 KiB SRAM to FILE at the end (stack high-water).
+    #[arg(long, value_name = "FILE")]
+    pub ram_dump: Option<PathBuf>,
+}
+
+/// `--noise`: a probability (clap refuses anything else, naming the reason, exit 2).
+fn parse_probability(s: &str) -> std::result::Result<f64, String> {
+    let p: f64 = s
+        .parse()
+        .map_err(|e| format!("{s:?} is not a number: {e}"))?;
+    if !(0.0..=1.0).contains(&p) {
+        return Err(format!("{p} is not a probability: it must be in [0, 1]"));
+    }
+    Ok(p)
+}
+
+/// `host-sim hil`.
+/// Run `host-sim hil`; the output decides the exit code (`main.rs`: 1 when the run diverged,
+/// went non-finite or missed its scenario's targets, as `run`).
+pub fn main(a: HilArgs) -> Result<HilOutput> {
+    let sc = Scenario::load(&a.scenario).map_err(crate::checks::refused)?;
+    let target = if let Some(dev) = a.serial {
+        HilTarget::Board(Endpoint::Serial {
+            device: dev,
+            baud: a.baud,
+        })
+    } else if let Some(t) = a.tcp {
+        HilTarget::Board(Endpoint::Tcp(t))
+    } else if a.in_process {
+        HilTarget::InProcess
+    } else {
+        let elf = match a.qemu {
+            Some(elf) => elf,
+            // The image of this workspace, built (or found current) from anywhere, with any
+            // CARGO_TARGET_DIR.
+            None => match qemu_firmware_image(&workspace_root())? {
+                FirmwareImage::Ready(elf) => elf,
+                FirmwareImage::Unavailable(why) => {
+                    bail!("the emulated board cannot run here: {why} (or use --in-process)")
+                }
+            },
+        };
+        if !elf.is_file() {
+            bail!("firmware image {} not found", elf.display());
+        }
+        HilTarget::Qemu { elf }
+    };
+    let mut o = HilOptions::new(target);
+    o.duration_s = a.duration;
+    o.heartbeat_stop_s = a.heartbeat_stop;
+    o.noise = a.noise.map(|p| NoiseSpec {
+        tx_frame_error_prob: p,
+        tx_garbage_prob: p,
+        rx_byte_error_prob: p / 100.0,
+        seed: a.seed,
+    });
+    o.apply_pulses = !a.apply_thrust;
+    o.qemu = a.qemu_bin;
+    o.ram_dump = a.ram_dump;
+    if !sc.thrusters.saturate {
+        eprintln!(
+            "note: scenario {} has no thruster limits, but the firmware always applies the \
+             vehicle's (+20 N / -15 N): compare with a saturated software run",
+            sc.name
+        );
+    }
+    let dir = a
+        .out
+        .unwrap_or_else(|| PathBuf::from("out").join(format!("hil-{}", sc.name)));
+    std::fs::create_dir_all(&dir)?;
+    let out = run_hil(&sc, &o, Some(&dir.join("qemu-stdout.bin")))?;
+    write_hil(&dir, &out)?;
+    let s = &out.run.summary;
+    let r = &out.report;
+    println!(
+        "{}: {} (RMS {:.4} m, final {:.4} m, {} steps in {:.1} s wall)",
+        s.scenario,
+        s.verdict,
+        s.rms_position_error_m,
+        s.final_position_error_m,
+        r.steps,
+        r.wall_time_s
+    );
+    println!(
+        "link: host sent {} frames, received {}, dropped {}; firmware received {}, dropped {}, \
+         sent {}; timeouts {}, steps resent {}; injected: {} frames corrupted, {} garbage \
+         bytes, {} received bytes corrupted",
+        r.host.frames_sent,
+        r.host.frames_received,
+        r.host.frames_dropped,
+        r.firmware_rx_frames,
+        r.firmware_dropped_frames,
+        r.firmware_tx_frames,
+        r.host.timeouts,
+        r.steps_resent,
+        r.host.frames_corrupted,
+        r.host.garbage_bytes,
+        r.host.rx_bytes_corrupted
+    );
+    println!(
+        "board: {}; control iteration {:.0} instructions mean, {} max; disarmed steps {}, \
+         failsafe steps {}",
+        r.board, r.loop_ticks_mean, r.loop_ticks_max, r.steps_disarmed, r.steps_failsafe
+    );
+    if let Some(stop) = r.heartbeat_stop_s {
+        println!(
+            "heartbeats stopped at {stop} s: neutral after {}, disarmed after {}",
+            r.neutral_after_s
+                .map_or("never".into(), |v| format!("{v:.3} s")),
+            r.disarmed_after_s
+                .map_or("never".into(), |v| format!("{v:.3} s"))
+        );
+    }
+    println!("outputs in {}", dir.display());
+    Ok(out)
+}

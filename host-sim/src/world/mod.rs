@@ -1,0 +1,8 @@
+//! The simulated world: the plants (rigid body, thrusters, water), the frames, the sensors and
+//! their noise. Depends on nothing of the simulation above it.
+
+pub mod frames;
+pub mod noise;
+pub mod plant;
+pub mod sensor_sim;
+pub mod sensors;
