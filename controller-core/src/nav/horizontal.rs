@@ -65,6 +65,15 @@ pub const CLUSTER_WINDOW_US: u64 = 30_000_000;
 /// 2 degrees of freedom) times the sum of their variances.
 const CLUSTER_CHI2: f32 = 9.21;
 
+/// Gate of a USBL fix's 2-D innovation (chi-square, `USBL_GATE_CHI2` of the 2-D
+/// distribution).
+pub const USBL_GATE_CHI2: f32 = 9.21;
+/// Huber threshold on the USBL innovation's Mahalanobis distance squared: a fix whose
+/// normalized innovation squared `d^2` exceeds it is fused with its variance inflated by
+/// `d / k` (Huber's M-estimator weight `k / d`), so that a near outlier the gate lets
+/// through pulls the estimate with a fraction of a good fix's weight.
+pub const USBL_HUBER_K2: f32 = 4.0;
+
 /// A USBL fix the gate refused: its offset from the history's (uncorrected) estimate at its
 /// time of validity. Offsets of different fixes are comparable with each other whatever
 /// corrections were applied in between, because none of them includes a correction.
@@ -500,7 +509,8 @@ impl Horizontal {
         let s00 = self.kf.var(N) + r;
         let s01 = self.kf.cov(N, E);
         let s11 = self.kf.var(E) + r;
-        if !within_gate(nis2(nu, s00, s01, s11), GATE_CHI2_2DOF) {
+        let nis = nis2(nu, s00, s01, s11);
+        if !within_gate(nis, usbl_gate()) {
             self.refused.write(RefusedFix {
                 t_us,
                 seq: self.fix_seq,
@@ -509,6 +519,7 @@ impl Horizontal {
             });
             return Err(Refusal::Outlier);
         }
+        let r = r * huber_inflation(nis);
         self.corrected(|kf| {
             let e_before = kf.x[E];
             kf.update(&unit(N), nu[0], r);
@@ -517,6 +528,31 @@ impl Horizontal {
             kf.update(&unit(E), nu_e, r);
         });
         Ok(())
+    }
+}
+
+fn usbl_gate() -> f32 {
+    #[cfg(feature = "std")]
+    if let Some(v) = std::env::var("NAV_GATE").ok().and_then(|v| v.parse().ok()) {
+        return v;
+    }
+    USBL_GATE_CHI2
+}
+fn huber_k2() -> f32 {
+    #[cfg(feature = "std")]
+    if let Some(v) = std::env::var("NAV_HUBER").ok().and_then(|v| v.parse().ok()) {
+        return v;
+    }
+    USBL_HUBER_K2
+}
+
+/// Huber's variance inflation `max(1, d / k)` for a normalized innovation squared `nis = d^2`.
+fn huber_inflation(nis: f32) -> f32 {
+    let k2 = huber_k2();
+    if nis > k2 {
+        crate::math::sqrt(nis / k2)
+    } else {
+        1.0
     }
 }
 
