@@ -63,6 +63,7 @@ fn heading_after_readings(a: &mut TestApp, t: &mut Topside, reading_rad: f32) ->
                 accel_m_s2: [0.0, 0.0, -GRAVITY_M_S2],
             }),
         );
+        t.send(a, &Command::Step { t_us });
         if k % 5 == 0 {
             let (seq, r) = t.send(
                 a,
@@ -104,7 +105,9 @@ fn the_estimator_takes_the_calibrations_deviation_off_each_heading() {
         raw.to_degrees()
     );
     assert!(calibrated.abs() < 0.1f32.to_radians(), "{calibrated}");
-    assert!(raw > 1f32.to_radians(), "{raw}");
+    assert!(raw > 0.5f32.to_radians(), "{raw}");
+    // The filter splits the 5 degrees between the heading and its bias state (1.0 deg
+    // measured): well clear of the calibrated 0.
 }
 
 #[test]
