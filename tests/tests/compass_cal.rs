@@ -12,7 +12,7 @@
 )]
 
 use controller_core::nav::compass_cal::{CalRefusal, CompassCalibration};
-use controller_core::nav::onboard::OnboardConfig;
+use controller_core::nav::onboard::{OnboardConfig, PressureDepth};
 use controller_core::nav::{HeadingFix, ImuSample, GRAVITY_M_S2};
 use controller_core::state::NavState;
 use firmware::protocol::{Board, Command, NackReason, Reply};
@@ -63,6 +63,15 @@ fn heading_after_readings(a: &mut TestApp, t: &mut Topside, reading_rad: f32) ->
                 accel_m_s2: [0.0, 0.0, -GRAVITY_M_S2],
             }),
         );
+        if k % 5 == 0 {
+            t.send(
+                a,
+                &Command::Pressure {
+                    t_us,
+                    pressure_pa: PressureDepth::SEA_WATER.pressure_pa(2.0),
+                },
+            );
+        }
         t.send(a, &Command::Step { t_us });
         if k % 5 == 0 {
             let (seq, r) = t.send(
