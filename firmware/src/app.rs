@@ -595,7 +595,8 @@ where
             | Command::Pressure { .. }
             | Command::UsblFix(_)
             | Command::DvlFix(_)
-            | Command::Compass(_) => self.autopilot.handle_nav(now, seq, cmd),
+            | Command::Compass(_)
+            | Command::SetCompassCal(_) => self.autopilot.handle_nav(now, seq, cmd),
             _ => self.autopilot.handle(now, seq, cmd),
         };
         if let Err(reason) = handled {

@@ -26,6 +26,7 @@ use crate::protocol::{fault, Command, ManualThrust, Mode, NackReason, NavSample}
 use controller_core::alloc::{allocate, Allocation, ESC_NEUTRAL_US};
 use controller_core::controller::{ControlMode, ControlOutput, Controller};
 use controller_core::law::pilot::Sticks;
+use controller_core::nav::compass_cal::CompassCalibration;
 use controller_core::nav::onboard::OnboardNav;
 use controller_core::nav::Refusal;
 use controller_core::params::VehicleParams;
@@ -127,6 +128,9 @@ pub struct Autopilot {
     /// A new surface session began: the next `Nav` is not ordered after the previous
     /// session's (a restarted topside's clock starts again).
     nav_order_reset: bool,
+    /// The compass's deviation (`COMPASS_DEV_*`, `SetCompassCal`), handed to every
+    /// on-board estimator started (issue 26).
+    compass_cal: CompassCalibration,
     /// Control steps run.
     pub steps: u32,
 }
@@ -173,6 +177,7 @@ impl Autopilot {
             auto: None,
             engaged_us: 0,
             nav_order_reset: false,
+            compass_cal: CompassCalibration::NONE,
             steps: 0,
         }
     }
@@ -344,7 +349,8 @@ impl Autopilot {
             | Command::Pressure { .. }
             | Command::UsblFix(_)
             | Command::DvlFix(_)
-            | Command::Compass(_) => Err(NackReason::Unsupported),
+            | Command::Compass(_)
+            | Command::SetCompassCal(_) => Err(NackReason::Unsupported),
             // The App's (sessions are a link matter).
             Command::OpenSession { .. } => Err(NackReason::Unsupported),
             Command::StopNav => {
@@ -429,7 +435,10 @@ impl Autopilot {
             } => {
                 check_nav(initial)?;
                 let vehicle = *self.controller.vehicle();
-                let o = OnboardNav::new(vehicle, *config, initial, *t_us, now_us)?;
+                let mut o = OnboardNav::new(vehicle, *config, initial, *t_us, now_us)?;
+                // Checked when it was set.
+                o.set_compass_calibration(&self.compass_cal)
+                    .map_err(NackReason::CompassCal)?;
                 self.onboard = Some(o);
                 self.onboard_seq = seq;
                 Ok(())
@@ -441,8 +450,31 @@ impl Autopilot {
             Command::UsblFix(f) => self.feed(seq, |o, _| o.position(f)),
             Command::DvlFix(f) => self.feed(seq, |o, _| o.dvl(f)),
             Command::Compass(f) => self.feed(seq, |o, _| o.heading(f)),
+            Command::SetCompassCal(cal) => self.set_compass_calibration(cal),
             _ => self.handle(now_us, seq, cmd),
         }
+    }
+
+    /// A new compass calibration (`COMPASS_DEV_*`): only disarmed (a new deviation turns
+    /// the heading the laws fly on), checked (finite, within 30 degrees); used by the
+    /// running on-board estimator at once and by every one started later. On a refusal the
+    /// calibration in force stays.
+    pub fn set_compass_calibration(&mut self, cal: &CompassCalibration) -> Result<(), NackReason> {
+        if self.armed {
+            return Err(NackReason::Armed);
+        }
+        let cal = cal.validate().map_err(NackReason::CompassCal)?;
+        if let Some(o) = self.onboard.as_mut() {
+            o.set_compass_calibration(&cal)
+                .map_err(NackReason::CompassCal)?;
+        }
+        self.compass_cal = cal;
+        Ok(())
+    }
+
+    /// The compass calibration in force.
+    pub fn compass_calibration(&self) -> CompassCalibration {
+        self.compass_cal
     }
 
     /// A new vehicle description: only disarmed and without the on-board estimator (which

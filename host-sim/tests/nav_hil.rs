@@ -1,13 +1,118 @@
-//! Issue 26 on the emulated MCU: the survey with a 6 degree compass bias in a 0.2 m/s beam
-//! current (`scenarios/nav-survey-compass-bias-3d.toml`), the estimator on the firmware's
-//! `qemu` image against the software run: within 10 % + 1 cm. Skipped, with a message,
-//! without `qemu-system-arm` or the thumbv7em target (the pattern of `hil_qemu.rs`).
+//! Issue 26 on the emulated MCU: the estimator on the firmware's `qemu` image against the
+//! software run, within 10 % + 1 cm: the survey with a 6 degree compass bias in a 0.2 m/s
+//! beam current (`scenarios/nav-survey-compass-bias-3d.toml`), the USBL-only circle with a
+//! 5 degree bias, and the circle told a start 5 m and 30 degrees off. Skipped, with a
+//! message, without `qemu-system-arm` or the thumbv7em target (the pattern of `hil_qemu.rs`).
+//! The 23-minute survey with 30 % far outliers is not repeated here: about 35 minutes of
+//! emulation.
 
 use host_sim::closed_loop::runner::{run, RunOptions};
 use host_sim::commands::hil::{run_hil, HilOptions, HilTarget};
 use host_sim::scenario::Scenario;
+use host_sim::closed_loop::Sample;
 use host_sim::tether::qemu::image_or_skip;
-use std::time::Duration;
+use std::time::{Duration, Instant};
+
+/// The scenario on the emulated board and in software, both recorded, with the wall time of
+/// the emulated run; `None` when QEMU or the image is missing (skipped).
+fn hil_and_software(
+    sc: &Scenario,
+) -> Option<(host_sim::commands::hil::HilOutput, host_sim::closed_loop::RunOutput, f64)> {
+    let elf = image_or_skip().expect("the firmware's qemu image")?;
+    let mut o = HilOptions::new(HilTarget::Qemu { elf });
+    o.wall_limit = Duration::from_secs(900);
+    o.apply_pulses = false;
+    o.record = true;
+    let t0 = Instant::now();
+    let h = run_hil(sc, &o, None).unwrap();
+    let wall_s = t0.elapsed().as_secs_f64();
+    let sw = run(
+        sc,
+        &RunOptions {
+            record: true,
+            ..RunOptions::default()
+        },
+    )
+    .unwrap();
+    assert!(h.report.onboard_estimator);
+    assert!(!h.run.summary.nan_detected && !h.run.summary.diverged);
+    Some((h, sw, wall_s))
+}
+
+/// `|hil - sw| <= 10 % of sw + 1 cm`.
+fn within_10_percent_plus_1_cm(what: &str, hil: f64, sw: f64) {
+    let bound = 0.1 * sw + 0.01;
+    assert!(
+        (hil - sw).abs() <= bound,
+        "{what}: HIL {hil} m vs software {sw} m (bound {bound} m)"
+    );
+}
+
+/// RMS of `f` over the samples from `t0_s` on.
+fn rms_from(log: &[Sample], t0_s: f64, f: impl Fn(&Sample) -> f64) -> f64 {
+    let v: Vec<f64> = log.iter().filter(|x| x.t_s >= t0_s).map(f).collect();
+    (v.iter().map(|e| e * e).sum::<f64>() / v.len().max(1) as f64).sqrt()
+}
+
+fn horizontal_estimation_error_m(x: &Sample) -> f64 {
+    (x.nav_pos_m[0] - x.state.eta[0]).hypot(x.nav_pos_m[1] - x.state.eta[1])
+}
+
+#[test]
+fn hil_usbl_only_circle_with_a_5_deg_compass_bias_matches_software() {
+    let mut sc = Scenario::load("nav-usbl-circle-3d").unwrap();
+    if let Some(c) = sc.sensors.compass.as_mut() {
+        c.bias_rad = 5f64.to_radians();
+    }
+    let Some((h, sw, wall_s)) = hil_and_software(&sc) else {
+        return;
+    };
+    let (hs, ss) = (&h.run.summary, &sw.summary);
+    eprintln!(
+        "USBL-only circle, compass 5 deg off ({wall_s:.0} s of emulation): tracking last-80 % RMS HIL {:.4} m, software {:.4} m; estimation RMS HIL {:.4} m, software {:.4} m; {:?}",
+        hs.rms_position_error_last80_m,
+        ss.rms_position_error_last80_m,
+        hs.rms_estimation_error_m,
+        ss.rms_estimation_error_m,
+        h.report.nav_health
+    );
+    within_10_percent_plus_1_cm(
+        "tracking",
+        hs.rms_position_error_last80_m,
+        ss.rms_position_error_last80_m,
+    );
+    within_10_percent_plus_1_cm(
+        "estimation",
+        hs.rms_estimation_error_m,
+        ss.rms_estimation_error_m,
+    );
+    assert!(hs.rms_position_error_last80_m <= 0.30);
+}
+
+#[test]
+#[ignore = "not done: `host-sim hil` sets Track at the start and the firmware refuses it (NavNotReady(PositionUncertain)) until the estimate is ready; the HIL set-up must wait for it, 2026-11-26"]
+fn hil_circle_told_5_m_and_30_deg_off_matches_software_from_120_s() {
+    let mut sc = Scenario::load("nav-circle-3d").unwrap();
+    sc.navigation.start_error_m = [3.0, -4.0];
+    sc.navigation.start_heading_error_rad = 30f64.to_radians();
+    sc.navigation.start_position_std_m = Some(5.0);
+    sc.navigation.start_heading_std_rad = Some(0.6);
+    sc.validate().unwrap();
+    let Some((h, sw, wall_s)) = hil_and_software(&sc) else {
+        return;
+    };
+    let tracking = |log: &[Sample]| rms_from(log, 120.0, |x| x.pos_err_norm_m);
+    let estimation = |log: &[Sample]| rms_from(log, 120.0, horizontal_estimation_error_m);
+    let (th, ts) = (tracking(&h.run.log), tracking(&sw.log));
+    let (eh, es) = (estimation(&h.run.log), estimation(&sw.log));
+    eprintln!(
+        "circle told 5 m / 30 deg off ({wall_s:.0} s of emulation), from 120 s: tracking RMS HIL {th:.4} m, software {ts:.4} m; estimation RMS HIL {eh:.4} m, software {es:.4} m; {:?}",
+        h.report.nav_health
+    );
+    within_10_percent_plus_1_cm("tracking from 120 s", th, ts);
+    within_10_percent_plus_1_cm("estimation from 120 s", eh, es);
+    assert!(th <= 0.10 && eh <= 0.10);
+}
 
 #[test]
 fn hil_survey_with_a_6_deg_compass_bias_matches_software_within_10_percent_plus_1_cm() {

@@ -8,6 +8,7 @@
 //! is the firmware's clock when the reading arrived, for the freshness checks. On a board both
 //! are the board's clock; in lock-step both are the host's simulated time.
 
+use super::compass_cal::{CalRefusal, CompassCalibration};
 use super::{
     DvlFix, Estimator, HeadingFix, ImuSample, NavConfig, PositionFix, Refusal, GRAVITY_M_S2,
 };
@@ -101,6 +102,9 @@ pub struct OnboardNav {
     cfg: OnboardConfig,
     last_imu_rx_us: u64,
     last_pressure_rx_us: u64,
+    /// The compass's deviation (`COMPASS_DEV_*`), taken off every heading before it is
+    /// fused (issue 26).
+    compass_cal: CompassCalibration,
 }
 
 impl OnboardNav {
@@ -119,6 +123,7 @@ impl OnboardNav {
             cfg,
             last_imu_rx_us: now_us,
             last_pressure_rx_us: now_us,
+            compass_cal: CompassCalibration::NONE,
         })
     }
 
@@ -173,9 +178,29 @@ impl OnboardNav {
         self.estimator.fuse_dvl(fix)
     }
 
-    /// A compass heading from the surface.
+    /// A compass heading (as the compass reads it): the deviation of the calibration in
+    /// force taken off, then fused.
     pub fn heading(&mut self, fix: &HeadingFix) -> Result<(), Refusal> {
-        self.estimator.fuse_heading(fix)
+        if !fix.yaw_rad.is_finite() {
+            return Err(Refusal::NonFinite);
+        }
+        let corrected = HeadingFix {
+            yaw_rad: self.compass_cal.correct(fix.yaw_rad),
+            ..*fix
+        };
+        self.estimator.fuse_heading(&corrected)
+    }
+
+    /// Replace the compass calibration (checked: finite, deviation within 30 degrees); on a
+    /// refusal the one in force stays.
+    pub fn set_compass_calibration(&mut self, cal: &CompassCalibration) -> Result<(), CalRefusal> {
+        self.compass_cal = cal.validate()?;
+        Ok(())
+    }
+
+    /// The compass calibration in force.
+    pub fn compass_calibration(&self) -> CompassCalibration {
+        self.compass_cal
     }
 
     /// Have the IMU and the pressure sensor both answered within their timeouts at `now_us`?

@@ -8,6 +8,7 @@ use controller_core::controller::ControlMode;
 use controller_core::law::paper_xy::PaperXyGains;
 use controller_core::law::paper_xz::PaperXzGains;
 use controller_core::law::tracking::TrackingGains;
+use controller_core::nav::compass_cal::CompassCalibration;
 use controller_core::nav::onboard::OnboardConfig;
 use controller_core::nav::{DvlFix, HeadingFix, ImuSample, NavHealth, PositionFix, Refusal};
 use controller_core::params::VehicleParams;
@@ -230,6 +231,11 @@ pub enum Command {
         /// The surface's random number, echoed in the answer.
         nonce: u32,
     },
+    /// Replace the compass calibration (issue 26: the ground station's `COMPASS_DEV_SIN` /
+    /// `COMPASS_DEV_COS`, or a calibration turn's result): the deviation the on-board
+    /// estimator takes off every heading. Refused while armed (`Armed`) and when not finite
+    /// or beyond 30 degrees (`CompassCal`); the calibration in force then stays.
+    SetCompassCal(CompassCalibration),
 }
 
 /// Failsafe timeouts, microseconds of the firmware's clock.
@@ -336,6 +342,8 @@ pub enum NackReason {
     /// A mode that needs a position while the on-board estimate is not ready (issue 26;
     /// version 6).
     NavNotReady(controller_core::nav::NotReady),
+    /// A compass calibration refused (issue 26): the reason; the one in force stays.
+    CompassCal(controller_core::nav::compass_cal::CalRefusal),
 }
 
 impl From<controller_core::Error> for NackReason {

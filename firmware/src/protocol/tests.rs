@@ -106,6 +106,10 @@ fn every_command_and_reply_round_trips_and_fits() {
         Command::SetVehicle(controller_core::params::VehicleParams::OBSERVER),
         Command::SetFailsafe(Failsafe::DEFAULT),
         Command::OpenSession { nonce: u32::MAX },
+        Command::SetCompassCal(controller_core::nav::compass_cal::CompassCalibration {
+            sin_rad: f32::MAX,
+            cos_rad: f32::MIN,
+        }),
     ];
     for (i, cmd) in commands.iter().enumerate() {
         let f = frame(u16::MAX - i as u16, cmd);

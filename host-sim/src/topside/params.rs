@@ -8,10 +8,15 @@
 //! Names: `TRK_*` the tracking laws ([`TrackingGains`](controller_core::law::tracking::TrackingGains)),
 //! `PXZ_*` / `PXY_*` the paper's XZ / XY laws, `FS_*` the failsafe timeouts in seconds,
 //! `VEH_*` the vehicle ([`VehicleParams`], a vehicle file's keys; `VEH_PWM_*` its pulse curve),
-//! `MIS_SPEED` the speed along a mission's path (kept here, sent with the next mission).
+//! `MIS_SPEED` the speed along a mission's path (kept here, sent with the next mission),
+//! `COMPASS_DEV_SIN` / `COMPASS_DEV_COS` the compass's heading-dependent deviation in
+//! **degrees** (issue 26: it reads `psi + sin_deg sin(psi) + cos_deg cos(psi)`; sent as
+//! `SetCompassCal` in radians, refused beyond 30 degrees of amplitude and while armed). The
+//! constant part of a compass's error has no parameter: the estimator learns it.
 
 use anyhow::{anyhow, bail, Context, Result};
 use controller_core::controller::Gains;
+use controller_core::nav::compass_cal::{CalRefusal, CompassCalibration, MAX_DEVIATION_RAD};
 use controller_core::params::VehicleParams;
 use firmware::protocol::Failsafe;
 use std::collections::BTreeMap;
@@ -93,6 +98,36 @@ pub struct Settings {
     pub vehicle: VehicleParams,
     /// Speed along a mission's path (m/s), sent with the next mission uploaded.
     pub mission_speed_m_s: f32,
+    /// The compass's deviation (degrees).
+    pub compass: CompassDeviationDeg,
+}
+
+/// The compass's heading-dependent deviation as the ground station shows it, in degrees
+/// (`COMPASS_DEV_SIN`, `COMPASS_DEV_COS`).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CompassDeviationDeg {
+    /// Coefficient of `sin(psi)` (degrees).
+    pub sin_deg: f32,
+    /// Coefficient of `cos(psi)` (degrees).
+    pub cos_deg: f32,
+}
+
+impl CompassDeviationDeg {
+    /// The calibration the vehicle takes (radians).
+    pub fn to_calibration(self) -> CompassCalibration {
+        CompassCalibration {
+            sin_rad: self.sin_deg.to_radians(),
+            cos_rad: self.cos_deg.to_radians(),
+        }
+    }
+
+    /// A calibration (radians) as degrees.
+    pub fn of(cal: &CompassCalibration) -> Self {
+        Self {
+            sin_deg: cal.sin_rad.to_degrees(),
+            cos_deg: cal.cos_rad.to_degrees(),
+        }
+    }
 }
 
 /// The mission speed unless a ground station sets `MIS_SPEED`: the scenarios' survey speed.
@@ -108,6 +143,7 @@ impl Settings {
             failsafe: FailsafeSeconds::of(&Failsafe::DEFAULT),
             vehicle,
             mission_speed_m_s: MISSION_SPEED_M_S,
+            compass: CompassDeviationDeg::default(),
         }
     }
 
@@ -128,6 +164,18 @@ impl Settings {
                 let v = self.mission_speed_m_s;
                 if !(v.is_finite() && (MIN_MISSION_SPEED_M_S..=max).contains(&v)) {
                     bail!("MIS_SPEED must be {MIN_MISSION_SPEED_M_S}-{max} m/s");
+                }
+            }
+            Group::Compass => {
+                let c = self.compass;
+                let max_deg = MAX_DEVIATION_RAD.to_degrees();
+                match c.to_calibration().validate() {
+                    Ok(_) => {}
+                    Err(CalRefusal::OutOfRange) => bail!(
+                        "COMPASS_DEV_SIN, COMPASS_DEV_COS: deviation {:.1} deg is over {max_deg:.0} deg",
+                        c.sin_deg.hypot(c.cos_deg)
+                    ),
+                    Err(why) => bail!("COMPASS_DEV_SIN, COMPASS_DEV_COS: {why:?}"),
                 }
             }
         }
@@ -158,12 +206,15 @@ pub enum Group {
     Vehicle,
     /// Kept at the surface and sent with the next mission (`MissionItem`).
     Mission,
+    /// `SetCompassCal` (refused by the vehicle while armed).
+    Compass,
 }
 
 /// The groups in the order a restart restores them: the vehicle first (the others are
 /// checked against it on board), then the timeouts and the gains.
-pub const GROUPS: [Group; 5] = [
+pub const GROUPS: [Group; 6] = [
     Group::Vehicle,
+    Group::Compass,
     Group::Failsafe,
     Group::Tracking,
     Group::Paper,
@@ -252,6 +303,8 @@ pub const PARAMS: &[Param] = params![
     "VEH_PWM_DEADBAND" => vehicle.pulse.deadband_us,
     "VEH_PWM_LINEAR" => vehicle.pulse.linear_fraction,
     "MIS_SPEED" => mission_speed_m_s,
+    "COMPASS_DEV_SIN" => compass.sin_deg,
+    "COMPASS_DEV_COS" => compass.cos_deg,
 ];
 
 /// Parameters shown but not settable, with the reason (issue 22): the ESCs' neutral pulse is
@@ -281,6 +334,7 @@ pub fn group(p: &Param) -> Group {
         Some("FS") => Group::Failsafe,
         Some("VEH") => Group::Vehicle,
         Some("MIS") => Group::Mission,
+        Some("COMPASS") => Group::Compass,
         _ => Group::Paper,
     }
 }

@@ -191,6 +191,7 @@ impl SimVehicle {
                 Err(_) => return Ok(Err(NackReason::OutOfRange)),
             },
             Group::Vehicle => Command::SetVehicle(proposed.vehicle),
+            Group::Compass => Command::SetCompassCal(proposed.compass.to_calibration()),
             Group::Mission => {
                 // Nothing to send now: the next mission carries it.
                 self.settings.mission_speed_m_s = proposed.mission_speed_m_s;
@@ -209,6 +210,7 @@ impl SimVehicle {
                 Group::Failsafe => s.failsafe = proposed.failsafe,
                 Group::Vehicle => s.vehicle = proposed.vehicle,
                 Group::Mission => s.mission_speed_m_s = proposed.mission_speed_m_s,
+                Group::Compass => s.compass = proposed.compass,
             }
         }
         Ok(r)
