@@ -198,9 +198,9 @@ fi
 
 # ---- 4c. the node image (issue 25) ---------------------------------------------------------------
 echo
-echo "== node image: cargo build -p firmware --release --target $TARGET --bin node [--features node-bench]"
+echo "== node image: cargo build -p node-firmware --release --target $TARGET --bin node [--features node-bench]"
 NODE_FLASH=""; NODE_RAM=""; NODE_STACK=""; NODE_OK=1
-if cargo build -q -p firmware --release --target "$TARGET" --bin node --features node-bench \
+if cargo build -q -p node-firmware --release --target "$TARGET" --bin node --features node-bench \
     2>"$OUT/node-build.log"; then
   cp "$TDIR/$TARGET/release/node" "$OUT/node-bench.elf"
   rc=0
@@ -214,7 +214,7 @@ if cargo build -q -p firmware --release --target "$TARGET" --bin node --features
     NODE_STACK=$(grep -a '^NODE ' "$OUT/node-bench.log" | sed -n 's/.* stack=\([0-9]*\).*/\1/p')
   fi
 fi
-if cargo build -q -p firmware --release --target "$TARGET" --bin node 2>>"$OUT/node-build.log"; then
+if cargo build -q -p node-firmware --release --target "$TARGET" --bin node 2>>"$OUT/node-build.log"; then
   NODE=$TDIR/$TARGET/release/node
   read -r text data bss _ < <("$SIZE" -B "$NODE" | awk 'NR==2 {print $1, $2, $3}')
   NODE_FLASH=$((text + data)); NODE_RAM=$((data + bss))

@@ -24,8 +24,6 @@ pub mod topside_link;
 
 #[cfg(target_os = "none")]
 pub mod board;
-#[cfg(target_os = "none")]
-pub mod node_board;
 #[cfg(all(target_os = "none", feature = "topside-board"))]
 pub mod topside_board;
 

@@ -14,7 +14,7 @@ mod image {
 
     #[cortex_m_rt::entry]
     fn main() -> ! {
-        firmware::node_board::run()
+        node_firmware::board::run()
     }
 
     #[panic_handler]
