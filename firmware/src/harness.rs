@@ -392,5 +392,8 @@ where
     }
 }
 
+#[cfg(target_os = "none")]
+pub mod uart;
+
 #[cfg(test)]
 mod tests;

@@ -27,6 +27,8 @@ pub mod topside_link;
 pub mod board;
 #[cfg(all(target_os = "none", feature = "topside-board"))]
 pub mod topside_board;
+#[cfg(all(target_os = "none", feature = "topside-board"))]
+pub mod topside_emu_board;
 
 pub use app::{App, Config, ConfigError, Monotonic, Timing};
 pub use autopilot::{Autopilot, Failsafe, StepOutput};
