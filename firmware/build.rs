@@ -15,12 +15,10 @@ fn main() {
     }
     let out = PathBuf::from(env::var_os("OUT_DIR").unwrap_or_default());
     let manifest = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").unwrap_or_default());
-    for file in ["memory.x"] {
-        let from = manifest.join("..").join(file);
-        if let Err(e) = fs::copy(&from, out.join(file)) {
-            println!("cargo:warning=cannot copy {}: {e}", from.display());
-            std::process::exit(1);
-        }
+    let from = manifest.join("..").join("memory.x");
+    if let Err(e) = fs::copy(&from, out.join("memory.x")) {
+        println!("cargo:warning=cannot copy {}: {e}", from.display());
+        std::process::exit(1);
     }
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rustc-link-arg-bins=--nmagic");

@@ -233,7 +233,9 @@ fn the_node_runs_at_the_hosts_time_and_reports_its_pulses() {
         &inputs,
         &NodeStep {
             t_us: 1,
-            ..Default::default()
+            link_rx_bytes: delivered,
+            imu: None,
+            pressure_pa: None,
         },
         delivered,
     );
@@ -259,17 +261,6 @@ fn the_node_runs_at_the_hosts_time_and_reports_its_pulses() {
     let r = node_pass(&mut node, &now, &inputs, &step, delivered);
     assert_eq!(r.pulse_us, [1500; 3]);
     assert_ne!(r.status & status::TTL_NEUTRAL, 0);
-}
-
-impl Default for NodeStep {
-    fn default() -> Self {
-        Self {
-            t_us: 0,
-            link_rx_bytes: 0,
-            imu: None,
-            pressure_pa: None,
-        }
-    }
 }
 
 #[test]
