@@ -24,7 +24,9 @@ use firmware::harness::{
 use firmware::node_link::{
     self, status, ArmCommand, Downlink, LinkDecoder, LinkFrame, NodeCounters, Uplink,
 };
-use firmware::protocol::{encode, Board, Command, Decoded, FrameDecoder, Reply, MAX_FRAME_LEN};
+use firmware::protocol::{
+    encode, Board, Command, Decoded, FrameDecoder, NavSample, Reply, MAX_FRAME_LEN,
+};
 use serde::de::DeserializeOwned;
 use serde::Serialize;
 use std::io::{Read, Write};
@@ -205,6 +207,7 @@ fn the_emulated_node_samples_the_hosts_imu_and_applies_the_downlinks() {
     let mut ups = LinkDecoder::<Uplink>::new();
     let mut uplinks = Vec::new();
     let mut last = hello;
+    let t0 = Instant::now();
     // 100 ms at 400 Hz; the host disarms the node, then arms it at 1650 us from 50 ms.
     for k in 0..=40u64 {
         let t_us = k * 2_500;
@@ -244,6 +247,7 @@ fn the_emulated_node_samples_the_hosts_imu_and_applies_the_downlinks() {
         assert_eq!(r.pulse_us, expect, "at {t_us} us: {r:?}");
         last = r;
     }
+    println!("node: 41 steps in {:?}", t0.elapsed());
     assert_eq!(last.accepted, 5);
     // An uplink every 20 ms of the host's time, 8 IMU intervals of its samples in each.
     assert_eq!(uplinks.len(), 5, "{uplinks:?}");
@@ -402,5 +406,127 @@ fn the_emulated_topside_greets_the_pc_and_steps_on_an_uplink() {
     assert_eq!(
         (r.refused, r.t_us, r.link_tx_bytes, r.tether_tx_bytes),
         (Some(HarnessRefusal::BytesMissing), 15_000, link_tx, tx)
+    );
+}
+
+/// Both boards, joined by the host (an instant wire here: the bytes one board wrote before a
+/// step are the other's at the same time): the PC opens a session and arms the topside at
+/// 200 ms; the topside steps on the node's uplinks and the node follows its arm transition.
+#[test]
+fn the_two_emulated_boards_joined_step_on_the_nodes_uplinks_and_arm() {
+    let Some(node_elf) = image("node-firmware", "node-emu", &[]) else {
+        return;
+    };
+    let Some(top_elf) = image("firmware", "topside-emu", &["topside-board"]) else {
+        return;
+    };
+    let mut node = start(&node_elf, 2);
+    let mut top = start(&top_elf, 3);
+    let [n_link, n_h] = &mut node.serials[..] else {
+        unreachable!()
+    };
+    let [tether, t_link, t_h] = &mut top.serials[..] else {
+        unreachable!()
+    };
+    let (mut nrep, mut trep) = (
+        HarnessDecoder::<NodeReport>::new(),
+        HarnessDecoder::<TopsideReport>::new(),
+    );
+    let _ = recv_frame(n_h, &mut nrep);
+    let th = recv_frame(t_h, &mut trep);
+    let mut replies = FrameDecoder::<Reply>::new();
+    let mut pc_in = Vec::new();
+    for b in take(tether, th.tether_tx_bytes) {
+        if let Some(Decoded::Frame { msg, .. }) = replies.push(b) {
+            pc_in.push(msg);
+        }
+    }
+    let (mut node_in, mut node_seen) = (0u32, 0u32);
+    let (mut top_in, mut top_seen, mut tether_in, mut tether_seen) =
+        (0u32, 0u32, 0u32, th.tether_tx_bytes);
+    let (mut session, mut seq, mut arm_seq) = (0u32, 0u16, None);
+    let (mut n_last, mut t_last) = (None, None);
+    let t0 = Instant::now();
+    for k in 0..=240u64 {
+        let t_us = k * 2_500;
+        let cmd = match k {
+            1 => Some(Command::OpenSession { nonce: 0x25 }),
+            // Arming needs a fresh navigation sample from the surface (no estimator here).
+            79 => Some(Command::Nav(NavSample {
+                t_us,
+                state: Default::default(),
+            })),
+            80 => Some(Command::Arm),
+            _ if k % 40 == 2 => Some(Command::Heartbeat { t_us }),
+            _ => None,
+        };
+        if let Some(cmd) = cmd {
+            let mut buf = [0u8; MAX_FRAME_LEN];
+            let f = encode(session, seq, &cmd, &mut buf).unwrap();
+            if matches!(cmd, Command::Arm) {
+                arm_seq = Some(seq);
+            }
+            seq += 1;
+            tether_in += f.len() as u32;
+            tether.write_all(f).unwrap();
+        }
+        let step = NodeStep {
+            t_us,
+            link_rx_bytes: node_in,
+            imu: Some(HarnessImu {
+                gyro_rad_s: [0.0; 3],
+                accel_m_s2: [0.0, 0.0, -9.81],
+            }),
+            pressure_pa: (k % 8 == 0).then_some(150_000.0),
+        };
+        send_harness(n_h, k as u16, &step);
+        let r = recv_frame(n_h, &mut nrep);
+        assert_eq!(r.refused, None, "{r:?}");
+        let up = take(n_link, r.link_tx_bytes - node_seen);
+        node_seen = r.link_tx_bytes;
+        top_in += up.len() as u32;
+        t_link.write_all(&up).unwrap();
+        n_last = Some(r);
+        let step = TopsideStep {
+            t_us,
+            tether_rx_bytes: tether_in,
+            link_rx_bytes: top_in,
+        };
+        send_harness(t_h, k as u16, &step);
+        let r = recv_frame(t_h, &mut trep);
+        assert_eq!(r.refused, None, "{r:?}");
+        for b in take(tether, r.tether_tx_bytes - tether_seen) {
+            if let Some(Decoded::Frame { msg, .. }) = replies.push(b) {
+                if let Reply::Session { session: s, .. } = msg {
+                    session = s;
+                }
+                pc_in.push(msg);
+            }
+        }
+        tether_seen = r.tether_tx_bytes;
+        let down = take(t_link, r.link_tx_bytes - top_seen);
+        top_seen = r.link_tx_bytes;
+        node_in += down.len() as u32;
+        n_link.write_all(&down).unwrap();
+        t_last = Some(r);
+    }
+    let (n, t) = (n_last.unwrap(), t_last.unwrap());
+    println!(
+        "600 ms of host time in {:?}: topside {t:?}, node {n:?}",
+        t0.elapsed()
+    );
+    assert!(
+        pc_in
+            .iter()
+            .any(|m| matches!(m, Reply::Ack { seq } if Some(*seq) == arm_seq)),
+        "the topside acknowledged Arm: {pc_in:?}"
+    );
+    // An uplink every 20 ms from 20 ms, each a step at once.
+    assert!(t.uplink_steps >= 29, "{t:?}");
+    assert!(n.accepted >= 29, "{n:?}");
+    assert_ne!(
+        n.status & status::ARMED,
+        0,
+        "the node followed the arm: {n:?}"
     );
 }
