@@ -115,21 +115,17 @@ fn start(elf: &Path, serials: usize) -> Board2 {
     let listeners: Vec<TcpListener> = (0..serials)
         .map(|_| TcpListener::bind("127.0.0.1:0").unwrap())
         .collect();
-    let mut q = Proc::new("timeout");
-    q.args([
-        "120",
-        "qemu-system-arm",
-        "-M",
-        "netduinoplus2",
-        "-nographic",
-    ])
-    .args([
-        "-monitor",
-        "none",
-        "-semihosting-config",
-        "enable=on,target=native",
-    ])
-    .args(["-icount", "shift=0,align=off,sleep=off"]);
+    // QEMU itself is the child, not `timeout`: killing it on drop must end it, or the
+    // guest, which spins waiting for the host, outlives the test.
+    let mut q = Proc::new("qemu-system-arm");
+    q.args(["-M", "netduinoplus2", "-nographic"])
+        .args([
+            "-monitor",
+            "none",
+            "-semihosting-config",
+            "enable=on,target=native",
+        ])
+        .args(["-icount", "shift=0,align=off,sleep=off"]);
     for l in &listeners {
         let port = l.local_addr().unwrap().port();
         q.args(["-serial", &format!("tcp:127.0.0.1:{port},nodelay=on")]);
