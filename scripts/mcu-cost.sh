@@ -14,19 +14,23 @@
 #    comparison (that image does contain soft f64, by design) and each law alone (`law.*`,
 #    closed loop; the allocation, PWM map and anti-windup untimed).
 # 4. Prints flash and static RAM of the STM32F4 firmware image (`llvm-size`), if it builds.
-# 4c. The node image (issue 25, docs/deployment.md): flash and static RAM of `node`
-#    (linked into 32 KiB / 8 KiB by memory-node.x), no soft f64 and no controller-core symbol
-#    in it; then the `node-bench` build of the same image in QEMU: instructions per pass (the
-#    IMU-rate pass alone, with a downlink frame decoded and applied, with the uplink encoded;
-#    TIM2 under -icount) and the stack it used (painting).
+# 4c. The node images (issue 25, docs/deployment.md; crate node-firmware): flash and static
+#    RAM of `node` and `node-emu` (linked into 32 KiB / 8 KiB by memory-node.x), no soft f64
+#    and no controller-core symbol in `node`; then the `node-bench` build of the same image in
+#    QEMU: instructions per pass (the IMU-rate pass alone, with a downlink frame decoded and
+#    applied, with the uplink encoded; TIM2 under -icount) and the stack it used (painting).
+# 4d. The topside images (issue 25): the loop pass `loop.topside_3d` (mcu-bench built with
+#    `--features topside`: the App over the node link, the uplink decoded, the step, the
+#    downlink encoded; -icount as above), flash and static RAM of `topside` and `topside-emu`.
 # 5. Compares with the budgets (issues 11, 12, 15, 26): every loop iteration <= 40,000
 #    instructions (mean and max; 30,000 until issue 26's estimator states), `loop.onboard_3d`
 #    (the board's pass with the estimator and its sensors) included, and the estimator's worst
 #    step (predict + every update + the control step) <= 40,000; flash <= 96 KiB; RAM
 #    (static + measured stack) <= 24 KiB; the node image (issue 25): flash <= 32 KiB, static
-#    RAM + measured stack <= 8 KiB. A figure over a budget in force prints OVER and makes the
-#    script exit 1. The node's passes (<= 5,000 instructions) are a target of issue 25, still
-#    open: printed as NOT MET, not failing. Below a budget the clearest code wins: the control
+#    RAM + measured stack <= 8 KiB, each node pass <= 5,000 instructions; the topside image's
+#    flash and `loop.topside_3d` against the same 96 KiB and 40,000. A figure over a budget in
+#    force prints OVER and makes the script exit 1. `loop.topside_3d` against issue 25's own
+#    30,000 (from before issue 26's estimator states) is printed as NOT MET, not failing. Below a budget the clearest code wins: the control
 #    steps' figures are printed, not judged (the 1,000-instruction target of issue 5 is
 #    withdrawn).
 #
@@ -198,9 +202,9 @@ fi
 
 # ---- 4c. the node image (issue 25) ---------------------------------------------------------------
 echo
-echo "== node image: cargo build -p firmware --release --target $TARGET --bin node [--features node-bench]"
+echo "== node image: cargo build -p node-firmware --release --target $TARGET --bin node [--features node-bench]"
 NODE_FLASH=""; NODE_RAM=""; NODE_STACK=""; NODE_OK=1
-if cargo build -q -p firmware --release --target "$TARGET" --bin node --features node-bench \
+if cargo build -q -p node-firmware --release --target "$TARGET" --bin node --features node-bench \
     2>"$OUT/node-build.log"; then
   cp "$TDIR/$TARGET/release/node" "$OUT/node-bench.elf"
   rc=0
@@ -214,7 +218,7 @@ if cargo build -q -p firmware --release --target "$TARGET" --bin node --features
     NODE_STACK=$(grep -a '^NODE ' "$OUT/node-bench.log" | sed -n 's/.* stack=\([0-9]*\).*/\1/p')
   fi
 fi
-if cargo build -q -p firmware --release --target "$TARGET" --bin node 2>>"$OUT/node-build.log"; then
+if cargo build -q -p node-firmware --release --target "$TARGET" --bin node 2>>"$OUT/node-build.log"; then
   NODE=$TDIR/$TARGET/release/node
   read -r text data bss _ < <("$SIZE" -B "$NODE" | awk 'NR==2 {print $1, $2, $3}')
   NODE_FLASH=$((text + data)); NODE_RAM=$((data + bss))
@@ -229,7 +233,33 @@ else
   echo "node image does not link (see $OUT/node-build.log): over its budget?"; NODE_OK=0
 fi
 
-# The topside image (issue 25): the App on the surface board, the node link on USART2.
+# The emulated node (issue 25): the host's sensors and clock on USART2; the same budget.
+if cargo build -q -p node-firmware --release --target "$TARGET" --bin node-emu 2>>"$OUT/node-build.log"; then
+  read -r text data bss _ < <("$SIZE" -B "$TDIR/$TARGET/release/node-emu" | awk 'NR==2 {print $1, $2, $3}')
+  NODE_EMU_FLASH=$((text + data))
+  echo "node-emu $TDIR/$TARGET/release/node-emu: flash $NODE_EMU_FLASH B, static RAM $((data + bss)) B (linked in the node budget)"
+else
+  echo "node-emu image does not link (see $OUT/node-build.log): over its budget?"; NODE_OK=0
+fi
+
+# ---- 4d. the topside image (issue 25) -----------------------------------------------------------
+# Its loop pass is measured by a build of mcu-bench with the `topside` feature
+# (`loop.topside_3d`: the App of `loop.onboard_3d` with its sensors and thrusters over the
+# node link; the uplink decoded, the control step, the downlink encoded), as the onboard
+# loop is by `loop.onboard_3d`; the default bench image above stays as it was.
+echo
+echo "== topside loop: cargo build -p mcu-bench --release --target $TARGET --features topside"
+TOP_LOOP=""
+if cargo build -q -p mcu-bench --release --target "$TARGET" --features topside 2>"$OUT/topside-bench-build.log"; then
+  cp "$TDIR/$TARGET/release/mcu-bench" "$OUT/mcu-bench-topside.elf"
+  run_qemu "$OUT/mcu-bench-topside.elf" "$OUT/bench-topside.log"
+  grep -E '^(BENCH loop\.(onboard|topside)_3d|TOPSIDE |WARN loop\.topside)' "$OUT/bench-topside.log" || true
+  TOP_LOOP=$(grep '^BENCH loop.topside_3d' "$OUT/bench-topside.log" || true)
+else
+  echo "the topside bench does not build (see $OUT/topside-bench-build.log)"
+fi
+
+# The topside images: the surface board (USART2 the node link) and its emulated twin.
 TOP_FLASH=""; TOP_RAM=""
 if cargo build -q -p firmware --release --target "$TARGET" --features topside-board --bin topside \
     2>"$OUT/topside-build.log"; then
@@ -239,6 +269,15 @@ if cargo build -q -p firmware --release --target "$TARGET" --features topside-bo
   echo "topside $TOP: flash $TOP_FLASH B ($((TOP_FLASH / 1024)).$(((TOP_FLASH % 1024) * 10 / 1024)) KiB), static RAM $TOP_RAM B"
 else
   echo "topside image does not build (see $OUT/topside-build.log)"
+fi
+TOPEMU_FLASH=""
+if cargo build -q -p firmware --release --target "$TARGET" --features topside-board --bin topside-emu \
+    2>>"$OUT/topside-build.log"; then
+  read -r text data bss _ < <("$SIZE" -B "$TDIR/$TARGET/release/topside-emu" | awk 'NR==2 {print $1, $2, $3}')
+  TOPEMU_FLASH=$((text + data))
+  echo "topside-emu $TDIR/$TARGET/release/topside-emu: flash $TOPEMU_FLASH B ($((TOPEMU_FLASH / 1024)).$(((TOPEMU_FLASH % 1024) * 10 / 1024)) KiB), static RAM $((data + bss)) B"
+else
+  echo "topside-emu image does not build (see $OUT/topside-build.log)"
 fi
 
 # ---- 5. against the budgets ----------------------------------------------------------------
@@ -288,13 +327,23 @@ if [ -n "$TOP_FLASH" ]; then
     check "topside RAM (static $TOP_RAM + the onboard image's measured stack $FW_STACK, same App)" "$((TOP_RAM + FW_STACK))" $((24 * 1024)) B
   fi
 fi
+if [ -n "$TOPEMU_FLASH" ]; then
+  check "topside-emu flash" "$TOPEMU_FLASH" $((96 * 1024)) B
+fi
+if [ -n "$TOP_LOOP" ]; then
+  check "loop.topside_3d (mean)" "$(echo "$TOP_LOOP" | field mean)" $BUDGET instructions
+  check "loop.topside_3d (max)" "$(echo "$TOP_LOOP" | field max)" $BUDGET instructions
+  # Issue 25's own figure for the topside loop, from before issue 26's estimator states
+  # (the onboard loop needs 32,449 since): reported, not failing.
+  check "loop.topside_3d (max) against issue 25's 30,000" "$(echo "$TOP_LOOP" | field max)" 30000 instructions open
+fi
 if [ -n "$NODE_FLASH" ]; then
   check "node flash" "$NODE_FLASH" $((32 * 1024)) B
   check "node RAM (static $NODE_RAM + bench stack ${NODE_STACK:-?})" "$((NODE_RAM + ${NODE_STACK:-8192}))" $((8 * 1024)) B
 fi
 while read -r line; do
   name=$(echo "$line" | awk '{print $2}')
-  check "$name (max)" "$(echo "$line" | field max)" 5000 instructions open
+  check "$name (max)" "$(echo "$line" | field max)" 5000 instructions
 done < <(grep -a '^BENCH node\.' "$OUT/node-bench.log" 2>/dev/null || true)
 [ "$NODE_OK" = 1 ] && echo "  ok    node image: links in its budget, no controller core" || echo "  FAIL  node image (see above)"
 [ "$NM_OK" = 1 ] && echo "  ok    no soft f64 in the control path" || echo "  FAIL  soft f64 in the control path"

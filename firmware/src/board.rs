@@ -196,6 +196,12 @@ impl embedded_io::Write for Tether {
     }
 }
 
+/// Bytes received on USART1 and not yet read by the loop (the emulated layout's harness
+/// counts what has arrived: read, waiting here, and [`RX_LOST`]).
+pub fn tether_rx_pending() -> u32 {
+    with_port(|rings, _| rings.rx.len() as u32).unwrap_or(0)
+}
+
 /// TIM2 as a free-running 32-bit counter at `FREQ` Hz, extended to 64 bits.
 pub struct Tim2Clock<const FREQ: u32> {
     counter: Counter<TIM2, FREQ>,

@@ -15,6 +15,7 @@
 
 pub mod app;
 pub mod autopilot;
+pub mod harness;
 pub mod node;
 pub mod node_link;
 pub mod protocol;
@@ -24,10 +25,10 @@ pub mod topside_link;
 
 #[cfg(target_os = "none")]
 pub mod board;
-#[cfg(target_os = "none")]
-pub mod node_board;
 #[cfg(all(target_os = "none", feature = "topside-board"))]
 pub mod topside_board;
+#[cfg(all(target_os = "none", feature = "topside-board"))]
+pub mod topside_emu_board;
 
 pub use app::{App, Config, ConfigError, Monotonic, Timing};
 pub use autopilot::{Autopilot, Failsafe, StepOutput};

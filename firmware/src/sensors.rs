@@ -4,7 +4,7 @@
 //! [`BusSensors`], the ICM-42688-P and the MS5837-30BA drivers (`sensor-drivers`) on any
 //! `embedded-hal` SPI device and I2C bus (the STM32F4 board's wiring is in `board.rs`).
 
-use controller_core::nav::ImuSample;
+pub use controller_core::nav::ImuSample;
 use embedded_hal::i2c::I2c;
 use embedded_hal::spi::SpiDevice;
 use sensor_drivers::icm42688::Icm42688;

@@ -21,6 +21,7 @@ use crate::topside_link::{NodeBridge, TopsideConfig, TopsideLink};
 use controller_core::controller::{Controller, Gains};
 use controller_core::params::Vehicle;
 use core::cell::RefCell;
+use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::interrupt::Mutex;
 use heapless::Deque;
 use stm32f4xx_hal::{
@@ -52,6 +53,10 @@ static LINK: Mutex<RefCell<Link>> = Mutex::new(RefCell::new(Link {
     usart: None,
 }));
 
+/// Node-link bytes lost: the receive ring was full, or the USART reported an overrun or
+/// framing error.
+pub static NODE_RX_LOST: AtomicU32 = AtomicU32::new(0);
+
 /// Run `f` on the link in a critical section (`try_borrow_mut`: no panic path; inside the
 /// critical section the borrow cannot fail).
 fn with_link<R>(f: impl FnOnce(&mut Link) -> R) -> Option<R> {
@@ -66,13 +71,14 @@ fn USART2() {
         };
         send_queued(tx, &mut l.tx);
         loop {
-            match rx.read() {
-                Ok(b) => {
-                    let _ = l.rx.push_back(b);
-                }
+            let lost = match rx.read() {
+                Ok(b) => l.rx.push_back(b).is_err(),
                 Err(nb::Error::WouldBlock) => break,
                 // Overrun or framing error: cleared by the read; the CRC drops the frame.
-                Err(nb::Error::Other(_)) => {}
+                Err(nb::Error::Other(_)) => true,
+            };
+            if lost {
+                NODE_RX_LOST.fetch_add(1, Ordering::Relaxed);
             }
         }
     });
@@ -91,6 +97,30 @@ fn send_queued(tx: &mut Tx<USART2>, out: &mut Deque<u8, 128>) {
 
 /// The node link's port, interrupt-driven both ways; never waits.
 pub struct NodePort;
+
+/// Bytes received on the node link and not yet read by the loop (the emulated layout's
+/// harness counts what has arrived: read, waiting here, and [`NODE_RX_LOST`]).
+pub fn node_rx_pending() -> u32 {
+    with_link(|l| l.rx.len() as u32).unwrap_or(0)
+}
+
+/// USART2 (PA2 TX, PA3 RX) as the interrupt-driven node link at [`NODE_BAUD`]. Resets the
+/// MCU if the port cannot be set up.
+pub fn start_node_port(
+    usart: USART2,
+    pins: (stm32f4xx_hal::gpio::PA2, stm32f4xx_hal::gpio::PA3),
+    rcc: &mut stm32f4xx_hal::rcc::Rcc,
+) -> NodePort {
+    let Ok(node) = usart.serial::<u8>(pins, NODE_BAUD.bps(), rcc) else {
+        halt()
+    };
+    let (tx, mut rx) = node.split();
+    rx.listen();
+    with_link(|l| l.usart = Some((rx, tx)));
+    // SAFETY: the handler touches `LINK` only inside critical sections, initialized above.
+    unsafe { cortex_m::peripheral::NVIC::unmask(pac::Interrupt::USART2) };
+    NodePort
+}
 
 impl embedded_io::ErrorType for NodePort {
     type Error = core::convert::Infallible;
@@ -176,17 +206,7 @@ pub fn run() -> ! {
     watchdog.start(WATCHDOG_MS.millis());
     let gpioa = dp.GPIOA.split(&mut rcc);
     let tether = start_tether(dp.USART1, (gpioa.pa9, gpioa.pa10), &mut rcc);
-    let Ok(node) = dp
-        .USART2
-        .serial::<u8>((gpioa.pa2, gpioa.pa3), NODE_BAUD.bps(), &mut rcc)
-    else {
-        halt()
-    };
-    let (tx, mut rx) = node.split();
-    rx.listen();
-    with_link(|l| l.usart = Some((rx, tx)));
-    // SAFETY: the handler touches `LINK` only inside critical sections, initialized above.
-    unsafe { cortex_m::peripheral::NVIC::unmask(pac::Interrupt::USART2) };
+    let node_port = start_node_port(dp.USART2, (gpioa.pa2, gpioa.pa3), &mut rcc);
     let clock = Tim2Clock::start(dp.TIM2.counter::<1_000_000>(&mut rcc));
     // The step runs when an uplink arrives (every 20 ms); the App's own period is the
     // fallback, longer than the link's so that a slightly late uplink does not find a step
@@ -213,7 +233,7 @@ pub fn run() -> ! {
         halt()
     };
     let ticks = app.parts_mut().2.now_us() as u32;
-    let mut link = TopsideLink::new(&bridge, NodePort, TopsideConfig::new(session(ticks)));
+    let mut link = TopsideLink::new(&bridge, node_port, TopsideConfig::new(session(ticks)));
     app.hello();
     defmt::info!("topside ready: the node link on USART2");
     loop {

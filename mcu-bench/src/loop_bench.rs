@@ -175,8 +175,12 @@ pub(crate) fn frame<'b>(seq: u16, cmd: &Command, buf: &'b mut [u8; MAX_FRAME_LEN
 
 /// Open a session with `app` as the host's link does (`OpenSession` with sequence number 0,
 /// answered by `Reply::Session`); later frames carry it, numbered from 1. Untimed.
-pub(crate) fn open_session<C: Monotonic, N: firmware::Sensors>(
-    app: &mut App<FakePwm, FakeSerial, C, N>,
+pub(crate) fn open_session<
+    P: embedded_hal::pwm::SetDutyCycle,
+    C: Monotonic,
+    N: firmware::Sensors,
+>(
+    app: &mut App<P, FakeSerial, C, N>,
 ) {
     let mut buf = [0u8; MAX_FRAME_LEN];
     SESSION.store(0, Ordering::Relaxed);

@@ -12,6 +12,8 @@ mod loop_bench;
 mod nav_bench;
 mod onboard_bench;
 mod plant;
+#[cfg(feature = "topside")]
+mod topside_bench;
 
 #[cfg(target_os = "none")]
 mod board;
@@ -31,6 +33,8 @@ pub fn run_all<P: bench::Platform>(p: &P) -> bool {
     nav_bench::run_nav(&b, p);
     loop_bench::run_loop(&b, p);
     onboard_bench::run_onboard(&b, p);
+    #[cfg(feature = "topside")]
+    topside_bench::run_topside(&b, p);
     if let Some(hw) = p.stack_high_water() {
         p.print(format_args!(
             "STACK high_water={hw} (from the top of RAM, whole bench program incl. its own frames)"

@@ -30,9 +30,10 @@ pub enum LinkFrame<M> {
     Dropped(DropReason),
 }
 
-/// The node link's streaming receiver.
+/// The node link's streaming receiver. `VERSION` is the envelope version it accepts: the
+/// node link's, or the emulation harness's (`crate::harness`, the same framing).
 #[derive(Debug)]
-pub struct LinkDecoder<M> {
+pub struct LinkDecoder<M, const VERSION: u8 = NODE_LINK_VERSION> {
     cobs: cobs::DecoderState,
     /// The decoded bytes of the frame being gathered.
     buf: [u8; BUF_LEN],
@@ -46,13 +47,13 @@ pub struct LinkDecoder<M> {
     _m: core::marker::PhantomData<M>,
 }
 
-impl<M> Default for LinkDecoder<M> {
+impl<M, const VERSION: u8> Default for LinkDecoder<M, VERSION> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<M> LinkDecoder<M> {
+impl<M, const VERSION: u8> LinkDecoder<M, VERSION> {
     /// An empty receiver.
     pub const fn new() -> Self {
         Self {
@@ -74,7 +75,7 @@ impl<M> LinkDecoder<M> {
     }
 }
 
-impl<M: DeserializeOwned> LinkDecoder<M> {
+impl<M: DeserializeOwned, const VERSION: u8> LinkDecoder<M, VERSION> {
     /// Feed one byte; `Some` at a delimiter that ended a non-empty frame.
     #[cfg_attr(feature = "no-panic", no_panic::no_panic)]
     pub fn push(&mut self, byte: u8) -> Option<LinkFrame<M>> {
@@ -121,7 +122,7 @@ impl<M: DeserializeOwned> LinkDecoder<M> {
             return self.drop_frame(DropReason::Crc);
         }
         match postcard::take_from_bytes::<Header>(payload) {
-            Ok((h, _)) if h.version == NODE_LINK_VERSION => {}
+            Ok((h, _)) if h.version == VERSION => {}
             Ok(_) => return self.drop_frame(DropReason::Version),
             Err(_) => return self.drop_frame(DropReason::Malformed),
         }

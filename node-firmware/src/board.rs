@@ -4,12 +4,12 @@
 //!
 //! - ESCs: TIM3 CH1/CH2/CH3 on PA6/PA7/PB0, 50 Hz, 1 us resolution (as the onboard image);
 //! - the node link: USART1 (PA9/PA10, QEMU `-serial` 0) at 115,200 Bd, the interrupt-driven
-//!   port of [`crate::board::Tether`];
+//!   port of [`firmware::board::Tether`];
 //! - clock: TIM2 at prescaler 0 on the default 16 MHz clock (QEMU does not model the RCC), so
 //!   one tick per instruction under `-icount shift=0` and 16 ticks a microsecond;
 //! - sensors: none on the emulated board ([`NoSensors`]: the IMU and the pressure are
 //!   reported lost, `IMU_LOST` / `PRESSURE_LOST`); on a real node the ICM-42688-P and the
-//!   MS5837-30BA through [`crate::sensors::BusSensors`], as the onboard image wires them.
+//!   MS5837-30BA through [`firmware::BusSensors`], as the onboard image wires them.
 //!
 //! With the `node-bench` feature the image does not serve the link: it runs the node for
 //! 2 s of virtual time with a synthetic IMU and a downlink frame every link period through
@@ -17,12 +17,11 @@
 //! semihosting (`scripts/mcu-cost.sh`), with the stack it used (painting).
 #![allow(unsafe_code)]
 
-use crate::app::Monotonic;
-use crate::board::Tim2Clock;
-use crate::node::{Node, NodeConfig};
-use crate::sensors::Sensors;
+use firmware::board::Tim2Clock;
+use firmware::node::{Node, NodeConfig};
+use firmware::Monotonic;
 #[cfg(not(feature = "node-bench"))]
-use crate::{board::Tether, sensors::NoSensors};
+use firmware::{board::Tether, NoSensors, Sensors};
 use stm32f4xx_hal::{
     pac::{self, TIM3},
     prelude::*,
@@ -66,7 +65,7 @@ pub fn run() -> ! {
     }
     #[cfg(not(feature = "node-bench"))]
     {
-        let tether = crate::board::start_tether(dp.USART1, (gpioa.pa9, gpioa.pa10), &mut rcc);
+        let tether = firmware::board::start_tether(dp.USART1, (gpioa.pa9, gpioa.pa10), &mut rcc);
         serve(pwm, tether, clock, NoSensors, watchdog)
     }
 }
@@ -113,12 +112,13 @@ fn serve<C: Monotonic, N: Sensors>(
 mod bench {
     //! Instructions per node pass, under `-icount shift=0` (one TIM2 tick an instruction).
     use super::*;
-    use crate::node_link::{seal, ArmCommand, Downlink, ESC_NEUTRAL_US};
-    use crate::protocol::MAX_FRAME_LEN;
-    use controller_core::nav::ImuSample;
     use core::cell::Cell;
     use core::ptr::{addr_of, read_volatile, write_volatile};
     use cortex_m_semihosting::{debug, hio};
+    use firmware::node_link::{seal, ArmCommand, Downlink, ESC_NEUTRAL_US};
+    use firmware::protocol::MAX_FRAME_LEN;
+    use firmware::sensors::ImuSample;
+    use firmware::Sensors;
     use heapless::Deque;
 
     /// Virtual time of the bench, microseconds.

@@ -1,7 +1,7 @@
-//! The node image (issue 25, docs/deployment.md): the vehicle's thin electronics in the
-//! paper's layout, where the control loop runs at the surface. IMU and pressure up, pulse
-//! widths down the node link; nothing of the controller core. Built for QEMU
-//! `netduinoplus2` into the node budget (32 KiB flash, 8 KiB RAM: `memory-node.x`).
+//! The emulated node (issue 25, `docs/deployment.md`, "Emulating the topside layout"): the
+//! node link on USART1, the host's sensors and clock on USART2 (`firmware::harness`), on QEMU
+//! `netduinoplus2`, in the node's budget (32 KiB flash, 8 KiB RAM: `memory-node.x`).
+//! defmt over semihosting; panics and HardFaults exit QEMU with a failure code.
 //! On the host this binary is an empty stub so `cargo test --workspace` builds.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
@@ -14,12 +14,12 @@ mod image {
 
     #[cortex_m_rt::entry]
     fn main() -> ! {
-        firmware::node_board::run()
+        node_firmware::emu_board::run()
     }
 
     #[panic_handler]
     fn panic(_: &core::panic::PanicInfo) -> ! {
-        defmt::error!("node panic");
+        defmt::error!("node-emu panic");
         debug::exit(EXIT_FAILURE);
         loop {
             cortex_m::asm::bkpt();
@@ -31,7 +31,7 @@ mod image {
     #[allow(unsafe_code)]
     #[exception]
     unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
-        defmt::error!("node HardFault at pc {=u32:#x}", ef.pc());
+        defmt::error!("node-emu HardFault at pc {=u32:#x}", ef.pc());
         debug::exit(EXIT_FAILURE);
         loop {
             cortex_m::asm::bkpt();
@@ -41,5 +41,5 @@ mod image {
 
 #[cfg(not(target_os = "none"))]
 fn main() {
-    println!("the node image is built with --target thumbv7em-none-eabihf");
+    println!("the node-emu image is built with --target thumbv7em-none-eabihf");
 }

@@ -1,0 +1,100 @@
+//! The emulated node (issue 25, `docs/deployment.md`, "Emulating the topside layout"): the
+//! [`Node`] role on QEMU `netduinoplus2` with its sensors and its clock supplied by the host
+//! (the plant), as [`crate::board`] is the node on the real part.
+//!
+//! - USART1 (QEMU `-serial` 0): the node link, the interrupt-driven
+//!   [`firmware::board::Tether`] at 115,200 Bd;
+//! - USART2 (`-serial` 1): the harness, polled ([`firmware::harness`]): each
+//!   [`NodeStep`] gives the node its time, an IMU sample and a pressure; the node runs at that
+//!   time and answers with a [`NodeReport`], the pulses it applies;
+//! - ESCs: TIM3 CH1/CH2/CH3 on PA6/PA7/PB0, as the real node (QEMU drives no pin; the report
+//!   is what the host reads);
+//! - default clocks (no PLL), no watchdog (the host paces the node and may pause it).
+
+use core::cell::Cell;
+use core::sync::atomic::Ordering;
+use firmware::board::{start_tether, tether_rx_pending, Tim2Clock, RX_LOST};
+use firmware::harness::uart::{wait_for, HarnessUart};
+use firmware::harness::{
+    node_pass, CountingPort, HarnessDecoder, HarnessInputs, HostClock, NodeReport, NodeStep,
+};
+use firmware::node::{Node, NodeConfig};
+use firmware::node_link::LINK_BAUD;
+use stm32f4xx_hal::{
+    pac::{self, TIM3},
+    prelude::*,
+    timer::ErasedChannel,
+};
+
+/// An ESC output.
+type Pwm = ErasedChannel<TIM3>;
+
+fn halt() -> ! {
+    cortex_m::peripheral::SCB::sys_reset()
+}
+
+/// Bring the emulated node up and serve the host's steps forever.
+pub fn run() -> ! {
+    let Some(dp) = pac::Peripherals::take() else {
+        halt()
+    };
+    let mut rcc = dp.RCC.constrain();
+    let gpioa = dp.GPIOA.split(&mut rcc);
+    let gpiob = dp.GPIOB.split(&mut rcc);
+    let config = NodeConfig::DEFAULT;
+    let (_pwm, (ch1, ch2, ch3, _)) = dp.TIM3.pwm_us(config.pwm_period_us.micros(), &mut rcc);
+    let pwm: [Pwm; 3] = [
+        ch1.with(gpioa.pa6).erase(),
+        ch2.with(gpioa.pa7).erase(),
+        ch3.with(gpiob.pb0).erase(),
+    ];
+    let tether = start_tether(dp.USART1, (gpioa.pa9, gpioa.pa10), &mut rcc);
+    let Ok(harness) = dp
+        .USART2
+        .serial::<u8>((gpioa.pa2, gpioa.pa3), LINK_BAUD.bps(), &mut rcc)
+    else {
+        halt()
+    };
+    let (tx, rx) = harness.split();
+    let mut harness = HarnessUart::new(rx, tx);
+    let tim2 = Tim2Clock::start(dp.TIM2.counter::<16_000_000>(&mut rcc));
+    let now_us = Cell::new(0u64);
+    let inputs = HarnessInputs::new();
+    let mut node = match Node::new(
+        pwm,
+        CountingPort::new(tether),
+        HostClock::new(&now_us, tim2),
+        inputs.sensors(),
+        config,
+    ) {
+        Ok(n) => n,
+        Err(_) => halt(),
+    };
+    // Neutral is written (by `Node::new`); now the outputs may drive the ESCs.
+    node.parts_mut().0.iter_mut().for_each(Pwm::enable);
+    // The hello: the host waits for it before it sends (QEMU drops bytes that arrive before
+    // the receiver is enabled).
+    harness.send(&NodeReport {
+        t_us: 0,
+        pulse_us: node.output_us(),
+        status: node.status(0),
+        accepted: 0,
+        link_rx_bytes: 0,
+        link_tx_bytes: 0,
+        refused: None,
+    });
+    defmt::info!("node-emu ready: node link USART1, harness USART2");
+    let mut decoder = HarnessDecoder::<NodeStep>::new();
+    loop {
+        let step = harness.recv(&mut decoder);
+        let received = wait_for(step.link_rx_bytes, || {
+            node.parts_mut()
+                .1
+                .read_bytes()
+                .wrapping_add(tether_rx_pending())
+                .wrapping_add(RX_LOST.load(Ordering::Relaxed))
+        });
+        let report = node_pass(&mut node, &now_us, &inputs, &step, received);
+        harness.send(&report);
+    }
+}
