@@ -7,9 +7,9 @@
 //! emulation.
 
 use host_sim::closed_loop::runner::{run, RunOptions};
+use host_sim::closed_loop::Sample;
 use host_sim::commands::hil::{run_hil, HilOptions, HilTarget};
 use host_sim::scenario::Scenario;
-use host_sim::closed_loop::Sample;
 use host_sim::tether::qemu::image_or_skip;
 use std::time::{Duration, Instant};
 
@@ -17,7 +17,11 @@ use std::time::{Duration, Instant};
 /// the emulated run; `None` when QEMU or the image is missing (skipped).
 fn hil_and_software(
     sc: &Scenario,
-) -> Option<(host_sim::commands::hil::HilOutput, host_sim::closed_loop::RunOutput, f64)> {
+) -> Option<(
+    host_sim::commands::hil::HilOutput,
+    host_sim::closed_loop::RunOutput,
+    f64,
+)> {
     let elf = image_or_skip().expect("the firmware's qemu image")?;
     let mut o = HilOptions::new(HilTarget::Qemu { elf });
     o.wall_limit = Duration::from_secs(900);
