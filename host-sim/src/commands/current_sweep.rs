@@ -216,3 +216,19 @@ fn heat_map(file: &Path, path: &str, cells: &[&Cell]) -> Result<()> {
     root.present().map_err(|x| e(x.to_string()))?;
     Ok(())
 }
+
+/// Arguments of `host-sim current-sweep`.
+#[derive(Debug, clap::Args)]
+pub struct CurrentSweepArgs {
+    /// Output folder.
+    #[arg(long, default_value = "out/current-sweep")]
+    pub out: std::path::PathBuf,
+}
+
+/// Run `host-sim current-sweep`.
+pub fn main(a: CurrentSweepArgs) -> Result<()> {
+    let cells = sweep()?;
+    write(&a.out, &cells)?;
+    println!("wrote {}", a.out.display());
+    Ok(())
+}

@@ -559,3 +559,61 @@ pub fn write_batch(dir: &Path, summary: &McSummary, shard: &ShardRuns) -> Result
         30,
     )
 }
+
+/// Arguments of `host-sim monte-carlo`.
+#[derive(Debug, clap::Args)]
+pub struct McArgs {
+    /// Built-in name or path to a scenario file.
+    pub scenario: String,
+    /// Number of runs.
+    #[arg(long)]
+    pub runs: usize,
+    /// Master seed (the batch is reproducible for a seed).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Largest relative parameter perturbation (0.2 = +-20 %).
+    #[arg(long, default_value_t = 0.2)]
+    pub perturb: f64,
+    /// Run only the I-th of N slices of the campaign (0-based), e.g. `--shard 3/16`;
+    /// join the slices' folders with `host-sim merge`.
+    #[arg(long, value_name = "I/N")]
+    pub shard: Option<String>,
+    /// Output folder (default out/monte-carlo-<scenario>[-shard-I-of-N]).
+    #[arg(long)]
+    pub out: Option<std::path::PathBuf>,
+}
+
+/// Run `host-sim monte-carlo`: the inputs checked (refused before any work), the batch run
+/// and written.
+pub fn main(a: McArgs) -> Result<()> {
+    use crate::checks::refused;
+    let shard = a
+        .shard
+        .as_deref()
+        .map(parse_shard)
+        .transpose()
+        .map_err(refused)?;
+    check_campaign(a.runs, shard.unwrap_or((0, 1))).map_err(refused)?;
+    let perturb = a.perturb;
+    if !(0.0..1.0).contains(&perturb) {
+        return Err(refused(anyhow::anyhow!(
+            "--perturb must be in [0, 1) (got {perturb})"
+        )));
+    }
+    let sc = Scenario::load(&a.scenario).map_err(refused)?;
+    let cfg = McConfig {
+        runs: a.runs,
+        seed: a.seed,
+        perturb,
+        progress: true,
+    };
+    let (summary, rs) = run_batch(&sc, &cfg, shard.unwrap_or((0, 1)))?;
+    let dir = a.out.unwrap_or_else(|| {
+        let suffix = shard.map_or(String::new(), |(i, n)| format!("-shard-{i}-of-{n}"));
+        std::path::PathBuf::from("out").join(format!("monte-carlo-{}{suffix}", sc.name))
+    });
+    write_batch(&dir, &summary, &rs)?;
+    println!("{}", serde_json::to_string_pretty(&summary)?);
+    println!("outputs in {}", dir.display());
+    Ok(())
+}

@@ -1,0 +1,97 @@
+//! `host-sim run`: one scenario (a built-in name or a file), its outputs and its verdict.
+
+use crate::checks::refused;
+use crate::closed_loop::runner::{run, RunOptions, RunOutput};
+use crate::closed_loop::verdict_word;
+use crate::commands::run_code;
+use crate::output::write_run;
+use crate::scenario::{ControllerKind, Scenario};
+use anyhow::Result;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// Arguments of `host-sim run`.
+#[derive(Debug, clap::Args)]
+pub struct RunArgs {
+    /// Built-in name (see `list`) or path to a scenario file.
+    pub scenario: String,
+    /// Override the scenario's controller: "paper" or "tracking".
+    #[arg(long)]
+    pub controller: Option<String>,
+    /// Output folder (default out/<scenario>[-<controller>]).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// The table of finished runs (one line each, then each verdict).
+pub fn print_table(rows: &[&RunOutput]) {
+    println!(
+        "{:<34} {:>6} {:>9} {:>10} {:>10} {:>10} {:>10} {:>10} {:>9} {:>7}  {:<12}",
+        "scenario",
+        "plane",
+        "law",
+        "final m",
+        "max m",
+        "max>10s m",
+        "rms m",
+        "tail rms m",
+        "max |F| N",
+        "sat %",
+        "verdict"
+    );
+    for o in rows {
+        let s = &o.summary;
+        // Against the scenario's own targets (`[expect]`); `-` without any.
+        let status = verdict_word(s);
+        println!(
+            "{:<34} {:>6} {:>9} {:>10.4} {:>10.4} {:>10.4} {:>10.4} {:>10.4} {:>9.2} {:>7.1}  {:<12}",
+            s.scenario,
+            s.plane,
+            s.controller,
+            s.final_position_error_m,
+            s.max_position_error_m,
+            s.max_position_error_after_10s_m,
+            s.rms_position_error_m,
+            s.rms_position_error_tail_m,
+            s.max_abs_thruster_force_n,
+            100.0 * s.saturated_fraction,
+            status
+        );
+    }
+    for o in rows {
+        println!("  {:<32} {}", o.summary.scenario, o.summary.verdict);
+    }
+}
+
+/// A recorded software run of `sc`, its outputs written to `dir`.
+pub fn run_one(sc: &Scenario, dir: &Path) -> Result<RunOutput> {
+    let out = run(
+        sc,
+        &RunOptions {
+            record: true,
+            ..RunOptions::default()
+        },
+    )?;
+    write_run(dir, &out)?;
+    Ok(out)
+}
+
+/// Run `host-sim run`; 1 when the run diverged, went non-finite or missed its targets.
+pub fn main(a: RunArgs) -> Result<ExitCode> {
+    let mut sc = Scenario::load(&a.scenario).map_err(refused)?;
+    if let Some(c) = a.controller {
+        let kind = ControllerKind::parse(&c).map_err(refused)?;
+        if kind != sc.controller {
+            sc.controller = kind;
+            sc.name = format!("{}-{}", sc.name, kind.as_str());
+            // The file's targets are for its own law.
+            sc.expect = None;
+        }
+        sc.validate().map_err(refused)?;
+    }
+    let dir = a.out.unwrap_or_else(|| PathBuf::from("out").join(&sc.name));
+    let o = run_one(&sc, &dir)?;
+    print_table(&[&o]);
+    println!("outputs in {}", dir.display());
+    Ok(run_code(&o))
+}
