@@ -70,7 +70,7 @@ fn main() -> Result<()> {
             "usage: current_probe SCENARIO SPEED_M_S DIRECTION_DEG [EVERY_S] | current_probe sweep"
         );
     };
-    let sc = Scenario::load(name)?;
+    let sc = Scenario::load_setup(name)?;
     let speed: f64 = speed.parse().context("SPEED_M_S")?;
     let dir: f64 = dir.parse::<f64>().context("DIRECTION_DEG")?.to_radians();
     let every: f64 = match rest.first() {

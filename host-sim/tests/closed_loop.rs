@@ -11,7 +11,9 @@ use host_sim::world::plant::PlantState;
 
 fn run_builtin(name: &str) -> Summary {
     let sc = Scenario::load(name).unwrap();
-    run(&sc, &RunOptions::default()).unwrap().summary
+    run(&sc.resolve().unwrap(), &RunOptions::default())
+        .unwrap()
+        .summary
 }
 
 #[test]
@@ -79,7 +81,7 @@ fn runner_counts_steps_and_holds_the_command() {
     )
     .unwrap();
     let out = run(
-        &sc,
+        &sc.resolve().unwrap(),
         &RunOptions {
             record: true,
             ..RunOptions::default()
@@ -100,7 +102,9 @@ fn runner_stops_on_divergence() {
         "d",
     )
     .unwrap();
-    let s = run(&sc, &RunOptions::default()).unwrap().summary;
+    let s = run(&sc.resolve().unwrap(), &RunOptions::default())
+        .unwrap()
+        .summary;
     assert!(s.diverged, "{s:?}");
     assert!(s.stop_reason.contains("velocity"), "{}", s.stop_reason);
     assert!(s.sim_steps < 100);
@@ -164,7 +168,7 @@ fn a_run_writes_summary_csv_and_figures() {
     )
     .unwrap();
     let out = run(
-        &sc,
+        &sc.resolve().unwrap(),
         &RunOptions {
             record: true,
             ..RunOptions::default()
@@ -222,7 +226,9 @@ fn three_d_runs_in_bad_water_stay_finite_and_within_limits() {
     // (tracking accuracy is asserted by the tracking law's own tests).
     let mut sc = Scenario::load("current-3d").unwrap();
     sc.duration_s = 20.0;
-    let s = run(&sc, &RunOptions::default()).unwrap().summary;
+    let s = run(&sc.resolve().unwrap(), &RunOptions::default())
+        .unwrap()
+        .summary;
     assert!(!s.nan_detected && !s.diverged, "{s:?}");
     assert_eq!(s.sim_steps, 20_000);
     assert!(s.max_abs_thruster_force_n <= 20.0 + 1e-4);

@@ -16,7 +16,7 @@ fn fly(name: &str, current_m_s: Option<[f64; 3]>) -> RunOutput {
         current_m_s,
         ..RunOptions::default()
     };
-    run(&sc, &opts).unwrap()
+    run(&sc.resolve().unwrap(), &opts).unwrap()
 }
 
 /// Issue 14's sweep: line, circle and lawnmower, 0.1-0.3 m/s from every 30 degrees.
@@ -68,7 +68,7 @@ fn monte_carlo_in_0_1_and_0_2_m_s_currents_keeps_p95_within_5_cm() {
             perturb: 0.2,
             progress: false,
         };
-        let (m, _) = run_batch(&sc, &cfg, (0, 1)).unwrap();
+        let (m, _) = run_batch(&sc.resolve().unwrap(), &cfg, (0, 1)).unwrap();
         let p = &m.rms_position_error_m;
         eprintln!(
             "mc-circle-3d in {speed} m/s: RMS p50 {:.1} mm, p95 {:.1} mm, max {:.1} mm; last 80 % p95 {:.1} mm; NaN {}",
@@ -177,7 +177,9 @@ fn a_known_0_3_s_delay_at_0_3_m_s_is_compensated_by_prediction() {
     let known = fly("delay-line-3d", None).summary;
     let mut sc = Scenario::load("delay-line-3d").unwrap();
     sc.disturbance.delay_known = false;
-    let unknown = run(&sc, &RunOptions::default()).unwrap().summary;
+    let unknown = run(&sc.resolve().unwrap(), &RunOptions::default())
+        .unwrap()
+        .summary;
     eprintln!(
         "known: RMS {:.2} mm, max after 10 s {:.2} mm; unknown: RMS {:.1} mm",
         known.rms_position_error_last80_m * 1e3,

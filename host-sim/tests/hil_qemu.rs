@@ -40,8 +40,12 @@ fn hil(sc: &Scenario, f: impl FnOnce(&mut HilOptions), name: &str) -> Option<Hil
     o.wall_limit = Duration::from_secs(900);
     f(&mut o);
     let dir = out_dir(name);
-    let out = run_hil(sc, &o, Some(&dir.join("qemu-stdout.bin")))
-        .unwrap_or_else(|e| panic!("HIL run {name}: {e:#}"));
+    let out = run_hil(
+        &sc.resolve().unwrap(),
+        &o,
+        Some(&dir.join("qemu-stdout.bin")),
+    )
+    .unwrap_or_else(|e| panic!("HIL run {name}: {e:#}"));
     write_hil(&dir, &out).expect("write outputs");
     eprintln!(
         "{name}: {}\n  link: {}",
@@ -60,7 +64,7 @@ fn hil_paper_xy_tracks_within_2x_of_software() {
     let Some(h) = hil(&sc, |_| {}, "hil-paper-xy") else {
         return;
     };
-    let sw = run(&sc, &RunOptions::default()).unwrap();
+    let sw = run(&sc.resolve().unwrap(), &RunOptions::default()).unwrap();
     let (hs, ss) = (&h.run.summary, &sw.summary);
     eprintln!(
         "paper-xy RMS error: HIL {:.4} m, software {:.4} m; final: HIL {:.4} m, software {:.4} m; \
@@ -193,7 +197,7 @@ fn hil_estimator_on_the_mcu_matches_software_within_a_few_percent() {
         return;
     };
     let sw = run(
-        &sc,
+        &sc.resolve().unwrap(),
         &RunOptions {
             duration_s: Some(duration),
             ..RunOptions::default()

@@ -15,7 +15,7 @@ fn in_process(
     o.wall_limit = Duration::from_secs(300);
     o.record = false;
     f(&mut o);
-    run_hil(sc, &o, None).expect("in-process run")
+    run_hil(&sc.resolve().unwrap(), &o, None).expect("in-process run")
 }
 
 /// The tracking law through the firmware library matches the core in process: the only
@@ -25,7 +25,7 @@ fn in_process_firmware_tracks_like_the_core() {
     let mut sc = Scenario::load("paper-xy-saturated").unwrap();
     sc.controller = ControllerKind::Tracking;
     let fw = in_process(&sc, |_| {});
-    let sw = run(&sc, &RunOptions::default()).unwrap();
+    let sw = run(&sc.resolve().unwrap(), &RunOptions::default()).unwrap();
     let (f, s) = (&fw.run.summary, &sw.summary);
     eprintln!(
         "in-process firmware: RMS {:.5} m, max after 10 s {:.5} m, final {:.5} m; software: RMS \
@@ -85,7 +85,7 @@ fn in_process_firmware_link_loss_goes_neutral_then_disarms() {
 fn in_process_estimator_on_the_vehicle_matches_software() {
     let sc = Scenario::load("nav-circle-3d").unwrap();
     let fw = in_process(&sc, |o| o.apply_pulses = false);
-    let sw = run(&sc, &RunOptions::default()).unwrap();
+    let sw = run(&sc.resolve().unwrap(), &RunOptions::default()).unwrap();
     let (f, s) = (&fw.run.summary, &sw.summary);
     eprintln!(
         "on the vehicle: tracking RMS {:.5} m, estimation RMS {:.5} m; software: {:.5} m, \

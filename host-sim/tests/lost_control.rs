@@ -11,7 +11,7 @@ fn line_3d_heavier_by(heavy_n: f32) -> Summary {
     let mut plant = nominal_plant_params(&sc);
     plant.buoyancy_offset_n -= heavy_n;
     let out = run(
-        &sc,
+        &sc.resolve().unwrap(),
         &RunOptions {
             plant_params: Some(plant),
             ..RunOptions::default()

@@ -36,8 +36,8 @@ fn cfg(seed: u64) -> McConfig {
 #[test]
 fn batch_is_reproducible_for_a_seed() {
     let sc = Scenario::from_toml(SHORT, "short").unwrap();
-    let (a, ra) = run_batch(&sc, &cfg(7), (0, 1)).unwrap();
-    let (b, rb) = run_batch(&sc, &cfg(7), (0, 1)).unwrap();
+    let (a, ra) = run_batch(&sc.resolve().unwrap(), &cfg(7), (0, 1)).unwrap();
+    let (b, rb) = run_batch(&sc.resolve().unwrap(), &cfg(7), (0, 1)).unwrap();
     assert_eq!(a.runs, 8);
     assert_eq!(
         serde_json::to_string(&ra).unwrap(),
@@ -45,7 +45,7 @@ fn batch_is_reproducible_for_a_seed() {
     );
     assert_eq!(a.rms_position_error_m, b.rms_position_error_m);
     assert_eq!(a.max_abs_thruster_force_n, b.max_abs_thruster_force_n);
-    let (_, rc) = run_batch(&sc, &cfg(8), (0, 1)).unwrap();
+    let (_, rc) = run_batch(&sc.resolve().unwrap(), &cfg(8), (0, 1)).unwrap();
     assert_ne!(
         serde_json::to_string(&ra).unwrap(),
         serde_json::to_string(&rc).unwrap(),
@@ -123,12 +123,12 @@ fn four_shards_merged_equal_one_run_byte_for_byte() {
     let base = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("mc-shards");
     let _ = std::fs::remove_dir_all(&base);
     let whole = base.join("whole");
-    let (s, r) = run_batch(&sc, &cfg(5), (0, 1)).unwrap();
+    let (s, r) = run_batch(&sc.resolve().unwrap(), &cfg(5), (0, 1)).unwrap();
     write_batch(&whole, &s, &r).unwrap();
     let mut dirs = Vec::new();
     for i in 0..4 {
         let d = base.join(format!("shard-{i}"));
-        let (s, r) = run_batch(&sc, &cfg(5), (i, 4)).unwrap();
+        let (s, r) = run_batch(&sc.resolve().unwrap(), &cfg(5), (i, 4)).unwrap();
         assert_eq!(r.runs.len(), 2);
         write_batch(&d, &s, &r).unwrap();
         dirs.push(d);

@@ -18,7 +18,9 @@ fn survey(bias_deg: f64) -> Scenario {
 }
 
 fn measure(label: &str, sc: &Scenario) -> Summary {
-    let s = run(sc, &RunOptions::default()).unwrap().summary;
+    let s = run(&sc.resolve().unwrap(), &RunOptions::default())
+        .unwrap()
+        .summary;
     println!(
         "| {label} | {:.1} cm | {:.1} cm | {:.2} | {} | {} |",
         100.0 * s.rms_position_error_last80_m,
@@ -91,6 +93,7 @@ fn the_compass_bias_state_learns_the_bias() {
     use host_sim::closed_loop::estimator_nav::EstimatorNav;
     use host_sim::closed_loop::{run_closed_loop, CoreEndpoint};
     let sc = survey(6.0);
+    let sc = sc.resolve().unwrap();
     let mut nav = EstimatorNav::for_scenario(&sc, sc.disturbance.noise_seed).unwrap();
     let mut ep = CoreEndpoint::for_scenario(&sc).unwrap();
     run_closed_loop(&sc, &RunOptions::default(), &mut nav, &mut ep).unwrap();

@@ -101,7 +101,9 @@ fn survey(cal: Option<CompassCalibration>) -> f64 {
     sc.sensors.compass = Some(compass());
     sc.navigation.compass_calibration = cal.map(|c| [f64::from(c.sin_rad), f64::from(c.cos_rad)]);
     sc.validate().unwrap();
-    let s = run(&sc, &RunOptions::default()).unwrap().summary;
+    let s = run(&sc.resolve().unwrap(), &RunOptions::default())
+        .unwrap()
+        .summary;
     println!(
         "survey, 0.2 m/s beam current, hard iron 5 deg + 2 deg at 10 N, calibration {}: tracking {:.1} cm, estimation {:.1} cm, NEES {:.2}",
         if cal.is_some() { "applied" } else { "none" },

@@ -28,10 +28,10 @@ fn hil_and_software(
     o.apply_pulses = false;
     o.record = true;
     let t0 = Instant::now();
-    let h = run_hil(sc, &o, None).unwrap();
+    let h = run_hil(&sc.resolve().unwrap(), &o, None).unwrap();
     let wall_s = t0.elapsed().as_secs_f64();
     let sw = run(
-        sc,
+        &sc.resolve().unwrap(),
         &RunOptions {
             record: true,
             ..RunOptions::default()
@@ -132,8 +132,8 @@ fn hil_survey_with_a_6_deg_compass_bias_matches_software_within_10_percent_plus_
     o.wall_limit = Duration::from_secs(900);
     // The thrust the law commands, as in software (not that of the ESC pulses).
     o.apply_pulses = false;
-    let h = run_hil(&sc, &o, None).unwrap();
-    let sw = run(&sc, &RunOptions::default()).unwrap();
+    let h = run_hil(&sc.resolve().unwrap(), &o, None).unwrap();
+    let sw = run(&sc.resolve().unwrap(), &RunOptions::default()).unwrap();
     let (hs, ss) = (&h.run.summary, &sw.summary);
     eprintln!(
         "nav-survey-compass-bias-3d: tracking last-80 % RMS HIL {:.4} m, software {:.4} m; estimation RMS HIL {:.4} m, software {:.4} m; {:?}",

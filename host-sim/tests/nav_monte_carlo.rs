@@ -45,7 +45,7 @@ fn two_hundred_surveys_with_drawn_biases_and_start_errors_p95_within_15_cm() {
     let results: Vec<_> = (0..RUNS)
         .into_par_iter()
         .map(|k| {
-            let s = run(&drawn(&base, k), &RunOptions::default())
+            let s = run(&drawn(&base, k).resolve().unwrap(), &RunOptions::default())
                 .unwrap()
                 .summary;
             (

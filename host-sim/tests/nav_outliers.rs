@@ -10,6 +10,7 @@ use host_sim::scenario::Scenario;
 
 /// A run with the estimator kept, for its counters.
 fn run_nav(sc: &Scenario) -> (Summary, EstimatorNav) {
+    let sc = &sc.resolve().unwrap();
     let mut nav = EstimatorNav::for_scenario(sc, sc.disturbance.noise_seed).unwrap();
     let mut ep = CoreEndpoint::for_scenario(sc).unwrap();
     let s = run_closed_loop(sc, &RunOptions::default(), &mut nav, &mut ep)
@@ -19,7 +20,12 @@ fn run_nav(sc: &Scenario) -> (Summary, EstimatorNav) {
 }
 
 fn summary(label: &str, sc: &Scenario) -> Summary {
-    shown(label, run(sc, &RunOptions::default()).unwrap().summary)
+    shown(
+        label,
+        run(&sc.resolve().unwrap(), &RunOptions::default())
+            .unwrap()
+            .summary,
+    )
 }
 
 fn shown(label: &str, s: Summary) -> Summary {
@@ -112,7 +118,7 @@ fn a_23_minute_survey_with_30_percent_far_outliers_stays_within_10_cm_and_never_
     ))
     .unwrap();
     let out = run(
-        &sc,
+        &sc.resolve().unwrap(),
         &RunOptions {
             record: true,
             ..RunOptions::default()
@@ -162,7 +168,7 @@ fn a_persistent_3_m_usbl_step_is_followed_within_30_s() {
     }
     sc.validate().unwrap();
     let out = run(
-        &sc,
+        &sc.resolve().unwrap(),
         &RunOptions {
             record: true,
             ..RunOptions::default()

@@ -21,6 +21,7 @@ fn unknown_start(name: &str) -> Scenario {
 
 fn check(name: &str) {
     let sc = unknown_start(name);
+    let sc = sc.resolve().unwrap();
     let mut nav = EstimatorNav::for_scenario(&sc, sc.disturbance.noise_seed).unwrap();
     let mut ep = CoreEndpoint::for_scenario(&sc).unwrap();
     let out = run_closed_loop(

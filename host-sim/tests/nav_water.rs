@@ -49,7 +49,7 @@ fn a_survey_below_the_seabed_is_stopped_by_it_and_the_summary_says_so() {
     sc.initial.z_m = 2.0;
     sc.validate().unwrap();
     let out = run(
-        &sc,
+        &sc.resolve().unwrap(),
         &RunOptions {
             record: true,
             ..RunOptions::default()
@@ -66,7 +66,10 @@ fn a_survey_below_the_seabed_is_stopped_by_it_and_the_summary_says_so() {
     assert!(said.starts_with("hit the seabed at t = "), "{said}");
     // Without a seabed the same run meets nothing.
     let free = run(
-        &Scenario::load("nav-lawnmower-3d").unwrap(),
+        &Scenario::load("nav-lawnmower-3d")
+            .unwrap()
+            .resolve()
+            .unwrap(),
         &RunOptions::default(),
     )
     .unwrap();
@@ -125,7 +128,9 @@ fn a_current_that_grows_in_time_and_changes_with_depth_is_tracked_within_10_cm()
         d.max_altitude_m = Some(50.0);
     }
     sc.validate().unwrap();
-    let s = run(&sc, &RunOptions::default()).unwrap().summary;
+    let s = run(&sc.resolve().unwrap(), &RunOptions::default())
+        .unwrap()
+        .summary;
     println!(
         "lawnmower, current 0 -> 0.2 m/s in 150 s then turning, sheared: tracking {:.1} cm, estimation {:.1} cm, NEES {:.2}, {:?}",
         100.0 * s.rms_position_error_last80_m,

@@ -14,7 +14,7 @@ fn load(name: &str) -> Scenario {
 
 fn run_sc(sc: &Scenario, record: bool) -> RunOutput {
     run(
-        sc,
+        &sc.resolve().unwrap(),
         &RunOptions {
             record,
             ..RunOptions::default()
@@ -71,7 +71,7 @@ fn the_covariance_is_honest_nees_inside_its_95_percent_bound_on_average_over_20_
     for name in ["nav-circle-3d", "nav-lawnmower-3d", "nav-usbl-circle-3d"] {
         let sc = load(name);
         let (_, runs) = run_batch(
-            &sc,
+            &sc.resolve().unwrap(),
             &McConfig {
                 runs: 20,
                 seed: 7,
@@ -119,6 +119,7 @@ fn usbl_without_dvl_is_model_aided_within_30_cm_and_40_cm_in_a_current() {
 #[test]
 fn every_usbl_outlier_is_rejected_and_tracking_stays_within_1_cm_of_the_clean_run() {
     let sc = load("nav-usbl-outliers-3d");
+    let sc = sc.resolve().unwrap();
     let mut nav = EstimatorNav::for_scenario(&sc, sc.disturbance.noise_seed).unwrap();
     let mut ep = CoreEndpoint::for_scenario(&sc).unwrap();
     let with = run_closed_loop(&sc, &RunOptions::default(), &mut nav, &mut ep)
@@ -147,7 +148,7 @@ fn every_usbl_outlier_is_rejected_and_tracking_stays_within_1_cm_of_the_clean_ru
     // 99.9 % gate.
     assert!(with.navigation.usbl_fixes_rejected >= outliers.len() as u64);
 
-    let mut clean_sc = sc.clone();
+    let mut clean_sc = sc.scenario().clone();
     clean_sc.sensors.usbl.as_mut().unwrap().outlier_fraction = 0.0;
     let clean = run_sc(&clean_sc, false).summary;
     print(&clean);
@@ -210,7 +211,7 @@ fn monte_carlo_of_the_full_suite_stays_within_twice_the_nominal_p95() {
     let sc = load("nav-circle-3d");
     let nominal = run_sc(&sc, false).summary.rms_position_error_last80_m;
     let (summary, _) = run_batch(
-        &sc,
+        &sc.resolve().unwrap(),
         &McConfig {
             runs: 100,
             seed: 1,

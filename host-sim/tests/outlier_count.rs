@@ -32,7 +32,7 @@ outlier_fraction = 1.0
 "#;
     let sc = Scenario::from_toml(toml, "test").unwrap();
     let out = run(
-        &sc,
+        &sc.resolve().unwrap(),
         &RunOptions {
             record: true,
             ..RunOptions::default()

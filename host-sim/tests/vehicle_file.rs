@@ -52,11 +52,15 @@ fn a_scenario_flies_the_vehicle_its_file_describes() {
     let sc = Scenario::load(path.to_str().unwrap()).unwrap();
     assert_eq!(sc.vehicle_params.mass_kg, 15.2);
     assert_eq!(sc.vehicle_params.thrust_max_forward_n, 25.0);
-    let heavy = run(&sc, &RunOptions::default()).unwrap().summary;
+    let heavy = run(&sc.resolve().unwrap(), &RunOptions::default())
+        .unwrap()
+        .summary;
 
     let observer =
         Scenario::from_toml(&CIRCLE.replace("vehicle = \"heavy.toml\"\n", ""), "o").unwrap();
-    let light = run(&observer, &RunOptions::default()).unwrap().summary;
+    let light = run(&observer.resolve().unwrap(), &RunOptions::default())
+        .unwrap()
+        .summary;
     eprintln!(
         "heavy: tail RMS {:.4} m, max after 10 s {:.4} m, max thrust {:.2} N; observer: {:.4} m, {:.2} N",
         heavy.rms_position_error_tail_m,

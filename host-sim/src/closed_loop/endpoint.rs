@@ -1,7 +1,7 @@
 //! The controller end of the loop ([`ControllerEndpoint`]) and the core in process
 //! ([`CoreEndpoint`]).
 
-use crate::scenario::Scenario;
+use crate::scenario::RunSetup;
 use crate::world::sensors::Measurement;
 use anyhow::{anyhow, Result};
 use controller_core::alloc::PwmMap;
@@ -63,18 +63,11 @@ pub struct CoreEndpoint {
 }
 
 impl CoreEndpoint {
-    /// The controller of a scenario: the nominal Observer and default gains, with
-    /// unlimited thrusters when the scenario says `saturate = false` (the paper's setting).
-    pub fn for_scenario(sc: &Scenario) -> Result<Self> {
-        let mut p = sc.vehicle_params;
-        if !sc.thrusters.saturate {
-            p.thrust_max_forward_n = 1.0e6;
-            p.thrust_max_reverse_n = 1.0e6;
-        }
-        let vehicle = p
-            .validate()
-            .map_err(|e| anyhow!("controller parameters: {e}"))?;
-        let mut controller = Controller::new(vehicle, Gains::default())
+    /// The controller of a scenario: its vehicle and default gains, with unlimited
+    /// thrusters when the scenario says `saturate = false` (the paper's setting; the
+    /// set-up's [`RunSetup::controller_vehicle`]).
+    pub fn for_scenario(sc: &RunSetup) -> Result<Self> {
+        let mut controller = Controller::new(*sc.controller_vehicle(), Gains::default())
             .map_err(|e| anyhow!("controller gains: {e}"))?;
         if sc.disturbance.delay_known {
             controller
@@ -83,9 +76,9 @@ impl CoreEndpoint {
         }
         Ok(Self {
             controller,
-            mode: sc.control_mode()?,
+            mode: sc.mode(),
             period_s: (sc.plant_dt_s * sc.plant_steps_per_control().max(1) as f64) as f32,
-            pwm: PwmMap::for_vehicle(&sc.vehicle_model()?),
+            pwm: PwmMap::for_vehicle(sc.vehicle()),
         })
     }
 }

@@ -10,11 +10,11 @@
 
 use crate::clock::us;
 use crate::closed_loop::{to_nav, FixRecord, NavReport, Navigation, TruthNav};
-use crate::scenario::Scenario;
+use crate::scenario::{RunSetup, Scenario};
 use crate::world::plant::PlantState;
 use crate::world::sensor_sim::SensorSuite;
 use crate::world::sensors::{Measurement, NavSource, SensorsSpec};
-use anyhow::{anyhow, bail, Result};
+use anyhow::{anyhow, Result};
 use controller_core::nav::compass_cal::CompassCalibration;
 use controller_core::nav::onboard::{OnboardConfig, OnboardNav, PressureDepth};
 use controller_core::nav::{Estimator, HeadingFix, NavConfig};
@@ -77,15 +77,12 @@ pub fn nav_config(spec: &SensorsSpec) -> NavConfig {
 
 impl EstimatorNav {
     /// The estimator of a scenario, started at the scenario's initial state (the launch
-    /// point), its sensors drawing from `seed`'s stream.
-    pub fn for_scenario(sc: &Scenario, seed: u64) -> Result<Self> {
-        if let Some(missing) = sc.sensors.missing_for_estimator() {
-            bail!("navigation.source = \"estimator\" needs {missing}");
-        }
-        let initial = sc.initial.to_plant();
-        sc.navigation.validate()?;
+    /// point), its sensors drawing from `seed`'s stream. The set-up checked the sensors the
+    /// estimator needs ([`Scenario::resolve`]).
+    pub fn for_scenario(sc: &RunSetup, seed: u64) -> Result<Self> {
+        let initial = sc.initial();
         let onboard = OnboardNav::new(
-            sc.vehicle_model()?,
+            *sc.vehicle(),
             onboard_config(sc),
             &to_nav(&sc.navigation.told_start(&initial)),
             0,
@@ -307,19 +304,16 @@ pub struct VehicleNav {
 impl VehicleNav {
     /// The sensors of a scenario, drawing from `seed`'s stream (the same draws as
     /// [`EstimatorNav::for_scenario`] with the same seed).
-    pub fn for_scenario(sc: &Scenario, seed: u64) -> Result<Self> {
-        if let Some(missing) = sc.sensors.missing_for_estimator() {
-            bail!("navigation.source = \"estimator\" needs {missing}");
-        }
+    pub fn for_scenario(sc: &RunSetup, seed: u64) -> Self {
         let mut sensors = SensorSuite::new(&sc.sensors, seed);
         sensors.set_seabed_depth_m(sc.water.seabed_depth_m);
-        Ok(Self {
+        Self {
             sensors,
             pending: Vec::new(),
-            initial: to_nav(&sc.navigation.told_start(&sc.initial.to_plant())),
+            initial: to_nav(&sc.navigation.told_start(&sc.initial())),
             fixes: Vec::new(),
             compass_cal: compass_calibration(sc),
-        })
+        }
     }
 }
 
@@ -377,16 +371,16 @@ impl Navigation for VehicleNav {
 
 /// The navigation stage of hardware in the loop: the truth path, or the simulated sensors
 /// delivered to the firmware's estimator ([`VehicleNav`]).
-pub fn navigation_for_vehicle(sc: &Scenario) -> Result<Box<dyn Navigation>> {
-    Ok(match sc.navigation.source {
+pub fn navigation_for_vehicle(sc: &RunSetup) -> Box<dyn Navigation> {
+    match sc.navigation.source {
         NavSource::Truth => Box::new(TruthNav::for_scenario(sc, None)),
-        NavSource::Estimator => Box::new(VehicleNav::for_scenario(sc, sc.disturbance.noise_seed)?),
-    })
+        NavSource::Estimator => Box::new(VehicleNav::for_scenario(sc, sc.disturbance.noise_seed)),
+    }
 }
 
 /// The navigation stage a scenario asks for: the truth path (`source = "truth"`) or the
 /// estimator on the simulated sensors. `seed` replaces the scenario's noise seed (Monte Carlo).
-pub fn navigation_for(sc: &Scenario, seed: Option<u64>) -> Result<Box<dyn Navigation>> {
+pub fn navigation_for(sc: &RunSetup, seed: Option<u64>) -> Result<Box<dyn Navigation>> {
     Ok(match sc.navigation.source {
         NavSource::Truth => Box::new(TruthNav::for_scenario(sc, seed)),
         NavSource::Estimator => Box::new(EstimatorNav::for_scenario(

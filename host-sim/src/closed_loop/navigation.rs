@@ -2,7 +2,7 @@
 //! the truth path ([`TruthNav`]: the plant state `delay_s` ago with Gaussian noise).
 
 use super::report::NavReport;
-use crate::scenario::{NoiseStd, Scenario};
+use crate::scenario::{NoiseStd, RunSetup};
 use crate::world::noise::gauss;
 use crate::world::plant::PlantState;
 use crate::world::sensors::Measurement;
@@ -80,10 +80,10 @@ impl TruthNav {
     }
 
     /// The truth path of a scenario (`[disturbance] delay_s`, `noise`, `noise_seed`).
-    pub fn for_scenario(sc: &Scenario, seed: Option<u64>) -> Self {
+    pub fn for_scenario(sc: &RunSetup, seed: Option<u64>) -> Self {
         let d = &sc.disturbance;
         Self::new(
-            sc.initial.to_plant(),
+            sc.initial(),
             (d.delay_s / sc.plant_dt_s).round() as usize,
             d.noise.then_some(d.noise_std),
             seed.unwrap_or(d.noise_seed),

@@ -9,7 +9,7 @@
 
 use crate::closed_loop::estimator_nav::navigation_for;
 use crate::closed_loop::{run_closed_loop, CoreEndpoint};
-use crate::scenario::Scenario;
+use crate::scenario::RunSetup;
 use anyhow::Result;
 
 pub use crate::closed_loop::{
@@ -17,9 +17,9 @@ pub use crate::closed_loop::{
 };
 pub use crate::world::frames::body_to_inertial;
 
-/// Run one scenario with the core controller in process.
-pub fn run(sc: &Scenario, opts: &RunOptions) -> Result<RunOutput> {
-    sc.validate()?;
+/// Run one resolved scenario ([`crate::scenario::Scenario::resolve`]) with the core
+/// controller in process.
+pub fn run(sc: &RunSetup, opts: &RunOptions) -> Result<RunOutput> {
     let mut endpoint = CoreEndpoint::for_scenario(sc)?;
     let mut nav = navigation_for(sc, opts.noise_seed)?;
     run_closed_loop(sc, opts, nav.as_mut(), &mut endpoint)

@@ -30,7 +30,7 @@
 use super::endpoint::ControllerEndpoint;
 use super::navigation::Navigation;
 use super::report::{judge, len, ratio, verdict, RunOutput, Summary};
-use crate::scenario::{ExpectSpec, Plane, Scenario, MAX_CONTROL_TICKS};
+use crate::scenario::{ExpectSpec, Plane, RunSetup, Scenario, MAX_CONTROL_TICKS};
 use crate::world::frames::body_to_inertial;
 use crate::world::plant::six_dof_factory;
 use crate::world::plant::water::WaterSpec;
@@ -282,14 +282,13 @@ pub struct ClosedLoop<N: Navigation, E: ControllerEndpoint> {
 }
 
 impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
-    /// The loop of a scenario with `nav` as the navigation stage and `endpoint` as the
-    /// controller: the scenario checked, the plant built, nothing stepped yet (the endpoint
-    /// is started by the first [`step`](Self::step)).
-    pub fn new(sc: &Scenario, opts: &RunOptions, nav: N, endpoint: E) -> Result<Self> {
-        sc.validate()?;
+    /// The loop of a resolved scenario with `nav` as the navigation stage and `endpoint` as
+    /// the controller: the plant built, nothing stepped yet (the endpoint is started by the
+    /// first [`step`](Self::step)). The scenario was checked once, when it was resolved.
+    pub fn new(sc: &RunSetup, opts: &RunOptions, nav: N, endpoint: E) -> Result<Self> {
         let wall = Instant::now();
         let saturate = sc.thrusters.saturate;
-        let nominal = sc.vehicle_model()?;
+        let nominal = sc.vehicle();
         let (lim_fwd, lim_rev) = (
             f64::from(nominal.params().thrust_max_forward_n),
             f64::from(nominal.params().thrust_max_reverse_n),
@@ -304,13 +303,7 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
         let env = Environment {
             current_m_s: opts.current_m_s.unwrap_or(sc.disturbance.current_m_s),
         };
-        let mut plant = make_plant(
-            sc.plane,
-            &plant_params,
-            env,
-            saturate,
-            sc.initial.to_plant(),
-        )?;
+        let mut plant = make_plant(sc.plane, &plant_params, env, saturate, sc.initial())?;
         plant.set_bounds(sc.water.surface, sc.water.seabed_depth_m);
 
         let n_sub = sc.plant_steps_per_control().max(1);
@@ -363,7 +356,7 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
             nav,
             endpoint,
             plant,
-            reference: sc.reference.to_core(),
+            reference: *sc.reference(),
             water: sc.water.clone(),
             current_m_s: env.current_m_s,
             plane: sc.plane,
@@ -669,7 +662,7 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
 /// Run a scenario in closed loop to its end with `nav` as the navigation stage and
 /// `endpoint` as the controller.
 pub fn run_closed_loop(
-    sc: &Scenario,
+    sc: &RunSetup,
     opts: &RunOptions,
     nav: &mut dyn Navigation,
     endpoint: &mut dyn ControllerEndpoint,

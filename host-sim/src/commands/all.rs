@@ -5,7 +5,7 @@ use crate::closed_loop::runner::RunOutput;
 use crate::commands::run::{print_table, run_one};
 use crate::commands::EXIT_NOT_AS_EXPECTED;
 use crate::output::plots::compare_plot;
-use crate::scenario::{ControllerKind, ExpectSpec, Scenario, BUILT_IN};
+use crate::scenario::{ControllerKind, ExpectSpec, RunSetup, Scenario, BUILT_IN};
 use anyhow::{bail, Result};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -33,13 +33,14 @@ pub fn main(out_dir: &Path) -> Result<ExitCode> {
 fn run_all(out_dir: &Path) -> Result<bool> {
     // Every built-in, plus the tracking law on the paper's saturated scenarios for the
     // side-by-side figures.
-    let mut jobs: Vec<(String, Result<Scenario>)> = BUILT_IN
+    let mut jobs: Vec<(String, Result<RunSetup>)> = BUILT_IN
         .iter()
-        .map(|b| (b.name.to_string(), Scenario::load(b.name)))
+        .map(|b| (b.name.to_string(), Scenario::load_setup(b.name)))
         .collect();
     for p in ["xz", "xy"] {
         let name = format!("paper-{p}-saturated");
-        let sc = Scenario::load(&name).map(|mut s| {
+        let sc = Scenario::load_setup(&name).and_then(|s| {
+            let mut s = s.into_scenario();
             s.controller = ControllerKind::Tracking;
             s.name = format!("{name}-tracking");
             // The file's targets are the paper law's; issue 3's for the tracking law on the
@@ -49,7 +50,7 @@ fn run_all(out_dir: &Path) -> Result<bool> {
                 max_m: Some(0.05),
                 ..ExpectSpec::default()
             });
-            s
+            s.resolve()
         });
         jobs.push((format!("{name}-tracking"), sc));
     }

@@ -71,7 +71,7 @@ pub fn sweep() -> Result<Vec<Cell>> {
 /// One run: the built-in `path` in a current of `speed_m_s` from `direction_deg` relative to
 /// the path's first course.
 pub fn cell(path: &str, speed_m_s: f64, direction_deg: f64) -> Result<Cell> {
-    let sc = Scenario::load(path)?;
+    let sc = Scenario::load_setup(path)?;
     let course = first_course(&sc) + direction_deg.to_radians();
     let opts = RunOptions {
         current_m_s: Some([speed_m_s * course.cos(), speed_m_s * course.sin(), 0.0]),

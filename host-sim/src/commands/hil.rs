@@ -4,7 +4,7 @@
 
 use crate::closed_loop::{run_closed_loop, RunOptions};
 use crate::output::write_run;
-use crate::scenario::Scenario;
+use crate::scenario::{RunSetup, Scenario};
 pub use crate::tether::endpoint::{
     HilOptions, HilOutput, HilReport, HilTarget, TelemetryRow, TetherEndpoint, MAX_REPLY_WAIT,
 };
@@ -18,8 +18,7 @@ use std::time::Duration;
 
 /// Run a scenario with the firmware in the loop. `qemu_log`: where QEMU's standard output
 /// (semihosting, defmt frames) goes.
-pub fn run_hil(sc: &Scenario, opts: &HilOptions, qemu_log: Option<&Path>) -> Result<HilOutput> {
-    sc.validate()?;
+pub fn run_hil(sc: &RunSetup, opts: &HilOptions, qemu_log: Option<&Path>) -> Result<HilOutput> {
     let mut qemu_guard = None;
     let (port, target_name, hello_wait, hello_required): (Box<dyn Port>, _, _, _) =
         match &opts.target {
@@ -44,7 +43,7 @@ pub fn run_hil(sc: &Scenario, opts: &HilOptions, qemu_log: Option<&Path>) -> Res
     let link = Link::new(port, None);
     let mut endpoint =
         TetherEndpoint::connect(link, sc, opts, target_name, hello_wait, hello_required)?;
-    let mut nav = crate::closed_loop::estimator_nav::navigation_for_vehicle(sc)?;
+    let mut nav = crate::closed_loop::estimator_nav::navigation_for_vehicle(sc);
     let run_opts = RunOptions {
         record: opts.record,
         duration_s: opts.duration_s,
@@ -173,7 +172,7 @@ fn parse_probability(s: &str) -> std::result::Result<f64, String> {
 /// Run `host-sim hil`; the output decides the exit code (`main.rs`: 1 when the run diverged,
 /// went non-finite or missed its scenario's targets, as `run`).
 pub fn main(a: HilArgs) -> Result<HilOutput> {
-    let sc = Scenario::load(&a.scenario).map_err(crate::checks::refused)?;
+    let sc = Scenario::load_setup(&a.scenario).map_err(crate::checks::refused)?;
     let target = if let Some(dev) = a.serial {
         HilTarget::Board(Endpoint::Serial {
             device: dev,

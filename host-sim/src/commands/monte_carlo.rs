@@ -18,7 +18,7 @@
 //! Kubernetes indexed Job).
 
 use crate::closed_loop::runner::{run, RunOptions};
-use crate::scenario::{Plane, Scenario};
+use crate::scenario::{Plane, RunSetup, Scenario};
 use anyhow::{Context, Result};
 use controller_core::params::VehicleParams;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -307,11 +307,10 @@ fn percentiles(values: &[f64]) -> Percentiles {
 /// Run a batch: the whole campaign (`shard = (0, 1)`) or one slice of it. Returns the
 /// summary of the runs done and the runs.
 pub fn run_batch(
-    sc: &Scenario,
+    sc: &RunSetup,
     cfg: &McConfig,
     shard: (usize, usize),
 ) -> Result<(McSummary, ShardRuns)> {
-    sc.validate()?;
     check_campaign(cfg.runs, shard)?;
     let wall = Instant::now();
     let campaign = Campaign {
@@ -600,7 +599,7 @@ pub fn main(a: McArgs) -> Result<()> {
             "--perturb must be in [0, 1) (got {perturb})"
         )));
     }
-    let sc = Scenario::load(&a.scenario).map_err(refused)?;
+    let sc = Scenario::load_setup(&a.scenario).map_err(refused)?;
     let cfg = McConfig {
         runs: a.runs,
         seed: a.seed,

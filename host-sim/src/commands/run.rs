@@ -5,7 +5,7 @@ use crate::closed_loop::runner::{run, RunOptions, RunOutput};
 use crate::closed_loop::verdict_word;
 use crate::commands::run_code;
 use crate::output::write_run;
-use crate::scenario::{ControllerKind, Scenario};
+use crate::scenario::{ControllerKind, RunSetup, Scenario};
 use anyhow::Result;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -64,7 +64,7 @@ pub fn print_table(rows: &[&RunOutput]) {
 }
 
 /// A recorded software run of `sc`, its outputs written to `dir`.
-pub fn run_one(sc: &Scenario, dir: &Path) -> Result<RunOutput> {
+pub fn run_one(sc: &RunSetup, dir: &Path) -> Result<RunOutput> {
     let out = run(
         sc,
         &RunOptions {
@@ -78,17 +78,22 @@ pub fn run_one(sc: &Scenario, dir: &Path) -> Result<RunOutput> {
 
 /// Run `host-sim run`; 1 when the run diverged, went non-finite or missed its targets.
 pub fn main(a: RunArgs) -> Result<ExitCode> {
-    let mut sc = Scenario::load(&a.scenario).map_err(refused)?;
-    if let Some(c) = a.controller {
-        let kind = ControllerKind::parse(&c).map_err(refused)?;
-        if kind != sc.controller {
-            sc.controller = kind;
-            sc.name = format!("{}-{}", sc.name, kind.as_str());
-            // The file's targets are for its own law.
-            sc.expect = None;
+    // Checked once: the file as it is, or (with --controller) the file, then the scenario
+    // with the other law.
+    let sc = match a.controller {
+        None => Scenario::load_setup(&a.scenario).map_err(refused)?,
+        Some(c) => {
+            let mut sc = Scenario::load(&a.scenario).map_err(refused)?;
+            let kind = ControllerKind::parse(&c).map_err(refused)?;
+            if kind != sc.controller {
+                sc.controller = kind;
+                sc.name = format!("{}-{}", sc.name, kind.as_str());
+                // The file's targets are for its own law.
+                sc.expect = None;
+            }
+            sc.resolve().map_err(refused)?
         }
-        sc.validate().map_err(refused)?;
-    }
+    };
     let dir = a.out.unwrap_or_else(|| PathBuf::from("out").join(&sc.name));
     let o = run_one(&sc, &dir)?;
     print_table(&[&o]);

@@ -5,16 +5,19 @@
 
 mod built_in;
 mod reference;
+mod setup;
 pub mod vehicle;
 
 pub use built_in::{BuiltIn, BUILT_IN};
 pub use reference::ReferenceSpec;
+pub use setup::RunSetup;
 
 use crate::checks::{fin, nonneg, pos, vec3};
 pub use crate::world::sensors::{NavSource, NavigationSpec, SensorsSpec};
 use anyhow::{anyhow, bail, Context, Result};
 use controller_core::controller::ControlMode;
 use controller_core::params::{Vehicle, VehicleParams};
+use controller_core::reference::Reference;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -466,6 +469,13 @@ impl Scenario {
 
     /// As [`Self::from_toml`], with the folder a relative `vehicle` path is taken from.
     fn from_toml_in(text: &str, origin: &str, dir: Option<&Path>) -> Result<Self> {
+        let s = Self::parse_in(text, origin, dir)?;
+        s.validate().with_context(|| format!("scenario {origin}"))?;
+        Ok(s)
+    }
+
+    /// The TOML text parsed and the vehicle file read, not yet checked.
+    fn parse_in(text: &str, origin: &str, dir: Option<&Path>) -> Result<Self> {
         let mut s: Scenario = toml::from_str(text)
             .map_err(|e| anyhow!("scenario {origin}: {}", e.to_string().trim_end()))?;
         if let Some(file) = &s.vehicle {
@@ -474,7 +484,6 @@ impl Scenario {
             s.vehicle_params = crate::scenario::vehicle::load(&path)
                 .with_context(|| format!("scenario {origin}: key `vehicle`"))?;
         }
-        s.validate().with_context(|| format!("scenario {origin}"))?;
         Ok(s)
     }
 
@@ -483,16 +492,33 @@ impl Scenario {
         crate::scenario::vehicle::check(&self.vehicle_params)
     }
 
-    /// A built-in by name, or a `.toml` file by path.
+    /// A built-in by name, or a `.toml` file by path, checked.
     pub fn load(name_or_path: &str) -> Result<Self> {
+        let (s, origin) = Self::read(name_or_path)?;
+        s.validate().with_context(|| format!("scenario {origin}"))?;
+        Ok(s)
+    }
+
+    /// A built-in by name, or a `.toml` file by path, resolved for a run: the one check of
+    /// the run ([`Self::resolve`]), its refusals as [`Self::load`]'s.
+    pub fn load_setup(name_or_path: &str) -> Result<RunSetup> {
+        let (s, origin) = Self::read(name_or_path)?;
+        s.resolve().with_context(|| format!("scenario {origin}"))
+    }
+
+    /// A built-in by name, or a `.toml` file by path, parsed (not checked), with the name of
+    /// its source for the messages.
+    fn read(name_or_path: &str) -> Result<(Self, String)> {
         if let Some(b) = BUILT_IN.iter().find(|b| b.name == name_or_path) {
-            return Self::from_toml(b.toml, &format!("built-in {:?}", b.name));
+            let origin = format!("built-in {:?}", b.name);
+            return Ok((Self::parse_in(b.toml, &origin, None)?, origin));
         }
         let path = Path::new(name_or_path);
         if path.exists() || name_or_path.ends_with(".toml") {
             let text = std::fs::read_to_string(path)
                 .with_context(|| format!("cannot read scenario file {}", path.display()))?;
-            return Self::from_toml_in(&text, &path.display().to_string(), path.parent());
+            let origin = path.display().to_string();
+            return Ok((Self::parse_in(&text, &origin, path.parent())?, origin));
         }
         let names: Vec<&str> = BUILT_IN.iter().map(|b| b.name).collect();
         bail!(
@@ -522,6 +548,20 @@ impl Scenario {
 
     /// Check every value; the error names the key.
     pub fn validate(&self) -> Result<()> {
+        self.check().map(|_| ())
+    }
+
+    /// Check every value ([`Self::validate`]) and resolve the scenario into what a run needs
+    /// (vehicle models, the core's reference and mode, the initial state): the one check of a
+    /// run; the loop, the navigation stages and the endpoints take the [`RunSetup`].
+    pub fn resolve(&self) -> Result<RunSetup> {
+        let (mode, reference) = self.check()?;
+        RunSetup::new(self.clone(), mode, reference)
+    }
+
+    /// Every check of [`Self::validate`]; what they resolved: the control mode and the
+    /// core's reference.
+    fn check(&self) -> Result<(ControlMode, Reference)> {
         if self.name.trim().is_empty() {
             bail!("name must not be empty");
         }
@@ -581,11 +621,11 @@ impl Scenario {
         if let Some(e) = &self.expect {
             e.validate(self.duration_s)?;
         }
-        self.control_mode()?;
+        let mode = self.control_mode()?;
         for (k, v) in self.initial.values() {
             fin(&format!("initial.{k}"), v)?;
         }
-        self.reference.validate()?;
+        let reference = self.reference.validate()?;
         let d = &self.disturbance;
         vec3("disturbance.current_m_s", d.current_m_s)?;
         fin("disturbance.buoyancy_offset_n", d.buoyancy_offset_n)?;
@@ -634,7 +674,7 @@ impl Scenario {
                 bail!("navigation.source = \"estimator\" needs {missing}");
             }
         }
-        Ok(())
+        Ok((mode, reference))
     }
 
     /// With thruster limits, the vertical thruster must hold the net buoyancy (the vehicle's

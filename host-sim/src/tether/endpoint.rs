@@ -32,7 +32,7 @@
 
 use crate::clock::us;
 use crate::closed_loop::{ratio, ControllerEndpoint, RunOutput, StepReply};
-use crate::scenario::Scenario;
+use crate::scenario::RunSetup;
 use crate::tether::link::{Endpoint, HostLinkStats, Link, Noise, NoiseSpec};
 use crate::world::sensors::Measurement;
 use crate::world::sensors::NavSource;
@@ -243,7 +243,7 @@ impl TetherEndpoint {
     /// have sent it long ago: `hello_required` says whether its absence is an error).
     pub fn connect(
         mut link: Link,
-        sc: &Scenario,
+        sc: &RunSetup,
         opts: &HilOptions,
         target_name: String,
         hello_wait: Duration,
@@ -275,10 +275,10 @@ impl TetherEndpoint {
         };
         Ok(Self {
             link,
-            mode: Mode::from(sc.control_mode()?),
-            reference: sc.reference.to_core(),
+            mode: Mode::from(sc.mode()),
+            reference: *sc.reference(),
             noise: opts.noise.map(Noise::new),
-            pwm: PwmMap::for_vehicle(&sc.vehicle_model()?),
+            pwm: PwmMap::for_vehicle(sc.vehicle()),
             vehicle: sc.vehicle_params,
             heartbeat_stop_s: opts.heartbeat_stop_s,
             reply_timeout: opts.reply_timeout,

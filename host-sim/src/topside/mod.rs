@@ -270,10 +270,15 @@ pub fn main(a: TopsideArgs) -> Result<()> {
         let Some(sim) = &a.sim else {
             bail!("--sim SCENARIO or --serial DEV");
         };
-        let mut sc = Scenario::load(sim)?;
-        if let Some(p) = vehicle_file {
-            sc.vehicle_params = p;
-        }
+        // Checked once; with --vehicle, the scenario file, then the set-up with that vehicle.
+        let sc = match vehicle_file {
+            None => Scenario::load_setup(sim)?,
+            Some(p) => {
+                let mut sc = Scenario::load(sim)?;
+                sc.vehicle_params = p;
+                sc.resolve()?
+            }
+        };
         let (port, target, hello_wait, firmware): (Box<dyn crate::tether::port::Port>, _, _, _) =
             if a.emulated {
                 let elf = match a.qemu.clone() {

@@ -12,7 +12,7 @@
 use crate::clock::us;
 use crate::closed_loop::estimator_nav::navigation_for_vehicle;
 use crate::closed_loop::{ClosedLoop, Navigation, RunOptions};
-use crate::scenario::Scenario;
+use crate::scenario::RunSetup;
 use crate::tether::endpoint::{HilOptions, HilTarget, TetherEndpoint};
 use crate::tether::link::{HostLinkStats, Link};
 use crate::topside::params::{Group, Settings};
@@ -67,7 +67,7 @@ impl SimVehicle {
     /// runs), waiting up to `hello_wait` for its `Hello`; the true state logged to `truth`.
     /// The first control period is run: the vehicle gets its description and its navigation.
     pub(super) fn new(
-        sc: &Scenario,
+        sc: &RunSetup,
         port: Box<dyn crate::tether::port::Port>,
         target: HilTarget,
         hello_wait: Duration,
@@ -91,7 +91,7 @@ impl SimVehicle {
             open_ended: true,
             ..RunOptions::default()
         };
-        let run = ClosedLoop::new(sc, &run_opts, navigation_for_vehicle(sc)?, endpoint)?;
+        let run = ClosedLoop::new(sc, &run_opts, navigation_for_vehicle(sc), endpoint)?;
         // Beside the time-stamped logs of this start: never an existing file.
         let file = OpenOptions::new()
             .write(true)

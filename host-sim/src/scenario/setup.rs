@@ -1,0 +1,96 @@
+//! A scenario resolved once into what a run needs ([`RunSetup`]): the scenario checked
+//! ([`Scenario::resolve`]), the vehicle models, the core's reference and control mode, the
+//! initial state. The loop, the navigation stages and the controller endpoints take a
+//! `RunSetup`, so nothing downstream checks the scenario again; the core's
+//! `Reference::validate` stays the one check of the reference (`reference.rs`).
+
+use super::Scenario;
+use crate::world::plant::PlantState;
+use anyhow::{anyhow, Result};
+use controller_core::controller::ControlMode;
+use controller_core::params::Vehicle;
+use controller_core::reference::Reference;
+
+/// A checked scenario and what it resolves to. Only [`Scenario::resolve`] makes one, so
+/// holding a `RunSetup` means the scenario passed every check; it reads as the scenario
+/// (`Deref`) and cannot be changed (change the [`Scenario`] and resolve it again).
+#[derive(Debug, Clone)]
+pub struct RunSetup {
+    scenario: Scenario,
+    vehicle: Vehicle,
+    controller_vehicle: Vehicle,
+    reference: Reference,
+    mode: ControlMode,
+    initial: PlantState,
+}
+
+impl RunSetup {
+    /// Resolve a scenario whose own keys were checked (`mode` and `reference` are what that
+    /// check resolved): the vehicle models are resolved here.
+    pub(super) fn new(scenario: Scenario, mode: ControlMode, reference: Reference) -> Result<Self> {
+        // The controller's model: with `saturate = false` (the paper's setting) unlimited
+        // thrusters (1 MN), so the allocation passes the request through.
+        let mut p = scenario.vehicle_params;
+        if !scenario.thrusters.saturate {
+            p.thrust_max_forward_n = 1.0e6;
+            p.thrust_max_reverse_n = 1.0e6;
+        }
+        let controller_vehicle = p
+            .validate()
+            .map_err(|e| anyhow!("controller parameters: {e}"))?;
+        let vehicle = scenario.vehicle_model()?;
+        let initial = scenario.initial.to_plant();
+        Ok(Self {
+            scenario,
+            vehicle,
+            controller_vehicle,
+            reference,
+            mode,
+            initial,
+        })
+    }
+
+    /// The scenario (checked).
+    pub fn scenario(&self) -> &Scenario {
+        &self.scenario
+    }
+
+    /// The scenario back, to change it (then [`Scenario::resolve`] again).
+    pub fn into_scenario(self) -> Scenario {
+        self.scenario
+    }
+
+    /// The vehicle's model (the real thruster limits: the plant's, the PWM map's).
+    pub fn vehicle(&self) -> &Vehicle {
+        &self.vehicle
+    }
+
+    /// The controller's model: the vehicle's, with unlimited thrusters when the scenario
+    /// says `saturate = false`.
+    pub fn controller_vehicle(&self) -> &Vehicle {
+        &self.controller_vehicle
+    }
+
+    /// The core's reference (checked by the core's `Reference::validate`).
+    pub fn reference(&self) -> &Reference {
+        &self.reference
+    }
+
+    /// The core's control mode for the scenario's plane and controller.
+    pub fn mode(&self) -> ControlMode {
+        self.mode
+    }
+
+    /// The plant's initial state.
+    pub fn initial(&self) -> PlantState {
+        self.initial
+    }
+}
+
+impl std::ops::Deref for RunSetup {
+    type Target = Scenario;
+
+    fn deref(&self) -> &Scenario {
+        &self.scenario
+    }
+}
