@@ -9,7 +9,7 @@ pub use crate::tether::endpoint::{
     HilOptions, HilOutput, HilReport, HilTarget, TelemetryRow, TetherEndpoint, MAX_REPLY_WAIT,
 };
 use crate::tether::in_process::InProcessFirmware;
-use crate::tether::link::{open, Endpoint, Link, NoiseSpec, Port};
+use crate::tether::link::{open, Link, NoiseSpec, Port};
 use crate::tether::qemu::{qemu_firmware_image, start_qemu_link, workspace_root, FirmwareImage};
 use anyhow::{bail, Result};
 use std::io::Write;
@@ -53,8 +53,7 @@ pub fn run_hil(sc: &RunSetup, opts: &HilOptions, qemu_log: Option<&Path>) -> Res
     if let (Some(q), Some(p)) = (qemu_guard.as_mut(), opts.ram_dump.as_deref()) {
         q.dump_ram(p)?;
     }
-    let (mut report, telemetry) = endpoint.finish(run.summary.simulated_s)?;
-    report.wall_time_s = run.summary.wall_time_s;
+    let (report, telemetry) = endpoint.finish(run.summary.simulated_s)?;
     Ok(HilOutput {
         run,
         report,
@@ -111,22 +110,12 @@ pub fn write_hil(dir: &Path, out: &HilOutput) -> Result<()> {
 pub struct HilArgs {
     /// Built-in scenario name or path to a scenario file.
     pub scenario: String,
-    /// Run this firmware image in QEMU (default, without --serial/--tcp/--in-process: the
-    /// workspace's `qemu` image, built if needed into `<target>/hil-firmware`).
-    #[arg(long, value_name = "ELF", conflicts_with_all = ["serial", "tcp", "in_process"])]
-    pub qemu: Option<PathBuf>,
+    /// The firmware in the loop (default, without one: the workspace's image in QEMU).
+    #[command(flatten)]
+    pub firmware: crate::commands::FirmwareArgs,
     /// Run the firmware library's `App` in this process (no emulator needed).
-    #[arg(long, conflicts_with_all = ["serial", "tcp"])]
+    #[arg(long, conflicts_with_all = ["serial", "tcp", "qemu"])]
     pub in_process: bool,
-    /// A board on a serial device (lock-step firmware).
-    #[arg(long, value_name = "DEVICE", conflicts_with = "tcp")]
-    pub serial: Option<PathBuf>,
-    /// Baud rate of `--serial`.
-    #[arg(long, default_value_t = 115_200)]
-    pub baud: u32,
-    /// A board or emulator at HOST:PORT (lock-step firmware).
-    #[arg(long, value_name = "HOST:PORT")]
-    pub tcp: Option<String>,
     /// Output folder (default out/hil-<scenario>).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -173,17 +162,12 @@ fn parse_probability(s: &str) -> std::result::Result<f64, String> {
 /// went non-finite or missed its scenario's targets, as `run`).
 pub fn main(a: HilArgs) -> Result<HilOutput> {
     let sc = Scenario::load_setup(&a.scenario).map_err(crate::checks::refused)?;
-    let target = if let Some(dev) = a.serial {
-        HilTarget::Board(Endpoint::Serial {
-            device: dev,
-            baud: a.baud,
-        })
-    } else if let Some(t) = a.tcp {
-        HilTarget::Board(Endpoint::Tcp(t))
+    let target = if let Some(board) = a.firmware.board() {
+        HilTarget::Board(board)
     } else if a.in_process {
         HilTarget::InProcess
     } else {
-        let elf = match a.qemu {
+        let elf = match a.firmware.qemu {
             Some(elf) => elf,
             // The image of this workspace, built (or found current) from anywhere, with any
             // CARGO_TARGET_DIR.
@@ -233,7 +217,7 @@ pub fn main(a: HilArgs) -> Result<HilOutput> {
         s.rms_position_error_m,
         s.final_position_error_m,
         r.steps,
-        r.wall_time_s
+        s.wall_time_s
     );
     println!(
         "link: host sent {} frames, received {}, dropped {}; firmware received {}, dropped {}, \

@@ -12,25 +12,16 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use crate::tether::link::{HostLinkStats, Link};
-use crate::tether::port::{open, Endpoint, Port};
+use crate::tether::port::{open, Port};
 
 // ---- `host-sim link`: a topside console -------------------------------------------------
 
 /// Arguments of `host-sim link`.
 #[derive(Debug, clap::Args)]
 pub struct LinkArgs {
-    /// A board on a serial device.
-    #[arg(long, value_name = "DEVICE", conflicts_with_all = ["tcp", "qemu"])]
-    pub serial: Option<PathBuf>,
-    /// Baud rate of `--serial`.
-    #[arg(long, default_value_t = 115_200)]
-    pub baud: u32,
-    /// A board or bridge at HOST:PORT.
-    #[arg(long, value_name = "HOST:PORT", conflicts_with = "qemu")]
-    pub tcp: Option<String>,
-    /// Start the firmware's QEMU image and talk to it (a dry run of the console).
-    #[arg(long, value_name = "ELF")]
-    pub qemu: Option<PathBuf>,
+    /// The firmware to talk to (`--qemu ELF`: a dry run of the console).
+    #[command(flatten)]
+    pub firmware: crate::commands::FirmwareArgs,
     /// Telemetry CSV (default out/link/telemetry.csv).
     #[arg(long)]
     pub csv: Option<PathBuf>,
@@ -397,22 +388,17 @@ pub fn console(
 /// `host-sim link`.
 pub fn main(a: LinkArgs) -> Result<()> {
     let mut _qemu = None;
-    let port: Box<dyn Port> = if let Some(elf) = &a.qemu {
+    let port: Box<dyn Port> = if let Some(elf) = &a.firmware.qemu {
         let (q, p) = crate::tether::qemu::start_qemu_link("qemu-system-arm", elf, None, false)?;
         _qemu = Some(q);
         p
-    } else if let Some(dev) = &a.serial {
-        open(&Endpoint::Serial {
-            device: dev.clone(),
-            baud: a.baud,
-        })?
-    } else if let Some(t) = &a.tcp {
-        open(&Endpoint::Tcp(t.clone()))?
+    } else if let Some(board) = a.firmware.board() {
+        open(&board)?
     } else {
         bail!("give --serial DEVICE, --tcp HOST:PORT or --qemu ELF");
     };
     let mut link = Link::new(port, None);
-    if a.qemu.is_some() {
+    if a.firmware.qemu.is_some() {
         // The emulated USART drops bytes sent before it is enabled: wait for the Hello.
         let hello = link.wait_for(
             Duration::from_secs(30),

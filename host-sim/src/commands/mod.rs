@@ -7,6 +7,8 @@
 //! could not be completed (a file that could not be written, a link or board that failed).
 
 use crate::closed_loop::runner::RunOutput;
+use crate::tether::link::Endpoint;
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 pub mod all;
@@ -33,5 +35,38 @@ pub fn run_code(o: &RunOutput) -> ExitCode {
         ExitCode::from(EXIT_NOT_AS_EXPECTED)
     } else {
         ExitCode::SUCCESS
+    }
+}
+
+/// Where the firmware is, for the commands that talk to it (`hil`, `link`): a board on a
+/// serial device or at HOST:PORT, or a firmware image in QEMU; at most one of them.
+#[derive(Debug, clap::Args)]
+pub struct FirmwareArgs {
+    /// Run this firmware image in QEMU (`hil` without --serial/--tcp/--in-process: the
+    /// workspace's `qemu` image, built if needed into `<target>/hil-firmware`).
+    #[arg(long, value_name = "ELF", conflicts_with_all = ["serial", "tcp"])]
+    pub qemu: Option<PathBuf>,
+    /// A board on a serial device (`hil`: the lock-step firmware).
+    #[arg(long, value_name = "DEVICE", conflicts_with = "tcp")]
+    pub serial: Option<PathBuf>,
+    /// Baud rate of `--serial`.
+    #[arg(long, default_value_t = 115_200)]
+    pub baud: u32,
+    /// A board, bridge or emulator at HOST:PORT (`hil`: the lock-step firmware).
+    #[arg(long, value_name = "HOST:PORT")]
+    pub tcp: Option<String>,
+}
+
+impl FirmwareArgs {
+    /// The board given by `--serial` or `--tcp`, if one was.
+    pub fn board(&self) -> Option<Endpoint> {
+        if let Some(device) = &self.serial {
+            Some(Endpoint::Serial {
+                device: device.clone(),
+                baud: self.baud,
+            })
+        } else {
+            self.tcp.clone().map(Endpoint::Tcp)
+        }
     }
 }

@@ -125,27 +125,29 @@ impl HilOptions {
     }
 }
 
-/// What the firmware reported in one step.
+/// What the firmware reported in one step: its [`Telemetry`] (read through: `row.armed`,
+/// `row.pulse_us`, ...), stamped with the simulated time, the thrust the plant got and the
+/// firmware's link counters.
 #[derive(Debug, Clone, Copy, Default, Serialize)]
 pub struct TelemetryRow {
     /// Simulated time of the step (s).
     pub t_s: f64,
-    /// Armed.
-    pub armed: bool,
-    /// Fault flags.
-    pub faults: u16,
-    /// Pulse widths written to the PWM outputs (us).
-    pub pulse_us: [u16; 3],
-    /// Thrust commands (N).
-    pub thrust_n: [f32; 3],
+    /// The step's telemetry as the firmware sent it.
+    pub telemetry: Telemetry,
     /// Thrust applied to the plant (N).
     pub applied_n: [f64; 3],
-    /// Control iteration length on the board (instructions on QEMU with `-icount`).
-    pub loop_ticks: u32,
     /// Frames the firmware accepted so far.
     pub fw_rx_frames: u32,
     /// Frames the firmware dropped so far.
     pub fw_dropped: u32,
+}
+
+impl std::ops::Deref for TelemetryRow {
+    type Target = Telemetry;
+
+    fn deref(&self) -> &Telemetry {
+        &self.telemetry
+    }
 }
 
 /// Link and timing figures of a HIL run (the `hil` object of `summary.json`).
@@ -191,8 +193,6 @@ pub struct HilReport {
     pub measurements_refused: u64,
     /// The on-board estimator's counters at the end of the run.
     pub nav_health: Option<controller_core::nav::NavHealth>,
-    /// Wall-clock time (s).
-    pub wall_time_s: f64,
 }
 
 /// The result of a HIL run.
@@ -345,7 +345,6 @@ impl TetherEndpoint {
         rep.firmware_nacks = fw.nacks;
         rep.loop_ticks_mean = ratio(self.ticks_sum, rep.steps);
         rep.host = self.link.stats;
-        rep.wall_time_s = self.wall.elapsed().as_secs_f64();
         Ok((self.report, self.telemetry))
     }
 
@@ -538,12 +537,8 @@ impl ControllerEndpoint for TetherEndpoint {
         }
         self.telemetry.push(TelemetryRow {
             t_s,
-            armed: tel.armed,
-            faults: tel.faults,
-            pulse_us: tel.pulse_us,
-            thrust_n: tel.thrust_n,
+            telemetry: tel,
             applied_n: applied,
-            loop_ticks: tel.loop_ticks,
             // From the answer to this step's heartbeat (it comes before the telemetry).
             fw_rx_frames: self.link.last_status.map_or(0, |st| st.link.rx_frames),
             fw_dropped: self

@@ -44,12 +44,16 @@
 //! Every MAVLink message sent or received goes to a `.tlog` (each a big-endian 64-bit
 //! microsecond UNIX time stamp followed by the MAVLink frame: what QGroundControl, MAVExplorer
 //! and pymavlink read), under a new time-stamped name each start (`logs`).
+//!
+//! The start (arguments, the vehicle behind the tether, the ground stations, the logs) is in
+//! `start`; the [`Topside`] here owns the state and runs the loop.
 
 mod commander;
 mod geodesy;
 mod logs;
 mod missions;
 pub mod params;
+mod start;
 mod telemetry;
 mod transport;
 mod vehicle;
@@ -58,14 +62,10 @@ pub use commander::{Commander, Verdict, COMMANDER_SILENCE};
 pub use geodesy::{item_position, GlobalOrigin};
 pub use logs::{open_logs, utc_stamp};
 pub use missions::MISSION_MAX_ITEMS;
+pub use start::{main, TopsideArgs};
 pub use transport::{take_frames, GcsStats, StationId, POLL_LIMIT};
 
-use crate::scenario::Scenario;
-use crate::tether::endpoint::HilTarget;
-use crate::tether::in_process::InProcessFirmware;
-use crate::tether::qemu::{qemu_firmware_image, start_qemu_link, workspace_root, FirmwareImage};
-use crate::world::sensors::NavSource;
-use anyhow::{bail, Result};
+use anyhow::Result;
 use controller_core::controller::ControlMode;
 use controller_core::reference::Reference;
 use firmware::protocol::{fault, Command, ManualThrust, Mode};
@@ -97,61 +97,6 @@ pub mod ardusub_mode {
     pub const POSHOLD: u32 = 16;
     /// Sticks straight to the thrusters.
     pub const MANUAL: u32 = 19;
-}
-
-/// `host-sim topside` options.
-#[derive(clap::Args, Debug, Clone)]
-pub struct TopsideArgs {
-    /// The simulated vehicle: a built-in scenario or a .toml file (its plant, navigation and
-    /// start; the reference is not used: the ground station commands).
-    #[arg(long, required_unless_present = "serial", conflicts_with = "serial")]
-    pub sim: Option<String>,
-    /// A real vehicle on this serial device (`/dev/ttyUSB0`): it runs on its own clock and
-    /// navigates itself; the topside sends it heartbeats and the ground stations' commands.
-    #[arg(long, value_name = "DEV", conflicts_with_all = ["emulated", "speedup"])]
-    pub serial: Option<PathBuf>,
-    /// With --serial: the baud rate.
-    #[arg(long, default_value_t = 115_200, requires = "serial")]
-    pub baud: u32,
-    /// MAVLink address: udpout:HOST:PORT (to a ground station listening, QGroundControl's
-    /// default 14550), udpin:HOST:PORT, tcpin:HOST:PORT, tcpout:HOST:PORT. Give it again
-    /// for more ground stations: each gets everything the vehicle says, and one at a time
-    /// commands (see `commander`).
-    #[arg(long, default_value = "udpout:127.0.0.1:14550")]
-    pub mavlink: Vec<String>,
-    /// Run the simulated vehicle this many times faster than real time.
-    #[arg(long, default_value_t = 1.0)]
-    pub speedup: f64,
-    /// Stop after this much simulated time (s); default: run until stopped.
-    #[arg(long)]
-    pub duration: Option<f64>,
-    /// Where the .tlog goes: each start a new file beside this name, time-stamped
-    /// (`out/topside-20261126-101500.tlog`, UTC); an existing file is never truncated.
-    #[arg(long, default_value = "out/topside.tlog")]
-    pub tlog: PathBuf,
-    /// MAVLink system id of the vehicle.
-    #[arg(long, default_value_t = 1)]
-    pub system_id: u8,
-    /// Run the vehicle's firmware image in QEMU (the emulated STM32F405, lock-step) instead of
-    /// the firmware library in process; the plant stays simulated here.
-    #[arg(long)]
-    pub emulated: bool,
-    /// With --emulated: this image (default: the workspace's `qemu` image, built if needed).
-    #[arg(long, value_name = "ELF", requires = "emulated")]
-    pub qemu: Option<PathBuf>,
-    /// The parameters set from the ground station: restored from this file at start, saved
-    /// to it after every accepted `PARAM_SET`.
-    #[arg(long, default_value = "out/topside-params.json")]
-    pub params: PathBuf,
-    /// The vehicle's description (a vehicle file, `vehicles/observer.toml`'s format): sent
-    /// to the vehicle at start, and the simulated vehicle's body. Default: the scenario's.
-    #[arg(long)]
-    pub vehicle: Option<PathBuf>,
-    /// Where the raw tether log goes (every byte both ways, time-stamped; `tether_log`).
-    /// Default: the `.tlog`'s time-stamped name with the extension `.tether`; a name given
-    /// here is time-stamped the same way.
-    #[arg(long)]
-    pub tether_log: Option<PathBuf>,
 }
 
 /// `text` in lines of at most `width` characters, broken at spaces where it can be.
@@ -239,122 +184,6 @@ struct Topside {
     last_faults: u16,
     /// Where accepted parameters are saved.
     params_file: PathBuf,
-}
-
-/// Run the topside until `--duration` (or forever).
-pub fn main(a: TopsideArgs) -> Result<()> {
-    let vehicle_file = a
-        .vehicle
-        .as_deref()
-        .map(crate::scenario::vehicle::load)
-        .transpose()?;
-    if !(a.speedup.is_finite() && a.speedup > 0.0) {
-        bail!("--speedup must be > 0 (got {})", a.speedup);
-    }
-    let (tlog, tlog_path, tether_path) = open_logs(&a.tlog, a.tether_log.as_deref())?;
-    let gcs = Gcs::open(&a.mavlink, a.system_id, tlog)?;
-    // The QEMU child lives as long as this guard.
-    let mut _qemu = None;
-    let (mut v, what) = if let Some(device) = &a.serial {
-        let port = crate::tether::port::serial_port(device, a.baud)?;
-        let port = Box::new(crate::tether::tether_log::LoggedPort::new(
-            port,
-            &tether_path,
-        )?);
-        let v = SimVehicle::real(port, vehicle_file)?;
-        (
-            v,
-            format!("vehicle on {} at {} Bd", device.display(), a.baud),
-        )
-    } else {
-        let Some(sim) = &a.sim else {
-            bail!("--sim SCENARIO or --serial DEV");
-        };
-        // Checked once; with --vehicle, the scenario file, then the set-up with that vehicle.
-        let sc = match vehicle_file {
-            None => Scenario::load_setup(sim)?,
-            Some(p) => {
-                let mut sc = Scenario::load(sim)?;
-                sc.vehicle_params = p;
-                sc.resolve()?
-            }
-        };
-        let (port, target, hello_wait, firmware): (Box<dyn crate::tether::port::Port>, _, _, _) =
-            if a.emulated {
-                let elf = match a.qemu.clone() {
-                    Some(elf) => elf,
-                    None => match qemu_firmware_image(&workspace_root())? {
-                        FirmwareImage::Ready(elf) => elf,
-                        FirmwareImage::Unavailable(why) => {
-                            bail!("the emulated board cannot run here: {why}")
-                        }
-                    },
-                };
-                let (q, p) = start_qemu_link("qemu-system-arm", &elf, None, false)?;
-                _qemu = Some(q);
-                (
-                    p,
-                    HilTarget::Qemu { elf: elf.clone() },
-                    Duration::from_secs(30),
-                    format!("firmware image {} in QEMU", elf.display()),
-                )
-            } else {
-                (
-                    Box::new(InProcessFirmware::new()?),
-                    HilTarget::InProcess,
-                    Duration::from_secs(2),
-                    "firmware library in process".to_string(),
-                )
-            };
-        let port = Box::new(crate::tether::tether_log::LoggedPort::new(
-            port,
-            &tether_path,
-        )?);
-        let truth = tether_path.with_extension("truth.csv");
-        let v = SimVehicle::new(&sc, port, target, hello_wait, &truth)?;
-        let what = format!(
-            "simulated vehicle {:?} ({}, navigation: {}), {firmware}, truth log {}",
-            sc.name,
-            sc.plane.as_str(),
-            if sc.navigation.source == NavSource::Estimator {
-                "its own estimator on the simulated sensors"
-            } else {
-                "the true state sent"
-            },
-            truth.display()
-        );
-        (v, what)
-    };
-    if a.params.exists() {
-        let saved = params::load(&a.params, v.settings)?;
-        for group in params::GROUPS {
-            if let Err(why) = v.apply(saved, group)? {
-                bail!(
-                    "the vehicle refused the saved parameters of {}: {why:?}",
-                    a.params.display()
-                );
-            }
-        }
-        eprintln!("topside: parameters restored from {}", a.params.display());
-    }
-    eprintln!(
-        "topside: {what}, MAVLink on {}, tlog {}, tether log {}",
-        a.mavlink.join(", "),
-        tlog_path.display(),
-        tether_path.display()
-    );
-    let mut t = Topside {
-        gcs,
-        v,
-        commander: Commander::default(),
-        missions: Missions::default(),
-        manual: ManualThrust::default(),
-        manual_at: None,
-        guided: false,
-        last_faults: 0,
-        params_file: a.params.clone(),
-    };
-    t.run(&a)
 }
 
 impl Topside {

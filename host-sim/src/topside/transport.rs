@@ -85,6 +85,40 @@ enum Conn {
     },
 }
 
+impl Conn {
+    /// Send `frame` to this connection's stations that `to` selects; how many it reached.
+    fn send(&mut self, frame: &[u8], to: impl Fn(StationId) -> bool) -> u64 {
+        let mut sent = 0;
+        match self {
+            Conn::Udp {
+                socket,
+                fixed,
+                peers,
+            } => {
+                let dests = fixed.iter().copied();
+                let learned = peers.iter().map(|&(a, s, _)| (a, s));
+                for (addr, s) in dests.chain(learned) {
+                    if to(s) && socket.send_to(frame, addr).is_ok() {
+                        sent += 1;
+                    }
+                }
+            }
+            Conn::TcpIn { peers, .. } => {
+                for p in peers.iter_mut().filter(|p| to(p.station)) {
+                    p.push(frame);
+                    sent += u64::from(!p.closed);
+                }
+            }
+            Conn::TcpOut { peer: Some(p), .. } if to(p.station) => {
+                p.push(frame);
+                sent += u64::from(!p.closed);
+            }
+            Conn::TcpOut { .. } => {}
+        }
+        sent
+    }
+}
+
 /// The ground stations: connections, stations, the outgoing sequence number, the `.tlog`.
 pub struct Gcs {
     conns: Vec<Conn>,
@@ -364,38 +398,7 @@ impl Gcs {
     fn send_where(&mut self, msg: MavMessage, only: Option<StationId>) -> Result<()> {
         let frame = self.frame(&msg)?;
         let to = |s: StationId| only.is_none_or(|o| o == s);
-        let mut sent = 0;
-        for conn in &mut self.conns {
-            match conn {
-                Conn::Udp {
-                    socket,
-                    fixed,
-                    peers,
-                } => {
-                    if let Some((dest, s)) = fixed {
-                        if to(*s) && socket.send_to(&frame, *dest).is_ok() {
-                            sent += 1;
-                        }
-                    }
-                    for (addr, s, _) in peers.iter() {
-                        if to(*s) && socket.send_to(&frame, addr).is_ok() {
-                            sent += 1;
-                        }
-                    }
-                }
-                Conn::TcpIn { peers, .. } => {
-                    for p in peers.iter_mut().filter(|p| to(p.station)) {
-                        p.push(&frame);
-                        sent += u64::from(!p.closed);
-                    }
-                }
-                Conn::TcpOut { peer: Some(p), .. } if to(p.station) => {
-                    p.push(&frame);
-                    sent += u64::from(!p.closed);
-                }
-                Conn::TcpOut { .. } => {}
-            }
-        }
+        let sent: u64 = self.conns.iter_mut().map(|c| c.send(&frame, to)).sum();
         self.stats.sent += sent;
         Ok(())
     }
