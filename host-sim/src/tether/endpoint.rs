@@ -217,7 +217,6 @@ pub struct TetherEndpoint {
     pwm: PwmMap,
     /// The scenario's vehicle, sent to the firmware at the start.
     vehicle: VehicleParams,
-    heartbeat_stop_s: Option<f64>,
     reply_timeout: Duration,
     max_tries: u32,
     apply_pulses: bool,
@@ -280,7 +279,6 @@ impl TetherEndpoint {
             noise: opts.noise.map(Noise::new),
             pwm: PwmMap::for_vehicle(sc.vehicle()),
             vehicle: sc.vehicle_params,
-            heartbeat_stop_s: opts.heartbeat_stop_s,
             reply_timeout: opts.reply_timeout,
             max_tries: opts.max_tries,
             apply_pulses: opts.apply_pulses,
@@ -351,7 +349,7 @@ impl TetherEndpoint {
     /// One lock-step exchange at `t_s`, resent until answered.
     fn exchange(&mut self, t_s: f64, nav: &NavState) -> Result<Telemetry> {
         let t_us = us(t_s);
-        let heartbeats = self.heartbeat_stop_s.is_none_or(|stop| t_s < stop);
+        let heartbeats = self.report.heartbeat_stop_s.is_none_or(|stop| t_s < stop);
         let nav_cmd = match self.onboard {
             Some(_) => Command::Step { t_us },
             None => Command::Nav(NavSample { t_us, state: *nav }),
@@ -435,7 +433,7 @@ impl TetherEndpoint {
         if tel.faults & (fault::HEARTBEAT_LOST | fault::LINK_DISARMED | fault::NAV_STALE) != 0 {
             rep.steps_failsafe += 1;
         }
-        if let Some(stop) = self.heartbeat_stop_s {
+        if let Some(stop) = rep.heartbeat_stop_s {
             if t_s >= stop {
                 // Neutral because of the link failsafe (not merely a zero command).
                 let neutral = tel

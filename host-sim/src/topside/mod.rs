@@ -46,7 +46,7 @@
 //! and pymavlink read), under a new time-stamped name each start (`logs`).
 //!
 //! The start (arguments, the vehicle behind the tether, the ground stations, the logs) is in
-//! `start`; the [`Topside`] here owns the state and runs the loop.
+//! `start`; the `Topside` here owns the state and runs the loop.
 
 mod commander;
 mod geodesy;

@@ -1,7 +1,7 @@
 //! How the topside starts (`host-sim topside`): its arguments, the vehicle behind the tether
 //! (`--sim`: the scenario's closed loop with the firmware library in process, or with
 //! `--emulated` the firmware image in QEMU; `--serial`: a real vehicle), the ground stations,
-//! the logs and the saved parameters; then [`Topside::run`](super::Topside) until the end.
+//! the logs and the saved parameters; then `Topside::run` until the end.
 
 use super::commander::Commander;
 use super::missions::Missions;
