@@ -10,6 +10,7 @@
 //!   estimator on them as the navigation stage.
 //! - [`topside`]: the surface side: MAVLink 2 to ground stations, the tether to the vehicle.
 //! - [`tether_log`]: the raw tether log of the topside.
+//! - [`topside_layout`]: the paper's layout (topside MCU + node) as the loop's controller.
 //! - [`tether_wire`]: the byte-level wire between the topside MCU and the node (issue 25).
 //! - [`vehicle`]: vehicle files (the Observer's is the default).
 //! - [`output`], [`plots`]: what a run writes.
@@ -38,4 +39,5 @@ pub mod sim_loop;
 pub mod tether_log;
 pub mod tether_wire;
 pub mod topside;
+pub mod topside_layout;
 pub mod vehicle;

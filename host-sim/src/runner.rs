@@ -18,8 +18,13 @@ pub use crate::sim_loop::{
 };
 
 /// Run one scenario with the core controller in process.
+/// `[deployment] control = "topside"` flies the paper's layout (issue 25,
+/// [`crate::topside_layout`]) in the same loop.
 pub fn run(sc: &Scenario, opts: &RunOptions) -> Result<RunOutput> {
     sc.validate()?;
+    if sc.deployment.control == crate::topside_layout::Control::Topside {
+        return Ok(crate::topside_layout::run_layout(sc, opts)?.run);
+    }
     let mut endpoint = CoreEndpoint::for_scenario(sc)?;
     let mut nav = navigation_for(sc, opts.noise_seed)?;
     run_closed_loop(sc, opts, nav.as_mut(), &mut endpoint)

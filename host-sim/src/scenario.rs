@@ -689,6 +689,9 @@ pub struct Scenario {
     /// What the runs must reach (`[expect]`); absent: figures without judgement.
     #[serde(default)]
     pub expect: Option<ExpectSpec>,
+    /// Where the control loop runs and the node link's tether (`[deployment]`, issue 25).
+    #[serde(default)]
+    pub deployment: crate::topside_layout::DeploymentSpec,
     /// The vehicle's parameters: the file's, read by [`Scenario::load`], or the Observer.
     #[serde(skip, default = "observer_params")]
     pub vehicle_params: VehicleParams,
@@ -814,6 +817,8 @@ impl Scenario {
         if self.name.trim().is_empty() {
             bail!("name must not be empty");
         }
+        self.deployment.validate()?;
+        self.deployment.check_with(self)?;
         if !self
             .name
             .chars()
