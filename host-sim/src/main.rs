@@ -119,6 +119,9 @@ enum Command {
     Topside(host_sim::topside::TopsideArgs),
     /// Draw the figures of a run from a recorded dive (.tlog)
     Replay(host_sim::replay::ReplayArgs),
+    /// The topside layout against the onboard one (issue 25): tracking, latency, delay
+    /// margin, a cut and byte corruption of the node link
+    Deployment(host_sim::deployment::DeploymentArgs),
 }
 
 fn print_table(rows: &[&RunOutput]) {
@@ -288,6 +291,13 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
         Some(Command::Link(a)) => done(host_sim::link::main(a)),
         Some(Command::Topside(a)) => done(host_sim::topside::main(a)),
         Some(Command::Replay(a)) => done(host_sim::replay::main(a)),
+        Some(Command::Deployment(a)) => host_sim::deployment::main(a).map(|met| {
+            if met {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(EXIT_NOT_AS_EXPECTED)
+            }
+        }),
         Some(Command::CurrentSweep { out }) => {
             let cells = host_sim::current_sweep::sweep()?;
             host_sim::current_sweep::write(&out, &cells)?;

@@ -79,7 +79,7 @@ const HEARTBEAT_PERIOD_US: u64 = 50_000;
 
 /// The topside's session on the node link (any non-zero number; a real board mixes its
 /// unique id with the clock).
-const LINK_SESSION: u32 = 0x25_70_51DE;
+const LINK_SESSION: u32 = 0x2570_51DE;
 
 /// Where the control loop runs (`[deployment] control`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -111,6 +111,9 @@ pub struct DeploymentSpec {
     /// Tell the laws the delay of the layout: the expected time from an IMU sample to the
     /// pulse it causes ([`told_delay_s`]); the core then predicts the state forward over it.
     pub tell_delay: bool,
+    /// The delay told to the laws (s), instead of the layout's expected one
+    /// ([`told_delay_s`]); implies `tell_delay`.
+    pub told_delay_s: Option<f64>,
     /// Seed of the wire's jitter and corruption.
     pub tether_seed: u64,
 }
@@ -125,6 +128,7 @@ impl Default for DeploymentSpec {
             tether_corruption: 0.0,
             tether_cut_s: None,
             tell_delay: false,
+            told_delay_s: None,
             tether_seed: 1,
         }
     }
@@ -147,7 +151,14 @@ impl DeploymentSpec {
         self.wire()
             .validate()
             .map_err(|e| anyhow!("deployment.{e}"))?;
-        if self.tell_delay && told_delay_s(self) > f64::from(MAX_TOLD_DELAY_S) {
+        if let Some(t) = self.told_delay_s {
+            if !(t.is_finite() && (0.0..=f64::from(MAX_TOLD_DELAY_S)).contains(&t)) {
+                bail!(
+                    "deployment.told_delay_s = {t} is outside 0..={MAX_TOLD_DELAY_S} s (what the \
+                     laws can be told)"
+                );
+            }
+        } else if self.tell_delay && told_delay_s(self) > f64::from(MAX_TOLD_DELAY_S) {
             bail!(
                 "deployment.tell_delay: the layout's delay ({:.3} s at tether_latency_s = {} s) is \
                  over the {} s the laws can be told",
@@ -180,6 +191,9 @@ pub const MAX_TOLD_DELAY_S: f32 = controller_core::nav::predict::MAX_DELAY_S;
 /// pulse it causes, expected: half a link period (the increments average the period), the
 /// uplink's wire time, the one-way latency, the downlink's wire time, the latency again.
 pub fn told_delay_s(d: &DeploymentSpec) -> f64 {
+    if let Some(t) = d.told_delay_s {
+        return t;
+    }
     let byte_s = d.wire().byte_time_s();
     let up_s = firmware::node_link::MAX_UPLINK_FRAME_LEN as f64 * byte_s;
     let down_s = firmware::node_link::MAX_DOWNLINK_FRAME_LEN as f64 * byte_s;
@@ -387,6 +401,8 @@ pub struct LayoutReport {
     pub telemetry_frames: u64,
     /// Commands the topside refused (a `Nack`).
     pub nacks: u64,
+    /// The refusals by reason (e.g. a fix the estimator found too old).
+    pub nack_reasons: std::collections::BTreeMap<String, u64>,
 }
 
 /// The topside layout as the loop's controller endpoint.
@@ -455,7 +471,7 @@ impl TopsideLayout {
             Box::leak(Box::new(NodeBridge::new(config.pwm_period_us())));
         let mut controller = Controller::new(sc.vehicle_model()?, Gains::default())
             .map_err(|e| anyhow!("controller: {e}"))?;
-        let told = d.tell_delay.then(|| told_delay_s(&d));
+        let told = (d.tell_delay || d.told_delay_s.is_some()).then(|| told_delay_s(&d));
         if let Some(t) = told {
             controller
                 .set_measurement_delay_s(t as f32)
@@ -554,7 +570,14 @@ impl TopsideLayout {
                         self.latest_telemetry = Some(t);
                         self.on_ground_telemetry(&t);
                     }
-                    Reply::Nack { .. } => self.report.nacks += 1,
+                    Reply::Nack { reason, .. } => {
+                        self.report.nacks += 1;
+                        *self
+                            .report
+                            .nack_reasons
+                            .entry(format!("{reason:?}"))
+                            .or_default() += 1;
+                    }
                     _ => {}
                 }
                 out.push((seq, msg));
