@@ -744,6 +744,9 @@ fn parse_probability(s: &str) -> std::result::Result<f64, String> {
 /// went non-finite or missed its scenario's targets, as `run`).
 pub fn main(a: HilArgs) -> Result<HilOutput> {
     let sc = Scenario::load(&a.scenario).map_err(crate::checks::refused)?;
+    if sc.deployment.control == crate::topside_layout::Control::Topside {
+        return crate::topside_layout::hil_main(&sc, a.in_process, a.out, a.duration);
+    }
     let target = if let Some(dev) = a.serial {
         HilTarget::Board(Endpoint::Serial {
             device: dev,

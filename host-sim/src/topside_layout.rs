@@ -920,3 +920,62 @@ pub fn run_layout(sc: &Scenario, opts: &RunOptions) -> Result<LayoutOutput> {
         report: endpoint.report(),
     })
 }
+
+/// `host-sim hil` of a scenario with `[deployment] control = "topside"`: with
+/// `--in-process`, the two roles of the firmware library over the tether model, written as
+/// `host-sim run` writes (plus `layout.json`, this harness's report). The emulated images
+/// are not joined to host-sim yet: any other target is refused with that reason.
+pub fn hil_main(
+    sc: &Scenario,
+    in_process: bool,
+    out: Option<std::path::PathBuf>,
+    duration_s: Option<f64>,
+) -> Result<crate::hil::HilOutput> {
+    if !in_process {
+        return Err(crate::checks::refused(anyhow!(
+            "deployment.control = \"topside\": hil flies the topside layout with --in-process \
+             (the firmware library's topside and node over the tether model); the two emulated \
+             images are not joined to host-sim's loop yet"
+        )));
+    }
+    let opts = RunOptions {
+        record: true,
+        duration_s,
+        ..RunOptions::default()
+    };
+    let o = run_layout(sc, &opts)?;
+    let dir =
+        out.unwrap_or_else(|| std::path::PathBuf::from("out").join(format!("hil-{}", sc.name)));
+    std::fs::create_dir_all(&dir)?;
+    crate::output::write_run(&dir, &o.run)?;
+    std::fs::write(
+        dir.join("layout.json"),
+        serde_json::to_string_pretty(&o.report)? + "\n",
+    )?;
+    let s = &o.run.summary;
+    let r = &o.report;
+    println!(
+        "{}: {} (topside layout in process, {} Bd, {} s one-way; RMS last 80 % {:.4} m)",
+        s.scenario, s.verdict, r.baud, r.latency_s, s.rms_position_error_last80_m
+    );
+    println!(
+        "node link: {} downlinks applied, {} wrong; latency IMU sample -> pulse p50 {:.1} ms, \
+         p99 {:.1} ms; node IMU {:.0} Hz; outputs in {}",
+        r.downlinks_applied,
+        r.wrong_commands_applied,
+        r.latency.quantile_ms(0.5).unwrap_or(f64::NAN),
+        r.latency.quantile_ms(0.99).unwrap_or(f64::NAN),
+        r.node_imu_hz,
+        dir.display()
+    );
+    Ok(crate::hil::HilOutput {
+        run: o.run,
+        report: crate::hil::HilReport {
+            target: "in-process topside layout".into(),
+            board: "topside + node (firmware library)".into(),
+            onboard_estimator: true,
+            ..Default::default()
+        },
+        telemetry: Vec::new(),
+    })
+}

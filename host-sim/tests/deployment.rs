@@ -202,7 +202,7 @@ fn bad_deployment_keys_are_refused_naming_the_key() {
 }
 
 #[test]
-fn run_flies_the_topside_layout_and_deployment_refuses_bad_arguments() {
+fn run_and_hil_fly_the_topside_layout_and_deployment_refuses_bad_arguments() {
     let dir = scratch("deployment", "run");
     let src = std::fs::read_to_string(
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/nav-circle-3d.toml"),
@@ -220,6 +220,19 @@ fn run_flies_the_topside_layout_and_deployment_refuses_bad_arguments() {
     assert_eq!(o.status.code(), Some(0), "{o:?}");
     let summary = std::fs::read_to_string(dir.join("o/summary.json")).unwrap();
     assert!(summary.contains("estimator on the vehicle"), "{summary}");
+    // `hil` flies it in process, and refuses the emulators it cannot join yet.
+    let o = host_sim(
+        &dir,
+        &["hil", f.to_str().unwrap(), "--in-process", "--out", "h"],
+    );
+    assert_eq!(o.status.code(), Some(0), "{o:?}");
+    assert!(dir.join("h/layout.json").exists());
+    let o = host_sim(&dir, &["hil", f.to_str().unwrap(), "--out", "q"]);
+    assert_eq!(o.status.code(), Some(2), "{o:?}");
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("--in-process"),
+        "{o:?}"
+    );
     for args in [
         &["deployment", "--baud", "0"][..],
         &["deployment", "--duration", "-1"],
