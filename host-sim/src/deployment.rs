@@ -101,6 +101,8 @@ pub struct DelayRow {
     pub latency_s: f64,
     /// RMS over the last 80 %, the laws not told (m).
     pub rms_not_told_m: f64,
+    /// Not told, the run diverged or lost control (the reason).
+    pub not_told_lost: Option<String>,
     /// The same with the delay told (m); none when the delay is over what the laws take.
     pub rms_told_m: Option<f64>,
     /// The delay told (s).
@@ -235,10 +237,11 @@ pub fn latency(baud: u32, duration_s: Option<f64>) -> Result<LatencyRow> {
 pub fn delay(latency_s: f64, baud: u32, duration_s: Option<f64>) -> Result<DelayRow> {
     let mut sc = topside(PROBE_SCENARIO, baud)?;
     sc.deployment.tether_latency_s = latency_s;
-    let not_told = fly(&sc, duration_s)?
-        .run
-        .summary
-        .rms_position_error_last80_m;
+    let run = fly(&sc, duration_s)?.run.summary;
+    let not_told = run.rms_position_error_last80_m;
+    let not_told_lost = run
+        .diverged
+        .then(|| run.lost_control.unwrap_or(run.stop_reason));
     sc.deployment.tell_delay = true;
     let told = told_delay_s(&sc.deployment);
     let rms_told = if told <= f64::from(MAX_TOLD_DELAY_S) {
@@ -254,6 +257,7 @@ pub fn delay(latency_s: f64, baud: u32, duration_s: Option<f64>) -> Result<Delay
     Ok(DelayRow {
         latency_s,
         rms_not_told_m: not_told,
+        not_told_lost,
         rms_told_m: rms_told,
         told_delay_s: told,
     })
@@ -416,13 +420,15 @@ pub fn print(r: &DeploymentReport) {
         "one-way ms", "not told", "told", "told delay"
     );
     for d in &r.delay {
-        println!(
-            "{:>12.0} {:>10} {:>10} {:>9.0} ms",
+        let line = format!(
+            "{:>12.0} {:>10} {:>10} {:>9.0} ms  {}",
             d.latency_s * 1e3,
             cm(d.rms_not_told_m),
             d.rms_told_m.map_or("over max".into(), cm),
-            d.told_delay_s * 1e3
+            d.told_delay_s * 1e3,
+            d.not_told_lost.as_deref().unwrap_or("")
         );
+        println!("{}", line.trim_end());
     }
     let c = &r.cut;
     println!(

@@ -242,3 +242,29 @@ fn run_and_hil_fly_the_topside_layout_and_deployment_refuses_bad_arguments() {
         assert_eq!(o.status.code(), Some(2), "{args:?}: {o:?}");
     }
 }
+
+#[test]
+fn jitter_delays_the_pulses_but_never_reorders_or_corrupts_them() {
+    let mut sc = deployment::topside(deployment::PROBE_SCENARIO, 115_200).unwrap();
+    sc.deployment.tether_jitter_s = 0.005;
+    let out = deployment::fly(&sc, Some(30.0)).unwrap();
+    let r = &out.report;
+    let p50 = r.latency.quantile_ms(0.5).unwrap();
+    let p99 = r.latency.quantile_ms(0.99).unwrap();
+    let max = r.latency.quantile_ms(1.0).unwrap();
+    println!(
+        "jitter 5 ms: p50 {p50} ms p99 {p99} ms max {max} ms, {} applied",
+        r.downlinks_applied
+    );
+    // Up to 5 ms on each of the two frames, on top of the 7.4 ms of the clean wire; and a
+    // late uplink can find the line taken by the topside's periodic downlink (sent 20 ms
+    // after the last one), so the step's downlink waits one downlink's wire time (<= 2.8 ms).
+    assert!(p99 > 7.5 && p99 <= 7.4 + 10.0 + 2.8, "{p99}");
+    assert_eq!(r.wrong_commands_applied, 0);
+    assert_eq!(
+        r.node_counters.corrupt, 0,
+        "bytes are delayed, never reordered"
+    );
+    assert_eq!(r.topside_counters.corrupt, 0);
+    assert!(out.run.summary.rms_position_error_last80_m < 0.12);
+}
