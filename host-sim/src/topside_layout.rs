@@ -370,6 +370,8 @@ pub struct LayoutReport {
     /// The same from the oldest sample the increments cover (the previous uplink's newest):
     /// one link period more.
     pub latency_oldest: Latency,
+    /// `latency`'s median, 99th percentile and largest (ms), for `layout.json`.
+    pub latency_p50_p99_max_ms: Option<[f64; 3]>,
     /// The node's IMU reads per second of the run.
     pub node_imu_hz: f64,
     /// Downlinks the node applied (accepted and taken).
@@ -779,6 +781,12 @@ impl TopsideLayout {
         r.down_wire = self.wire.down.counters();
         r.up_wire = self.wire.up.counters();
         r.round_trip_us = self.link.round_trip_us();
+        let l = &r.latency;
+        r.latency_p50_p99_max_ms = l
+            .quantile_ms(0.5)
+            .zip(l.quantile_ms(0.99))
+            .zip(l.quantile_ms(1.0))
+            .map(|((a, b), c)| [a, b, c]);
         let t_s = self.t_us as f64 * 1e-6;
         r.node_imu_hz = if t_s > 0.0 {
             self.feed.borrow().imu_reads as f64 / t_s
