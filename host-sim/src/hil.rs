@@ -745,7 +745,17 @@ fn parse_probability(s: &str) -> std::result::Result<f64, String> {
 pub fn main(a: HilArgs) -> Result<HilOutput> {
     let sc = Scenario::load(&a.scenario).map_err(crate::checks::refused)?;
     if sc.deployment.control == crate::topside_layout::Control::Topside {
-        return crate::topside_layout::hil_main(&sc, a.in_process, a.out, a.duration);
+        let o = crate::topside_layout::hil_main(&sc, a.in_process, a.out, a.duration)?;
+        return Ok(HilOutput {
+            run: o.run,
+            report: HilReport {
+                target: "in-process topside layout".into(),
+                board: "topside + node (firmware library)".into(),
+                onboard_estimator: true,
+                ..HilReport::default()
+            },
+            telemetry: Vec::new(),
+        });
     }
     let target = if let Some(dev) = a.serial {
         HilTarget::Board(Endpoint::Serial {

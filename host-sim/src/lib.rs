@@ -11,6 +11,7 @@
 //! - [`topside`]: the surface side: MAVLink 2 to ground stations, the tether to the vehicle.
 //! - [`tether_log`]: the raw tether log of the topside.
 //! - [`deployment`]: `host-sim deployment`, the topside layout's measurements.
+//! - [`deployment_spec`]: the `[deployment]` keys.
 //! - [`topside_layout`]: the paper's layout (topside MCU + node) as the loop's controller.
 //! - [`tether_wire`]: the byte-level wire between the topside MCU and the node (issue 25).
 //! - [`vehicle`]: vehicle files (the Observer's is the default).
@@ -22,6 +23,7 @@ pub mod checks;
 pub mod clock;
 pub mod current_sweep;
 pub mod deployment;
+pub mod deployment_spec;
 pub mod estimator_nav;
 pub mod hil;
 pub mod in_process;

@@ -691,7 +691,7 @@ pub struct Scenario {
     pub expect: Option<ExpectSpec>,
     /// Where the control loop runs and the node link's tether (`[deployment]`, issue 25).
     #[serde(default)]
-    pub deployment: crate::topside_layout::DeploymentSpec,
+    pub deployment: crate::deployment_spec::DeploymentSpec,
     /// The vehicle's parameters: the file's, read by [`Scenario::load`], or the Observer.
     #[serde(skip, default = "observer_params")]
     pub vehicle_params: VehicleParams,
@@ -818,7 +818,7 @@ impl Scenario {
             bail!("name must not be empty");
         }
         self.deployment.validate()?;
-        self.deployment.check_with(self)?;
+        self.deployment.check_with(self.navigation.source)?;
         if !self
             .name
             .chars()

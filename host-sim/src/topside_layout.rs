@@ -38,9 +38,9 @@ use crate::clock::us;
 use crate::estimator_nav::{onboard_config, VehicleNav};
 use crate::in_process::{SimPwm, SimSerial};
 use crate::scenario::Scenario;
-use crate::sensors::{Measurement, NavSource};
+use crate::sensors::Measurement;
 use crate::sim_loop::{run_closed_loop, ControllerEndpoint, RunOptions, RunOutput, StepReply};
-use crate::tether_wire::{Duplex, WireCounters, WireSpec, DEFAULT_BAUD};
+use crate::tether_wire::{Duplex, WireCounters};
 use anyhow::{anyhow, bail, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::controller::{Controller, Gains};
@@ -58,7 +58,9 @@ use firmware::topside_link::{
     TopsideLink,
 };
 use firmware::{App, Config, Monotonic, Timing};
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
+
+pub use crate::deployment_spec::{told_delay_s, Control, DeploymentSpec, MAX_TOLD_DELAY_S};
 use std::cell::{Cell, RefCell};
 use std::collections::{HashMap, VecDeque};
 use std::convert::Infallible;
@@ -80,126 +82,6 @@ const HEARTBEAT_PERIOD_US: u64 = 50_000;
 /// The topside's session on the node link (any non-zero number; a real board mixes its
 /// unique id with the clock).
 const LINK_SESSION: u32 = 0x2570_51DE;
-
-/// Where the control loop runs (`[deployment] control`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Control {
-    /// On the vehicle (today's layout).
-    #[default]
-    Onboard,
-    /// On a topside MCU, with a thin node on the vehicle (the paper's layout).
-    Topside,
-}
-
-/// `[deployment]`: the layout and, for the topside layout, the node link's tether.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DeploymentSpec {
-    /// `"onboard"` or `"topside"`.
-    pub control: Control,
-    /// The node link's rate (Bd, 8N1).
-    pub tether_baud: u32,
-    /// Added one-way latency of the node link (s).
-    pub tether_latency_s: f64,
-    /// Extra latency drawn per frame, uniform in `[0, tether_jitter_s]` (s).
-    pub tether_jitter_s: f64,
-    /// Share of the node link's bytes corrupted (each direction).
-    pub tether_corruption: f64,
-    /// The node link is cut at this time (s).
-    pub tether_cut_s: Option<f64>,
-    /// Tell the laws the delay of the layout: the expected time from an IMU sample to the
-    /// pulse it causes ([`told_delay_s`]); the core then predicts the state forward over it.
-    pub tell_delay: bool,
-    /// The delay told to the laws (s), instead of the layout's expected one
-    /// ([`told_delay_s`]); implies `tell_delay`.
-    pub told_delay_s: Option<f64>,
-    /// Seed of the wire's jitter and corruption.
-    pub tether_seed: u64,
-}
-
-impl Default for DeploymentSpec {
-    fn default() -> Self {
-        Self {
-            control: Control::Onboard,
-            tether_baud: DEFAULT_BAUD,
-            tether_latency_s: 0.0,
-            tether_jitter_s: 0.0,
-            tether_corruption: 0.0,
-            tether_cut_s: None,
-            tell_delay: false,
-            told_delay_s: None,
-            tether_seed: 1,
-        }
-    }
-}
-
-impl DeploymentSpec {
-    /// The wire the keys describe.
-    pub fn wire(&self) -> WireSpec {
-        WireSpec {
-            baud: self.tether_baud,
-            latency_s: self.tether_latency_s,
-            jitter_s: self.tether_jitter_s,
-            corruption_rate: self.tether_corruption,
-            cut_at_s: self.tether_cut_s,
-        }
-    }
-
-    /// Refuse bad values, naming the key (`deployment.tether_...`).
-    pub fn validate(&self) -> Result<()> {
-        self.wire()
-            .validate()
-            .map_err(|e| anyhow!("deployment.{e}"))?;
-        if let Some(t) = self.told_delay_s {
-            if !(t.is_finite() && (0.0..=f64::from(MAX_TOLD_DELAY_S)).contains(&t)) {
-                bail!(
-                    "deployment.told_delay_s = {t} is outside 0..={MAX_TOLD_DELAY_S} s (what the \
-                     laws can be told)"
-                );
-            }
-        } else if self.tell_delay && told_delay_s(self) > f64::from(MAX_TOLD_DELAY_S) {
-            bail!(
-                "deployment.tell_delay: the layout's delay ({:.3} s at tether_latency_s = {} s) is \
-                 over the {} s the laws can be told",
-                told_delay_s(self),
-                self.tether_latency_s,
-                MAX_TOLD_DELAY_S
-            );
-        }
-        Ok(())
-    }
-
-    /// Checks against the rest of the scenario: the topside layout needs the estimator
-    /// (the node's IMU and pressure feed the topside's).
-    pub fn check_with(&self, sc: &Scenario) -> Result<()> {
-        if self.control == Control::Topside && sc.navigation.source != NavSource::Estimator {
-            bail!(
-                "deployment.control = \"topside\" needs navigation.source = \"estimator\": the \
-                 node's IMU and pressure feed the topside's estimator"
-            );
-        }
-        Ok(())
-    }
-}
-
-/// The longest delay the laws take (s): the core's limit
-/// (`controller_core::nav::predict::MAX_DELAY_S`).
-pub const MAX_TOLD_DELAY_S: f32 = controller_core::nav::predict::MAX_DELAY_S;
-
-/// The delay told to the laws with `tell_delay` (s): from an IMU sample on the node to the
-/// pulse it causes, expected: half a link period (the increments average the period), the
-/// uplink's wire time, the one-way latency, the downlink's wire time, the latency again.
-pub fn told_delay_s(d: &DeploymentSpec) -> f64 {
-    if let Some(t) = d.told_delay_s {
-        return t;
-    }
-    let byte_s = d.wire().byte_time_s();
-    let up_s = firmware::node_link::MAX_UPLINK_FRAME_LEN as f64 * byte_s;
-    let down_s = firmware::node_link::MAX_DOWNLINK_FRAME_LEN as f64 * byte_s;
-    let half_period_s = f64::from(firmware::node_link::LINK_PERIOD_US) * 0.5e-6;
-    half_period_s + up_s + down_s + 2.0 * d.tether_latency_s
-}
 
 /// The scenario as the topside layout flies it: the IMU at the node's 400 Hz at least, and
 /// the loop's period the largest multiple of the plant step not above the node's IMU period
@@ -458,7 +340,7 @@ impl TopsideLayout {
     pub fn for_scenario(sc: &Scenario) -> Result<Self> {
         let d = sc.deployment;
         d.validate()?;
-        d.check_with(sc)?;
+        d.check_with(sc.navigation.source)?;
         let clock = Rc::new(Cell::new(0u64));
         let config = Config {
             timing: Timing::FixedRate {
@@ -938,7 +820,7 @@ pub fn hil_main(
     in_process: bool,
     out: Option<std::path::PathBuf>,
     duration_s: Option<f64>,
-) -> Result<crate::hil::HilOutput> {
+) -> Result<LayoutOutput> {
     if !in_process {
         return Err(crate::checks::refused(anyhow!(
             "deployment.control = \"topside\": hil flies the topside layout with --in-process \
@@ -976,14 +858,5 @@ pub fn hil_main(
         r.node_imu_hz,
         dir.display()
     );
-    Ok(crate::hil::HilOutput {
-        run: o.run,
-        report: crate::hil::HilReport {
-            target: "in-process topside layout".into(),
-            board: "topside + node (firmware library)".into(),
-            onboard_estimator: true,
-            ..Default::default()
-        },
-        telemetry: Vec::new(),
-    })
+    Ok(o)
 }
