@@ -59,6 +59,9 @@ enum Command {
     Topside(host_sim::topside::TopsideArgs),
     /// Draw the figures of a run from a recorded dive (.tlog)
     Replay(commands::replay::ReplayArgs),
+    /// The topside layout against the onboard one (issue 25): tracking, latency, delay
+    /// margin, a cut and byte corruption of the node link
+    Deployment(commands::deployment::DeploymentArgs),
 }
 
 fn main() -> ExitCode {
@@ -94,5 +97,12 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
         Some(Command::Link(a)) => done(commands::link::main(a)),
         Some(Command::Topside(a)) => done(host_sim::topside::main(a)),
         Some(Command::Replay(a)) => done(commands::replay::main(a)),
+        Some(Command::Deployment(a)) => commands::deployment::main(a).map(|met| {
+            if met {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(commands::EXIT_NOT_AS_EXPECTED)
+            }
+        }),
     }
 }

@@ -9,8 +9,9 @@
 
 use crate::closed_loop::estimator_nav::navigation_for;
 use crate::closed_loop::{run_closed_loop, CoreEndpoint};
+use crate::scenario::deployment::Control;
 use crate::scenario::RunSetup;
-use anyhow::Result;
+use anyhow::{bail, Result};
 
 pub use crate::closed_loop::{
     make_plant, nominal_plant_params, to_nav, verdict, RunOptions, RunOutput, Sample, Summary,
@@ -19,7 +20,17 @@ pub use crate::world::frames::body_to_inertial;
 
 /// Run one resolved scenario ([`crate::scenario::Scenario::resolve`]) with the core
 /// controller in process.
+/// A scenario whose `[deployment] control = "topside"` is refused here: the topside layout
+/// is an endpoint of the tether layer (`tether::topside_layout::run_layout`), which
+/// `host-sim run` and `hil --in-process` fly.
 pub fn run(sc: &RunSetup, opts: &RunOptions) -> Result<RunOutput> {
+    if sc.deployment.control == Control::Topside {
+        bail!(
+            "{}: deployment.control = \"topside\" flies the topside layout \
+             (tether::topside_layout::run_layout), not the core in process",
+            sc.name
+        );
+    }
     let mut endpoint = CoreEndpoint::for_scenario(sc)?;
     let mut nav = navigation_for(sc, opts.noise_seed)?;
     run_closed_loop(sc, opts, nav.as_mut(), &mut endpoint)

@@ -4,6 +4,7 @@
 
 use crate::closed_loop::{run_closed_loop, RunOptions};
 use crate::output::write_run;
+use crate::scenario::deployment::Control;
 use crate::scenario::{RunSetup, Scenario};
 pub use crate::tether::endpoint::{
     HilOptions, HilOutput, HilReport, HilTarget, TelemetryRow, TetherEndpoint, MAX_REPLY_WAIT,
@@ -11,6 +12,7 @@ pub use crate::tether::endpoint::{
 use crate::tether::in_process::InProcessFirmware;
 use crate::tether::link::{open, Link, NoiseSpec, Port};
 use crate::tether::qemu::{qemu_firmware_image, start_qemu_link, workspace_root, FirmwareImage};
+use crate::tether::topside_layout;
 use anyhow::{bail, Result};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -162,6 +164,19 @@ fn parse_probability(s: &str) -> std::result::Result<f64, String> {
 /// went non-finite or missed its scenario's targets, as `run`).
 pub fn main(a: HilArgs) -> Result<HilOutput> {
     let sc = Scenario::load_setup(&a.scenario).map_err(crate::checks::refused)?;
+    if sc.deployment.control == Control::Topside {
+        let o = topside_layout::hil_main(&sc, a.in_process, a.out, a.duration)?;
+        return Ok(HilOutput {
+            run: o.run,
+            report: HilReport {
+                target: "in-process topside layout".into(),
+                board: "topside + node (firmware library)".into(),
+                onboard_estimator: true,
+                ..HilReport::default()
+            },
+            telemetry: Vec::new(),
+        });
+    }
     let target = if let Some(board) = a.firmware.board() {
         HilTarget::Board(board)
     } else if a.in_process {

@@ -13,6 +13,7 @@ use std::process::ExitCode;
 
 pub mod all;
 pub mod current_sweep;
+pub mod deployment;
 pub mod hil;
 pub mod link;
 pub mod list;

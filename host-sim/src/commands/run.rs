@@ -5,7 +5,9 @@ use crate::closed_loop::runner::{run, RunOptions, RunOutput};
 use crate::closed_loop::verdict_word;
 use crate::commands::run_code;
 use crate::output::write_run;
+use crate::scenario::deployment::Control;
 use crate::scenario::{ControllerKind, RunSetup, Scenario};
+use crate::tether::topside_layout::run_layout;
 use anyhow::Result;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -63,15 +65,24 @@ pub fn print_table(rows: &[&RunOutput]) {
     }
 }
 
-/// A recorded software run of `sc`, its outputs written to `dir`.
+/// A recorded software run of `sc`, its outputs written to `dir`: the core in process, or
+/// with `[deployment] control = "topside"` the topside layout (issue 25; `layout.json`
+/// beside the run's outputs holds the node link's figures).
 pub fn run_one(sc: &RunSetup, dir: &Path) -> Result<RunOutput> {
-    let out = run(
-        sc,
-        &RunOptions {
-            record: true,
-            ..RunOptions::default()
-        },
-    )?;
+    let opts = RunOptions {
+        record: true,
+        ..RunOptions::default()
+    };
+    if sc.deployment.control == Control::Topside {
+        let o = run_layout(sc, &opts)?;
+        write_run(dir, &o.run)?;
+        std::fs::write(
+            dir.join("layout.json"),
+            serde_json::to_string_pretty(&o.report)? + "\n",
+        )?;
+        return Ok(o.run);
+    }
+    let out = run(sc, &opts)?;
     write_run(dir, &out)?;
     Ok(out)
 }

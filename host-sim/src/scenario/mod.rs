@@ -4,6 +4,7 @@
 //! checked by [`Scenario::validate`] before a run starts, with an error that names the key.
 
 mod built_in;
+pub mod deployment;
 mod expect;
 mod reference;
 mod setup;
@@ -348,6 +349,9 @@ pub struct Scenario {
     /// What the runs must reach (`[expect]`); absent: figures without judgement.
     #[serde(default)]
     pub expect: Option<ExpectSpec>,
+    /// Where the control loop runs and the node link's tether (`[deployment]`, issue 25).
+    #[serde(default)]
+    pub deployment: crate::scenario::deployment::DeploymentSpec,
     /// The vehicle's parameters: the file's, read by [`Scenario::load`], or the Observer.
     #[serde(skip, default = "observer_params")]
     pub vehicle_params: VehicleParams,
@@ -465,6 +469,8 @@ impl Scenario {
         if self.name.trim().is_empty() {
             bail!("name must not be empty");
         }
+        self.deployment.validate()?;
+        self.deployment.check_with(self.navigation.source)?;
         if !self
             .name
             .chars()

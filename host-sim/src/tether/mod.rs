@@ -8,3 +8,4 @@ pub mod link;
 pub mod port;
 pub mod qemu;
 pub mod tether_log;
+pub mod topside_layout;

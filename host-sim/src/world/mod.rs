@@ -6,3 +6,4 @@ pub mod noise;
 pub mod plant;
 pub mod sensor_sim;
 pub mod sensors;
+pub mod tether_wire;

@@ -1,0 +1,862 @@
+//! The paper's layout in the closed loop (issue 25): the control loop on a topside MCU, a
+//! thin node on the vehicle, the node link between them over the byte-level tether model
+//! ([`crate::world::tether_wire`]).
+//!
+//! [`TopsideLayout`] is a [`ControllerEndpoint`] of [`crate::closed_loop`]'s loop. Both roles
+//! are the firmware library's own code, run in this process on one virtual clock (the
+//! simulation's time, microseconds):
+//! - the topside: the same [`App`] as every image, its thrusters the node link
+//!   ([`LinkThruster`]), its sensors the node's uplinks ([`LinkSensors`]), the link
+//!   [`TopsideLink`]; its loop is the topside board's (`app.tick()`, an accepted uplink runs
+//!   `app.step_now()`, `link.send_if_due()`), with the board's 25 ms fallback period;
+//! - the node: [`Node`], sampling the plant's IMU at 400 Hz (host-sim's simulated IMU, run
+//!   at 400 Hz in this layout) and the plant's pressure (the simulated depth sensor, as the
+//!   pressure it would read), and writing the pulses it applies to three PWM outputs whose
+//!   thrust the plant gets (the core's ESC map);
+//! - the PC: what `host-sim hil` sends the onboard App (the vehicle, `StartNav`, the
+//!   reference, the mode, arm, heartbeats, and the USBL, DVL and compass fixes) goes to the
+//!   topside over an in-memory tether (the PC sits next to the topside box); the node link
+//!   carries only the IMU and pressure, as the issue specifies. The USBL is measured at the
+//!   surface and reaches the topside at once; the compass and the DVL are on the vehicle, so
+//!   their readings reach it the tether's one-way latency later (their own cable, or a
+//!   later version of the node link; the wire times of the node link are not added).
+//!
+//! Both MCUs run one pass of their main loop every [`PASS_US`] of virtual time. Each loop
+//! tick of the closed loop runs the passes since the previous tick; the node's outputs at
+//! the tick are held over the next period. So that holding adds little delay of its own,
+//! [`layout_scenario`] runs the loop at the node's IMU period or finer (the largest multiple
+//! of the plant step not above 2.5 ms): the measured sensor-to-thruster latency is the
+//! node's own timeline, and the plant sees the pulses at most one such period later.
+//!
+//! The harness watches the bytes each side reads and writes (without changing them) to
+//! measure what the firmware does not report: the latency from an IMU sample on the node to
+//! the pulse it causes on the node, the pulses the node applied against what the topside
+//! sent (a wrong command applied), the time the node went neutral and latched after a cut,
+//! and when the ground station's `Telemetry` showed the loss.
+
+use crate::clock::us;
+use crate::closed_loop::estimator_nav::{onboard_config, VehicleNav};
+use crate::closed_loop::{run_closed_loop, ControllerEndpoint, RunOptions, RunOutput, StepReply};
+use crate::scenario::{RunSetup, Scenario};
+use crate::tether::in_process::{SimPwm, SimSerial};
+use crate::world::sensors::Measurement;
+use crate::world::tether_wire::{Duplex, WireCounters};
+use anyhow::{anyhow, bail, Result};
+use controller_core::alloc::PwmMap;
+use controller_core::controller::{Controller, Gains};
+use controller_core::nav::onboard::OnboardConfig;
+use controller_core::nav::ImuSample;
+use controller_core::reference::{RefSample, Reference};
+use controller_core::state::NavState;
+use firmware::node::{Node, NodeConfig};
+use firmware::node_link::{status, Downlink, LinkDecoder, LinkFrame, NodeCounters, Uplink};
+use firmware::protocol::{
+    encode, fault, Board, Command, Decoded, FrameDecoder, Mode, Reply, Telemetry, MAX_FRAME_LEN,
+};
+use firmware::topside_link::{
+    fault as link_fault, LinkSensors, LinkThruster, NodeBridge, TopsideConfig, TopsideCounters,
+    TopsideLink,
+};
+use firmware::{App, Config, Monotonic, Timing};
+use serde::Serialize;
+
+pub use crate::scenario::deployment::{told_delay_s, Control, DeploymentSpec, MAX_TOLD_DELAY_S};
+use std::cell::{Cell, RefCell};
+use std::collections::{HashMap, VecDeque};
+use std::convert::Infallible;
+use std::rc::Rc;
+
+/// One pass of each MCU's main loop every this much virtual time (us).
+pub const PASS_US: u64 = 100;
+
+/// The topside board's fallback control period (us): longer than the link's 20 ms, so a
+/// slightly late uplink does not find a step just run by the fallback (`topside_board.rs`).
+pub const FALLBACK_PERIOD_US: u32 = 25_000;
+
+/// The node's IMU period (us): the node samples at 400 Hz.
+pub const NODE_IMU_PERIOD_US: u32 = 2_500;
+
+/// The PC's heartbeat period to the topside (us).
+const HEARTBEAT_PERIOD_US: u64 = 50_000;
+
+/// The topside's session on the node link (any non-zero number; a real board mixes its
+/// unique id with the clock).
+const LINK_SESSION: u32 = 0x2570_51DE;
+
+/// The scenario as the topside layout flies it: the IMU at the node's 400 Hz at least, and
+/// the loop's period the largest multiple of the plant step not above the node's IMU period
+/// (the co-simulation step; the topside's control runs at the uplink rate on its own clock).
+pub fn layout_scenario(sc: &Scenario) -> Scenario {
+    let mut sc = sc.clone();
+    if let Some(imu) = sc.sensors.imu.as_mut() {
+        imu.rate_hz = imu.rate_hz.max(1e6 / f64::from(NODE_IMU_PERIOD_US));
+    }
+    let n = ((f64::from(NODE_IMU_PERIOD_US) * 1e-6) / sc.plant_dt_s + 1e-9).floor();
+    sc.control_period_s = sc.plant_dt_s * n.max(1.0);
+    sc
+}
+
+/// The virtual clock both MCUs read (us).
+#[derive(Debug, Clone, Default)]
+pub struct VClock(Rc<Cell<u64>>);
+
+impl Monotonic for VClock {
+    fn now_us(&mut self) -> u64 {
+        self.0.get()
+    }
+}
+
+/// One end of the node link: `rx` is what the wire delivered, `tx` what the MCU wrote;
+/// `read_log` keeps what the MCU read, for the harness's own decoding.
+#[derive(Debug, Clone, Default)]
+pub struct WirePort {
+    rx: Rc<RefCell<VecDeque<u8>>>,
+    tx: Rc<RefCell<Vec<u8>>>,
+    read_log: Rc<RefCell<Vec<u8>>>,
+}
+
+impl embedded_io::ErrorType for WirePort {
+    type Error = Infallible;
+}
+
+impl embedded_io::Read for WirePort {
+    fn read(&mut self, buf: &mut [u8]) -> Result<usize, Infallible> {
+        let mut q = self.rx.borrow_mut();
+        let n = buf.len().min(q.len());
+        let mut log = self.read_log.borrow_mut();
+        for (b, x) in buf.iter_mut().zip(q.drain(..n)) {
+            *b = x;
+            log.push(x);
+        }
+        Ok(n)
+    }
+}
+
+impl embedded_io::ReadReady for WirePort {
+    fn read_ready(&mut self) -> Result<bool, Infallible> {
+        Ok(!self.rx.borrow().is_empty())
+    }
+}
+
+impl embedded_io::Write for WirePort {
+    fn write(&mut self, buf: &[u8]) -> Result<usize, Infallible> {
+        self.tx.borrow_mut().extend_from_slice(buf);
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> Result<(), Infallible> {
+        Ok(())
+    }
+}
+
+impl embedded_io::WriteReady for WirePort {
+    /// The UART's transmit FIFO takes the frame; the wire sends it at its rate.
+    fn write_ready(&mut self) -> Result<bool, Infallible> {
+        Ok(true)
+    }
+}
+
+/// The node's IMU and pressure sensor: the plant's simulated readings, each available from
+/// its time stamp on (a data-ready register: a read returns the latest conversion).
+#[derive(Debug, Clone, Default)]
+pub struct PlantSensors {
+    shared: Rc<RefCell<SensorFeed>>,
+}
+
+#[derive(Debug, Default)]
+struct SensorFeed {
+    imu: VecDeque<ImuSample>,
+    current_imu: Option<ImuSample>,
+    pressure: VecDeque<(u64, f32)>,
+    /// The node's latest IMU read (us).
+    last_imu_read_us: Option<u64>,
+    /// IMU reads, for the rate check.
+    imu_reads: u64,
+}
+
+impl firmware::Sensors for PlantSensors {
+    fn imu(&mut self, now_us: u64) -> Option<ImuSample> {
+        let mut f = self.shared.borrow_mut();
+        while f.imu.front().is_some_and(|s| s.t_us <= now_us) {
+            f.current_imu = f.imu.pop_front();
+        }
+        let s = f.current_imu?;
+        f.last_imu_read_us = Some(now_us);
+        f.imu_reads += 1;
+        Some(ImuSample { t_us: now_us, ..s })
+    }
+
+    /// A new conversion since the last read, else none (the node counts each new one).
+    fn pressure_pa(&mut self, now_us: u64) -> Option<f32> {
+        let mut f = self.shared.borrow_mut();
+        let mut latest = None;
+        while f.pressure.front().is_some_and(|&(t, _)| t <= now_us) {
+            latest = f.pressure.pop_front().map(|(_, p)| p);
+        }
+        latest
+    }
+}
+
+/// The topside's App: its thrusters and sensors the node link.
+pub type TopsideApp = App<LinkThruster<'static>, SimSerial, VClock, LinkSensors<'static>>;
+/// The node role on the simulated PWM outputs, wire port, virtual clock and plant sensors.
+pub type NodeRole = Node<SimPwm, WirePort, VClock, PlantSensors>;
+
+/// A latency histogram: 0.5 ms bins.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Latency {
+    /// Every sample (us), in order.
+    #[serde(skip)]
+    pub samples_us: Vec<u64>,
+}
+
+impl Latency {
+    /// The `q` quantile (0..=1) in ms, none without samples.
+    pub fn quantile_ms(&self, q: f64) -> Option<f64> {
+        if self.samples_us.is_empty() {
+            return None;
+        }
+        let mut v = self.samples_us.clone();
+        v.sort_unstable();
+        let i = ((q * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1;
+        Some(v[i] as f64 * 1e-3)
+    }
+
+    /// Counts per bin of `bin_ms`, from 0 to the largest sample.
+    pub fn histogram(&self, bin_ms: f64) -> Vec<(f64, u64)> {
+        let max = self.samples_us.iter().copied().max().unwrap_or(0) as f64 * 1e-3;
+        let n = (max / bin_ms).floor() as usize + 1;
+        let mut h: Vec<(f64, u64)> = (0..n).map(|i| (i as f64 * bin_ms, 0)).collect();
+        for &s in &self.samples_us {
+            let i = ((s as f64 * 1e-3) / bin_ms).floor() as usize;
+            h[i.min(n - 1)].1 += 1;
+        }
+        h
+    }
+}
+
+/// What the harness measured of one topside-layout run.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct LayoutReport {
+    /// The wire's figures.
+    pub baud: u32,
+    /// Added one-way latency (s).
+    pub latency_s: f64,
+    /// Corruption rate of bytes.
+    pub corruption: f64,
+    /// The delay told to the laws (s), if told.
+    pub told_delay_s: Option<f64>,
+    /// IMU sample on the node -> the pulse it caused on the node: from the newest sample
+    /// the uplink's increments hold (read in the node's pass that sent the uplink).
+    pub latency: Latency,
+    /// The same from the oldest sample the increments cover (the previous uplink's newest):
+    /// one link period more.
+    pub latency_oldest: Latency,
+    /// `latency`'s median, 99th percentile and largest (ms), for `layout.json`.
+    pub latency_p50_p99_max_ms: Option<[f64; 3]>,
+    /// The node's IMU reads per second of the run.
+    pub node_imu_hz: f64,
+    /// Downlinks the node applied (accepted and taken).
+    pub downlinks_applied: u64,
+    /// Applied downlinks whose pulses or arm state differ from what the topside sent with
+    /// that sequence number (a corrupted frame taken as good).
+    pub wrong_commands_applied: u64,
+    /// The node's counters at the end.
+    pub node_counters: NodeCounters,
+    /// The topside link's counters at the end.
+    #[serde(skip)]
+    pub topside_counters: TopsideCounters,
+    /// Downlink wire (topside -> node) and uplink wire counters.
+    pub down_wire: WireCounters,
+    /// Node -> topside.
+    pub up_wire: WireCounters,
+    /// The latest round trip the topside measured (us).
+    pub round_trip_us: Option<u32>,
+    /// The latest good downlink the node applied before the cut (s).
+    pub last_good_frame_s: Option<f64>,
+    /// The node's outputs all neutral, first time after the cut (s).
+    pub node_neutral_s: Option<f64>,
+    /// The node disarmed and latched, first time after the cut (s).
+    pub node_latched_s: Option<f64>,
+    /// The first `Telemetry` the ground station received with the node link's loss after
+    /// the cut (its time on the topside's clock, s).
+    pub ground_saw_loss_s: Option<f64>,
+    /// Telemetry frames the ground station received.
+    pub telemetry_frames: u64,
+    /// Commands the topside refused (a `Nack`).
+    pub nacks: u64,
+    /// The refusals by reason (e.g. a fix the estimator found too old).
+    pub nack_reasons: std::collections::BTreeMap<String, u64>,
+}
+
+/// The topside layout as the loop's controller endpoint.
+pub struct TopsideLayout {
+    clock: Rc<Cell<u64>>,
+    app: TopsideApp,
+    link: TopsideLink<'static, WirePort>,
+    bridge: &'static NodeBridge,
+    node: NodeRole,
+    wire: Duplex,
+    feed: Rc<RefCell<SensorFeed>>,
+    node_port: WirePort,
+    top_port: WirePort,
+    // The PC's side of the tether to the topside.
+    pc_seq: u16,
+    pc_session: u32,
+    pc_decoder: FrameDecoder<Reply>,
+    latest_telemetry: Option<Telemetry>,
+    next_heartbeat_us: u64,
+    /// PC commands and when they are due at the topside (us).
+    pending_pc: Vec<(u64, Command)>,
+    /// The one-way latency of the tether (us): the vehicle's compass and DVL readings reach
+    /// the surface that much later.
+    vehicle_fix_delay_us: u64,
+    // Setup.
+    mode: Mode,
+    reference: Reference,
+    vehicle: controller_core::params::VehicleParams,
+    onboard: OnboardConfig,
+    pwm: PwmMap,
+    /// The virtual time of the last pass (us).
+    t_us: u64,
+    cut_at_us: Option<u64>,
+    // The harness's view of the node link.
+    node_rx_dec: LinkDecoder<Downlink>,
+    node_tx_dec: LinkDecoder<Uplink>,
+    top_rx_dec: LinkDecoder<Uplink>,
+    top_tx_dec: LinkDecoder<Downlink>,
+    /// Uplink seq -> the node's latest IMU read when it was sent, and the one before the
+    /// increments began (the previous uplink's), us.
+    uplink_imu_us: HashMap<u16, (u64, u64)>,
+    prev_uplink_imu_us: Option<u64>,
+    /// Downlink seq -> what the topside sent and the uplink whose step made it.
+    sent: HashMap<u16, (Downlink, Option<u16>)>,
+    node_accepted: u16,
+    report: LayoutReport,
+}
+
+impl TopsideLayout {
+    /// Both roles booted at virtual time 0, joined by the wire of `sc`'s `[deployment]`.
+    /// `sc` was checked when it was resolved, its `[deployment]` keys with it.
+    pub fn for_scenario(sc: &RunSetup) -> Result<Self> {
+        let d = sc.deployment;
+        let clock = Rc::new(Cell::new(0u64));
+        let config = Config {
+            timing: Timing::FixedRate {
+                control_period_us: FALLBACK_PERIOD_US,
+                telemetry_period_us: 100_000,
+            },
+            ..Config::fixed_rate(Board::Host)
+        };
+        // The bridge is shared by the App's thrusters and sensors and the link for the
+        // whole run, as the board's `static`: leaked (about 100 bytes a run).
+        let bridge: &'static NodeBridge =
+            Box::leak(Box::new(NodeBridge::new(config.pwm_period_us())));
+        let mut controller = Controller::new(*sc.vehicle(), Gains::default())
+            .map_err(|e| anyhow!("controller: {e}"))?;
+        let told = (d.tell_delay || d.told_delay_s.is_some()).then(|| told_delay_s(&d));
+        if let Some(t) = told {
+            controller
+                .set_measurement_delay_s(t as f32)
+                .map_err(|e| anyhow!("deployment.tell_delay ({t} s): {e}"))?;
+        }
+        let app = App::with_sensors(
+            bridge.thrusters(),
+            SimSerial::default(),
+            VClock(clock.clone()),
+            controller,
+            config,
+            bridge.sensors(),
+        )
+        .map_err(|e| anyhow!("topside config: {e}"))?;
+        let top_port = WirePort::default();
+        let link = TopsideLink::new(bridge, top_port.clone(), TopsideConfig::new(LINK_SESSION));
+        let node_port = WirePort::default();
+        let sensors = PlantSensors::default();
+        let feed = sensors.shared.clone();
+        let node_config = NodeConfig {
+            imu_period_us: NODE_IMU_PERIOD_US,
+            ..NodeConfig::DEFAULT
+        };
+        let node = Node::new(
+            [SimPwm::default(), SimPwm::default(), SimPwm::default()],
+            node_port.clone(),
+            VClock(clock.clone()),
+            sensors,
+            node_config,
+        )
+        .map_err(|e| anyhow!("node config: {e}"))?;
+        Ok(Self {
+            clock,
+            app,
+            link,
+            bridge,
+            node,
+            wire: Duplex::new(d.wire(), d.tether_seed),
+            feed,
+            node_port,
+            top_port,
+            pc_seq: 0,
+            pc_session: 0,
+            pc_decoder: FrameDecoder::new(),
+            latest_telemetry: None,
+            next_heartbeat_us: 0,
+            pending_pc: Vec::new(),
+            vehicle_fix_delay_us: us(d.tether_latency_s),
+            mode: Mode::from(sc.mode()),
+            reference: *sc.reference(),
+            vehicle: sc.vehicle_params,
+            onboard: onboard_config(sc),
+            pwm: PwmMap::for_vehicle(sc.vehicle()),
+            t_us: 0,
+            cut_at_us: d.tether_cut_s.map(us),
+            node_rx_dec: LinkDecoder::new(),
+            node_tx_dec: LinkDecoder::new(),
+            top_rx_dec: LinkDecoder::new(),
+            top_tx_dec: LinkDecoder::new(),
+            uplink_imu_us: HashMap::new(),
+            prev_uplink_imu_us: None,
+            sent: HashMap::new(),
+            node_accepted: 0,
+            report: LayoutReport {
+                baud: d.tether_baud,
+                latency_s: d.tether_latency_s,
+                corruption: d.tether_corruption,
+                told_delay_s: told,
+                ..LayoutReport::default()
+            },
+        })
+    }
+
+    /// Send a command to the topside over the PC's tether.
+    fn pc_send(&mut self, cmd: &Command) -> Result<u16> {
+        let seq = self.pc_seq;
+        self.pc_seq = self.pc_seq.wrapping_add(1);
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let frame = encode(self.pc_session, seq, cmd, &mut buf)
+            .map_err(|e| anyhow!("encode {cmd:?}: {e}"))?;
+        let rx = &mut self.app.parts_mut().1.rx;
+        rx.push_back(0);
+        rx.extend(frame.iter().copied());
+        Ok(seq)
+    }
+
+    /// What the topside sent the PC: the session, refusals, telemetry.
+    fn pc_receive(&mut self) -> Vec<(u16, Reply)> {
+        let bytes: Vec<u8> = self.app.parts_mut().1.tx.drain(..).collect();
+        let mut out = Vec::new();
+        for b in bytes {
+            if let Some(Decoded::Frame { seq, msg, .. }) = self.pc_decoder.push(b) {
+                match msg {
+                    Reply::Telemetry(t) => {
+                        self.report.telemetry_frames += 1;
+                        self.latest_telemetry = Some(t);
+                        self.on_ground_telemetry(&t);
+                    }
+                    Reply::Nack { reason, .. } => {
+                        self.report.nacks += 1;
+                        *self
+                            .report
+                            .nack_reasons
+                            .entry(format!("{reason:?}"))
+                            .or_default() += 1;
+                    }
+                    _ => {}
+                }
+                out.push((seq, msg));
+            }
+        }
+        out
+    }
+
+    fn on_ground_telemetry(&mut self, t: &Telemetry) {
+        if let Some(cut) = self.cut_at_us {
+            let lost = t.faults & link_fault::NODE_LINK_LOST != 0;
+            if lost && t.t_us >= cut && self.report.ground_saw_loss_s.is_none() {
+                self.report.ground_saw_loss_s = Some(t.t_us as f64 * 1e-6);
+            }
+        }
+    }
+
+    /// A command from the PC, answered (`Ack`) or refused, run at once in the topside.
+    pub fn command(&mut self, cmd: &Command) -> Result<()> {
+        let seq = self.pc_send(cmd)?;
+        self.app.tick();
+        for (_, r) in self.pc_receive() {
+            match r {
+                Reply::Ack { seq: s } if s == seq => return Ok(()),
+                Reply::Nack { seq: s, reason } if s == seq => {
+                    bail!("the topside refused {cmd:?}: {reason:?}")
+                }
+                _ => {}
+            }
+        }
+        bail!("the topside did not answer {cmd:?}")
+    }
+
+    /// Open the PC's session with the topside.
+    fn open_session(&mut self) -> Result<()> {
+        self.pc_seq = 0;
+        self.pc_session = 0;
+        let nonce = 0x2500_0001;
+        self.pc_send(&Command::OpenSession { nonce })?;
+        self.app.tick();
+        for (_, r) in self.pc_receive() {
+            if let Reply::Session { nonce: n, session } = r {
+                if n == nonce {
+                    self.pc_session = session;
+                    self.pc_seq = 1;
+                    return Ok(());
+                }
+            }
+        }
+        bail!("the topside did not open a session")
+    }
+
+    /// One pass of both MCUs at virtual time `t_us`, with the wire between them.
+    fn pass(&mut self, t_us: u64) {
+        self.clock.set(t_us);
+        self.t_us = t_us;
+        let t_s = t_us as f64 * 1e-6;
+        // The wire delivers what has arrived.
+        let mut bytes = Vec::new();
+        self.wire.down.read_into(t_s, &mut bytes);
+        self.node_port.rx.borrow_mut().extend(bytes.drain(..));
+        self.wire.up.read_into(t_s, &mut bytes);
+        self.top_port.rx.borrow_mut().extend(bytes.drain(..));
+
+        // The node.
+        self.node.tick();
+        self.watch_node(t_us);
+
+        // The topside: the board's loop.
+        if self.pc_session != 0 && t_us >= self.next_heartbeat_us {
+            self.next_heartbeat_us = t_us + HEARTBEAT_PERIOD_US;
+            let _ = self.pc_send(&Command::Heartbeat { t_us });
+        }
+        let (due, later): (Vec<_>, Vec<_>) = std::mem::take(&mut self.pending_pc)
+            .into_iter()
+            .partition(|(t, _)| *t <= t_us);
+        self.pending_pc = later;
+        for (_, cmd) in due {
+            let _ = self.pc_send(&cmd);
+        }
+        self.app.tick();
+        let armed = self.app.autopilot().armed();
+        let stepped = self.link.poll(t_us, armed);
+        let cause = self.watch_topside_rx(stepped);
+        if stepped {
+            self.app.step_now();
+        }
+        self.link.send_if_due(t_us, armed);
+        self.watch_topside_tx(t_s, if stepped { cause } else { None });
+        self.pc_receive();
+    }
+
+    /// The node's side: what it read and applied, what it sent.
+    fn watch_node(&mut self, t_us: u64) {
+        let read: Vec<u8> = self.node_port.read_log.borrow_mut().drain(..).collect();
+        let mut last_valid = None;
+        for b in read {
+            if let Some(LinkFrame::Frame { seq, msg }) = self.node_rx_dec.push(b) {
+                last_valid = Some((seq, msg));
+            }
+        }
+        let accepted = self.node.counters().accepted;
+        if accepted != self.node_accepted {
+            self.report.downlinks_applied += u64::from(accepted.wrapping_sub(self.node_accepted));
+            self.node_accepted = accepted;
+            if let Some((seq, got)) = last_valid {
+                let expect = self.sent.get(&seq).copied();
+                // The frame taken is the one sent with its number, and the outputs carry
+                // its pulses (armed; disarmed they stay neutral).
+                let out = self.node.output_us();
+                let right = expect
+                    .is_some_and(|(d, _)| d == got && (!self.node.armed() || d.pulse_us == out));
+                if !right {
+                    self.report.wrong_commands_applied += 1;
+                }
+                if let Some((_, Some(up))) = expect {
+                    if let Some(&(newest, oldest)) = self.uplink_imu_us.get(&up) {
+                        self.report.latency.samples_us.push(t_us - newest);
+                        self.report.latency_oldest.samples_us.push(t_us - oldest);
+                    }
+                }
+                if self.cut_at_us.is_none_or(|c| t_us < c) {
+                    self.report.last_good_frame_s = Some(t_us as f64 * 1e-6);
+                }
+            }
+        }
+        if let Some(cut) = self.cut_at_us {
+            if t_us >= cut {
+                let t_s = t_us as f64 * 1e-6;
+                if self.report.node_neutral_s.is_none() && self.node.output_us() == [1500; 3] {
+                    self.report.node_neutral_s = Some(t_s);
+                }
+                let latched = self.node.status(t_us) & status::LATCHED != 0;
+                if self.report.node_latched_s.is_none() && !self.node.armed() && latched {
+                    self.report.node_latched_s = Some(t_s);
+                }
+            }
+        }
+        let sent: Vec<u8> = self.node_port.tx.borrow_mut().drain(..).collect();
+        if !sent.is_empty() {
+            let imu = self.feed.borrow().last_imu_read_us;
+            for &b in &sent {
+                if let Some(LinkFrame::Frame { seq, .. }) = self.node_tx_dec.push(b) {
+                    if let Some(imu) = imu {
+                        let oldest = self.prev_uplink_imu_us.unwrap_or(imu);
+                        self.uplink_imu_us.insert(seq, (imu, oldest));
+                        self.prev_uplink_imu_us = Some(imu);
+                    }
+                }
+            }
+            self.wire.up.write(t_us as f64 * 1e-6, &sent);
+        }
+    }
+
+    /// The uplink the topside accepted in this pass (its sequence), if one.
+    fn watch_topside_rx(&mut self, stepped: bool) -> Option<u16> {
+        let read: Vec<u8> = self.top_port.read_log.borrow_mut().drain(..).collect();
+        let mut last = None;
+        for b in read {
+            if let Some(LinkFrame::Frame { seq, .. }) = self.top_rx_dec.push(b) {
+                last = Some(seq);
+            }
+        }
+        if stepped {
+            last
+        } else {
+            None
+        }
+    }
+
+    /// The downlinks the topside wrote: kept (what was sent), then onto the wire.
+    fn watch_topside_tx(&mut self, t_s: f64, cause: Option<u16>) {
+        let sent: Vec<u8> = self.top_port.tx.borrow_mut().drain(..).collect();
+        if sent.is_empty() {
+            return;
+        }
+        for &b in &sent {
+            if let Some(LinkFrame::Frame { seq, msg }) = self.top_tx_dec.push(b) {
+                self.sent.insert(seq, (msg, cause));
+            }
+        }
+        self.wire.down.write(t_s, &sent);
+    }
+
+    /// Run both MCUs up to `t_us` (inclusive), one pass every [`PASS_US`].
+    fn run_to(&mut self, t_us: u64) {
+        let mut next = (self.t_us / PASS_US + 1) * PASS_US;
+        while next <= t_us {
+            self.pass(next);
+            next += PASS_US;
+        }
+    }
+
+    /// The report so far (the node's and the topside's counters filled in).
+    pub fn report(&self) -> LayoutReport {
+        let mut r = self.report.clone();
+        r.node_counters = self.node.counters();
+        r.topside_counters = self.link.counters();
+        r.down_wire = self.wire.down.counters();
+        r.up_wire = self.wire.up.counters();
+        r.round_trip_us = self.link.round_trip_us();
+        let l = &r.latency;
+        r.latency_p50_p99_max_ms = l
+            .quantile_ms(0.5)
+            .zip(l.quantile_ms(0.99))
+            .zip(l.quantile_ms(1.0))
+            .map(|((a, b), c)| [a, b, c]);
+        let t_s = self.t_us as f64 * 1e-6;
+        r.node_imu_hz = if t_s > 0.0 {
+            self.feed.borrow().imu_reads as f64 / t_s
+        } else {
+            0.0
+        };
+        r
+    }
+
+    /// The node (its outputs, arm state and counters).
+    pub fn node(&self) -> &NodeRole {
+        &self.node
+    }
+
+    /// The topside's App.
+    pub fn app(&self) -> &TopsideApp {
+        &self.app
+    }
+
+    /// The topside layout's fault bits now.
+    pub fn link_faults(&self) -> u16 {
+        self.bridge.faults()
+    }
+
+    /// The latest `Telemetry` the ground station received.
+    pub fn latest_telemetry(&self) -> Option<&Telemetry> {
+        self.latest_telemetry.as_ref()
+    }
+
+    /// The wire (a test cuts or restores it).
+    pub fn wire_mut(&mut self) -> &mut Duplex {
+        &mut self.wire
+    }
+
+    /// A PC command sent at the next pass (a test disarms and arms again).
+    pub fn queue_command(&mut self, cmd: Command) {
+        self.pending_pc.push((0, cmd));
+    }
+}
+
+impl ControllerEndpoint for TopsideLayout {
+    /// At virtual time 0: the topside's first downlink (disarmed: the node's arm transition
+    /// needs it), then the PC's set-up as `hil` sends it to the onboard App.
+    fn start(&mut self, nav0: &NavState) -> Result<()> {
+        self.pass(0);
+        self.open_session()?;
+        // A heartbeat is answered by `Status`, not `Ack`.
+        let hb = self.pc_send(&Command::Heartbeat { t_us: 0 })?;
+        self.app.tick();
+        for (_, r) in self.pc_receive() {
+            if let Reply::Nack { seq, reason } = r {
+                if seq == hb {
+                    bail!("the topside refused the first heartbeat: {reason:?}");
+                }
+            }
+        }
+        self.next_heartbeat_us = HEARTBEAT_PERIOD_US;
+        self.command(&Command::SetVehicle(self.vehicle))?;
+        self.command(&Command::StartNav {
+            t_us: 0,
+            initial: *nav0,
+            config: self.onboard,
+        })?;
+        self.command(&Command::SetReference {
+            reference: self.reference,
+            start_us: Some(0),
+        })?;
+        self.command(&Command::SetMode(self.mode))?;
+        self.command(&Command::Arm)?;
+        Ok(())
+    }
+
+    fn step(&mut self, t_s: f64, _nav: &NavState, _reference: &RefSample) -> Result<StepReply> {
+        self.run_to(us(t_s));
+        let out = *self.app.last_output();
+        let pulse = self.node.output_us();
+        let applied = pulse.map(|p| f64::from(self.pwm.thrust_n(f32::from(p))));
+        let std = self
+            .app
+            .autopilot()
+            .onboard_nav()
+            .map_or([0.0; 3], |o| o.position_std_m());
+        Ok(StepReply {
+            requested: out.requested,
+            achieved: out.allocation.achieved,
+            thrust_cmd_n: out.allocation.thrust_n,
+            applied_n: applied,
+            pulse_us: pulse.map(f64::from),
+            errors: out.errors,
+            saturated: out.faults & fault::SATURATED != 0,
+            estimate: Some((self.app.autopilot().nav_state(), std.map(f64::from))),
+        })
+    }
+
+    /// IMU and depth to the node's sensors (available from their time stamps); the fixes
+    /// that come from the surface to the topside over the PC's tether.
+    fn forward(&mut self, measurements: &[Measurement]) -> Result<()> {
+        for m in measurements {
+            match *m {
+                Measurement::Imu(s) => self.feed.borrow_mut().imu.push_back(s),
+                Measurement::Depth(d) => {
+                    let p = self.onboard.pressure.pressure_pa(d.depth_m);
+                    self.feed.borrow_mut().pressure.push_back((d.t_us, p));
+                }
+                // On the vehicle: they share the tether's latency.
+                Measurement::Heading(h) => self
+                    .pending_pc
+                    .push((self.t_us + self.vehicle_fix_delay_us, Command::Compass(h))),
+                Measurement::Dvl(d) => self
+                    .pending_pc
+                    .push((self.t_us + self.vehicle_fix_delay_us, Command::DvlFix(d))),
+                // At the surface: at once.
+                Measurement::Position(p, _) => self.pending_pc.push((0, Command::UsblFix(p))),
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The result of a topside-layout run.
+#[derive(Debug, Clone, Default)]
+pub struct LayoutOutput {
+    /// Same as `host-sim run`.
+    pub run: RunOutput,
+    /// What the harness measured.
+    pub report: LayoutReport,
+}
+
+/// Fly a scenario in the topside layout (`[deployment] control = "topside"`).
+/// The layout changes the scenario's IMU rate and control period ([`layout_scenario`]), so
+/// the changed scenario is resolved here.
+pub fn run_layout(sc: &Scenario, opts: &RunOptions) -> Result<LayoutOutput> {
+    let sc = layout_scenario(sc).resolve()?;
+    let mut endpoint = TopsideLayout::for_scenario(&sc)?;
+    let mut nav =
+        VehicleNav::for_scenario(&sc, opts.noise_seed.unwrap_or(sc.disturbance.noise_seed));
+    let run = run_closed_loop(&sc, opts, &mut nav, &mut endpoint)?;
+    Ok(LayoutOutput {
+        run,
+        report: endpoint.report(),
+    })
+}
+
+/// `host-sim hil` of a scenario with `[deployment] control = "topside"`: with
+/// `--in-process`, the two roles of the firmware library over the tether model, written as
+/// `host-sim run` writes (plus `layout.json`, this harness's report). The emulated images
+/// are not joined to host-sim yet: any other target is refused with that reason.
+pub fn hil_main(
+    sc: &Scenario,
+    in_process: bool,
+    out: Option<std::path::PathBuf>,
+    duration_s: Option<f64>,
+) -> Result<LayoutOutput> {
+    if !in_process {
+        return Err(crate::checks::refused(anyhow!(
+            "deployment.control = \"topside\": hil flies the topside layout with --in-process \
+             (the firmware library's topside and node over the tether model); the two emulated \
+             images are not joined to host-sim's loop yet"
+        )));
+    }
+    let opts = RunOptions {
+        record: true,
+        duration_s,
+        ..RunOptions::default()
+    };
+    let o = run_layout(sc, &opts)?;
+    let dir =
+        out.unwrap_or_else(|| std::path::PathBuf::from("out").join(format!("hil-{}", sc.name)));
+    std::fs::create_dir_all(&dir)?;
+    crate::output::write_run(&dir, &o.run)?;
+    std::fs::write(
+        dir.join("layout.json"),
+        serde_json::to_string_pretty(&o.report)? + "\n",
+    )?;
+    let s = &o.run.summary;
+    let r = &o.report;
+    println!(
+        "{}: {} (topside layout in process, {} Bd, {} s one-way; RMS last 80 % {:.4} m)",
+        s.scenario, s.verdict, r.baud, r.latency_s, s.rms_position_error_last80_m
+    );
+    println!(
+        "node link: {} downlinks applied, {} wrong; latency IMU sample -> pulse p50 {:.1} ms, \
+         p99 {:.1} ms; node IMU {:.0} Hz; outputs in {}",
+        r.downlinks_applied,
+        r.wrong_commands_applied,
+        r.latency.quantile_ms(0.5).unwrap_or(f64::NAN),
+        r.latency.quantile_ms(0.99).unwrap_or(f64::NAN),
+        r.node_imu_hz,
+        dir.display()
+    );
+    Ok(o)
+}
