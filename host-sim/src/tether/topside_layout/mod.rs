@@ -34,36 +34,38 @@
 //! sent (a wrong command applied), the time the node went neutral and latched after a cut,
 //! and when the ground station's `Telemetry` showed the loss.
 
+mod ports;
+mod report;
+
 use crate::clock::us;
 use crate::closed_loop::estimator_nav::{onboard_config, VehicleNav};
 use crate::closed_loop::{run_closed_loop, ControllerEndpoint, RunOptions, RunOutput, StepReply};
 use crate::scenario::{RunSetup, Scenario};
 use crate::tether::in_process::{SimPwm, SimSerial};
 use crate::world::sensors::Measurement;
-use crate::world::tether_wire::{Duplex, WireCounters};
+use crate::world::tether_wire::Duplex;
 use anyhow::{anyhow, bail, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::controller::{Controller, Gains};
 use controller_core::nav::onboard::OnboardConfig;
-use controller_core::nav::ImuSample;
 use controller_core::reference::{RefSample, Reference};
 use controller_core::state::NavState;
 use firmware::node::{Node, NodeConfig};
-use firmware::node_link::{status, Downlink, LinkDecoder, LinkFrame, NodeCounters, Uplink};
+use firmware::node_link::{status, Downlink, LinkDecoder, LinkFrame, Uplink};
 use firmware::protocol::{
     encode, fault, Board, Command, Decoded, FrameDecoder, Mode, Reply, Telemetry, MAX_FRAME_LEN,
 };
 use firmware::topside_link::{
-    fault as link_fault, LinkSensors, LinkThruster, NodeBridge, TopsideConfig, TopsideCounters,
-    TopsideLink,
+    fault as link_fault, LinkSensors, LinkThruster, NodeBridge, TopsideConfig, TopsideLink,
 };
-use firmware::{App, Config, Monotonic, Timing};
-use serde::Serialize;
+use firmware::{App, Config, Timing};
+use ports::SensorFeed;
+pub use ports::{PlantSensors, VClock, WirePort};
+pub use report::{Latency, LayoutReport};
 
 pub use crate::scenario::deployment::{told_delay_s, Control, DeploymentSpec, MAX_TOLD_DELAY_S};
 use std::cell::{Cell, RefCell};
-use std::collections::{HashMap, VecDeque};
-use std::convert::Infallible;
+use std::collections::HashMap;
 use std::rc::Rc;
 
 /// One pass of each MCU's main loop every this much virtual time (us).
@@ -96,198 +98,10 @@ pub fn layout_scenario(sc: &Scenario) -> Scenario {
     sc
 }
 
-/// The virtual clock both MCUs read (us).
-#[derive(Debug, Clone, Default)]
-pub struct VClock(Rc<Cell<u64>>);
-
-impl Monotonic for VClock {
-    fn now_us(&mut self) -> u64 {
-        self.0.get()
-    }
-}
-
-/// One end of the node link: `rx` is what the wire delivered, `tx` what the MCU wrote;
-/// `read_log` keeps what the MCU read, for the harness's own decoding.
-#[derive(Debug, Clone, Default)]
-pub struct WirePort {
-    rx: Rc<RefCell<VecDeque<u8>>>,
-    tx: Rc<RefCell<Vec<u8>>>,
-    read_log: Rc<RefCell<Vec<u8>>>,
-}
-
-impl embedded_io::ErrorType for WirePort {
-    type Error = Infallible;
-}
-
-impl embedded_io::Read for WirePort {
-    fn read(&mut self, buf: &mut [u8]) -> Result<usize, Infallible> {
-        let mut q = self.rx.borrow_mut();
-        let n = buf.len().min(q.len());
-        let mut log = self.read_log.borrow_mut();
-        for (b, x) in buf.iter_mut().zip(q.drain(..n)) {
-            *b = x;
-            log.push(x);
-        }
-        Ok(n)
-    }
-}
-
-impl embedded_io::ReadReady for WirePort {
-    fn read_ready(&mut self) -> Result<bool, Infallible> {
-        Ok(!self.rx.borrow().is_empty())
-    }
-}
-
-impl embedded_io::Write for WirePort {
-    fn write(&mut self, buf: &[u8]) -> Result<usize, Infallible> {
-        self.tx.borrow_mut().extend_from_slice(buf);
-        Ok(buf.len())
-    }
-
-    fn flush(&mut self) -> Result<(), Infallible> {
-        Ok(())
-    }
-}
-
-impl embedded_io::WriteReady for WirePort {
-    /// The UART's transmit FIFO takes the frame; the wire sends it at its rate.
-    fn write_ready(&mut self) -> Result<bool, Infallible> {
-        Ok(true)
-    }
-}
-
-/// The node's IMU and pressure sensor: the plant's simulated readings, each available from
-/// its time stamp on (a data-ready register: a read returns the latest conversion).
-#[derive(Debug, Clone, Default)]
-pub struct PlantSensors {
-    shared: Rc<RefCell<SensorFeed>>,
-}
-
-#[derive(Debug, Default)]
-struct SensorFeed {
-    imu: VecDeque<ImuSample>,
-    current_imu: Option<ImuSample>,
-    pressure: VecDeque<(u64, f32)>,
-    /// The node's latest IMU read (us).
-    last_imu_read_us: Option<u64>,
-    /// IMU reads, for the rate check.
-    imu_reads: u64,
-}
-
-impl firmware::Sensors for PlantSensors {
-    fn imu(&mut self, now_us: u64) -> Option<ImuSample> {
-        let mut f = self.shared.borrow_mut();
-        while f.imu.front().is_some_and(|s| s.t_us <= now_us) {
-            f.current_imu = f.imu.pop_front();
-        }
-        let s = f.current_imu?;
-        f.last_imu_read_us = Some(now_us);
-        f.imu_reads += 1;
-        Some(ImuSample { t_us: now_us, ..s })
-    }
-
-    /// A new conversion since the last read, else none (the node counts each new one).
-    fn pressure_pa(&mut self, now_us: u64) -> Option<f32> {
-        let mut f = self.shared.borrow_mut();
-        let mut latest = None;
-        while f.pressure.front().is_some_and(|&(t, _)| t <= now_us) {
-            latest = f.pressure.pop_front().map(|(_, p)| p);
-        }
-        latest
-    }
-}
-
 /// The topside's App: its thrusters and sensors the node link.
 pub type TopsideApp = App<LinkThruster<'static>, SimSerial, VClock, LinkSensors<'static>>;
 /// The node role on the simulated PWM outputs, wire port, virtual clock and plant sensors.
 pub type NodeRole = Node<SimPwm, WirePort, VClock, PlantSensors>;
-
-/// A latency histogram: 0.5 ms bins.
-#[derive(Debug, Clone, Default, Serialize)]
-pub struct Latency {
-    /// Every sample (us), in order.
-    #[serde(skip)]
-    pub samples_us: Vec<u64>,
-}
-
-impl Latency {
-    /// The `q` quantile (0..=1) in ms, none without samples.
-    pub fn quantile_ms(&self, q: f64) -> Option<f64> {
-        if self.samples_us.is_empty() {
-            return None;
-        }
-        let mut v = self.samples_us.clone();
-        v.sort_unstable();
-        let i = ((q * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1;
-        Some(v[i] as f64 * 1e-3)
-    }
-
-    /// Counts per bin of `bin_ms`, from 0 to the largest sample.
-    pub fn histogram(&self, bin_ms: f64) -> Vec<(f64, u64)> {
-        let max = self.samples_us.iter().copied().max().unwrap_or(0) as f64 * 1e-3;
-        let n = (max / bin_ms).floor() as usize + 1;
-        let mut h: Vec<(f64, u64)> = (0..n).map(|i| (i as f64 * bin_ms, 0)).collect();
-        for &s in &self.samples_us {
-            let i = ((s as f64 * 1e-3) / bin_ms).floor() as usize;
-            h[i.min(n - 1)].1 += 1;
-        }
-        h
-    }
-}
-
-/// What the harness measured of one topside-layout run.
-#[derive(Debug, Clone, Default, Serialize)]
-pub struct LayoutReport {
-    /// The wire's figures.
-    pub baud: u32,
-    /// Added one-way latency (s).
-    pub latency_s: f64,
-    /// Corruption rate of bytes.
-    pub corruption: f64,
-    /// The delay told to the laws (s), if told.
-    pub told_delay_s: Option<f64>,
-    /// IMU sample on the node -> the pulse it caused on the node: from the newest sample
-    /// the uplink's increments hold (read in the node's pass that sent the uplink).
-    pub latency: Latency,
-    /// The same from the oldest sample the increments cover (the previous uplink's newest):
-    /// one link period more.
-    pub latency_oldest: Latency,
-    /// `latency`'s median, 99th percentile and largest (ms), for `layout.json`.
-    pub latency_p50_p99_max_ms: Option<[f64; 3]>,
-    /// The node's IMU reads per second of the run.
-    pub node_imu_hz: f64,
-    /// Downlinks the node applied (accepted and taken).
-    pub downlinks_applied: u64,
-    /// Applied downlinks whose pulses or arm state differ from what the topside sent with
-    /// that sequence number (a corrupted frame taken as good).
-    pub wrong_commands_applied: u64,
-    /// The node's counters at the end.
-    pub node_counters: NodeCounters,
-    /// The topside link's counters at the end.
-    #[serde(skip)]
-    pub topside_counters: TopsideCounters,
-    /// Downlink wire (topside -> node) and uplink wire counters.
-    pub down_wire: WireCounters,
-    /// Node -> topside.
-    pub up_wire: WireCounters,
-    /// The latest round trip the topside measured (us).
-    pub round_trip_us: Option<u32>,
-    /// The latest good downlink the node applied before the cut (s).
-    pub last_good_frame_s: Option<f64>,
-    /// The node's outputs all neutral, first time after the cut (s).
-    pub node_neutral_s: Option<f64>,
-    /// The node disarmed and latched, first time after the cut (s).
-    pub node_latched_s: Option<f64>,
-    /// The first `Telemetry` the ground station received with the node link's loss after
-    /// the cut (its time on the topside's clock, s).
-    pub ground_saw_loss_s: Option<f64>,
-    /// Telemetry frames the ground station received.
-    pub telemetry_frames: u64,
-    /// Commands the topside refused (a `Nack`).
-    pub nacks: u64,
-    /// The refusals by reason (e.g. a fix the estimator found too old).
-    pub nack_reasons: std::collections::BTreeMap<String, u64>,
-}
 
 /// The topside layout as the loop's controller endpoint.
 pub struct TopsideLayout {
