@@ -21,6 +21,7 @@
 //! the truth), or the on-board estimator ([`OnboardNav`], started by `StartNav`) fed by the
 //! vehicle's IMU and pressure sensor and by the fixes that come down the tether.
 
+use crate::compass_swing::{SwingFlight, SwingOutcome};
 pub use crate::protocol::Failsafe;
 use crate::protocol::{fault, Command, ManualThrust, Mode, NackReason, NavSample};
 use controller_core::alloc::{allocate, Allocation, ESC_NEUTRAL_US};
@@ -131,6 +132,10 @@ pub struct Autopilot {
     /// The compass's deviation (`COMPASS_DEV_*`, `SetCompassCal`), handed to every
     /// on-board estimator started (issue 26).
     compass_cal: CompassCalibration,
+    /// A compass calibration turn in flight (in `Hold`; issue 26).
+    swing: Option<SwingFlight>,
+    /// How the latest calibration turn ended, or that one is flying.
+    swing_outcome: SwingOutcome,
     /// Control steps run.
     pub steps: u32,
 }
@@ -178,6 +183,8 @@ impl Autopilot {
             engaged_us: 0,
             nav_order_reset: false,
             compass_cal: CompassCalibration::NONE,
+            swing: None,
+            swing_outcome: SwingOutcome::None,
             steps: 0,
         }
     }
@@ -269,6 +276,77 @@ impl Autopilot {
         self.reference = None;
         self.hold = None;
         self.auto = None;
+        self.abort_swing();
+    }
+
+    /// Stop a calibration turn in flight (the calibration in force stays).
+    fn abort_swing(&mut self) {
+        if self.swing.take().is_some() {
+            self.swing_outcome = SwingOutcome::Aborted;
+        }
+    }
+
+    /// How the latest compass calibration turn ended, or that one is flying.
+    pub fn swing_outcome(&self) -> SwingOutcome {
+        self.swing_outcome
+    }
+
+    /// Start the compass calibration turn (`StartCompassCal`, the ground station's
+    /// `MAV_CMD_DO_START_MAG_CAL`). Only armed (`NotArmed`), in `Hold` (`NotInHold`: not in
+    /// AUTO, `Track` or the pilot modes), with the on-board estimator (`NavSource`), fresh
+    /// (`NavStale`) and ready (`NavNotReady`), and a rate and limit in range (`OutOfRange`).
+    /// A turn already flying starts again. On `Err` nothing changed.
+    #[inline(never)]
+    fn start_swing(
+        &mut self,
+        now_us: u64,
+        yaw_rate_rad_s: f32,
+        time_limit_s: f32,
+    ) -> Result<(), NackReason> {
+        if !self.armed {
+            return Err(NackReason::NotArmed);
+        }
+        if self.mode != Mode::Hold {
+            return Err(NackReason::NotInHold);
+        }
+        let o = self.onboard.as_ref().ok_or(NackReason::NavSource)?;
+        if !self.nav_fresh(now_us) {
+            return Err(NackReason::NavStale);
+        }
+        o.position_ready().map_err(NackReason::NavNotReady)?;
+        let nav = self.nav_state();
+        let flight =
+            SwingFlight::new(&nav, yaw_rate_rad_s, time_limit_s).ok_or(NackReason::OutOfRange)?;
+        self.swing = Some(flight);
+        self.swing_outcome = SwingOutcome::Turning { turned_rad: 0.0 };
+        Ok(())
+    }
+
+    /// One control step of the calibration turn: its sticks, or, when it is over, the fit
+    /// applied (accepted: the calibration in force, as `SetCompassCal` would set it; refused:
+    /// the old one stays) and `Hold` again at the point where the turn started.
+    fn swing_step(&mut self, now_us: u64, nav: &NavState, dt_s: f32) -> Option<Sticks> {
+        let flight = self.swing.as_mut()?;
+        let (sticks, done) = flight.step(nav, dt_s);
+        let Some(fit) = done else {
+            self.swing_outcome = SwingOutcome::Turning {
+                turned_rad: flight.turned_rad(),
+            };
+            return Some(sticks);
+        };
+        let hold_m = flight.hold_m();
+        self.swing = None;
+        let applied = fit.and_then(|(cal, residual_rad)| {
+            if let Some(o) = self.onboard.as_mut() {
+                o.set_compass_calibration(&cal)?;
+            }
+            self.compass_cal = cal;
+            Ok(SwingOutcome::Accepted { cal, residual_rad })
+        });
+        self.swing_outcome = applied.unwrap_or_else(SwingOutcome::Refused);
+        self.controller.reset();
+        self.hold = Some((Reference::Hold { pos_m: hold_m }, now_us));
+        None
     }
 
     /// Arm (from disarmed): a clean start in the current mode. A stick mode refuses while
@@ -355,8 +433,13 @@ impl Autopilot {
             Command::OpenSession { .. } => Err(NackReason::Unsupported),
             Command::StopNav => {
                 self.onboard = None;
+                self.abort_swing();
                 Ok(())
             }
+            Command::StartCompassCal {
+                yaw_rate_rad_s,
+                time_limit_s,
+            } => self.start_swing(now_us, *yaw_rate_rad_s, *time_limit_s),
             Command::MissionItem {
                 index,
                 count,
@@ -449,7 +532,14 @@ impl Autopilot {
             }
             Command::UsblFix(f) => self.feed(seq, |o, _| o.position(f)),
             Command::DvlFix(f) => self.feed(seq, |o, _| o.dvl(f)),
-            Command::Compass(f) => self.feed(seq, |o, _| o.heading(f)),
+            Command::Compass(f) => {
+                self.feed(seq, |o, _| o.heading(f))?;
+                // The raw reading (the estimator took the calibration off its own copy).
+                if let Some(flight) = self.swing.as_mut() {
+                    flight.reading(f.yaw_rad);
+                }
+                Ok(())
+            }
             Command::SetCompassCal(cal) => self.set_compass_calibration(cal),
             _ => self.handle(now_us, seq, cmd),
         }
@@ -556,6 +646,7 @@ impl Autopilot {
     fn set_mode(&mut self, now_us: u64, mode: Mode) -> Result<(), NackReason> {
         let changed = mode != self.mode;
         self.enter_mode(now_us, mode)?;
+        self.abort_swing();
         if changed {
             self.controller.reset();
             self.engaged_us = now_us;
@@ -679,6 +770,23 @@ impl Autopilot {
                 ),
                 None => return self.neutral(faults),
             },
+            (Mode::Hold, ..) if self.swing.is_some() && nav_fresh => {
+                let nav = self.nav_state();
+                match self.swing_step(now_us, &nav, dt_s) {
+                    Some(sticks) => {
+                        let law = self.controller.pilot_step(&nav, &sticks, true, dt_s);
+                        return self.law_output(&law, faults);
+                    }
+                    // Over: hold where the turn started, from this step on.
+                    None => match &self.hold {
+                        Some((r, start)) => (
+                            r.sample(seconds_since(now_us, *start)),
+                            ControlMode::Tracking3d,
+                        ),
+                        None => return self.neutral(faults),
+                    },
+                }
+            }
             (Mode::Hold, _, Some((r, start))) => (
                 r.sample(seconds_since(now_us, *start)),
                 ControlMode::Tracking3d,

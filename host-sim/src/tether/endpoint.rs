@@ -207,6 +207,13 @@ pub struct HilReport {
     /// time at which the vehicle took the mode (its estimate ready); until then it was armed
     /// and neutral (s).
     pub mode_set_at_s: Option<f64>,
+    /// With `[calibration]`: how the compass calibration turn ended (the firmware's
+    /// `Status`), and the simulated time it ended (s).
+    pub compass_swing: Option<firmware::compass_swing::SwingOutcome>,
+    /// See [`Self::compass_swing`].
+    pub calibration_end_s: Option<f64>,
+    /// The compass calibration in force on the vehicle at the end of the run.
+    pub compass_cal: Option<controller_core::nav::compass_cal::CompassCalibration>,
     /// Wall-clock time (s).
     pub wall_time_s: f64,
 }
@@ -261,6 +268,12 @@ pub struct TetherEndpoint {
     not_ready: Option<NackReason>,
     /// Do not ask for the pending mode again before this simulated time (s).
     next_mode_try_s: Option<f64>,
+    /// `[calibration]`: the turn's `(yaw rate, time limit)`, not yet started.
+    calibration: Option<(f32, f32)>,
+    /// The calibration turn is flying.
+    calibrating: bool,
+    /// When the reference the firmware flies began ([`ControllerEndpoint::reference_start_s`]).
+    reference_start_s: f64,
 }
 
 impl TetherEndpoint {
@@ -330,6 +343,11 @@ impl TetherEndpoint {
             nav_ready_limit_s: opts.nav_ready_limit_s,
             not_ready: None,
             next_mode_try_s: None,
+            calibration: sc
+                .calibration
+                .map(|c| (c.yaw_rate_rad_s as f32, c.time_limit_s as f32)),
+            calibrating: false,
+            reference_start_s: 0.0,
         })
     }
 
@@ -366,6 +384,7 @@ impl TetherEndpoint {
         if self.onboard.is_some() {
             self.report.nav_health = end_status.map(|st| st.nav_health);
         }
+        self.report.compass_cal = end_status.map(|st| st.compass_cal);
         let fw: LinkStats = end_status.map(|st| st.link).unwrap_or_default();
         let rep = &mut self.report;
         rep.firmware_rx_frames = fw.rx_frames;
@@ -462,6 +481,13 @@ impl TetherEndpoint {
     /// the heading, decides); refused as not ready, ask again a second later. Past
     /// [`HilOptions::nav_ready_limit_s`] the run fails with the latest reason.
     fn try_pending_mode(&mut self, t_s: f64) -> Result<()> {
+        if self.pending_mode.is_some() || self.calibrating || self.calibration.is_some() {
+            // The scenario's reference has not started on the vehicle yet.
+            self.reference_start_s = t_s;
+        }
+        if self.pending_mode.is_none() {
+            return self.advance_calibration(t_s);
+        }
         let Some(mode) = self.pending_mode else {
             return Ok(());
         };
@@ -489,13 +515,60 @@ impl TetherEndpoint {
         )? {
             Ok(()) => {
                 self.pending_mode = None;
-                self.report.mode_set_at_s = Some(t_s);
+                if self.calibration.is_none() {
+                    self.report.mode_set_at_s = Some(t_s);
+                }
             }
             Err(reason @ NackReason::NavNotReady(_)) => {
                 self.not_ready = Some(reason);
                 self.next_mode_try_s = Some(t_s + 1.0);
             }
             Err(reason) => bail!("the firmware refused {mode:?} at t = {t_s:.3} s: {reason:?}"),
+        }
+        Ok(())
+    }
+
+    /// `[calibration]`, once in `Hold` with the estimate ready: start the turn; while it
+    /// flies, watch the firmware's `Status` for its outcome; then set the scenario's mode
+    /// (its reference starts then). A refused turn is reported and the scenario flown.
+    fn advance_calibration(&mut self, t_s: f64) -> Result<()> {
+        use firmware::compass_swing::SwingOutcome;
+        if let Some((yaw_rate_rad_s, time_limit_s)) = self.calibration.take() {
+            let cmd = Command::StartCompassCal {
+                yaw_rate_rad_s,
+                time_limit_s,
+            };
+            if let Err(reason) = self
+                .link
+                .command(&cmd, Duration::from_millis(500), 5, |_| {})?
+            {
+                bail!("the firmware refused the compass calibration turn at t = {t_s:.3} s: {reason:?}");
+            }
+            self.calibrating = true;
+            return Ok(());
+        }
+        if !self.calibrating {
+            return Ok(());
+        }
+        let outcome = self.link.last_status.map(|st| st.compass_swing);
+        if let Some(
+            o @ (SwingOutcome::Accepted { .. } | SwingOutcome::Refused(_) | SwingOutcome::Aborted),
+        ) = outcome
+        {
+            self.calibrating = false;
+            self.report.compass_swing = Some(o);
+            self.report.calibration_end_s = Some(t_s);
+            let mode = self.mode;
+            if let Err(reason) = self.link.command(
+                &Command::SetMode(mode),
+                Duration::from_millis(500),
+                5,
+                |_| {},
+            )? {
+                bail!("the firmware refused {mode:?} after the calibration turn: {reason:?}");
+            }
+            self.report.mode_set_at_s = Some(t_s);
+            self.reference_start_s = t_s;
         }
         Ok(())
     }
@@ -579,17 +652,24 @@ impl ControllerEndpoint for TetherEndpoint {
             // A position mode on the on-board estimate: the vehicle refuses it until the
             // estimate is ready (an unknown start); arm in `Idle` (neutral) and set the mode
             // between the steps as soon as it is taken (`try_pending_mode`).
-            let needs_position = matches!(self.mode, Mode::Track { .. } | Mode::Hold | Mode::Auto);
+            // With `[calibration]`, the turn is flown in `Hold` first.
+            let first = if self.calibration.is_some() {
+                Mode::Hold
+            } else {
+                self.mode
+            };
+            let needs_position = matches!(first, Mode::Track { .. } | Mode::Hold | Mode::Auto);
             match self
                 .link
-                .command(&Command::SetMode(self.mode), tmo, 5, |_| {})?
+                .command(&Command::SetMode(first), tmo, 5, |_| {})?
             {
-                Ok(()) => self.report.mode_set_at_s = Some(0.0),
+                Ok(()) if self.calibration.is_none() => self.report.mode_set_at_s = Some(0.0),
+                Ok(()) => {}
                 Err(reason @ NackReason::NavNotReady(_)) if needs_position => {
-                    self.pending_mode = Some(self.mode);
+                    self.pending_mode = Some(first);
                     self.not_ready = Some(reason);
                 }
-                Err(reason) => bail!("the firmware refused {:?}: {reason:?}", self.mode),
+                Err(reason) => bail!("the firmware refused {first:?}: {reason:?}"),
             }
             if let Err(reason) = self.link.command(&Command::Arm, tmo, 5, |_| {})? {
                 bail!("the firmware refused Arm: {reason:?}");
@@ -597,6 +677,10 @@ impl ControllerEndpoint for TetherEndpoint {
         }
         self.link.set_noise(self.noise.take());
         Ok(())
+    }
+
+    fn reference_start_s(&self) -> f64 {
+        self.reference_start_s
     }
 
     fn step(&mut self, t_s: f64, nav: &NavState, _reference: &RefSample) -> Result<StepReply> {
