@@ -325,14 +325,14 @@ impl Autopilot {
     /// One control step of the calibration turn: its sticks, or, when it is over, the fit
     /// applied (accepted: the calibration in force, as `SetCompassCal` would set it; refused:
     /// the old one stays) and `Hold` again at the point where the turn started.
-    fn swing_step(&mut self, now_us: u64, nav: &NavState, dt_s: f32) -> Option<Sticks> {
+    fn swing_step(&mut self, now_us: u64, nav: &NavState, dt_s: f32) -> Option<[f32; 2]> {
         let flight = self.swing.as_mut()?;
-        let (sticks, done) = flight.step(nav, dt_s);
+        let (forces, done) = flight.step(&self.controller.vehicle().xy, nav, dt_s);
         let Some(fit) = done else {
             self.swing_outcome = SwingOutcome::Turning {
                 turned_rad: flight.turned_rad(),
             };
-            return Some(sticks);
+            return Some(forces);
         };
         let hold_m = flight.hold_m();
         self.swing = None;
@@ -526,7 +526,17 @@ impl Autopilot {
                 self.onboard_seq = seq;
                 Ok(())
             }
-            Command::Imu(s) => self.feed(seq, |o, thrust| o.imu(now_us, s, thrust)),
+            Command::Imu(s) => {
+                self.feed(seq, |o, thrust| o.imu(now_us, s, thrust))?;
+                if self.swing.is_some() {
+                    let [_, _, raw_r] = s.gyro_rad_s;
+                    let est_r = self.nav_state().r_rad_s;
+                    if let Some(flight) = self.swing.as_mut() {
+                        flight.imu(raw_r, est_r, s.t_us);
+                    }
+                }
+                Ok(())
+            }
             Command::Pressure { t_us, pressure_pa } => {
                 self.feed(seq, |o, _| o.pressure(now_us, *t_us, *pressure_pa))
             }
@@ -773,9 +783,8 @@ impl Autopilot {
             (Mode::Hold, ..) if self.swing.is_some() && nav_fresh => {
                 let nav = self.nav_state();
                 match self.swing_step(now_us, &nav, dt_s) {
-                    Some(sticks) => {
-                        let law = self.controller.pilot_step(&nav, &sticks, true, dt_s);
-                        return self.law_output(&law, faults);
+                    Some([surge_n, yaw_n_m]) => {
+                        return self.swing_output(&nav, surge_n, yaw_n_m, dt_s, faults)
                     }
                     // Over: hold where the turn started, from this step on.
                     None => match &self.hold {
@@ -822,6 +831,36 @@ impl Autopilot {
             faults: faults | sat,
             law_ran: true,
         }
+    }
+
+    /// The calibration turn's output: the depth held by the pilot law (sticks centred, its
+    /// heave), the turn's own surge force and yaw moment, allocated and mapped to pulses.
+    fn swing_output(
+        &mut self,
+        nav: &NavState,
+        surge_n: f32,
+        yaw_n_m: f32,
+        dt_s: f32,
+        faults: u16,
+    ) -> StepOutput {
+        let held = self
+            .controller
+            .pilot_step(nav, &Sticks::default(), true, dt_s);
+        let requested = BodyForces {
+            surge_n,
+            yaw_n_m,
+            heave_n: held.requested.heave_n,
+        };
+        let allocation = allocate(&requested, self.controller.limits());
+        let out = ControlOutput {
+            requested,
+            allocation,
+            pulse_us: allocation
+                .thrust_n
+                .map(|f| self.controller.pwm_map().pulse_us(f)),
+            errors: held.errors,
+        };
+        self.law_output(&out, faults)
     }
 
     fn manual_output(&self, m: &ManualThrust, faults: u16) -> StepOutput {
