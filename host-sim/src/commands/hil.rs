@@ -264,6 +264,9 @@ pub fn main(a: HilArgs) -> Result<HilOutput> {
          failsafe steps {}",
         r.board, r.loop_ticks_mean, r.loop_ticks_max, r.steps_disarmed, r.steps_failsafe
     );
+    if let (Some(o), Some(t)) = (r.compass_swing, r.calibration_end_s) {
+        println!("compass calibration turn, ended at {t:.2} s: {o:?}");
+    }
     if let Some(t) = r.mode_set_at_s.filter(|t| *t > 0.0) {
         println!("the vehicle's estimate was ready at {t:.2} s: armed and neutral until then");
     }

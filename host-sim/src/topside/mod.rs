@@ -45,6 +45,7 @@
 //! microsecond UNIX time stamp followed by the MAVLink frame: what QGroundControl, MAVExplorer
 //! and pymavlink read), under a new time-stamped name each start (`logs`).
 
+mod calibration;
 mod commander;
 mod geodesy;
 mod logs;
@@ -239,6 +240,8 @@ struct Topside {
     last_faults: u16,
     /// Where accepted parameters are saved.
     params_file: PathBuf,
+    /// The compass calibration turn's outcome last reported (`calibration.rs`).
+    mag_cal: Option<firmware::compass_swing::SwingOutcome>,
 }
 
 /// Run the topside until `--duration` (or forever).
@@ -347,6 +350,7 @@ pub fn main(a: TopsideArgs) -> Result<()> {
         manual_at: None,
         guided: false,
         last_faults: 0,
+        mag_cal: None,
         params_file: a.params.clone(),
     };
     t.run(&a)
@@ -389,6 +393,7 @@ impl Topside {
                 v.link().send(&Command::ManualThrust(self.manual))?;
             }
             v.step()?;
+            self.poll_mag_cal()?;
 
             let faults = self.v.tel.faults & !fault::SATURATED;
             for (bit, name) in FAULT_NAMES {
@@ -635,6 +640,7 @@ impl Topside {
                             self.refuse(station, c.command, &why)?
                         }
                     },
+                    MavCmd::MAV_CMD_DO_START_MAG_CAL => self.start_mag_cal(station)?,
                     other => {
                         self.gcs
                             .ack(station, other, MavResult::MAV_RESULT_UNSUPPORTED)?;
