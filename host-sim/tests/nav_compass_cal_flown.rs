@@ -105,3 +105,29 @@ fn a_turn_not_done_within_its_limit_is_refused_and_the_old_calibration_stays() {
     );
     assert_eq!(h.report.compass_cal, Some(CompassCalibration::NONE));
 }
+
+/// The turn is the firmware's: a software run of a scenario with `[calibration]` is refused,
+/// naming the way to fly it; an implausible turn is refused in the file with the key named.
+#[test]
+fn a_software_run_and_bad_calibration_keys_are_refused_with_the_reason() {
+    let mut sc = Scenario::load("nav-lawnmower-3d").unwrap();
+    sc.calibration = Some(CalibrationSpec {
+        yaw_rate_rad_s: 0.25,
+        time_limit_s: 60.0,
+    });
+    let e = host_sim::closed_loop::runner::run(&sc, &Default::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("host-sim hil"), "{e}");
+    for (rate, limit, key) in [
+        (2.0, 60.0, "calibration.yaw_rate_rad_s"),
+        (0.25, 0.0, "calibration.time_limit_s"),
+    ] {
+        sc.calibration = Some(CalibrationSpec {
+            yaw_rate_rad_s: rate,
+            time_limit_s: limit,
+        });
+        let e = sc.validate().unwrap_err().to_string();
+        assert!(e.contains(key), "{e}");
+    }
+}
