@@ -260,6 +260,26 @@ impl Autopilot {
         Ok(())
     }
 
+    /// [`Self::feed`], then, during a calibration turn, the raw value to it: a gyro rate
+    /// about `z` at `Some(t_us)`, or (`None`) a compass reading.
+    #[inline(never)]
+    fn feed_swing(
+        &mut self,
+        seq: u16,
+        raw: f32,
+        imu_t_us: Option<u64>,
+        f: impl FnOnce(&mut OnboardNav, [f32; 3]) -> Result<(), Refusal>,
+    ) -> Result<(), NackReason> {
+        self.feed(seq, f)?;
+        if let Some(flight) = self.swing.as_mut() {
+            match imu_t_us {
+                Some(t_us) => flight.imu(raw, t_us),
+                None => flight.reading(raw),
+            }
+        }
+        Ok(())
+    }
+
     /// A new surface session began (the App's handshake): its `Nav` time stamps start a
     /// new order.
     pub fn new_session(&mut self) {
@@ -325,6 +345,7 @@ impl Autopilot {
     /// One control step of the calibration turn: its sticks, or, when it is over, the fit
     /// applied (accepted: the calibration in force, as `SetCompassCal` would set it; refused:
     /// the old one stays) and `Hold` again at the point where the turn started.
+    #[inline(never)]
     fn swing_step(&mut self, now_us: u64, nav: &NavState, dt_s: f32) -> Option<[f32; 2]> {
         let flight = self.swing.as_mut()?;
         let (forces, done) = flight.step(&self.controller.vehicle().xy, nav, dt_s);
@@ -527,29 +548,18 @@ impl Autopilot {
                 Ok(())
             }
             Command::Imu(s) => {
-                self.feed(seq, |o, thrust| o.imu(now_us, s, thrust))?;
-                if self.swing.is_some() {
-                    let [_, _, raw_r] = s.gyro_rad_s;
-                    let est_r = self.nav_state().r_rad_s;
-                    if let Some(flight) = self.swing.as_mut() {
-                        flight.imu(raw_r, est_r, s.t_us);
-                    }
-                }
-                Ok(())
+                let [_, _, raw_r] = s.gyro_rad_s;
+                self.feed_swing(seq, raw_r, Some(s.t_us), |o, thrust| {
+                    o.imu(now_us, s, thrust)
+                })
             }
             Command::Pressure { t_us, pressure_pa } => {
                 self.feed(seq, |o, _| o.pressure(now_us, *t_us, *pressure_pa))
             }
             Command::UsblFix(f) => self.feed(seq, |o, _| o.position(f)),
             Command::DvlFix(f) => self.feed(seq, |o, _| o.dvl(f)),
-            Command::Compass(f) => {
-                self.feed(seq, |o, _| o.heading(f))?;
-                // The raw reading (the estimator took the calibration off its own copy).
-                if let Some(flight) = self.swing.as_mut() {
-                    flight.reading(f.yaw_rad);
-                }
-                Ok(())
-            }
+            // The raw reading to a turn (the estimator takes the calibration off its copy).
+            Command::Compass(f) => self.feed_swing(seq, f.yaw_rad, None, |o, _| o.heading(f)),
             Command::SetCompassCal(cal) => self.set_compass_calibration(cal),
             _ => self.handle(now_us, seq, cmd),
         }
@@ -749,6 +759,14 @@ impl Autopilot {
         if !self.armed || faults & fault::HEARTBEAT_LOST != 0 {
             return self.neutral(faults);
         }
+        // A calibration turn (in `Hold`): its surge and yaw, the depth held by the law on the
+        // hold point; when it ends, the hold point is where it started.
+        let swing_forces = if self.swing.is_some() && self.mode == Mode::Hold && nav_fresh {
+            let nav = self.nav_state();
+            self.swing_step(now_us, &nav, dt_s)
+        } else {
+            None
+        };
         let (sample, cm) = match (self.mode, &self.reference, &self.hold) {
             (Mode::Idle, ..) => return self.neutral(faults),
             (Mode::Manual | Mode::Stabilize | Mode::DepthHold, ..) => {
@@ -780,22 +798,6 @@ impl Autopilot {
                 ),
                 None => return self.neutral(faults),
             },
-            (Mode::Hold, ..) if self.swing.is_some() && nav_fresh => {
-                let nav = self.nav_state();
-                match self.swing_step(now_us, &nav, dt_s) {
-                    Some([surge_n, yaw_n_m]) => {
-                        return self.swing_output(&nav, surge_n, yaw_n_m, dt_s, faults)
-                    }
-                    // Over: hold where the turn started, from this step on.
-                    None => match &self.hold {
-                        Some((r, start)) => (
-                            r.sample(seconds_since(now_us, *start)),
-                            ControlMode::Tracking3d,
-                        ),
-                        None => return self.neutral(faults),
-                    },
-                }
-            }
             (Mode::Hold, _, Some((r, start))) => (
                 r.sample(seconds_since(now_us, *start)),
                 ControlMode::Tracking3d,
@@ -814,6 +816,14 @@ impl Autopilot {
         }
         let nav = self.nav_state();
         let law = self.controller.step(cm, &nav, &sample, dt_s);
+        if let Some([surge_n, yaw_n_m]) = swing_forces {
+            let requested = BodyForces {
+                surge_n,
+                yaw_n_m,
+                heave_n: law.requested.heave_n,
+            };
+            return self.forces_output(requested, law.errors, faults);
+        }
         self.law_output(&law, faults)
     }
 
@@ -833,24 +843,15 @@ impl Autopilot {
         }
     }
 
-    /// The calibration turn's output: the depth held by the pilot law (sticks centred, its
-    /// heave), the turn's own surge force and yaw moment, allocated and mapped to pulses.
-    fn swing_output(
-        &mut self,
-        nav: &NavState,
-        surge_n: f32,
-        yaw_n_m: f32,
-        dt_s: f32,
+    /// Forces asked for outside the controller's laws (the pilot's `Manual` thrust, the
+    /// calibration turn): allocated and mapped to pulses, in one place for both.
+    #[inline(never)]
+    fn forces_output(
+        &self,
+        requested: BodyForces,
+        errors: TrackingErrors,
         faults: u16,
     ) -> StepOutput {
-        let held = self
-            .controller
-            .pilot_step(nav, &Sticks::default(), true, dt_s);
-        let requested = BodyForces {
-            surge_n,
-            yaw_n_m,
-            heave_n: held.requested.heave_n,
-        };
         let allocation = allocate(&requested, self.controller.limits());
         let out = ControlOutput {
             requested,
@@ -858,7 +859,7 @@ impl Autopilot {
             pulse_us: allocation
                 .thrust_n
                 .map(|f| self.controller.pwm_map().pulse_us(f)),
-            errors: held.errors,
+            errors,
         };
         self.law_output(&out, faults)
     }
@@ -878,18 +879,9 @@ impl Autopilot {
             yaw_n_m: m.yaw * lim.lever_arm_m * (lim.max_forward_n + lim.max_reverse_n),
             heave_n: m.heave * one_way(m.heave),
         };
-        let allocation = allocate(&requested, lim);
-        let out = ControlOutput {
-            requested,
-            allocation,
-            pulse_us: allocation
-                .thrust_n
-                .map(|f| self.controller.pwm_map().pulse_us(f)),
-            errors: TrackingErrors::default(),
-        };
         StepOutput {
             law_ran: false,
-            ..self.law_output(&out, faults)
+            ..self.forces_output(requested, TrackingErrors::default(), faults)
         }
     }
 }
