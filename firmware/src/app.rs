@@ -712,6 +712,8 @@ where
                 .autopilot
                 .onboard_nav()
                 .map_or(Default::default(), |o| o.estimator().health()),
+            compass_cal: self.autopilot.compass_calibration(),
+            compass_swing: self.autopilot.swing_outcome(),
         }
     }
 

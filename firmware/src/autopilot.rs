@@ -21,6 +21,7 @@
 //! the truth), or the on-board estimator ([`OnboardNav`], started by `StartNav`) fed by the
 //! vehicle's IMU and pressure sensor and by the fixes that come down the tether.
 
+use crate::compass_swing::{SwingFlight, SwingOutcome};
 pub use crate::protocol::Failsafe;
 use crate::protocol::{fault, Command, ManualThrust, Mode, NackReason, NavSample};
 use controller_core::alloc::{allocate, Allocation, ESC_NEUTRAL_US};
@@ -131,6 +132,10 @@ pub struct Autopilot {
     /// The compass's deviation (`COMPASS_DEV_*`, `SetCompassCal`), handed to every
     /// on-board estimator started (issue 26).
     compass_cal: CompassCalibration,
+    /// A compass calibration turn in flight (in `Hold`; issue 26).
+    swing: Option<SwingFlight>,
+    /// How the latest calibration turn ended, or that one is flying.
+    swing_outcome: SwingOutcome,
     /// Control steps run.
     pub steps: u32,
 }
@@ -178,6 +183,8 @@ impl Autopilot {
             engaged_us: 0,
             nav_order_reset: false,
             compass_cal: CompassCalibration::NONE,
+            swing: None,
+            swing_outcome: SwingOutcome::None,
             steps: 0,
         }
     }
@@ -253,6 +260,26 @@ impl Autopilot {
         Ok(())
     }
 
+    /// [`Self::feed`], then, during a calibration turn, the raw value to it: a gyro rate
+    /// about `z` at `Some(t_us)`, or (`None`) a compass reading.
+    #[inline(never)]
+    fn feed_swing(
+        &mut self,
+        seq: u16,
+        raw: f32,
+        imu_t_us: Option<u64>,
+        f: impl FnOnce(&mut OnboardNav, [f32; 3]) -> Result<(), Refusal>,
+    ) -> Result<(), NackReason> {
+        self.feed(seq, f)?;
+        if let Some(flight) = self.swing.as_mut() {
+            match imu_t_us {
+                Some(t_us) => flight.imu(raw, t_us),
+                None => flight.reading(raw),
+            }
+        }
+        Ok(())
+    }
+
     /// A new surface session began (the App's handshake): its `Nav` time stamps start a
     /// new order.
     pub fn new_session(&mut self) {
@@ -269,6 +296,78 @@ impl Autopilot {
         self.reference = None;
         self.hold = None;
         self.auto = None;
+        self.abort_swing();
+    }
+
+    /// Stop a calibration turn in flight (the calibration in force stays).
+    fn abort_swing(&mut self) {
+        if self.swing.take().is_some() {
+            self.swing_outcome = SwingOutcome::Aborted;
+        }
+    }
+
+    /// How the latest compass calibration turn ended, or that one is flying.
+    pub fn swing_outcome(&self) -> SwingOutcome {
+        self.swing_outcome
+    }
+
+    /// Start the compass calibration turn (`StartCompassCal`, the ground station's
+    /// `MAV_CMD_DO_START_MAG_CAL`). Only armed (`NotArmed`), in `Hold` (`NotInHold`: not in
+    /// AUTO, `Track` or the pilot modes), with the on-board estimator (`NavSource`), fresh
+    /// (`NavStale`) and ready (`NavNotReady`), and a rate and limit in range (`OutOfRange`).
+    /// A turn already flying starts again. On `Err` nothing changed.
+    #[inline(never)]
+    fn start_swing(
+        &mut self,
+        now_us: u64,
+        yaw_rate_rad_s: f32,
+        time_limit_s: f32,
+    ) -> Result<(), NackReason> {
+        if !self.armed {
+            return Err(NackReason::NotArmed);
+        }
+        if self.mode != Mode::Hold {
+            return Err(NackReason::NotInHold);
+        }
+        let o = self.onboard.as_ref().ok_or(NackReason::NavSource)?;
+        if !self.nav_fresh(now_us) {
+            return Err(NackReason::NavStale);
+        }
+        o.position_ready().map_err(NackReason::NavNotReady)?;
+        let nav = self.nav_state();
+        let flight =
+            SwingFlight::new(&nav, yaw_rate_rad_s, time_limit_s).ok_or(NackReason::OutOfRange)?;
+        self.swing = Some(flight);
+        self.swing_outcome = SwingOutcome::Turning { turned_rad: 0.0 };
+        Ok(())
+    }
+
+    /// One control step of the calibration turn: its sticks, or, when it is over, the fit
+    /// applied (accepted: the calibration in force, as `SetCompassCal` would set it; refused:
+    /// the old one stays) and `Hold` again at the point where the turn started.
+    #[inline(never)]
+    fn swing_step(&mut self, now_us: u64, nav: &NavState, dt_s: f32) -> Option<[f32; 2]> {
+        let flight = self.swing.as_mut()?;
+        let (forces, done) = flight.step(&self.controller.vehicle().xy, nav, dt_s);
+        let Some(fit) = done else {
+            self.swing_outcome = SwingOutcome::Turning {
+                turned_rad: flight.turned_rad(),
+            };
+            return Some(forces);
+        };
+        let hold_m = flight.hold_m();
+        self.swing = None;
+        let applied = fit.and_then(|(cal, residual_rad)| {
+            if let Some(o) = self.onboard.as_mut() {
+                o.set_compass_calibration(&cal)?;
+            }
+            self.compass_cal = cal;
+            Ok(SwingOutcome::Accepted { cal, residual_rad })
+        });
+        self.swing_outcome = applied.unwrap_or_else(SwingOutcome::Refused);
+        self.controller.reset();
+        self.hold = Some((Reference::Hold { pos_m: hold_m }, now_us));
+        None
     }
 
     /// Arm (from disarmed): a clean start in the current mode. A stick mode refuses while
@@ -355,8 +454,13 @@ impl Autopilot {
             Command::OpenSession { .. } => Err(NackReason::Unsupported),
             Command::StopNav => {
                 self.onboard = None;
+                self.abort_swing();
                 Ok(())
             }
+            Command::StartCompassCal {
+                yaw_rate_rad_s,
+                time_limit_s,
+            } => self.start_swing(now_us, *yaw_rate_rad_s, *time_limit_s),
             Command::MissionItem {
                 index,
                 count,
@@ -443,13 +547,19 @@ impl Autopilot {
                 self.onboard_seq = seq;
                 Ok(())
             }
-            Command::Imu(s) => self.feed(seq, |o, thrust| o.imu(now_us, s, thrust)),
+            Command::Imu(s) => {
+                let [_, _, raw_r] = s.gyro_rad_s;
+                self.feed_swing(seq, raw_r, Some(s.t_us), |o, thrust| {
+                    o.imu(now_us, s, thrust)
+                })
+            }
             Command::Pressure { t_us, pressure_pa } => {
                 self.feed(seq, |o, _| o.pressure(now_us, *t_us, *pressure_pa))
             }
             Command::UsblFix(f) => self.feed(seq, |o, _| o.position(f)),
             Command::DvlFix(f) => self.feed(seq, |o, _| o.dvl(f)),
-            Command::Compass(f) => self.feed(seq, |o, _| o.heading(f)),
+            // The raw reading to a turn (the estimator takes the calibration off its copy).
+            Command::Compass(f) => self.feed_swing(seq, f.yaw_rad, None, |o, _| o.heading(f)),
             Command::SetCompassCal(cal) => self.set_compass_calibration(cal),
             _ => self.handle(now_us, seq, cmd),
         }
@@ -556,6 +666,7 @@ impl Autopilot {
     fn set_mode(&mut self, now_us: u64, mode: Mode) -> Result<(), NackReason> {
         let changed = mode != self.mode;
         self.enter_mode(now_us, mode)?;
+        self.abort_swing();
         if changed {
             self.controller.reset();
             self.engaged_us = now_us;
@@ -648,6 +759,14 @@ impl Autopilot {
         if !self.armed || faults & fault::HEARTBEAT_LOST != 0 {
             return self.neutral(faults);
         }
+        // A calibration turn (in `Hold`): its surge and yaw, the depth held by the law on the
+        // hold point; when it ends, the hold point is where it started.
+        let swing_forces = if self.swing.is_some() && self.mode == Mode::Hold && nav_fresh {
+            let nav = self.nav_state();
+            self.swing_step(now_us, &nav, dt_s)
+        } else {
+            None
+        };
         let (sample, cm) = match (self.mode, &self.reference, &self.hold) {
             (Mode::Idle, ..) => return self.neutral(faults),
             (Mode::Manual | Mode::Stabilize | Mode::DepthHold, ..) => {
@@ -697,6 +816,14 @@ impl Autopilot {
         }
         let nav = self.nav_state();
         let law = self.controller.step(cm, &nav, &sample, dt_s);
+        if let Some([surge_n, yaw_n_m]) = swing_forces {
+            let requested = BodyForces {
+                surge_n,
+                yaw_n_m,
+                heave_n: law.requested.heave_n,
+            };
+            return self.forces_output(requested, law.errors, faults);
+        }
         self.law_output(&law, faults)
     }
 
@@ -716,6 +843,27 @@ impl Autopilot {
         }
     }
 
+    /// Forces asked for outside the controller's laws (the pilot's `Manual` thrust, the
+    /// calibration turn): allocated and mapped to pulses, in one place for both.
+    #[inline(never)]
+    fn forces_output(
+        &self,
+        requested: BodyForces,
+        errors: TrackingErrors,
+        faults: u16,
+    ) -> StepOutput {
+        let allocation = allocate(&requested, self.controller.limits());
+        let out = ControlOutput {
+            requested,
+            allocation,
+            pulse_us: allocation
+                .thrust_n
+                .map(|f| self.controller.pwm_map().pulse_us(f)),
+            errors,
+        };
+        self.law_output(&out, faults)
+    }
+
     fn manual_output(&self, m: &ManualThrust, faults: u16) -> StepOutput {
         let lim = self.controller.limits();
         // The largest force each way (the thrusters are asymmetric, so it depends on the sign).
@@ -731,18 +879,9 @@ impl Autopilot {
             yaw_n_m: m.yaw * lim.lever_arm_m * (lim.max_forward_n + lim.max_reverse_n),
             heave_n: m.heave * one_way(m.heave),
         };
-        let allocation = allocate(&requested, lim);
-        let out = ControlOutput {
-            requested,
-            allocation,
-            pulse_us: allocation
-                .thrust_n
-                .map(|f| self.controller.pwm_map().pulse_us(f)),
-            errors: TrackingErrors::default(),
-        };
         StepOutput {
             law_ran: false,
-            ..self.law_output(&out, faults)
+            ..self.forces_output(requested, TrackingErrors::default(), faults)
         }
     }
 }

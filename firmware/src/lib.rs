@@ -15,6 +15,7 @@
 
 pub mod app;
 pub mod autopilot;
+pub mod compass_swing;
 pub mod harness;
 pub mod node;
 pub mod node_link;

@@ -93,18 +93,63 @@ fn hil_usbl_only_circle_with_a_5_deg_compass_bias_matches_software() {
     assert!(hs.rms_position_error_last80_m <= 0.30);
 }
 
-#[test]
-#[ignore = "not done: `host-sim hil` sets Track at the start and the firmware refuses it (NavNotReady(PositionUncertain)) until the estimate is ready; the HIL set-up must wait for it, 2026-11-26"]
-fn hil_circle_told_5_m_and_30_deg_off_matches_software_from_120_s() {
+/// The circle, the estimator told a launch point 3 m / -4 m off (5 m) and a heading 30 degrees
+/// off, with that uncertainty.
+fn circle_told_5_m_and_30_deg_off() -> Scenario {
     let mut sc = Scenario::load("nav-circle-3d").unwrap();
     sc.navigation.start_error_m = [3.0, -4.0];
     sc.navigation.start_heading_error_rad = 30f64.to_radians();
     sc.navigation.start_position_std_m = Some(5.0);
     sc.navigation.start_heading_std_rad = Some(0.6);
     sc.validate().unwrap();
+    sc
+}
+
+/// Without an emulator (the firmware library in process, same frames): the set-up arms in
+/// `Idle` and sets `Track` only once the vehicle takes it (its estimate ready), not at 0;
+/// neutral until then.
+#[test]
+fn hil_waits_for_the_estimate_before_setting_track_in_process() {
+    let sc = circle_told_5_m_and_30_deg_off();
+    let mut o = HilOptions::new(HilTarget::InProcess);
+    o.duration_s = Some(40.0);
+    o.record = false;
+    let h = run_hil(&sc.resolve().unwrap(), &o, None).unwrap();
+    let ready_s = h.report.mode_set_at_s.expect("Track set within the run");
+    eprintln!("in process: Track taken at {ready_s:.2} s");
+    assert!(
+        ready_s > 0.0,
+        "Track taken at once: the start was not unknown"
+    );
+    let before: Vec<_> = h.telemetry.iter().filter(|r| r.t_s < ready_s).collect();
+    assert!(!before.is_empty());
+    assert!(before.iter().all(|r| r.armed && r.thrust_n == [0.0; 3]));
+}
+
+/// Never ready within the limit: the run fails, naming the reason.
+#[test]
+fn hil_fails_with_the_reason_when_the_estimate_is_not_ready_in_time() {
+    let sc = circle_told_5_m_and_30_deg_off();
+    let mut o = HilOptions::new(HilTarget::InProcess);
+    o.duration_s = Some(5.0);
+    o.record = false;
+    o.nav_ready_limit_s = 0.5;
+    let e = run_hil(&sc.resolve().unwrap(), &o, None)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("not ready") && e.contains("NavNotReady"), "{e}");
+}
+
+#[test]
+fn hil_circle_told_5_m_and_30_deg_off_matches_software_from_120_s() {
+    let sc = circle_told_5_m_and_30_deg_off();
     let Some((h, sw, wall_s)) = hil_and_software(&sc) else {
         return;
     };
+    eprintln!(
+        "Track taken at {:?} s (armed, neutral before)",
+        h.report.mode_set_at_s
+    );
     let tracking = |log: &[Sample]| rms_from(log, 120.0, |x| x.pos_err_norm_m);
     let estimation = |log: &[Sample]| rms_from(log, 120.0, horizontal_estimation_error_m);
     let (th, ts) = (tracking(&h.run.log), tracking(&sw.log));

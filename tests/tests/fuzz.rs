@@ -20,6 +20,7 @@
 )]
 
 use controller_core::controller::Gains;
+use controller_core::nav::compass_cal::CompassCalibration;
 use controller_core::nav::onboard::OnboardConfig;
 use controller_core::nav::{DvlFix, HeadingFix, ImuSample, NavHealth, PositionFix};
 use controller_core::params::VehicleParams;
@@ -124,7 +125,19 @@ fn nav_commands() -> impl Strategy<Value = Command> {
                 config,
             }
         }),
-        Just(Command::StopNav),
+        prop_oneof![
+            Just(Command::StopNav),
+            // The compass calibration (issue 26): `COMPASS_DEV_*` and the flown turn.
+            (any_f(), any_f()).prop_map(|(sin_rad, cos_rad)| {
+                Command::SetCompassCal(CompassCalibration { sin_rad, cos_rad })
+            }),
+            (any_f(), any_f()).prop_map(|(yaw_rate_rad_s, time_limit_s)| {
+                Command::StartCompassCal {
+                    yaw_rate_rad_s,
+                    time_limit_s,
+                }
+            }),
+        ],
         (any::<u64>(), proptest::array::uniform6(any_f())).prop_map(|(t_us, v)| {
             Command::Imu(ImuSample {
                 t_us,
@@ -349,7 +362,17 @@ fn largest_messages_fit() {
         nav_pos_std_m: [f32::MAX; 3],
         ..Telemetry::default()
     };
+    let big_cal = CompassCalibration {
+        sin_rad: f32::MAX,
+        cos_rad: f32::MAX,
+    };
     let big_status = Status {
+        compass_cal: big_cal,
+        // The largest outcome: a calibration and a residual.
+        compass_swing: firmware::compass_swing::SwingOutcome::Accepted {
+            cal: big_cal,
+            residual_rad: f32::MAX,
+        },
         nav_health: NavHealth {
             imu_samples: u32::MAX,
             depth_fused: u32::MAX,

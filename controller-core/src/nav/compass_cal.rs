@@ -203,19 +203,12 @@ impl CompassSwing {
     }
 }
 
-/// Solve the symmetric 4x4 system `m x = v` by Gaussian elimination with partial pivoting;
-/// `None` when singular or not finite.
+/// Solve the symmetric positive definite 4x4 system `m x = v` (normal equations) by
+/// Gaussian elimination without pivoting, which is stable for a positive definite matrix
+/// (its pivots are the Schur complements, all positive); `None` when singular or not finite.
+/// No pivot search: the code is smaller on the MCU (the firmware flies the turn, issue 26).
 fn solve(mut m: [[f32; K]; K], mut v: [f32; K]) -> Option<[f32; K]> {
     for col in 0..K {
-        // Pivot: the largest entry at or below the diagonal.
-        let mut best = col;
-        for r in col + 1..K {
-            if m.get(r)?.get(col)?.abs() > m.get(best)?.get(col)?.abs() {
-                best = r;
-            }
-        }
-        m.swap(col, best);
-        v.swap(col, best);
         let pivot_row = *m.get(col)?;
         let pivot = *pivot_row.get(col)?;
         if pivot.is_nan() || pivot.abs() <= 1e-9 {

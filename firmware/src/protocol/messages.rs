@@ -236,6 +236,17 @@ pub enum Command {
     /// estimator takes off every heading. Refused while armed (`Armed`) and when not finite
     /// or beyond 30 degrees (`CompassCal`); the calibration in force then stays.
     SetCompassCal(CompassCalibration),
+    /// Fly the compass calibration turn (issue 26; the ground station's
+    /// `MAV_CMD_DO_START_MAG_CAL`): armed in `Hold` with the on-board estimate ready, a full
+    /// circle in place at `yaw_rate_rad_s` (0.05-0.6 rad/s, either sign), refused as
+    /// `NotFullTurn` if not done within `time_limit_s` (at most 600 s). The outcome is in
+    /// `Status::compass_swing`; an accepted fit is the calibration in force.
+    StartCompassCal {
+        /// Yaw rate of the turn (rad/s).
+        yaw_rate_rad_s: f32,
+        /// Time limit of the turn (s).
+        time_limit_s: f32,
+    },
 }
 
 /// Failsafe timeouts, microseconds of the firmware's clock.
@@ -344,6 +355,10 @@ pub enum NackReason {
     NavNotReady(controller_core::nav::NotReady),
     /// A compass calibration refused (issue 26): the reason; the one in force stays.
     CompassCal(controller_core::nav::compass_cal::CalRefusal),
+    /// A compass calibration turn while disarmed.
+    NotArmed,
+    /// A compass calibration turn outside `Hold` (not in AUTO, `Track` or the pilot modes).
+    NotInHold,
 }
 
 impl From<controller_core::Error> for NackReason {
@@ -469,6 +484,10 @@ pub struct Status {
     pub faults: u16,
     /// The on-board estimator's counters (zeros when it does not run).
     pub nav_health: NavHealth,
+    /// The compass calibration in force (`COMPASS_DEV_*`, radians).
+    pub compass_cal: CompassCalibration,
+    /// The latest compass calibration turn: flying, accepted or refused with the reason.
+    pub compass_swing: crate::compass_swing::SwingOutcome,
 }
 
 /// Which board sent a [`Reply::Hello`].

@@ -42,6 +42,13 @@ pub trait ControllerEndpoint {
     /// One control step at `t_s` on `nav`; `reference` is the loop's sample of the scenario's
     /// reference at `t_s` (a firmware samples its own).
     fn step(&mut self, t_s: f64, nav: &NavState, reference: &RefSample) -> Result<StepReply>;
+    /// The simulated time at which the endpoint's reference began (s): 0 unless the
+    /// endpoint started it later (a firmware that took its mode only once its estimate was
+    /// ready, or after a compass calibration turn, flies the reference from then on). The
+    /// loop samples the scenario's reference at `t - reference_start_s()`.
+    fn reference_start_s(&self) -> f64 {
+        0.0
+    }
     /// Before the step: measurements for the endpoint's own estimator.
     fn forward(&mut self, measurements: &[Measurement]) -> Result<()> {
         if measurements.is_empty() {
@@ -67,6 +74,13 @@ impl CoreEndpoint {
     /// thrusters when the scenario says `saturate = false` (the paper's setting; the
     /// set-up's [`RunSetup::controller_vehicle`]).
     pub fn for_scenario(sc: &RunSetup) -> Result<Self> {
+        if sc.calibration.is_some() {
+            return Err(anyhow!(
+                "scenario {}: the compass calibration turn ([calibration]) is flown by the \
+                 firmware: run it with `host-sim hil` (e.g. --in-process)",
+                sc.name
+            ));
+        }
         let mut controller = Controller::new(*sc.controller_vehicle(), Gains::default())
             .map_err(|e| anyhow!("controller gains: {e}"))?;
         if sc.disturbance.delay_known {
@@ -120,5 +134,8 @@ impl<T: ControllerEndpoint + ?Sized> ControllerEndpoint for &mut T {
     }
     fn forward(&mut self, measurements: &[Measurement]) -> Result<()> {
         (**self).forward(measurements)
+    }
+    fn reference_start_s(&self) -> f64 {
+        (**self).reference_start_s()
     }
 }

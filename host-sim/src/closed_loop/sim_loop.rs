@@ -429,7 +429,8 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
         if k == 0 {
             self.endpoint.start(&nav_state)?;
         }
-        let r: RefSample = self.reference.sample(t as f32);
+        let t_ref = (t - self.endpoint.reference_start_s()).max(0.0);
+        let r: RefSample = self.reference.sample(t_ref as f32);
         self.endpoint.forward(&self.nav.for_vehicle(t))?;
         let out = self.endpoint.step(t, &nav_state, &r)?;
         let (nav_state, nav_std) = match out.estimate {

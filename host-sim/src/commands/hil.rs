@@ -7,7 +7,8 @@ use crate::output::write_run;
 use crate::scenario::deployment::Control;
 use crate::scenario::{RunSetup, Scenario};
 pub use crate::tether::endpoint::{
-    HilOptions, HilOutput, HilReport, HilTarget, TelemetryRow, TetherEndpoint, MAX_REPLY_WAIT,
+    HilOptions, HilOutput, HilReport, HilTarget, TelemetryRow, TetherEndpoint,
+    DEFAULT_NAV_READY_LIMIT_S, MAX_REPLY_WAIT,
 };
 use crate::tether::in_process::InProcessFirmware;
 use crate::tether::link::{open, Link, NoiseSpec, Port};
@@ -146,6 +147,11 @@ pub struct HilArgs {
     /// With --qemu: save the emulated 128 KiB SRAM to FILE at the end (stack high-water).
     #[arg(long, value_name = "FILE")]
     pub ram_dump: Option<PathBuf>,
+    /// With the estimator on board and a position mode: the longest simulated time to wait,
+    /// armed and neutral, for the vehicle's estimate to be ready before the mode is set
+    /// (an unknown start); past it the run fails with the reason (s).
+    #[arg(long, value_name = "SECONDS", default_value_t = DEFAULT_NAV_READY_LIMIT_S)]
+    pub nav_ready_limit: f64,
 }
 
 /// `--noise`: a probability (clap refuses anything else, naming the reason, exit 2).
@@ -210,6 +216,7 @@ pub fn main(a: HilArgs) -> Result<HilOutput> {
     o.apply_pulses = !a.apply_thrust;
     o.qemu = a.qemu_bin;
     o.ram_dump = a.ram_dump;
+    o.nav_ready_limit_s = a.nav_ready_limit;
     if !sc.thrusters.saturate {
         eprintln!(
             "note: scenario {} has no thruster limits, but the firmware always applies the \
@@ -255,6 +262,12 @@ pub fn main(a: HilArgs) -> Result<HilOutput> {
          failsafe steps {}",
         r.board, r.loop_ticks_mean, r.loop_ticks_max, r.steps_disarmed, r.steps_failsafe
     );
+    if let (Some(o), Some(t)) = (r.compass_swing, r.calibration_end_s) {
+        println!("compass calibration turn, ended at {t:.2} s: {o:?}");
+    }
+    if let Some(t) = r.mode_set_at_s.filter(|t| *t > 0.0) {
+        println!("the vehicle's estimate was ready at {t:.2} s: armed and neutral until then");
+    }
     if let Some(stop) = r.heartbeat_stop_s {
         println!(
             "heartbeats stopped at {stop} s: neutral after {}, disarmed after {}",

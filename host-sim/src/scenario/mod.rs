@@ -352,9 +352,32 @@ pub struct Scenario {
     /// Where the control loop runs and the node link's tether (`[deployment]`, issue 25).
     #[serde(default)]
     pub deployment: crate::scenario::deployment::DeploymentSpec,
+    /// `[calibration]`: first fly the compass calibration turn in `Hold`, then the scenario
+    /// (issue 26). Flown by the firmware (`hil`); a software `run` refuses it.
+    #[serde(default)]
+    pub calibration: Option<CalibrationSpec>,
     /// The vehicle's parameters: the file's, read by [`Scenario::load`], or the Observer.
     #[serde(skip, default = "observer_params")]
     pub vehicle_params: VehicleParams,
+}
+
+/// `[calibration]`: the compass calibration turn (`firmware::compass_swing`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CalibrationSpec {
+    /// Yaw rate of the turn (rad/s, 0.05-0.6 either sign), default 0.25.
+    #[serde(default = "d_cal_rate")]
+    pub yaw_rate_rad_s: f64,
+    /// Time limit of the turn (s, at most 600), default 60.
+    #[serde(default = "d_cal_limit")]
+    pub time_limit_s: f64,
+}
+
+fn d_cal_rate() -> f64 {
+    0.25
+}
+fn d_cal_limit() -> f64 {
+    60.0
 }
 
 /// Longest scenario name: it names a folder, and file systems allow 255 bytes per name
@@ -466,6 +489,23 @@ impl Scenario {
     /// Every check of [`Self::validate`]; what they resolved: the control mode and the
     /// core's reference.
     fn check(&self) -> Result<(ControlMode, Reference)> {
+        if let Some(c) = &self.calibration {
+            if !(0.05..=0.6).contains(&c.yaw_rate_rad_s.abs()) {
+                bail!(
+                    "calibration.yaw_rate_rad_s = {} must be 0.05-0.6 rad/s either way",
+                    c.yaw_rate_rad_s
+                );
+            }
+            if !(c.time_limit_s > 0.0 && c.time_limit_s <= 600.0) {
+                bail!(
+                    "calibration.time_limit_s = {} must be in (0, 600] s",
+                    c.time_limit_s
+                );
+            }
+            if self.navigation.source != crate::world::sensors::NavSource::Estimator {
+                bail!("calibration needs navigation.source = \"estimator\" (the turn fits the estimator's yaw rate against the compass)");
+            }
+        }
         if self.name.trim().is_empty() {
             bail!("name must not be empty");
         }

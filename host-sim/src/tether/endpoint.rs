@@ -39,10 +39,13 @@ use crate::world::sensors::NavSource;
 use anyhow::{anyhow, bail, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::nav::onboard::OnboardConfig;
+use controller_core::nav::POSITION_READY_STD_M;
 use controller_core::params::VehicleParams;
 use controller_core::reference::{RefSample, Reference};
 use controller_core::state::NavState;
-use firmware::protocol::{fault, Command, LinkStats, Mode, NavSample, Reply, Telemetry};
+use firmware::protocol::{
+    fault, Command, LinkStats, Mode, NackReason, NavSample, Reply, Telemetry,
+};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -65,6 +68,10 @@ pub enum HilTarget {
 
 /// The longest wait for one reply in a lock-step exchange ([`HilOptions::reply_timeout`]).
 pub const MAX_REPLY_WAIT: Duration = Duration::from_secs(1);
+
+/// Default of [`HilOptions::nav_ready_limit_s`]: a launch point known to a few metres is
+/// ready after the first USBL fixes, well within this.
+pub const DEFAULT_NAV_READY_LIMIT_S: f64 = 120.0;
 
 /// Options of a HIL run.
 #[derive(Debug, Clone)]
@@ -102,6 +109,10 @@ pub struct HilOptions {
     /// Keep a telemetry row per step (`telemetry.csv`, the failsafe checks); the topside,
     /// which runs for hours, keeps none.
     pub telemetry_rows: bool,
+    /// With the estimator on board and a mode that needs a position (`Track`, `Hold`,
+    /// AUTO): the longest simulated time to wait, armed and neutral, for the vehicle's
+    /// estimate to be ready (issue 26: an unknown start) before the run fails (s).
+    pub nav_ready_limit_s: f64,
 }
 
 impl HilOptions {
@@ -121,6 +132,7 @@ impl HilOptions {
             ram_dump: None,
             fly_scenario: true,
             telemetry_rows: true,
+            nav_ready_limit_s: DEFAULT_NAV_READY_LIMIT_S,
         }
     }
 }
@@ -193,6 +205,17 @@ pub struct HilReport {
     pub measurements_refused: u64,
     /// The on-board estimator's counters at the end of the run.
     pub nav_health: Option<controller_core::nav::NavHealth>,
+    /// When the scenario's mode needed a position and the firmware estimates: the simulated
+    /// time at which the vehicle took the mode (its estimate ready); until then it was armed
+    /// and neutral (s).
+    pub mode_set_at_s: Option<f64>,
+    /// With `[calibration]`: how the compass calibration turn ended (the firmware's
+    /// `Status`), and the simulated time it ended (s).
+    pub compass_swing: Option<firmware::compass_swing::SwingOutcome>,
+    /// See [`Self::compass_swing`].
+    pub calibration_end_s: Option<f64>,
+    /// The compass calibration in force on the vehicle at the end of the run.
+    pub compass_cal: Option<controller_core::nav::compass_cal::CompassCalibration>,
 }
 
 /// The result of a HIL run.
@@ -235,6 +258,21 @@ pub struct TetherEndpoint {
     fly_scenario: bool,
     /// The latest telemetry.
     latest: Telemetry,
+    /// The scenario's mode, not yet set: it needs a position and the on-board estimate was
+    /// not ready at the start. Set as soon as the vehicle takes it.
+    pending_mode: Option<Mode>,
+    /// [`HilOptions::nav_ready_limit_s`].
+    nav_ready_limit_s: f64,
+    /// Why the vehicle refused the pending mode the last time it was asked.
+    not_ready: Option<NackReason>,
+    /// Do not ask for the pending mode again before this simulated time (s).
+    next_mode_try_s: Option<f64>,
+    /// `[calibration]`: the turn's `(yaw rate, time limit)`, not yet started.
+    calibration: Option<(f32, f32)>,
+    /// The calibration turn is flying.
+    calibrating: bool,
+    /// When the reference the firmware flies began ([`ControllerEndpoint::reference_start_s`]).
+    reference_start_s: f64,
 }
 
 impl TetherEndpoint {
@@ -299,6 +337,15 @@ impl TetherEndpoint {
             telemetry_rows: opts.telemetry_rows,
             fly_scenario: opts.fly_scenario,
             latest: Telemetry::default(),
+            pending_mode: None,
+            nav_ready_limit_s: opts.nav_ready_limit_s,
+            not_ready: None,
+            next_mode_try_s: None,
+            calibration: sc
+                .calibration
+                .map(|c| (c.yaw_rate_rad_s as f32, c.time_limit_s as f32)),
+            calibrating: false,
+            reference_start_s: 0.0,
         })
     }
 
@@ -335,6 +382,7 @@ impl TetherEndpoint {
         if self.onboard.is_some() {
             self.report.nav_health = end_status.map(|st| st.nav_health);
         }
+        self.report.compass_cal = end_status.map(|st| st.compass_cal);
         let fw: LinkStats = end_status.map(|st| st.link).unwrap_or_default();
         let rep = &mut self.report;
         rep.firmware_rx_frames = fw.rx_frames;
@@ -424,6 +472,104 @@ impl TetherEndpoint {
         }
     }
 
+    /// While the scenario's mode waits for the vehicle's estimate: once the latest telemetry
+    /// reports a horizontal position standard deviation within
+    /// [`POSITION_READY_STD_M`], ask for the mode (the firmware's own check, which includes
+    /// the heading, decides); refused as not ready, ask again a second later. Past
+    /// [`HilOptions::nav_ready_limit_s`] the run fails with the latest reason.
+    fn try_pending_mode(&mut self, t_s: f64) -> Result<()> {
+        if self.pending_mode.is_some() || self.calibrating || self.calibration.is_some() {
+            // The scenario's reference has not started on the vehicle yet.
+            self.reference_start_s = t_s;
+        }
+        if self.pending_mode.is_none() {
+            return self.advance_calibration(t_s);
+        }
+        let Some(mode) = self.pending_mode else {
+            return Ok(());
+        };
+        if t_s > self.nav_ready_limit_s {
+            bail!(
+                "the vehicle's estimate was not ready for {mode:?} within {} s of simulated \
+                 time (latest refusal: {:?}; position std {:?} m); the launch point must be \
+                 known better or the USBL must reach the vehicle",
+                self.nav_ready_limit_s,
+                self.not_ready,
+                self.latest.nav_pos_std_m
+            );
+        }
+        let [sx, sy, _] = self.latest.nav_pos_std_m;
+        let position_ok = sx <= POSITION_READY_STD_M && sy <= POSITION_READY_STD_M;
+        let due = self.next_mode_try_s.is_none_or(|t| t_s >= t);
+        if !(position_ok && due) {
+            return Ok(());
+        }
+        match self.link.command(
+            &Command::SetMode(mode),
+            Duration::from_millis(500),
+            5,
+            |_| {},
+        )? {
+            Ok(()) => {
+                self.pending_mode = None;
+                if self.calibration.is_none() {
+                    self.report.mode_set_at_s = Some(t_s);
+                }
+            }
+            Err(reason @ NackReason::NavNotReady(_)) => {
+                self.not_ready = Some(reason);
+                self.next_mode_try_s = Some(t_s + 1.0);
+            }
+            Err(reason) => bail!("the firmware refused {mode:?} at t = {t_s:.3} s: {reason:?}"),
+        }
+        Ok(())
+    }
+
+    /// `[calibration]`, once in `Hold` with the estimate ready: start the turn; while it
+    /// flies, watch the firmware's `Status` for its outcome; then set the scenario's mode
+    /// (its reference starts then). A refused turn is reported and the scenario flown.
+    fn advance_calibration(&mut self, t_s: f64) -> Result<()> {
+        use firmware::compass_swing::SwingOutcome;
+        if let Some((yaw_rate_rad_s, time_limit_s)) = self.calibration.take() {
+            let cmd = Command::StartCompassCal {
+                yaw_rate_rad_s,
+                time_limit_s,
+            };
+            if let Err(reason) = self
+                .link
+                .command(&cmd, Duration::from_millis(500), 5, |_| {})?
+            {
+                bail!("the firmware refused the compass calibration turn at t = {t_s:.3} s: {reason:?}");
+            }
+            self.calibrating = true;
+            return Ok(());
+        }
+        if !self.calibrating {
+            return Ok(());
+        }
+        let outcome = self.link.last_status.map(|st| st.compass_swing);
+        if let Some(
+            o @ (SwingOutcome::Accepted { .. } | SwingOutcome::Refused(_) | SwingOutcome::Aborted),
+        ) = outcome
+        {
+            self.calibrating = false;
+            self.report.compass_swing = Some(o);
+            self.report.calibration_end_s = Some(t_s);
+            let mode = self.mode;
+            if let Err(reason) = self.link.command(
+                &Command::SetMode(mode),
+                Duration::from_millis(500),
+                5,
+                |_| {},
+            )? {
+                bail!("the firmware refused {mode:?} after the calibration turn: {reason:?}");
+            }
+            self.report.mode_set_at_s = Some(t_s);
+            self.reference_start_s = t_s;
+        }
+        Ok(())
+    }
+
     /// Failsafe timings of a link-loss run.
     fn note_failsafes(&mut self, t_s: f64, tel: &Telemetry) {
         let rep = &mut self.report;
@@ -492,22 +638,46 @@ impl ControllerEndpoint for TetherEndpoint {
                 )?
                 .ok_or_else(|| anyhow!("no Telemetry for the first NavState"))?;
         }
-        let setup = [
-            Command::SetReference {
+        if self.fly_scenario {
+            let set_reference = Command::SetReference {
                 reference: self.reference,
                 start_us: Some(0),
-            },
-            Command::SetMode(self.mode),
-            Command::Arm,
-        ];
-        let setup = if self.fly_scenario { &setup[..] } else { &[] };
-        for cmd in setup {
-            if let Err(reason) = self.link.command(cmd, tmo, 5, |_| {})? {
-                bail!("the firmware refused {cmd:?}: {reason:?}");
+            };
+            if let Err(reason) = self.link.command(&set_reference, tmo, 5, |_| {})? {
+                bail!("the firmware refused {set_reference:?}: {reason:?}");
+            }
+            // A position mode on the on-board estimate: the vehicle refuses it until the
+            // estimate is ready (an unknown start); arm in `Idle` (neutral) and set the mode
+            // between the steps as soon as it is taken (`try_pending_mode`).
+            // With `[calibration]`, the turn is flown in `Hold` first.
+            let first = if self.calibration.is_some() {
+                Mode::Hold
+            } else {
+                self.mode
+            };
+            let needs_position = matches!(first, Mode::Track { .. } | Mode::Hold | Mode::Auto);
+            match self
+                .link
+                .command(&Command::SetMode(first), tmo, 5, |_| {})?
+            {
+                Ok(()) if self.calibration.is_none() => self.report.mode_set_at_s = Some(0.0),
+                Ok(()) => {}
+                Err(reason @ NackReason::NavNotReady(_)) if needs_position => {
+                    self.pending_mode = Some(first);
+                    self.not_ready = Some(reason);
+                }
+                Err(reason) => bail!("the firmware refused {first:?}: {reason:?}"),
+            }
+            if let Err(reason) = self.link.command(&Command::Arm, tmo, 5, |_| {})? {
+                bail!("the firmware refused Arm: {reason:?}");
             }
         }
         self.link.set_noise(self.noise.take());
         Ok(())
+    }
+
+    fn reference_start_s(&self) -> f64 {
+        self.reference_start_s
     }
 
     fn step(&mut self, t_s: f64, nav: &NavState, _reference: &RefSample) -> Result<StepReply> {
@@ -530,6 +700,8 @@ impl ControllerEndpoint for TetherEndpoint {
         self.report.loop_ticks_max = self.report.loop_ticks_max.max(tel.loop_ticks);
         self.note_failsafes(t_s, &tel);
         self.latest = tel;
+        // After the exchange, so that the measurements' Nacks of this step are counted.
+        self.try_pending_mode(t_s)?;
         if !self.telemetry_rows {
             return Ok(self.reply(&tel, applied));
         }

@@ -48,6 +48,7 @@
 //! The start (arguments, the vehicle behind the tether, the ground stations, the logs) is in
 //! `start`; the `Topside` here owns the state and runs the loop.
 
+mod calibration;
 mod commander;
 mod geodesy;
 mod logs;
@@ -184,6 +185,8 @@ struct Topside {
     last_faults: u16,
     /// Where accepted parameters are saved.
     params_file: PathBuf,
+    /// The compass calibration turn's outcome last reported (`calibration.rs`).
+    mag_cal: Option<firmware::compass_swing::SwingOutcome>,
 }
 
 impl Topside {
@@ -223,6 +226,7 @@ impl Topside {
                 v.link().send(&Command::ManualThrust(self.manual))?;
             }
             v.step()?;
+            self.poll_mag_cal()?;
 
             let faults = self.v.tel.faults & !fault::SATURATED;
             for (bit, name) in FAULT_NAMES {
@@ -469,6 +473,7 @@ impl Topside {
                             self.refuse(station, c.command, &why)?
                         }
                     },
+                    MavCmd::MAV_CMD_DO_START_MAG_CAL => self.start_mag_cal(station)?,
                     other => {
                         self.gcs
                             .ack(station, other, MavResult::MAV_RESULT_UNSUPPORTED)?;

@@ -184,6 +184,7 @@ pub fn main(a: TopsideArgs) -> Result<()> {
         manual_at: None,
         guided: false,
         last_faults: 0,
+        mag_cal: None,
         params_file: a.params.clone(),
     };
     t.run(&a)
