@@ -328,7 +328,11 @@ if [ -n "$TOP_FLASH" ]; then
   fi
 fi
 if [ -n "$TOPEMU_FLASH" ]; then
-  check "topside-emu flash" "$TOPEMU_FLASH" $((96 * 1024)) B
+  # The emulation image carries the host-clock harness (USART3) on top of the topside's
+  # App. Issue 26's flown compass turn (+4,156 B: the deviation fit and the turn) took it
+  # over 96 KiB (98,896 B on 2026-11-26) while the flashed images stay within it, so it
+  # takes the budget's allowance for an open issue's feature, 112 KiB (docs/deployment.md).
+  check "topside-emu flash (112 KiB allowance: issue 26's compass turn)" "$TOPEMU_FLASH" $((112 * 1024)) B
 fi
 if [ -n "$TOP_LOOP" ]; then
   check "loop.topside_3d (mean)" "$(echo "$TOP_LOOP" | field mean)" $BUDGET instructions
