@@ -26,6 +26,8 @@ pub mod topside_link;
 
 #[cfg(target_os = "none")]
 pub mod board;
+#[cfg(target_os = "none")]
+pub mod emulated;
 #[cfg(all(target_os = "none", feature = "topside-board"))]
 pub mod topside_board;
 #[cfg(all(target_os = "none", feature = "topside-board"))]

@@ -7,8 +7,6 @@
 #[cfg(target_os = "none")]
 mod image {
     use cortex_m as _;
-    use cortex_m_rt::{exception, ExceptionFrame};
-    use cortex_m_semihosting::debug::{self, EXIT_FAILURE};
     use defmt_semihosting as _;
 
     #[cortex_m_rt::entry]
@@ -16,29 +14,7 @@ mod image {
         firmware::board::run(firmware::board::Variant::Qemu)
     }
 
-    #[panic_handler]
-    fn panic(info: &core::panic::PanicInfo) -> ! {
-        match info.location() {
-            Some(l) => defmt::error!("panic at {=str}:{=u32}", l.file(), l.line()),
-            None => defmt::error!("panic"),
-        }
-        debug::exit(EXIT_FAILURE);
-        loop {
-            cortex_m::asm::bkpt();
-        }
-    }
-
-    // cortex-m-rt requires the HardFault handler to be declared `unsafe`.
-    // SAFETY: it only logs and exits through semihosting; it never returns.
-    #[allow(unsafe_code)]
-    #[exception]
-    unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
-        defmt::error!("HardFault at pc {=u32:#x}", ef.pc());
-        debug::exit(EXIT_FAILURE);
-        loop {
-            cortex_m::asm::bkpt();
-        }
-    }
+    firmware::emulated_fault_handlers!(with_location = true);
 }
 
 #[cfg(not(target_os = "none"))]

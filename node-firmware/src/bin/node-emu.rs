@@ -8,8 +8,6 @@
 #[cfg(target_os = "none")]
 mod image {
     use cortex_m as _;
-    use cortex_m_rt::{exception, ExceptionFrame};
-    use cortex_m_semihosting::debug::{self, EXIT_FAILURE};
     use defmt_semihosting as _;
 
     #[cortex_m_rt::entry]
@@ -17,26 +15,7 @@ mod image {
         node_firmware::emu_board::run()
     }
 
-    #[panic_handler]
-    fn panic(_: &core::panic::PanicInfo) -> ! {
-        defmt::error!("node-emu panic");
-        debug::exit(EXIT_FAILURE);
-        loop {
-            cortex_m::asm::bkpt();
-        }
-    }
-
-    // cortex-m-rt requires the HardFault handler to be declared `unsafe`.
-    // SAFETY: it only logs and exits through semihosting; it never returns.
-    #[allow(unsafe_code)]
-    #[exception]
-    unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
-        defmt::error!("node-emu HardFault at pc {=u32:#x}", ef.pc());
-        debug::exit(EXIT_FAILURE);
-        loop {
-            cortex_m::asm::bkpt();
-        }
-    }
+    firmware::emulated_fault_handlers!(with_location = false);
 }
 
 #[cfg(not(target_os = "none"))]
