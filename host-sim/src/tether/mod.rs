@@ -7,5 +7,6 @@ pub mod in_process;
 pub mod link;
 pub mod port;
 pub mod qemu;
+pub mod report;
 pub mod tether_log;
 pub mod topside_layout;
