@@ -9,36 +9,14 @@
 //! Without Python 3 or pymavlink this test prints SKIPPED with the fix; with
 //! `ROV_REQUIRE_PYMAVLINK=1` (set by `.ci/run`) it fails instead.
 
+mod gcs;
+
+use gcs::{free_udp_port, pymavlink_or_skip, stop};
 use std::net::UdpSocket;
 use std::os::unix::process::CommandExt;
 use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-fn pymavlink_or_skip() -> bool {
-    let ok = Command::new("python3")
-        .args(["-c", "import pymavlink"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success());
-    if !ok {
-        let why = "python3 with pymavlink not found";
-        if std::env::var("ROV_REQUIRE_PYMAVLINK").is_ok_and(|v| v == "1") {
-            panic!("{why} and ROV_REQUIRE_PYMAVLINK=1; fix: python3 -m pip install pymavlink");
-        }
-        println!("SKIPPED: {why}; fix: python3 -m pip install pymavlink");
-    }
-    ok
-}
-
-fn free_udp_port() -> u16 {
-    UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
 
 #[test]
 fn pymavlink_flies_the_simulated_vehicle_and_reads_the_tlog() {
@@ -213,16 +191,6 @@ fn topside(
         .process_group(0)
         .spawn()
         .unwrap()
-}
-
-/// Stop a topside and what it started (the emulator of `--emulated`): a killed process runs
-/// no destructors, so its whole process group is killed.
-fn stop(mut child: std::process::Child) {
-    let _ = Command::new("kill")
-        .args(["-KILL", "--", &format!("-{}", child.id())])
-        .status();
-    let _ = child.kill();
-    let _ = child.wait();
 }
 
 fn client(args: &[&str]) -> String {

@@ -1,0 +1,43 @@
+//! What the tests that fly `host-sim topside` from a real ground station (pymavlink, MAVProxy)
+//! share: the check that pymavlink is there (SKIPPED with the fix, or a failure with
+//! `ROV_REQUIRE_PYMAVLINK=1` as `.ci/run` sets it), a free UDP port, stopping a topside.
+
+use std::net::UdpSocket;
+use std::process::{Command, Stdio};
+
+/// Is pymavlink importable? Without it: SKIPPED with the fix, or a panic when CI requires it.
+pub fn pymavlink_or_skip() -> bool {
+    let ok = Command::new("python3")
+        .args(["-c", "import pymavlink"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    if !ok {
+        let why = "python3 with pymavlink not found";
+        if std::env::var("ROV_REQUIRE_PYMAVLINK").is_ok_and(|v| v == "1") {
+            panic!("{why} and ROV_REQUIRE_PYMAVLINK=1; fix: python3 -m pip install pymavlink");
+        }
+        println!("SKIPPED: {why}; fix: python3 -m pip install pymavlink");
+    }
+    ok
+}
+
+/// A UDP port nobody listens on now.
+pub fn free_udp_port() -> u16 {
+    UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+/// Stop a topside and what it started (the emulator of `--emulated`): a killed process runs
+/// no destructors, so its whole process group (started with `process_group(0)`) is killed.
+pub fn stop(mut child: std::process::Child) {
+    let _ = Command::new("kill")
+        .args(["-KILL", "--", &format!("-{}", child.id())])
+        .status();
+    let _ = child.kill();
+    let _ = child.wait();
+}
