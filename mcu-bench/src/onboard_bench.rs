@@ -183,34 +183,7 @@ pub fn run_onboard<P: Platform>(b: &Bench<'_, P>, p: &P) {
             now_us.set(t_us);
             let serial = app.parts_mut().1;
             serial.clear_tx();
-            let mut send = |cmd: &Command| {
-                seq = seq.wrapping_add(1);
-                let mut out = [0u8; MAX_FRAME_LEN];
-                serial.append(frame(seq, cmd, &mut out));
-            };
-            if i % 5 == 0 {
-                send(&Command::Heartbeat { t_us });
-                send(&Command::Compass(HeadingFix {
-                    t_us,
-                    yaw_rad: 0.001 * (i % 3) as f32,
-                    std_rad: 0.02,
-                }));
-            }
-            if i % 10 == 0 {
-                send(&Command::DvlFix(DvlFix {
-                    t_us,
-                    velocity_m_s: [0.001, -0.001],
-                    std_m_s: 0.01,
-                }));
-            }
-            if i % 50 == 0 && t_us > 300_000 {
-                send(&Command::UsblFix(PositionFix {
-                    t_us: t_us - 300_000,
-                    north_m: 0.02,
-                    east_m: -0.02,
-                    std_m: 0.3,
-                }));
-            }
+            surface_frames(serial, &mut seq, i, t_us);
         },
         |app| app.tick(),
         |app| {
@@ -249,5 +222,40 @@ pub fn run_onboard<P: Platform>(b: &Bench<'_, P>, p: &P) {
         p.print(format_args!(
             "WARN loop.onboard_3d: sensor-lost {lost}, disarmed {disarmed}, no law {no_law}"
         ));
+    }
+}
+
+/// The surface's frames before control pass `i` at `t_us` (the estimator's inputs from the
+/// PC, as a dive sends them): a heartbeat and a compass heading every 5th pass, a DVL
+/// velocity every 10th, a USBL fix 0.3 s old every 50th. Shared by the onboard and the
+/// topside loop benches, so both time the same load.
+pub(crate) fn surface_frames(serial: &mut FakeSerial, seq: &mut u16, i: u32, t_us: u64) {
+    let mut send = |cmd: &Command| {
+        *seq = seq.wrapping_add(1);
+        let mut out = [0u8; MAX_FRAME_LEN];
+        serial.append(frame(*seq, cmd, &mut out));
+    };
+    if i.is_multiple_of(5) {
+        send(&Command::Heartbeat { t_us });
+        send(&Command::Compass(HeadingFix {
+            t_us,
+            yaw_rad: 0.001 * (i % 3) as f32,
+            std_rad: 0.02,
+        }));
+    }
+    if i.is_multiple_of(10) {
+        send(&Command::DvlFix(DvlFix {
+            t_us,
+            velocity_m_s: [0.001, -0.001],
+            std_m_s: 0.01,
+        }));
+    }
+    if i.is_multiple_of(50) && t_us > 300_000 {
+        send(&Command::UsblFix(PositionFix {
+            t_us: t_us - 300_000,
+            north_m: 0.02,
+            east_m: -0.02,
+            std_m: 0.3,
+        }));
     }
 }

@@ -13,9 +13,10 @@
 
 use crate::bench::{Bench, Platform, CALLS};
 use crate::loop_bench::{frame, open_session, FakeSerial};
+use crate::onboard_bench::surface_frames;
 use controller_core::controller::{Controller, Gains};
 use controller_core::nav::onboard::{OnboardConfig, PressureDepth};
-use controller_core::nav::{DvlFix, HeadingFix, PositionFix, GRAVITY_M_S2};
+use controller_core::nav::GRAVITY_M_S2;
 use controller_core::params::Vehicle;
 use controller_core::state::NavState;
 use core::cell::Cell;
@@ -134,34 +135,7 @@ pub fn run_topside<P: Platform>(b: &Bench<'_, P>, p: &P) {
             }
             let serial = t.app.parts_mut().1;
             serial.clear_tx();
-            let mut send = |cmd: &Command| {
-                seq = seq.wrapping_add(1);
-                let mut out = [0u8; MAX_FRAME_LEN];
-                serial.append(frame(seq, cmd, &mut out));
-            };
-            if i % 5 == 0 {
-                send(&Command::Heartbeat { t_us });
-                send(&Command::Compass(HeadingFix {
-                    t_us,
-                    yaw_rad: 0.001 * (i % 3) as f32,
-                    std_rad: 0.02,
-                }));
-            }
-            if i % 10 == 0 {
-                send(&Command::DvlFix(DvlFix {
-                    t_us,
-                    velocity_m_s: [0.001, -0.001],
-                    std_m_s: 0.01,
-                }));
-            }
-            if i % 50 == 0 && t_us > 300_000 {
-                send(&Command::UsblFix(PositionFix {
-                    t_us: t_us - 300_000,
-                    north_m: 0.02,
-                    east_m: -0.02,
-                    std_m: 0.3,
-                }));
-            }
+            surface_frames(serial, &mut seq, i, t_us);
         },
         // The board's loop pass (`topside_board.rs`).
         |t| {
