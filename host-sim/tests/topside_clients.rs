@@ -11,7 +11,7 @@
 
 mod gcs;
 
-use gcs::{free_udp_port, pymavlink_or_skip, stop};
+use gcs::{free_udp_port, pymavlink_or_skip, stop, topside_sim};
 use std::net::UdpSocket;
 use std::os::unix::process::CommandExt;
 use std::path::PathBuf;
@@ -172,25 +172,13 @@ fn topside(
     params: &std::path::Path,
     extra: &[&str],
 ) -> std::process::Child {
-    Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .args([
-            "topside",
-            "--sim",
-            "circle-3d",
-            "--mavlink",
-            &format!("udpout:127.0.0.1:{port}"),
-            "--duration",
-            "300",
-            "--tlog",
-        ])
-        .arg(tlog)
-        .arg("--params")
-        .arg(params)
-        .args(extra)
-        // A process group of its own, so that `stop` ends QEMU with it.
-        .process_group(0)
-        .spawn()
-        .unwrap()
+    topside_sim(
+        "circle-3d",
+        port,
+        tlog,
+        params,
+        &[&["--duration", "300"], extra].concat(),
+    )
 }
 
 fn client(args: &[&str]) -> String {
@@ -794,25 +782,13 @@ fn pymavlink_flies_a_mission_on_the_vehicles_own_estimator() {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let port = free_udp_port();
-    let mut topside = Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .args([
-            "topside",
-            "--sim",
-            "nav-circle-3d",
-            "--mavlink",
-            &format!("udpout:127.0.0.1:{port}"),
-            "--duration",
-            "400",
-            "--speedup",
-            "4",
-        ])
-        .arg("--tlog")
-        .arg(dir.join("est.tlog"))
-        .arg("--params")
-        .arg(dir.join("params.json"))
-        .process_group(0)
-        .spawn()
-        .unwrap();
+    let topside = topside_sim(
+        "nav-circle-3d",
+        port,
+        &dir.join("est.tlog"),
+        &dir.join("params.json"),
+        &["--duration", "400", "--speedup", "4"],
+    );
     let out = Command::new("python3")
         .arg(concat!(
             env!("CARGO_MANIFEST_DIR"),
@@ -823,8 +799,7 @@ fn pymavlink_flies_a_mission_on_the_vehicles_own_estimator() {
         .arg("150")
         .output()
         .unwrap();
-    let _ = topside.kill();
-    let _ = topside.wait();
+    stop(topside);
     let stdout = String::from_utf8_lossy(&out.stdout).to_string();
     let pass: Vec<&str> = stdout.lines().filter(|l| !l.starts_with("POS")).collect();
     println!(

@@ -8,8 +8,7 @@
 
 mod gcs;
 
-use gcs::{free_udp_port, pymavlink_or_skip, stop};
-use std::os::unix::process::CommandExt;
+use gcs::{free_udp_port, pymavlink_or_skip, stop, topside_sim};
 use std::path::PathBuf;
 use std::process::Command;
 
@@ -45,25 +44,13 @@ fn pymavlink_starts_the_compass_turn_and_reads_the_fit_back() {
     std::fs::write(&file, scenario).unwrap();
 
     let port = free_udp_port();
-    let topside = Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .arg("topside")
-        .arg("--sim")
-        .arg(&file)
-        .args([
-            "--mavlink",
-            &format!("udpout:127.0.0.1:{port}"),
-            "--duration",
-            "600",
-            "--speedup",
-            "4",
-        ])
-        .arg("--tlog")
-        .arg(dir.join("cal.tlog"))
-        .arg("--params")
-        .arg(dir.join("params.json"))
-        .process_group(0)
-        .spawn()
-        .unwrap();
+    let topside = topside_sim(
+        &file,
+        port,
+        &dir.join("cal.tlog"),
+        &dir.join("params.json"),
+        &["--duration", "600", "--speedup", "4"],
+    );
     let out = Command::new("python3")
         .arg(concat!(
             env!("CARGO_MANIFEST_DIR"),

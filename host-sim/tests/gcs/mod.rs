@@ -2,8 +2,11 @@
 //! share: the check that pymavlink is there (SKIPPED with the fix, or a failure with
 //! `ROV_REQUIRE_PYMAVLINK=1` as `.ci/run` sets it), a free UDP port, stopping a topside.
 
+use std::ffi::OsStr;
 use std::net::UdpSocket;
-use std::process::{Command, Stdio};
+use std::os::unix::process::CommandExt;
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
 
 /// Is pymavlink importable? Without it: SKIPPED with the fix, or a panic when CI requires it.
 pub fn pymavlink_or_skip() -> bool {
@@ -34,10 +37,35 @@ pub fn free_udp_port() -> u16 {
 
 /// Stop a topside and what it started (the emulator of `--emulated`): a killed process runs
 /// no destructors, so its whole process group (started with `process_group(0)`) is killed.
-pub fn stop(mut child: std::process::Child) {
+pub fn stop(mut child: Child) {
     let _ = Command::new("kill")
         .args(["-KILL", "--", &format!("-{}", child.id())])
         .status();
     let _ = child.kill();
     let _ = child.wait();
+}
+
+/// `host-sim topside --sim SCENARIO` sending MAVLink to `udpout:127.0.0.1:PORT`, its tlog and
+/// parameters file where the test says, with `extra` arguments (`--duration`, `--speedup`,
+/// ...), in a process group of its own so that [`stop`] ends what it starts (QEMU).
+pub fn topside_sim(
+    scenario: impl AsRef<OsStr>,
+    port: u16,
+    tlog: &Path,
+    params: &Path,
+    extra: &[&str],
+) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .arg("topside")
+        .arg("--sim")
+        .arg(scenario)
+        .args(["--mavlink", &format!("udpout:127.0.0.1:{port}")])
+        .arg("--tlog")
+        .arg(tlog)
+        .arg("--params")
+        .arg(params)
+        .args(extra)
+        .process_group(0)
+        .spawn()
+        .unwrap()
 }
