@@ -10,7 +10,9 @@ use controller_core::controller::{Controller, Gains};
 use controller_core::model::{rk4_step, xy};
 use controller_core::params::Vehicle;
 use controller_core::state::{BodyForces, NavState, XyState};
-use firmware::protocol::{encode, Command, Decoded, FrameDecoder, Reply, MAX_FRAME_LEN};
+use firmware::protocol::{
+    encode, Command, Decoded, FrameDecoder, NackReason, Reply, MAX_FRAME_LEN,
+};
 use firmware::{App, Config, Monotonic};
 use std::cell::RefCell;
 use std::convert::Infallible;
@@ -266,4 +268,12 @@ impl XyPlant {
             ..NavState::default()
         }
     }
+}
+
+/// The reason the vehicle refused the frame `seq`, if it refused it.
+pub fn nacked(replies: &[Reply], seq: u16) -> Option<NackReason> {
+    replies.iter().find_map(|r| match r {
+        Reply::Nack { seq: s, reason } if *s == seq => Some(*reason),
+        _ => None,
+    })
 }

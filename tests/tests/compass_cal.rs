@@ -15,16 +15,9 @@ use controller_core::nav::compass_cal::{CalRefusal, CompassCalibration};
 use controller_core::nav::onboard::{OnboardConfig, PressureDepth};
 use controller_core::nav::{HeadingFix, ImuSample, GRAVITY_M_S2};
 use controller_core::state::NavState;
-use firmware::protocol::{Board, Command, NackReason, Reply};
+use firmware::protocol::{Board, Command, NackReason};
 use firmware::Config;
-use rov_tests::{app, TestApp, Topside};
-
-fn nacked(replies: &[Reply], seq: u16) -> Option<NackReason> {
-    replies.iter().find_map(|r| match r {
-        Reply::Nack { seq: s, reason } if *s == seq => Some(*reason),
-        _ => None,
-    })
-}
+use rov_tests::{app, nacked, TestApp, Topside};
 
 fn set(a: &mut TestApp, t: &mut Topside, cal: CompassCalibration) -> Option<NackReason> {
     let (seq, r) = t.send(a, &Command::SetCompassCal(cal));

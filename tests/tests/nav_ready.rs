@@ -13,16 +13,9 @@
 use controller_core::nav::onboard::{OnboardConfig, PressureDepth};
 use controller_core::nav::{ImuSample, NotReady, PositionFix, GRAVITY_M_S2};
 use controller_core::state::NavState;
-use firmware::protocol::{Board, Command, Mode, NackReason, Reply};
+use firmware::protocol::{Board, Command, Mode, NackReason};
 use firmware::Config;
-use rov_tests::{app, TestApp, Topside};
-
-fn nacked(replies: &[Reply], seq: u16) -> Option<NackReason> {
-    replies.iter().find_map(|r| match r {
-        Reply::Nack { seq: s, reason } if *s == seq => Some(*reason),
-        _ => None,
-    })
-}
+use rov_tests::{app, nacked, TestApp, Topside};
 
 /// One second of 50 Hz IMU samples at rest, pressures at 2 m, and a USBL fix of the origin
 /// at its end (when `fix`), from `t0_us`.

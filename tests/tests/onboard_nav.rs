@@ -17,16 +17,9 @@ use firmware::protocol::{
     fault, Board, Command, Mode, NackReason, NavSample, Reply, Status, Telemetry,
 };
 use firmware::Config;
-use rov_tests::{app, FakeClock, TestApp, Topside};
+use rov_tests::{app, nacked, FakeClock, TestApp, Topside};
 
 const NEUTRAL_US: f32 = 1500.0;
-
-fn nacked(replies: &[Reply], seq: u16) -> Option<NackReason> {
-    replies.iter().find_map(|r| match r {
-        Reply::Nack { seq: s, reason } if *s == seq => Some(*reason),
-        _ => None,
-    })
-}
 
 fn telemetry(replies: &[Reply]) -> Option<Telemetry> {
     replies.iter().rev().find_map(|r| match r {

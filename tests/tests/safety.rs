@@ -17,7 +17,7 @@ use firmware::protocol::{
 };
 use firmware::{Config, Timing};
 use proptest::prelude::*;
-use rov_tests::{app, pulses_us, FakeClock, TestApp, Topside, PWM_MAX_DUTY};
+use rov_tests::{app, nacked, pulses_us, FakeClock, TestApp, Topside, PWM_MAX_DUTY};
 
 const NEUTRAL_DUTY: u16 = 1500; // 1500 us of a 20 000 us period at 1 us per step
 
@@ -35,13 +35,6 @@ fn nav(t_us: u64) -> Command {
 
 fn acked(replies: &[Reply], seq: u16) -> bool {
     replies.contains(&Reply::Ack { seq })
-}
-
-fn nacked(replies: &[Reply], seq: u16) -> Option<NackReason> {
-    replies.iter().find_map(|r| match r {
-        Reply::Nack { seq: s, reason } if *s == seq => Some(*reason),
-        _ => None,
-    })
 }
 
 fn duties(a: &mut TestApp) -> [u16; 3] {
