@@ -7,6 +7,7 @@ fn largest_downlink() -> Downlink {
         pulse_us: [u16::MAX; 3],
         ttl_ms: u8::MAX,
         arm: ArmCommand::Armed,
+        t_us: u32::MAX,
     }
 }
 
@@ -14,6 +15,8 @@ fn largest_uplink() -> Uplink {
     Uplink {
         session: u32::MAX,
         echo_seq: u16::MAX,
+        echo_t_us: u32::MAX,
+        imu_age_us: u32::MAX,
         dt_us: u32::MAX,
         samples: u16::MAX,
         delta_angle_rad: [f32::MAX; 3],
@@ -100,6 +103,7 @@ fn frames_round_trip_in_a_stream() {
         pulse_us: [1500, 1100, 1900],
         ttl_ms: 60,
         arm: ArmCommand::Disarmed,
+        t_us: 0,
     };
     let mut stream = frame_of(3, &a).to_vec();
     stream.extend_from_slice(&frame_of(4, &b));
@@ -129,6 +133,7 @@ fn every_flipped_bit_is_dropped_and_counted() {
         pulse_us: [1600, 1400, 1500],
         ttl_ms: 50,
         arm: ArmCommand::Armed,
+        t_us: 123_456,
     };
     let frame = frame_of(1, &msg);
     let inner = frame.len() - 2;
@@ -174,6 +179,7 @@ fn garbage_and_overlong_frames_resynchronize() {
         pulse_us: [1500; 3],
         ttl_ms: 100,
         arm: ArmCommand::Disarmed,
+        t_us: 1,
     };
     let mut d = LinkDecoder::<Downlink>::new();
     let mut stream = vec![0x55u8; 3 * MAX_LINK_FRAME_LEN];
