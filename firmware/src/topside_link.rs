@@ -27,9 +27,10 @@
 //! | after 250 ms without a valid uplink | the next uplink's sequence is taken whatever it is (a node restarted by its watchdog counts from 0) | |
 
 use crate::node_link::{
-    seal, seq_newer, status, wire_time_us, ArmCommand, Downlink, LinkDecoder, LinkFrame,
-    NodeCounters, Uplink, ESC_MAX_US, ESC_MIN_US, ESC_NEUTRAL_US, LINK_BAUD, LINK_PERIOD_US,
-    MAX_DOWNLINK_FRAME_LEN, MAX_TTL_MS, MAX_UPLINK_FRAME_LEN,
+    check_link_period, default_link_period_us, seal, seq_newer, status, wire_time_us, ArmCommand,
+    Downlink, LinkDecoder, LinkFrame, LinkPeriodError, NodeCounters, Uplink, ESC_MAX_US,
+    ESC_MIN_US, ESC_NEUTRAL_US, LINK_BAUD, LINK_PERIOD_US, MAX_DOWNLINK_FRAME_LEN, MAX_TTL_MS,
+    MAX_UPLINK_FRAME_LEN,
 };
 use crate::protocol::{DropReason, MAX_FRAME_LEN};
 use crate::sensors::Sensors;
@@ -89,6 +90,20 @@ pub struct TopsideConfig {
 }
 
 impl TopsideConfig {
+    /// At `baud`, the link period of [`default_link_period_us`] (20 ms at 115,200 Bd, 5 ms
+    /// at 1 Mbd); otherwise as [`TopsideConfig::new`].
+    pub const fn for_baud(session: u32, baud: u32) -> Self {
+        let mut c = Self::new(session);
+        c.baud = baud;
+        c.link_period_us = default_link_period_us(baud);
+        c
+    }
+
+    /// Check the link period against the node's IMU period and the link's rate.
+    pub fn check(&self, imu_period_us: u32) -> Result<(), LinkPeriodError> {
+        check_link_period(self.link_period_us, imu_period_us, self.baud)
+    }
+
     /// 50 Hz, 100 ms time to live, prediction only after 3 silent periods, neutral at 250 ms.
     pub const fn new(session: u32) -> Self {
         Self {

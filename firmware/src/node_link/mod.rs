@@ -85,6 +85,85 @@ pub const fn wire_time_us(bytes: usize, baud: u32) -> u32 {
     bits.div_ceil(baud) as u32
 }
 
+/// The link periods a layout picks from by default, shortest first (200, 100, 50 Hz).
+pub const DEFAULT_LINK_PERIODS_US: [u32; 3] = [5_000, 10_000, LINK_PERIOD_US];
+
+/// Share of a link period the larger frame (the uplink, at its bound) keeps one direction
+/// busy at `baud`, in per mille, rounded up.
+pub const fn busy_per_mille(link_period_us: u32, baud: u32) -> u32 {
+    let up_us = wire_time_us(MAX_UPLINK_FRAME_LEN, baud) as u64;
+    let period = if link_period_us == 0 {
+        1
+    } else {
+        link_period_us as u64
+    };
+    let pm = (up_us * 1_000).div_ceil(period);
+    if pm > u32::MAX as u64 {
+        u32::MAX
+    } else {
+        pm as u32
+    }
+}
+
+/// The default link period at `baud`: the shortest of [`DEFAULT_LINK_PERIODS_US`] that keeps
+/// each direction at most half busy; [`LINK_PERIOD_US`] when none does (115,200 Bd: 20 ms,
+/// the images' period; 1 Mbd: 5 ms). A shorter period makes the increments younger (their
+/// oldest sample is one period older than their newest).
+pub const fn default_link_period_us(baud: u32) -> u32 {
+    let mut i = 0;
+    while i < DEFAULT_LINK_PERIODS_US.len() {
+        let p = DEFAULT_LINK_PERIODS_US[i];
+        if busy_per_mille(p, baud) <= 500 {
+            return p;
+        }
+        i += 1;
+    }
+    LINK_PERIOD_US
+}
+
+/// Why a link period was refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum LinkPeriodError {
+    /// Shorter than the IMU period: an uplink would carry no new sample.
+    BelowImuPeriod,
+    /// The uplink would keep its direction more than half busy at this rate.
+    OverHalfBusy,
+    /// Longer than [`LINK_PERIOD_US`]: below the 50 Hz the control needs.
+    Below50Hz,
+}
+
+impl core::fmt::Display for LinkPeriodError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            LinkPeriodError::BelowImuPeriod => "shorter than the node's IMU period",
+            LinkPeriodError::OverHalfBusy => {
+                "the uplink would keep the link more than 50 % busy at this rate"
+            }
+            LinkPeriodError::Below50Hz => "longer than 20 ms (below 50 Hz)",
+        })
+    }
+}
+
+impl core::error::Error for LinkPeriodError {}
+
+/// Check a link period against the node's IMU period and the link's rate.
+pub fn check_link_period(
+    link_period_us: u32,
+    imu_period_us: u32,
+    baud: u32,
+) -> Result<(), LinkPeriodError> {
+    if link_period_us < imu_period_us.max(1) {
+        Err(LinkPeriodError::BelowImuPeriod)
+    } else if link_period_us > LINK_PERIOD_US {
+        Err(LinkPeriodError::Below50Hz)
+    } else if busy_per_mille(link_period_us, baud) > 500 {
+        Err(LinkPeriodError::OverHalfBusy)
+    } else {
+        Ok(())
+    }
+}
+
 /// What the topside asks of the node's thrusters.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(target_os = "none", derive(defmt::Format))]

@@ -219,3 +219,39 @@ fn esc_range_is_the_controllers() {
     assert_eq!(f32::from(ESC_MIN_US), map.min_us);
     assert_eq!(f32::from(ESC_MAX_US), map.max_us);
 }
+
+#[test]
+fn the_default_link_period_follows_the_rate() {
+    // 115,200 Bd: 5 and 10 ms would be over half busy; the images' 20 ms.
+    assert_eq!(default_link_period_us(115_200), 20_000);
+    assert!(busy_per_mille(10_000, 115_200) > 500);
+    // 1 Mbd: 5 ms (the uplink takes 0.96 ms of it).
+    assert_eq!(default_link_period_us(1_000_000), 5_000);
+    assert!(busy_per_mille(5_000, 1_000_000) <= 200);
+    // A rate too slow for any: 20 ms, which the check then refuses.
+    assert_eq!(default_link_period_us(9_600), 20_000);
+    assert_eq!(
+        check_link_period(20_000, 2_500, 9_600),
+        Err(LinkPeriodError::OverHalfBusy)
+    );
+}
+
+#[test]
+fn a_link_period_is_refused_below_the_imu_period_above_half_busy_or_below_50_hz() {
+    assert_eq!(check_link_period(20_000, 2_500, 115_200), Ok(()));
+    // The shortest at 115,200 Bd within half busy, in IMU periods: 17.5 ms (57 Hz).
+    assert_eq!(check_link_period(17_500, 2_500, 115_200), Ok(()));
+    assert_eq!(
+        check_link_period(15_000, 2_500, 115_200),
+        Err(LinkPeriodError::OverHalfBusy)
+    );
+    assert_eq!(
+        check_link_period(2_000, 2_500, 1_000_000),
+        Err(LinkPeriodError::BelowImuPeriod)
+    );
+    assert_eq!(check_link_period(2_500, 2_500, 1_000_000), Ok(()));
+    assert_eq!(
+        check_link_period(25_000, 2_500, 115_200),
+        Err(LinkPeriodError::Below50Hz)
+    );
+}
