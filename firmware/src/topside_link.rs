@@ -7,8 +7,10 @@
 //!   a link period become one IMU sample (their mean rate and specific force,
 //!   `delta / dt`), a new pressure reading its pressure;
 //! - [`TopsideLink`]: owns the node link's port; decodes and checks the uplinks, sends a
-//!   downlink after every control step (and at least once a link period), keeps the round
-//!   trip (the echoed sequence) and the failsafes below.
+//!   downlink after every control step (and at least once a link period), measures the
+//!   round trip (the downlink's send time, echoed with the node's holding time) and the
+//!   uplink's one-way time, places the increments' newest sample on its own clock
+//!   ([`ImuStamp`]), and keeps the failsafes below.
 //!
 //! The board's loop: `app.tick()`, then `if link.poll(now, armed) { app.step_now() }` and
 //! `link.send_if_due(now, armed)`: the control step runs when an uplink arrives, so an IMU

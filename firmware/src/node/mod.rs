@@ -426,7 +426,9 @@ where
         }
         // The echoed time: the downlink's send time plus how long it was held here, so the
         // topside's clock minus it is the round trip (the two clocks never compared).
-        let held_us = now.saturating_sub(self.last_valid_us) as u32;
+        let held_us = now
+            .saturating_sub(self.last_valid_us)
+            .min(u64::from(u32::MAX)) as u32;
         let echo_t_us = match self.last_seq {
             Some(_) => self.echo_t_us.wrapping_add(held_us),
             None => 0,
