@@ -110,15 +110,14 @@ pub const fn busy_per_mille(link_period_us: u32, baud: u32) -> u32 {
 /// the images' period; 1 Mbd: 5 ms). A shorter period makes the increments younger (their
 /// oldest sample is one period older than their newest).
 pub const fn default_link_period_us(baud: u32) -> u32 {
-    let mut i = 0;
-    while i < DEFAULT_LINK_PERIODS_US.len() {
-        let p = DEFAULT_LINK_PERIODS_US[i];
-        if busy_per_mille(p, baud) <= 500 {
-            return p;
-        }
-        i += 1;
+    let [fast, mid, slow] = DEFAULT_LINK_PERIODS_US;
+    if busy_per_mille(fast, baud) <= 500 {
+        fast
+    } else if busy_per_mille(mid, baud) <= 500 {
+        mid
+    } else {
+        slow
     }
-    LINK_PERIOD_US
 }
 
 /// Why a link period was refused.
