@@ -7,8 +7,10 @@
 //!   a link period become one IMU sample (their mean rate and specific force,
 //!   `delta / dt`), a new pressure reading its pressure;
 //! - [`TopsideLink`]: owns the node link's port; decodes and checks the uplinks, sends a
-//!   downlink after every control step (and at least once a link period), keeps the round
-//!   trip (the echoed sequence) and the failsafes below.
+//!   downlink after every control step (and at least once a link period), measures the
+//!   round trip (the downlink's send time, echoed with the node's holding time) and the
+//!   uplink's one-way time, places the increments' newest sample on its own clock
+//!   ([`ImuStamp`]), and keeps the failsafes below.
 //!
 //! The board's loop: `app.tick()`, then `if link.poll(now, armed) { app.step_now() }` and
 //! `link.send_if_due(now, armed)`: the control step runs when an uplink arrives, so an IMU
@@ -27,8 +29,10 @@
 //! | after 250 ms without a valid uplink | the next uplink's sequence is taken whatever it is (a node restarted by its watchdog counts from 0) | |
 
 use crate::node_link::{
-    seal, seq_newer, status, ArmCommand, Downlink, LinkDecoder, LinkFrame, NodeCounters, Uplink,
-    ESC_MAX_US, ESC_MIN_US, ESC_NEUTRAL_US, LINK_PERIOD_US, MAX_TTL_MS,
+    check_link_period, default_link_period_us, seal, seq_newer, status, wire_time_us, ArmCommand,
+    Downlink, LinkDecoder, LinkFrame, LinkPeriodError, NodeCounters, Uplink, ESC_MAX_US,
+    ESC_MIN_US, ESC_NEUTRAL_US, LINK_BAUD, LINK_PERIOD_US, MAX_DOWNLINK_FRAME_LEN, MAX_TTL_MS,
+    MAX_UPLINK_FRAME_LEN,
 };
 use crate::protocol::{DropReason, MAX_FRAME_LEN};
 use crate::sensors::Sensors;
@@ -55,6 +59,18 @@ pub const MAX_ACCEL_M_S2: f32 = 160.0;
 /// Pressure accepted from the node, Pa (the MS5837-30BA reads to 30 bar).
 pub const PRESSURE_RANGE_PA: (f32, f32) = (1.0e4, 4.0e6);
 
+/// The time an uplink's IMU sample is stamped with for the estimator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ImuStamp {
+    /// The uplink's arrival at the topside: the estimator runs at the topside's clock, one
+    /// uplink (latency and wire time) behind the vehicle.
+    Arrival,
+    /// The node's newest sample of the increments, placed on the topside's clock through
+    /// the round trip: the arrival less the uplink's one-way time (half the round trip,
+    /// corrected for the two frames' wire times) and the sample's age at sending.
+    NodeSample,
+}
+
 /// The topside's link settings.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct TopsideConfig {
@@ -69,9 +85,27 @@ pub struct TopsideConfig {
     pub silent_periods: u32,
     /// Uplink silence after which neutral is commanded, microseconds.
     pub neutral_after_us: u32,
+    /// The link's rate (8N1): the uplink's one-way time from the round trip.
+    pub baud: u32,
+    /// What an uplink's IMU sample is stamped with.
+    pub imu_stamp: ImuStamp,
 }
 
 impl TopsideConfig {
+    /// At `baud`, the link period of [`default_link_period_us`] (20 ms at 115,200 Bd, 5 ms
+    /// at 1 Mbd); otherwise as [`TopsideConfig::new`].
+    pub const fn for_baud(session: u32, baud: u32) -> Self {
+        let mut c = Self::new(session);
+        c.baud = baud;
+        c.link_period_us = default_link_period_us(baud);
+        c
+    }
+
+    /// Check the link period against the node's IMU period and the link's rate.
+    pub fn check(&self, imu_period_us: u32) -> Result<(), LinkPeriodError> {
+        check_link_period(self.link_period_us, imu_period_us, self.baud)
+    }
+
     /// 50 Hz, 100 ms time to live, prediction only after 3 silent periods, neutral at 250 ms.
     pub const fn new(session: u32) -> Self {
         Self {
@@ -80,6 +114,8 @@ impl TopsideConfig {
             ttl_ms: MAX_TTL_MS,
             silent_periods: 3,
             neutral_after_us: 250_000,
+            baud: LINK_BAUD,
+            imu_stamp: ImuStamp::Arrival,
         }
     }
 }
@@ -97,6 +133,10 @@ pub struct NodeBridge {
     /// The latest accepted IMU sample not yet read, and the one read before.
     imu: Cell<Option<ImuSample>>,
     held: Cell<Option<ImuSample>>,
+    /// How far the IMU samples' stamps are behind the clock (0: stamped at arrival), and
+    /// the latest stamp given (the stamps only go forward).
+    lag_us: Cell<u32>,
+    last_stamp_us: Cell<Option<u64>>,
     pressure_pa: Cell<Option<f32>>,
     /// The uplink is silent past the prediction limit / the neutral limit.
     predict_only: Cell<bool>,
@@ -121,6 +161,8 @@ impl NodeBridge {
             period_us: if period_us == 0 { 1 } else { period_us },
             imu: Cell::new(None),
             held: Cell::new(None),
+            lag_us: Cell::new(0),
+            last_stamp_us: Cell::new(None),
             pressure_pa: Cell::new(None),
             predict_only: Cell::new(true),
             neutral: Cell::new(true),
@@ -186,7 +228,8 @@ pub struct LinkSensors<'a> {
 }
 
 impl Sensors for LinkSensors<'_> {
-    /// The latest uplink's mean rate and specific force, stamped now; while the uplink is
+    /// The latest uplink's mean rate and specific force, stamped now less the lag of the
+    /// configured [`ImuStamp`] (never at or before the previous stamp); while the uplink is
     /// late (up to the neutral limit) the previous sample again, so the estimator keeps
     /// predicting; then nothing.
     fn imu(&mut self, now_us: u64) -> Option<ImuSample> {
@@ -199,7 +242,12 @@ impl Sensors for LinkSensors<'_> {
             None if !b.neutral.get() => b.held.get()?,
             None => return None,
         };
-        Some(ImuSample { t_us: now_us, ..s })
+        let t_us = now_us.saturating_sub(u64::from(b.lag_us.get()));
+        if b.last_stamp_us.get().is_some_and(|last| t_us <= last) {
+            return None;
+        }
+        b.last_stamp_us.set(Some(t_us));
+        Some(ImuSample { t_us, ..s })
     }
 
     /// A new pressure reading from the node, none while the uplink is silent.
@@ -250,8 +298,9 @@ pub struct TopsideCounters {
     pub sent: u32,
 }
 
-/// Send times of the latest downlinks, for the round trip.
-const SENT_LEN: usize = 8;
+/// Longest round trip taken, microseconds (10 s: the wire model's latency limit, twice;
+/// a longer one is an echo of a stale or foreign time).
+pub const MAX_ROUND_TRIP_US: u32 = 20_000_000;
 
 /// The topside's end of the node link.
 pub struct TopsideLink<'a, S> {
@@ -264,11 +313,11 @@ pub struct TopsideLink<'a, S> {
     tx_len: usize,
     tx_seq: u16,
     next_downlink_us: u64,
-    sent_at: [(u16, u64); SENT_LEN],
     last_uplink_us: Option<u64>,
     last_up_seq: Option<u16>,
     last_pressure_count: Option<u8>,
     round_trip_us: Option<u32>,
+    one_way_us: Option<u32>,
     node_status: u8,
     node_counters: NodeCounters,
     counters: TopsideCounters,
@@ -290,11 +339,11 @@ where
             tx_len: 0,
             tx_seq: 0,
             next_downlink_us: 0,
-            sent_at: [(0, 0); SENT_LEN],
             last_uplink_us: None,
             last_up_seq: None,
             last_pressure_count: None,
             round_trip_us: None,
+            one_way_us: None,
             node_status: 0,
             node_counters: NodeCounters::default(),
             counters: TopsideCounters::default(),
@@ -389,10 +438,29 @@ where
             self.bridge.pressure_pa.set(Some(up.pressure_pa));
         }
         self.last_pressure_count = Some(up.pressure_count);
-        if let Some(&(_, t)) = self.sent_at.iter().find(|(s, _)| *s == up.echo_seq) {
-            let rt = u32::try_from(now.saturating_sub(t)).unwrap_or(u32::MAX);
-            self.round_trip_us = Some(rt);
+        // The round trip: the echoed send time carries the node's holding time, so the
+        // clock now less it is the two ways' time (both clocks' low 32 bits, wrapping). Only
+        // from a node serving this session (0: no downlink applied yet).
+        if up.session == self.config.session {
+            let rt = (now as u32).wrapping_sub(up.echo_t_us);
+            if rt <= MAX_ROUND_TRIP_US {
+                self.round_trip_us = Some(rt);
+                // One way up: half of it, plus half the difference of the two frames'
+                // wire times (the uplink is the longer).
+                let up_us = wire_time_us(MAX_UPLINK_FRAME_LEN, self.config.baud);
+                let down_us = wire_time_us(MAX_DOWNLINK_FRAME_LEN, self.config.baud);
+                let one_way = (rt.saturating_add(up_us).saturating_sub(down_us)) / 2;
+                self.one_way_us = Some(one_way.min(rt));
+            }
         }
+        let lag = match self.config.imu_stamp {
+            ImuStamp::Arrival => 0,
+            ImuStamp::NodeSample => self
+                .one_way_us
+                .unwrap_or(0)
+                .saturating_add(up.imu_age_us.min(MAX_ROUND_TRIP_US)),
+        };
+        self.bridge.lag_us.set(lag);
         self.node_status = up.status;
         self.node_counters = up.counters;
     }
@@ -442,12 +510,10 @@ where
             } else {
                 ArmCommand::Disarmed
             },
+            t_us: now as u32,
         };
         let seq = self.tx_seq.wrapping_add(1);
         self.tx_seq = seq;
-        if let Some(slot) = self.sent_at.get_mut(usize::from(seq) % SENT_LEN) {
-            *slot = (seq, now);
-        }
         self.next_downlink_us = now.saturating_add(u64::from(self.config.link_period_us));
         // A frame still going out is cut short: the node drops it and takes this one.
         (self.tx_sent, self.tx_len) = match seal(seq, &cmd, &mut self.tx_buf) {
@@ -471,9 +537,15 @@ where
         }
     }
 
-    /// The latest round trip (downlink sent -> its sequence echoed), microseconds.
+    /// The latest round trip (a downlink sent -> its echo back, less the node's holding
+    /// time), microseconds.
     pub fn round_trip_us(&self) -> Option<u32> {
         self.round_trip_us
+    }
+
+    /// The latest uplink's one-way time (from the round trip), microseconds.
+    pub fn one_way_us(&self) -> Option<u32> {
+        self.one_way_us
     }
 
     /// The node's latest status bits and counters.

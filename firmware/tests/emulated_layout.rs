@@ -219,6 +219,7 @@ fn the_emulated_node_samples_the_hosts_imu_and_applies_the_downlinks() {
                 pulse_us: [1650, 1650, 1350],
                 ttl_ms: 100,
                 arm,
+                t_us: 0,
             };
             let mut out = [0u8; MAX_FRAME_LEN];
             let f = node_link::seal(seq, &cmd, &mut out).unwrap();
@@ -348,6 +349,8 @@ fn the_emulated_topside_greets_the_pc_and_steps_on_an_uplink() {
     let up = Uplink {
         session,
         echo_seq: 0,
+        echo_t_us: 0,
+        imu_age_us: 0,
         dt_us: 20_000,
         samples: 8,
         delta_angle_rad: [0.0; 3],

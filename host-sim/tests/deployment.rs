@@ -268,3 +268,82 @@ fn jitter_delays_the_pulses_but_never_reorders_or_corrupts_them() {
     assert_eq!(r.topside_counters.corrupt, 0);
     assert!(out.run.summary.rms_position_error_last80_m < 0.12);
 }
+
+#[test]
+fn the_link_period_follows_the_rate_so_the_oldest_sample_at_1_mbd_is_within_10_ms() {
+    // 1 Mbd: the default link period is 5 ms (the uplink keeps the link 20 % busy), so the
+    // oldest sample of the increments is 5 ms older than the newest, not 20.
+    let fast = deployment::latency(1_000_000, Some(30.0)).unwrap();
+    // 115,200 Bd: the half-busy rule allows 17.5 ms at the shortest (in IMU periods).
+    let shortest = deployment::shortest_link_period_us(115_200);
+    assert_eq!(shortest, 17_500);
+    let slow = deployment::latency_at(115_200, Some(0.0175), Some(30.0)).unwrap();
+    for l in [&fast, &slow] {
+        println!(
+            "{} Bd, period {} us: n {} p99 {} ms, from the oldest sample p99 {} ms",
+            l.baud, l.link_period_us, l.n, l.p99_ms, l.p99_oldest_ms
+        );
+        let period_ms = f64::from(l.link_period_us) * 1e-3;
+        assert!(
+            (l.p99_oldest_ms - l.p99_ms - period_ms).abs() < 0.5,
+            "{l:?}"
+        );
+        assert!(l.p99_ms <= bound::LATENCY_P99_MS, "{l:?}");
+        // A pulse every uplink.
+        assert!(l.n as f64 >= 0.95 * 30.0 / (period_ms * 1e-3), "{l:?}");
+    }
+    assert_eq!(fast.link_period_us, 5_000);
+    assert!(fast.p99_oldest_ms <= bound::LATENCY_P99_MS, "{fast:?}");
+    assert_eq!(slow.link_period_us, 17_500);
+    assert!(slow.p99_oldest_ms < 26.5, "{slow:?}");
+}
+
+#[test]
+fn the_round_trip_is_measured_at_any_latency_of_the_sweep() {
+    // The topside kept the send times of 8 downlinks (160 ms) before the node link's
+    // version 2, and read no round trip beyond; the echoed send time has no such limit.
+    for latency_s in [0.2, 0.5] {
+        let mut sc = deployment::topside(deployment::PROBE_SCENARIO, 115_200).unwrap();
+        sc.deployment.tether_latency_s = latency_s;
+        let out = deployment::fly(&sc, Some(5.0)).unwrap();
+        let rt_ms = f64::from(out.report.round_trip_us.unwrap()) * 1e-3;
+        // Twice the latency, the two frames' wire times (33 + 92 B at most, 86.8 us a
+        // byte) and the passes.
+        let wires_ms = 125.0 * 0.0868;
+        println!("{} ms one-way: round trip {rt_ms} ms", latency_s * 1e3);
+        assert!(rt_ms >= 2e3 * latency_s, "{rt_ms}");
+        assert!(rt_ms <= 2e3 * latency_s + wires_ms + 0.5, "{rt_ms}");
+    }
+}
+
+#[test]
+fn a_bad_link_period_is_refused_naming_the_key() {
+    let base = "name = \"t\"\nplane = \"3d\"\ncontroller = \"tracking\"\nduration_s = 5.0\n\
+        [reference]\nkind = \"hold\"\n[navigation]\nsource = \"estimator\"\n\
+        [sensors.imu]\n[sensors.depth]\n[sensors.compass]\n[sensors.usbl]\n\
+        [deployment]\ncontrol = \"topside\"\n";
+    for ok in [
+        "link_period_s = 0.0175",
+        "link_period_s = 0.02",
+        "tether_baud = 1000000\nlink_period_s = 0.0025",
+    ] {
+        let r = Scenario::from_toml(&format!("{base}{ok}\n"), "ok");
+        assert!(r.is_ok(), "{ok}: {r:?}");
+    }
+    for (bad, why) in [
+        ("link_period_s = 0.001", "IMU period"),
+        ("link_period_s = 0.015", "50 % busy"),
+        ("link_period_s = 0.025", "50 Hz"),
+        ("link_period_s = nan", "not a number"),
+        ("tether_baud = 9600", "50 % busy"),
+    ] {
+        let e = Scenario::from_toml(&format!("{base}{bad}\n"), "bad")
+            .map(|_| ())
+            .unwrap_err();
+        let msg = format!("{e:#}");
+        assert!(
+            msg.contains("deployment.link_period_s") && msg.contains(why),
+            "{bad}: {msg}"
+        );
+    }
+}

@@ -119,6 +119,8 @@ pub fn run_topside<P: Platform>(b: &Bench<'_, P>, p: &P) {
             let up = Uplink {
                 session: SESSION,
                 echo_seq: 0,
+                echo_t_us: 0,
+                imu_age_us: 0,
                 dt_us: LINK_PERIOD_US,
                 samples: 8,
                 delta_angle_rad: [w * dt, -w * dt, 2.0 * w * dt],

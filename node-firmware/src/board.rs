@@ -331,6 +331,7 @@ mod bench {
                     ],
                     ttl_ms: 100,
                     arm,
+                    t_us: 0,
                 };
                 if let (Ok(f), Ok(mut q)) = (seal(seq, &cmd, &mut frame), q.try_borrow_mut()) {
                     for &b in f {

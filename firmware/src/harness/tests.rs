@@ -144,6 +144,7 @@ fn downlink(arm: ArmCommand, pulse: u16) -> Downlink {
         pulse_us: [pulse, pulse, 3000 - pulse],
         ttl_ms: 100,
         arm,
+        t_us: 0,
     }
 }
 
@@ -341,6 +342,8 @@ fn the_topside_steps_on_uplinks_at_the_hosts_time() {
     let up = Uplink {
         session: SESSION,
         echo_seq: 0,
+        echo_t_us: 0,
+        imu_age_us: 0,
         dt_us: 20_000,
         samples: 8,
         delta_angle_rad: [0.0; 3],

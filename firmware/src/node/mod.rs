@@ -143,6 +143,9 @@ pub struct Node<P, S, C, N> {
     command_expires_us: u64,
     ttl_expired: bool,
     last_valid_us: u64,
+    /// The latest applied downlink's send time on the topside's clock (echoed, with the
+    /// time held since its arrival, `last_valid_us`).
+    echo_t_us: u32,
     /// The pulses on the outputs now.
     output_us: [u16; 3],
     pwm_error: bool,
@@ -213,6 +216,7 @@ where
             command_expires_us: 0,
             ttl_expired: false,
             last_valid_us: now,
+            echo_t_us: 0,
             output_us: [ESC_NEUTRAL_US; 3],
             pwm_error,
             prev_imu: None,
@@ -310,6 +314,7 @@ where
         self.session = cmd.session;
         self.last_seq = Some(seq);
         self.last_valid_us = now;
+        self.echo_t_us = cmd.t_us;
         match cmd.arm {
             ArmCommand::Disarmed => {
                 self.armed = false;
@@ -419,9 +424,24 @@ where
             self.pressure_count = self.pressure_count.wrapping_add(1);
             self.last_pressure_us = Some(now);
         }
+        // The echoed time: the downlink's send time plus how long it was held here, so the
+        // topside's clock minus it is the round trip (the two clocks never compared).
+        let held_us = now
+            .saturating_sub(self.last_valid_us)
+            .min(u64::from(u32::MAX)) as u32;
+        let echo_t_us = match self.last_seq {
+            Some(_) => self.echo_t_us.wrapping_add(held_us),
+            None => 0,
+        };
+        let imu_age_us = match (self.samples, self.prev_imu) {
+            (1.., Some((t, _, _))) => now.saturating_sub(t).min(u64::from(u32::MAX)) as u32,
+            _ => 0,
+        };
         let up = Uplink {
             session: self.session,
             echo_seq: self.last_seq.unwrap_or(0),
+            echo_t_us,
+            imu_age_us,
             dt_us: self.dt_us,
             samples: self.samples,
             delta_angle_rad: self.delta_angle_rad,

@@ -124,6 +124,7 @@ fn cmd(pulse_us: [u16; 3], ttl_ms: u8, arm: ArmCommand) -> Downlink {
         pulse_us,
         ttl_ms,
         arm,
+        t_us: 0,
     }
 }
 
@@ -394,6 +395,7 @@ fn another_session_is_served_only_after_the_latch() {
         1,
         Downlink {
             arm: ArmCommand::Armed,
+            t_us: 0,
             pulse_us: PULSES,
             ..other
         },
@@ -428,6 +430,33 @@ fn the_uplink_carries_the_increments_of_its_period_and_echoes_the_downlink() {
             assert!((up.delta_velocity_m_s[k] - SENSORS.accel_m_s2[k] * dt).abs() < 1e-5);
         }
     }
+}
+
+#[test]
+fn the_uplink_echoes_the_downlinks_time_plus_its_holding_time_and_the_samples_age() {
+    let mut b = Bench::new();
+    // Before any downlink: nothing to echo.
+    b.run_us(20_000);
+    let ups = b.uplinks();
+    assert_eq!(ups.len(), 1);
+    assert_eq!(ups[0].1.echo_t_us, 0);
+    b.clock.set(25_000);
+    b.send(cmd([ESC_NEUTRAL_US; 3], 100, ArmCommand::Disarmed));
+    // The topside's clock is its own: 7 s ahead, and it wraps in 32 bits.
+    b.clock.set(27_300);
+    b.send(Downlink {
+        t_us: u32::MAX - 1_000,
+        ..cmd(PULSES, 100, ArmCommand::Armed)
+    });
+    b.run_us(20_000);
+    let ups = b.uplinks();
+    assert_eq!(ups.len(), 1);
+    let up = ups[0].1;
+    // Sent at the node's 40 ms, the downlink arrived at 27.3 ms: held 12.7 ms.
+    assert_eq!(up.echo_t_us, (u32::MAX - 1_000).wrapping_add(12_700));
+    // The IMU and the uplink share the pass (the period is 8 IMU periods): age 0.
+    assert_eq!(up.imu_age_us, 0);
+    assert!(up.samples > 0);
 }
 
 #[test]

@@ -27,7 +27,10 @@ use crate::protocol::{EncodeError, MAX_FRAME_LEN};
 use serde::{Deserialize, Serialize};
 
 /// Version of the node link's messages; a frame of another version is never applied.
-pub const NODE_LINK_VERSION: u8 = 1;
+/// Version 2 (2026-11-26): the downlink carries the topside's send time and the uplink
+/// echoes it with the node's holding time and the age of its newest IMU sample, so the
+/// topside knows the round trip and the sample's time on its own clock at any latency.
+pub const NODE_LINK_VERSION: u8 = 2;
 
 /// The link's default rate on the wire, 8N1 (10 bits a byte).
 pub const LINK_BAUD: u32 = 115_200;
@@ -62,12 +65,13 @@ pub const MAX_LINK_FRAME_LEN: usize = if MAX_UPLINK_FRAME_LEN > MAX_DOWNLINK_FRA
 /// (`u16` varint, at most 3). The bounds count the envelope's session at its largest.
 const ENVELOPE_MAX: usize = 1 + 3 + 5;
 /// Downlink postcard payload at most: envelope, session (`u32`, 5), three pulses (`u16`, 3
-/// each), time to live (`u8`, 1), arm (1).
-const MAX_DOWNLINK_PAYLOAD_LEN: usize = ENVELOPE_MAX + 5 + 3 * 3 + 1 + 1;
-/// Uplink postcard payload at most: envelope, session (5), echoed sequence (3), dt (`u32`,
-/// 5), samples (`u16`, 3), delta angle and velocity (6 `f32`, 24), pressure (4), pressure
-/// count (1), status (1), eight `u16` counters (24).
-const MAX_UPLINK_PAYLOAD_LEN: usize = ENVELOPE_MAX + 5 + 3 + 5 + 3 + 24 + 4 + 1 + 1 + 8 * 3;
+/// each), time to live (`u8`, 1), arm (1), send time (`u32`, 5).
+const MAX_DOWNLINK_PAYLOAD_LEN: usize = ENVELOPE_MAX + 5 + 3 * 3 + 1 + 1 + 5;
+/// Uplink postcard payload at most: envelope, session (5), echoed sequence (3), echoed time
+/// (`u32`, 5), IMU age (`u32`, 5), dt (`u32`, 5), samples (`u16`, 3), delta angle and
+/// velocity (6 `f32`, 24), pressure (4), pressure count (1), status (1), eight `u16`
+/// counters (24).
+const MAX_UPLINK_PAYLOAD_LEN: usize = ENVELOPE_MAX + 5 + 3 + 5 + 5 + 5 + 3 + 24 + 4 + 1 + 1 + 8 * 3;
 
 /// Frame length for a payload: CRC-32 appended, COBS, two delimiters.
 const fn frame_len(payload: usize) -> usize {
@@ -79,6 +83,84 @@ pub const fn wire_time_us(bytes: usize, baud: u32) -> u32 {
     let bits = bytes as u64 * BITS_PER_BYTE as u64 * 1_000_000;
     let baud = if baud == 0 { 1 } else { baud as u64 };
     bits.div_ceil(baud) as u32
+}
+
+/// The link periods a layout picks from by default, shortest first (200, 100, 50 Hz).
+pub const DEFAULT_LINK_PERIODS_US: [u32; 3] = [5_000, 10_000, LINK_PERIOD_US];
+
+/// Share of a link period the larger frame (the uplink, at its bound) keeps one direction
+/// busy at `baud`, in per mille, rounded up.
+pub const fn busy_per_mille(link_period_us: u32, baud: u32) -> u32 {
+    let up_us = wire_time_us(MAX_UPLINK_FRAME_LEN, baud) as u64;
+    let period = if link_period_us == 0 {
+        1
+    } else {
+        link_period_us as u64
+    };
+    let pm = (up_us * 1_000).div_ceil(period);
+    if pm > u32::MAX as u64 {
+        u32::MAX
+    } else {
+        pm as u32
+    }
+}
+
+/// The default link period at `baud`: the shortest of [`DEFAULT_LINK_PERIODS_US`] that keeps
+/// each direction at most half busy; [`LINK_PERIOD_US`] when none does (115,200 Bd: 20 ms,
+/// the images' period; 1 Mbd: 5 ms). A shorter period makes the increments younger (their
+/// oldest sample is one period older than their newest).
+pub const fn default_link_period_us(baud: u32) -> u32 {
+    let [fast, mid, slow] = DEFAULT_LINK_PERIODS_US;
+    if busy_per_mille(fast, baud) <= 500 {
+        fast
+    } else if busy_per_mille(mid, baud) <= 500 {
+        mid
+    } else {
+        slow
+    }
+}
+
+/// Why a link period was refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum LinkPeriodError {
+    /// Shorter than the IMU period: an uplink would carry no new sample.
+    BelowImuPeriod,
+    /// The uplink would keep its direction more than half busy at this rate.
+    OverHalfBusy,
+    /// Longer than [`LINK_PERIOD_US`]: below the 50 Hz the control needs.
+    Below50Hz,
+}
+
+impl core::fmt::Display for LinkPeriodError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            LinkPeriodError::BelowImuPeriod => "shorter than the node's IMU period",
+            LinkPeriodError::OverHalfBusy => {
+                "the uplink would keep the link more than 50 % busy at this rate"
+            }
+            LinkPeriodError::Below50Hz => "longer than 20 ms (below 50 Hz)",
+        })
+    }
+}
+
+impl core::error::Error for LinkPeriodError {}
+
+/// Check a link period against the node's IMU period and the link's rate.
+pub fn check_link_period(
+    link_period_us: u32,
+    imu_period_us: u32,
+    baud: u32,
+) -> Result<(), LinkPeriodError> {
+    if link_period_us < imu_period_us.max(1) {
+        Err(LinkPeriodError::BelowImuPeriod)
+    } else if link_period_us > LINK_PERIOD_US {
+        Err(LinkPeriodError::Below50Hz)
+    } else if busy_per_mille(link_period_us, baud) > 500 {
+        Err(LinkPeriodError::OverHalfBusy)
+    } else {
+        Ok(())
+    }
 }
 
 /// What the topside asks of the node's thrusters.
@@ -104,6 +186,10 @@ pub struct Downlink {
     pub ttl_ms: u8,
     /// Arm command.
     pub arm: ArmCommand,
+    /// The topside's clock when it sent the frame, microseconds (its low 32 bits, wrapping):
+    /// echoed in [`Uplink::echo_t_us`], it gives the round trip without a table of send
+    /// times, however long the tether's latency.
+    pub t_us: u32,
 }
 
 /// Status bits of the node ([`Uplink::status`]).
@@ -151,6 +237,13 @@ pub struct Uplink {
     pub session: u32,
     /// Sequence number of the latest downlink applied (the topside's round trip).
     pub echo_seq: u16,
+    /// That downlink's [`Downlink::t_us`] plus the time the node held it, from its arrival
+    /// to this uplink's sending (wrapping): the topside's clock now minus this is the round
+    /// trip, the node's own time left out. 0 before any downlink was applied.
+    pub echo_t_us: u32,
+    /// Age of the newest IMU sample of the increments when this uplink was sent,
+    /// microseconds: with the round trip, the topside places the sample on its own clock.
+    pub imu_age_us: u32,
     /// Time the increments cover, microseconds (first to last sample of the period).
     pub dt_us: u32,
     /// IMU intervals integrated (consecutive samples at most four IMU periods apart).

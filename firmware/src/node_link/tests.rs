@@ -7,6 +7,7 @@ fn largest_downlink() -> Downlink {
         pulse_us: [u16::MAX; 3],
         ttl_ms: u8::MAX,
         arm: ArmCommand::Armed,
+        t_us: u32::MAX,
     }
 }
 
@@ -14,6 +15,8 @@ fn largest_uplink() -> Uplink {
     Uplink {
         session: u32::MAX,
         echo_seq: u16::MAX,
+        echo_t_us: u32::MAX,
+        imu_age_us: u32::MAX,
         dt_us: u32::MAX,
         samples: u16::MAX,
         delta_angle_rad: [f32::MAX; 3],
@@ -100,6 +103,7 @@ fn frames_round_trip_in_a_stream() {
         pulse_us: [1500, 1100, 1900],
         ttl_ms: 60,
         arm: ArmCommand::Disarmed,
+        t_us: 0,
     };
     let mut stream = frame_of(3, &a).to_vec();
     stream.extend_from_slice(&frame_of(4, &b));
@@ -129,6 +133,7 @@ fn every_flipped_bit_is_dropped_and_counted() {
         pulse_us: [1600, 1400, 1500],
         ttl_ms: 50,
         arm: ArmCommand::Armed,
+        t_us: 123_456,
     };
     let frame = frame_of(1, &msg);
     let inner = frame.len() - 2;
@@ -174,6 +179,7 @@ fn garbage_and_overlong_frames_resynchronize() {
         pulse_us: [1500; 3],
         ttl_ms: 100,
         arm: ArmCommand::Disarmed,
+        t_us: 1,
     };
     let mut d = LinkDecoder::<Downlink>::new();
     let mut stream = vec![0x55u8; 3 * MAX_LINK_FRAME_LEN];
@@ -212,4 +218,40 @@ fn esc_range_is_the_controllers() {
     assert_eq!(f32::from(ESC_NEUTRAL_US), map.neutral_us);
     assert_eq!(f32::from(ESC_MIN_US), map.min_us);
     assert_eq!(f32::from(ESC_MAX_US), map.max_us);
+}
+
+#[test]
+fn the_default_link_period_follows_the_rate() {
+    // 115,200 Bd: 5 and 10 ms would be over half busy; the images' 20 ms.
+    assert_eq!(default_link_period_us(115_200), 20_000);
+    assert!(busy_per_mille(10_000, 115_200) > 500);
+    // 1 Mbd: 5 ms (the uplink takes 0.96 ms of it).
+    assert_eq!(default_link_period_us(1_000_000), 5_000);
+    assert!(busy_per_mille(5_000, 1_000_000) <= 200);
+    // A rate too slow for any: 20 ms, which the check then refuses.
+    assert_eq!(default_link_period_us(9_600), 20_000);
+    assert_eq!(
+        check_link_period(20_000, 2_500, 9_600),
+        Err(LinkPeriodError::OverHalfBusy)
+    );
+}
+
+#[test]
+fn a_link_period_is_refused_below_the_imu_period_above_half_busy_or_below_50_hz() {
+    assert_eq!(check_link_period(20_000, 2_500, 115_200), Ok(()));
+    // The shortest at 115,200 Bd within half busy, in IMU periods: 17.5 ms (57 Hz).
+    assert_eq!(check_link_period(17_500, 2_500, 115_200), Ok(()));
+    assert_eq!(
+        check_link_period(15_000, 2_500, 115_200),
+        Err(LinkPeriodError::OverHalfBusy)
+    );
+    assert_eq!(
+        check_link_period(2_000, 2_500, 1_000_000),
+        Err(LinkPeriodError::BelowImuPeriod)
+    );
+    assert_eq!(check_link_period(2_500, 2_500, 1_000_000), Ok(()));
+    assert_eq!(
+        check_link_period(25_000, 2_500, 115_200),
+        Err(LinkPeriodError::Below50Hz)
+    );
 }

@@ -103,6 +103,8 @@ fn uplink(echo_seq: u16, pressure_count: u8) -> Uplink {
     Uplink {
         session: SESSION,
         echo_seq,
+        echo_t_us: 0,
+        imu_age_us: 0,
         dt_us: 20_000,
         samples: 8,
         delta_angle_rad: RATE.map(|w| w * dt),
@@ -306,14 +308,103 @@ fn bad_uplinks_are_refused_counted_and_leave_the_estimate_alone() {
     ));
 }
 
+/// The node's echo of `d` after holding it `held_us`.
+fn echo(d: &Downlink, seq: u16, held_us: u32) -> Uplink {
+    Uplink {
+        echo_t_us: d.t_us.wrapping_add(held_us),
+        ..uplink(seq, 1)
+    }
+}
+
 #[test]
-fn the_echoed_sequence_gives_the_round_trip() {
+fn the_echoed_time_gives_the_round_trip() {
     let mut b = Bench::new();
     b.send_up(0, &uplink(0, 1));
     b.link.send_if_due(1_000, true);
-    let (seq, _) = downlinks(&b.far)[0];
-    b.send_up(13_500, &uplink(seq, 1));
-    assert_eq!(b.link.round_trip_us(), Some(12_500));
+    let (seq, d) = downlinks(&b.far)[0];
+    assert_eq!(d.t_us, 1_000, "the downlink carries its send time");
+    // Sent at 1 ms, held 2 ms by the node, back at 13.5 ms: 10.5 ms on the wire.
+    b.send_up(13_500, &echo(&d, seq, 2_000));
+    assert_eq!(b.link.round_trip_us(), Some(10_500));
+    // A node of no session yet (it applied no downlink) tells nothing.
+    let mut b = Bench::new();
+    b.send_up(
+        5_000,
+        &Uplink {
+            session: 0,
+            echo_t_us: 0,
+            ..uplink(0, 1)
+        },
+    );
+    assert_eq!(b.link.round_trip_us(), None);
+}
+
+#[test]
+fn a_round_trip_of_a_second_is_measured_whatever_was_sent_meanwhile() {
+    // 500 ms each way: some 50 downlinks go out before the first echo comes back (the
+    // topside kept the send times of 8, 160 ms, before the link's version 2).
+    let mut b = Bench::new();
+    b.send_up(0, &uplink(0, 1));
+    let mut first = None;
+    let mut t = 0;
+    while t <= 1_000_000 {
+        b.link.send_if_due(t, true);
+        for (seq, d) in downlinks(&b.far) {
+            first.get_or_insert((seq, d));
+        }
+        t += 1_000;
+    }
+    let (seq, d) = first.unwrap();
+    assert!(b.link.counters().sent >= 50, "{:?}", b.link.counters());
+    b.send_up(1_020_000, &echo(&d, seq, 3_000));
+    assert_eq!(b.link.round_trip_us(), Some(1_017_000));
+    // The uplink's one way: half, plus half of the uplink's longer wire time.
+    let up = wire_time_us(MAX_UPLINK_FRAME_LEN, LINK_BAUD);
+    let down = wire_time_us(MAX_DOWNLINK_FRAME_LEN, LINK_BAUD);
+    assert_eq!(b.link.one_way_us(), Some((1_017_000 + up - down) / 2));
+}
+
+#[test]
+fn node_sample_stamps_place_the_increments_on_the_topsides_clock() {
+    let bridge: &'static NodeBridge = Box::leak(Box::new(NodeBridge::new(20_000)));
+    let port = Port::default();
+    let far = port.other_end();
+    let config = TopsideConfig {
+        imu_stamp: ImuStamp::NodeSample,
+        ..TopsideConfig::new(SESSION)
+    };
+    let mut b = Bench {
+        bridge,
+        link: TopsideLink::new(bridge, port, config),
+        far,
+        up_seq: 0,
+    };
+    let mut s = b.bridge.sensors();
+    b.send_up(0, &uplink(0, 1));
+    b.link.send_if_due(10_000, true);
+    let (seq, d) = downlinks(&b.far)[0];
+    // 200 ms each way plus the wire times; the newest sample 1.5 ms old when sent.
+    let up = Uplink {
+        imu_age_us: 1_500,
+        ..echo(&d, seq, 4_000)
+    };
+    let arrival = 10_000 + 4_000 + 400_000 + 9_000;
+    assert!(b.send_up(arrival, &up));
+    let rt = b.link.round_trip_us().unwrap();
+    assert_eq!(rt, 409_000);
+    let one_way = b.link.one_way_us().unwrap();
+    let imu = s.imu(arrival).unwrap();
+    assert_eq!(imu.t_us, arrival - u64::from(one_way) - 1_500);
+    // The held sample, re-fed while the uplink is late, keeps the lag and goes forward.
+    let later = s.imu(arrival + 30_000).unwrap();
+    assert_eq!(later.t_us, imu.t_us + 30_000);
+    // A stamp never goes back: a larger lag that would is refused.
+    let up = Uplink {
+        imu_age_us: 100_000,
+        ..echo(&d, seq, 4_000)
+    };
+    assert!(b.send_up(arrival + 31_000, &up));
+    assert_eq!(s.imu(arrival + 31_000), None);
 }
 
 #[test]

@@ -80,6 +80,8 @@ pub struct TrackingRow {
 pub struct LatencyRow {
     /// Rate (Bd).
     pub baud: u32,
+    /// The node link's period (us).
+    pub link_period_us: u32,
     /// Samples.
     pub n: usize,
     /// Quantiles from the newest sample in the uplink (ms).
@@ -109,6 +111,10 @@ pub struct DelayRow {
     pub rms_told_m: Option<f64>,
     /// The delay told (s).
     pub told_delay_s: f64,
+    /// Told, with the increments stamped at the node's sample time (`stamp_node_time`), m.
+    pub rms_told_node_time_m: Option<f64>,
+    /// The topside's last round trip, not told (ms).
+    pub round_trip_ms: Option<f64>,
 }
 
 /// The cut of the node link.
@@ -213,14 +219,40 @@ pub fn tracking(name: &str, baud: u32, duration_s: Option<f64>) -> Result<Tracki
     })
 }
 
-/// The latency histogram at `baud`.
+/// The latency histogram at `baud`, the link period the rate's default.
 pub fn latency(baud: u32, duration_s: Option<f64>) -> Result<LatencyRow> {
-    let out = fly(&topside(PROBE_SCENARIO, baud)?, duration_s)?;
+    latency_at(baud, None, duration_s)
+}
+
+/// The shortest link period at `baud`, in whole IMU periods, that keeps the link at most
+/// half busy (us; the node's IMU period when the rate allows it).
+pub fn shortest_link_period_us(baud: u32) -> u32 {
+    let imu = firmware::node::NodeConfig::DEFAULT.imu_period_us;
+    let max = firmware::node_link::LINK_PERIOD_US;
+    (1..=max / imu)
+        .map(|k| k * imu)
+        .find(|&p| firmware::node_link::check_link_period(p, imu, baud).is_ok())
+        .unwrap_or(max)
+}
+
+/// The latency histogram at `baud` with the link period `link_period_s` (the rate's
+/// default without).
+pub fn latency_at(
+    baud: u32,
+    link_period_s: Option<f64>,
+    duration_s: Option<f64>,
+) -> Result<LatencyRow> {
+    let mut sc = topside(PROBE_SCENARIO, baud)?;
+    sc.deployment.link_period_s = link_period_s;
+    sc.deployment.validate()?;
+    let link_period_us = sc.deployment.link_period_us();
+    let out = fly(&sc, duration_s)?;
     let l = &out.report.latency;
     let q = |q: f64| l.quantile_ms(q).unwrap_or(f64::INFINITY);
     let p99 = q(0.99);
     Ok(LatencyRow {
         baud,
+        link_period_us,
         n: l.samples_us.len(),
         p50_ms: q(0.5),
         p99_ms: p99,
@@ -239,7 +271,9 @@ pub fn latency(baud: u32, duration_s: Option<f64>) -> Result<LatencyRow> {
 pub fn delay(latency_s: f64, baud: u32, duration_s: Option<f64>) -> Result<DelayRow> {
     let mut sc = topside(PROBE_SCENARIO, baud)?;
     sc.deployment.tether_latency_s = latency_s;
-    let run = fly(&sc, duration_s)?.run.summary;
+    let out = fly(&sc, duration_s)?;
+    let round_trip_ms = out.report.round_trip_us.map(|t| f64::from(t) * 1e-3);
+    let run = out.run.summary;
     let not_told = run.rms_position_error_last80_m;
     let not_told_lost = run
         .diverged
@@ -256,12 +290,25 @@ pub fn delay(latency_s: f64, baud: u32, duration_s: Option<f64>) -> Result<Delay
     } else {
         None
     };
+    let rms_told_node_time = if told <= f64::from(MAX_TOLD_DELAY_S) {
+        sc.deployment.stamp_node_time = true;
+        Some(
+            fly(&sc, duration_s)?
+                .run
+                .summary
+                .rms_position_error_last80_m,
+        )
+    } else {
+        None
+    };
     Ok(DelayRow {
         latency_s,
         rms_not_told_m: not_told,
         not_told_lost,
         rms_told_m: rms_told,
         told_delay_s: told,
+        rms_told_node_time_m: rms_told_node_time,
+        round_trip_ms,
     })
 }
 
@@ -335,10 +382,22 @@ pub fn measure(baud: u32, duration_s: Option<f64>, cut_s: f64) -> Result<Deploym
     if baud != 1_000_000 {
         rates.push(1_000_000);
     }
-    let latency = rates
+    let mut latency = rates
         .iter()
         .map(|&b| latency(b, duration_s))
         .collect::<Result<Vec<_>>>()?;
+    // At `baud`, the shortest period the half-busy rule allows, when it is not the default.
+    let shortest = shortest_link_period_us(baud);
+    if latency
+        .first()
+        .is_some_and(|l| l.link_period_us != shortest)
+    {
+        latency.push(latency_at(
+            baud,
+            Some(f64::from(shortest) * 1e-6),
+            duration_s,
+        )?);
+    }
     let delay = SWEEP_LATENCIES_S
         .iter()
         .map(|&l| delay(l, baud, duration_s))
@@ -394,8 +453,9 @@ pub fn print(r: &DeploymentReport) {
     println!("\nsensor-to-thruster latency (IMU sample on the node -> its pulse on the node), {PROBE_SCENARIO}:");
     for l in &r.latency {
         println!(
-            "{:>9} Bd: n {}, p50 {:.1} ms, p99 {:.1} ms, max {:.1} ms (bound p99 <= {} ms: {}); from the oldest sample of the increments p99 {:.1} ms",
+            "{:>9} Bd, link period {:.1} ms: n {}, p50 {:.1} ms, p99 {:.1} ms, max {:.1} ms (bound p99 <= {} ms: {}); from the oldest sample of the increments p99 {:.1} ms",
             l.baud,
+            f64::from(l.link_period_us) * 1e-3,
             l.n,
             l.p50_ms,
             l.p99_ms,
@@ -418,16 +478,18 @@ pub fn print(r: &DeploymentReport) {
         ok(r.delay_met)
     );
     println!(
-        "{:>12} {:>10} {:>10} {:>12}",
-        "one-way ms", "not told", "told", "told delay"
+        "{:>12} {:>10} {:>10} {:>12} {:>15} {:>14}",
+        "one-way ms", "not told", "told", "told delay", "told, node time", "round trip ms"
     );
     for d in &r.delay {
         let line = format!(
-            "{:>12.0} {:>10} {:>10} {:>9.0} ms  {}",
+            "{:>12.0} {:>10} {:>10} {:>9.0} ms {:>15} {:>14}  {}",
             d.latency_s * 1e3,
             cm(d.rms_not_told_m),
             d.rms_told_m.map_or("over max".into(), cm),
             d.told_delay_s * 1e3,
+            d.rms_told_node_time_m.map_or("over max".into(), cm),
+            d.round_trip_ms.map_or("none".into(), |t| format!("{t:.1}")),
             d.not_told_lost.as_deref().unwrap_or("")
         );
         println!("{}", line.trim_end());

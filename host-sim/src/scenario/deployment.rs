@@ -42,6 +42,14 @@ pub struct DeploymentSpec {
     pub told_delay_s: Option<f64>,
     /// Seed of the wire's jitter and corruption.
     pub tether_seed: u64,
+    /// The node link's period (s): an uplink and at least one downlink each. Default: from
+    /// the rate ([`firmware::node_link::default_link_period_us`]: 20 ms at 115,200 Bd, 5 ms
+    /// at 1 Mbd). Refused below the node's IMU period, above 20 ms, or when the uplink would
+    /// keep the link more than half busy.
+    pub link_period_s: Option<f64>,
+    /// Stamp the node's increments with their newest sample's time, placed on the topside's
+    /// clock through the round trip, instead of their arrival.
+    pub stamp_node_time: bool,
 }
 
 impl Default for DeploymentSpec {
@@ -56,6 +64,8 @@ impl Default for DeploymentSpec {
             tell_delay: false,
             told_delay_s: None,
             tether_seed: 1,
+            link_period_s: None,
+            stamp_node_time: false,
         }
     }
 }
@@ -72,11 +82,41 @@ impl DeploymentSpec {
         }
     }
 
+    /// The node link's period (us): `link_period_s`, or the rate's default.
+    pub fn link_period_us(&self) -> u32 {
+        match self.link_period_s {
+            Some(p) => (p * 1e6).round().clamp(0.0, f64::from(u32::MAX)) as u32,
+            None => firmware::node_link::default_link_period_us(self.tether_baud),
+        }
+    }
+
     /// Refuse bad values, naming the key (`deployment.tether_...`).
     pub fn validate(&self) -> Result<()> {
         self.wire()
             .validate()
             .map_err(|e| anyhow!("deployment.{e}"))?;
+        let imu_us = firmware::node::NodeConfig::DEFAULT.imu_period_us;
+        if let Some(p) = self.link_period_s {
+            if !p.is_finite() {
+                bail!("deployment.link_period_s = {p} is not a number of seconds");
+            }
+        }
+        let period_us = self.link_period_us();
+        firmware::node_link::check_link_period(period_us, imu_us, self.tether_baud).map_err(
+            |e| {
+                anyhow!(
+                    "deployment.link_period_s = {} s at tether_baud = {}: {e} (the uplink's \
+                     {} B take {} us; the IMU period is {imu_us} us)",
+                    f64::from(period_us) * 1e-6,
+                    self.tether_baud,
+                    firmware::node_link::MAX_UPLINK_FRAME_LEN,
+                    firmware::node_link::wire_time_us(
+                        firmware::node_link::MAX_UPLINK_FRAME_LEN,
+                        self.tether_baud
+                    )
+                )
+            },
+        )?;
         if let Some(t) = self.told_delay_s {
             if !(t.is_finite() && (0.0..=f64::from(MAX_TOLD_DELAY_S)).contains(&t)) {
                 bail!(
@@ -123,6 +163,6 @@ pub fn told_delay_s(d: &DeploymentSpec) -> f64 {
     let byte_s = d.wire().byte_time_s();
     let up_s = firmware::node_link::MAX_UPLINK_FRAME_LEN as f64 * byte_s;
     let down_s = firmware::node_link::MAX_DOWNLINK_FRAME_LEN as f64 * byte_s;
-    let half_period_s = f64::from(firmware::node_link::LINK_PERIOD_US) * 0.5e-6;
+    let half_period_s = f64::from(d.link_period_us()) * 0.5e-6;
     half_period_s + up_s + down_s + 2.0 * d.tether_latency_s
 }

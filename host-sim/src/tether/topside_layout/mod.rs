@@ -56,7 +56,8 @@ use firmware::protocol::{
     encode, fault, Board, Command, Decoded, FrameDecoder, Mode, Reply, Telemetry, MAX_FRAME_LEN,
 };
 use firmware::topside_link::{
-    fault as link_fault, LinkSensors, LinkThruster, NodeBridge, TopsideConfig, TopsideLink,
+    fault as link_fault, ImuStamp, LinkSensors, LinkThruster, NodeBridge, TopsideConfig,
+    TopsideLink,
 };
 use firmware::{App, Config, Timing};
 use ports::SensorFeed;
@@ -184,12 +185,22 @@ impl TopsideLayout {
         )
         .map_err(|e| anyhow!("topside config: {e}"))?;
         let top_port = WirePort::default();
-        let link = TopsideLink::new(bridge, top_port.clone(), TopsideConfig::new(LINK_SESSION));
+        let link_config = TopsideConfig {
+            link_period_us: d.link_period_us(),
+            imu_stamp: if d.stamp_node_time {
+                ImuStamp::NodeSample
+            } else {
+                ImuStamp::Arrival
+            },
+            ..TopsideConfig::for_baud(LINK_SESSION, d.tether_baud)
+        };
+        let link = TopsideLink::new(bridge, top_port.clone(), link_config);
         let node_port = WirePort::default();
         let sensors = PlantSensors::default();
         let feed = sensors.shared.clone();
         let node_config = NodeConfig {
             imu_period_us: NODE_IMU_PERIOD_US,
+            link_period_us: d.link_period_us(),
             ..NodeConfig::DEFAULT
         };
         let node = Node::new(
