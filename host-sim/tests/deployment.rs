@@ -118,7 +118,7 @@ fn after_a_cut_the_node_arms_again_only_when_the_surface_disarms_and_arms() {
     // The link is back and the topside is still armed, but the node stays latched and
     // neutral, and says so.
     let e = run.endpoint();
-    assert!(e.app().autopilot().armed());
+    assert!(e.topside_armed());
     assert!(!e.node().armed());
     assert_eq!(e.node().output_us(), [1500; 3]);
     assert_eq!(e.link_faults() & fault::NODE_LINK_LOST, 0);
