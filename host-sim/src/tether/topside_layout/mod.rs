@@ -34,6 +34,7 @@
 //! sent (a wrong command applied), the time the node went neutral and latched after a cut,
 //! and when the ground station's `Telemetry` showed the loss.
 
+mod emulated;
 mod ports;
 mod report;
 mod roles;
@@ -43,6 +44,7 @@ use crate::closed_loop::estimator_nav::{onboard_config, VehicleNav};
 use crate::closed_loop::{run_closed_loop, ControllerEndpoint, RunOptions, RunOutput, StepReply};
 use crate::scenario::{RunSetup, Scenario};
 use crate::tether::in_process::{SimPwm, SimSerial};
+pub use crate::tether::qemu::LayoutElfs;
 use crate::world::sensors::Measurement;
 use crate::world::tether_wire::Duplex;
 use anyhow::{anyhow, bail, Result};
@@ -51,6 +53,7 @@ use controller_core::controller::{Controller, Gains};
 use controller_core::nav::onboard::OnboardConfig;
 use controller_core::reference::{RefSample, Reference};
 use controller_core::state::NavState;
+pub use emulated::{EmulatedRoles, BOARD_TIMEOUT, TOPSIDE_GRID_US};
 use firmware::node::{Node, NodeConfig};
 use firmware::node_link::{status, Downlink, LinkDecoder, LinkFrame, Uplink};
 use firmware::protocol::{
@@ -248,7 +251,29 @@ impl TopsideLayout {
             node_port,
             top_port,
         };
-        Ok(Self::with_roles(sc, Box::new(roles), told))
+        let mut layout = Self::with_roles(sc, Box::new(roles), told);
+        layout.report.roles = layout.roles.describe().into();
+        Ok(layout)
+    }
+
+    /// The two emulated images (`topside-emu`, `node-emu`), each booted in its own
+    /// `qemu` (`qemu-system-arm -M netduinoplus2`), joined by the wire of `sc`'s
+    /// `[deployment]`, stepped through their harness UARTs ([`EmulatedRoles`]). A delay told
+    /// to the laws is refused (the tether protocol has no command for it; in process the
+    /// controller is built with it).
+    pub fn emulated(sc: &RunSetup, elfs: &LayoutElfs, qemu: &str) -> Result<Self> {
+        let d = sc.deployment;
+        if d.tell_delay || d.told_delay_s.is_some() {
+            return Err(crate::checks::refused(anyhow!(
+                "deployment.tell_delay / told_delay_s: the emulated topside cannot be told a \
+                 delay (no tether command sets the laws' measurement delay); fly it \
+                 --in-process or without the told delay"
+            )));
+        }
+        let roles = EmulatedRoles::start(elfs, qemu)?;
+        let mut layout = Self::with_roles(sc, Box::new(roles), None);
+        layout.report.roles = layout.roles.describe().into();
+        Ok(layout)
     }
 
     /// The harness around `roles`, joined by the wire of `sc`'s `[deployment]`; `told`: the
@@ -314,8 +339,8 @@ impl TopsideLayout {
     /// and what it answered.
     fn pc_exchange(&mut self) -> Result<Vec<(u16, Reply)>> {
         let bytes = std::mem::take(&mut self.pc_out);
-        let answer = self.roles.topside_tether(self.t_us, &bytes)?;
-        Ok(self.pc_receive(answer))
+        let tp = self.roles.topside_tether(self.t_us, &bytes)?;
+        Ok(self.watch_topside(self.t_us as f64 * 1e-6, tp))
     }
 
     /// What the topside sent the PC: the session, refusals, telemetry.
@@ -397,11 +422,7 @@ impl TopsideLayout {
         let mut top_in = Vec::new();
         self.wire.up.read_into(t_s, &mut top_in);
 
-        // The node.
-        let np = self.roles.node_pass(t_us, &node_in)?;
-        self.watch_node(t_us, np);
-
-        // The topside: the board's loop.
+        // The PC's bytes to the topside.
         if self.pc_session != 0 && t_us >= self.next_heartbeat_us {
             self.next_heartbeat_us = t_us + HEARTBEAT_PERIOD_US;
             let _ = self.pc_send(&Command::Heartbeat { t_us });
@@ -414,7 +435,9 @@ impl TopsideLayout {
             let _ = self.pc_send(&cmd);
         }
         let tether_in = std::mem::take(&mut self.pc_out);
-        let tp = self.roles.topside_pass(t_us, &tether_in, &top_in)?;
+        // The node's pass, then the topside's (the board's loop).
+        let (np, tp) = self.roles.pass(t_us, &node_in, &tether_in, &top_in)?;
+        self.watch_node(t_us, np);
         self.watch_topside(t_s, tp);
         Ok(())
     }
@@ -489,8 +512,8 @@ impl TopsideLayout {
     }
 
     /// The topside's side: the uplink it accepted (the cause of its step), the downlinks it
-    /// wrote (kept: what was sent; then onto the wire), what it told the PC.
-    fn watch_topside(&mut self, t_s: f64, tp: TopsidePass) {
+    /// wrote (kept: what was sent; then onto the wire), what it told the PC (returned).
+    fn watch_topside(&mut self, t_s: f64, tp: TopsidePass) -> Vec<(u16, Reply)> {
         let mut last = None;
         for &b in &tp.link_read {
             if let Some(LinkFrame::Frame { seq, .. }) = self.top_rx_dec.push(b) {
@@ -508,7 +531,7 @@ impl TopsideLayout {
                 self.on_arrival(arrives_s);
             }
         }
-        self.pc_receive(tp.tether_written);
+        self.pc_receive(tp.tether_written)
     }
 
     /// A write's last byte arrives at `arrives_s`: the emulated roles run a pass then.
@@ -714,8 +737,34 @@ pub struct LayoutOutput {
 /// The layout changes the scenario's IMU rate and control period ([`layout_scenario`]), so
 /// the changed scenario is resolved here.
 pub fn run_layout(sc: &Scenario, opts: &RunOptions) -> Result<LayoutOutput> {
+    run_layout_on(sc, opts, &LayoutTarget::InProcess)
+}
+
+/// Where the topside layout's two roles run.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum LayoutTarget {
+    /// The firmware library's roles in this process ([`TopsideLayout::for_scenario`]).
+    InProcess,
+    /// The two emulated images, each in `qemu` ([`TopsideLayout::emulated`]).
+    Emulated {
+        /// The images.
+        elfs: LayoutElfs,
+        /// The QEMU binary (`qemu-system-arm`).
+        qemu: String,
+    },
+}
+
+/// [`run_layout`] with the roles on `target`.
+pub fn run_layout_on(
+    sc: &Scenario,
+    opts: &RunOptions,
+    target: &LayoutTarget,
+) -> Result<LayoutOutput> {
     let sc = layout_scenario(sc).resolve()?;
-    let mut endpoint = TopsideLayout::for_scenario(&sc)?;
+    let mut endpoint = match target {
+        LayoutTarget::InProcess => TopsideLayout::for_scenario(&sc)?,
+        LayoutTarget::Emulated { elfs, qemu } => TopsideLayout::emulated(&sc, elfs, qemu)?,
+    };
     let mut nav =
         VehicleNav::for_scenario(&sc, opts.noise_seed.unwrap_or(sc.disturbance.noise_seed));
     let run = run_closed_loop(&sc, opts, &mut nav, &mut endpoint)?;
@@ -725,29 +774,22 @@ pub fn run_layout(sc: &Scenario, opts: &RunOptions) -> Result<LayoutOutput> {
     })
 }
 
-/// `host-sim hil` of a scenario with `[deployment] control = "topside"`: with
-/// `--in-process`, the two roles of the firmware library over the tether model, written as
-/// `host-sim run` writes (plus `layout.json`, this harness's report). The emulated images
-/// are not joined to host-sim yet: any other target is refused with that reason.
+/// `host-sim hil` of a scenario with `[deployment] control = "topside"`: the two roles on
+/// `target` (the firmware library's in process, or the two emulated images in QEMU) over the
+/// tether model, written as `host-sim run` writes (plus `layout.json`, this harness's
+/// report).
 pub fn hil_main(
     sc: &Scenario,
-    in_process: bool,
+    target: &LayoutTarget,
     out: Option<std::path::PathBuf>,
     duration_s: Option<f64>,
 ) -> Result<LayoutOutput> {
-    if !in_process {
-        return Err(crate::checks::refused(anyhow!(
-            "deployment.control = \"topside\": hil flies the topside layout with --in-process \
-             (the firmware library's topside and node over the tether model); the two emulated \
-             images are not joined to host-sim's loop yet"
-        )));
-    }
     let opts = RunOptions {
         record: true,
         duration_s,
         ..RunOptions::default()
     };
-    let o = run_layout(sc, &opts)?;
+    let o = run_layout_on(sc, &opts, target)?;
     let dir =
         out.unwrap_or_else(|| std::path::PathBuf::from("out").join(format!("hil-{}", sc.name)));
     std::fs::create_dir_all(&dir)?;
@@ -759,8 +801,14 @@ pub fn hil_main(
     let s = &o.run.summary;
     let r = &o.report;
     println!(
-        "{}: {} (topside layout in process, {} Bd, {} s one-way; RMS last 80 % {:.4} m)",
-        s.scenario, s.verdict, r.baud, r.latency_s, s.rms_position_error_last80_m
+        "{}: {} (topside layout {}, {} Bd, {} s one-way; RMS last 80 % {:.4} m; {:.1} s wall)",
+        s.scenario,
+        s.verdict,
+        r.roles,
+        r.baud,
+        r.latency_s,
+        s.rms_position_error_last80_m,
+        s.wall_time_s
     );
     println!(
         "node link: {} downlinks applied, {} wrong; latency IMU sample -> pulse p50 {:.1} ms, \

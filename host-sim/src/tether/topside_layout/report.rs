@@ -42,6 +42,8 @@ impl Latency {
 /// What the harness measured of one topside-layout run.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct LayoutReport {
+    /// Where the two roles ran: "in process" or "emulated (QEMU netduinoplus2 x 2)".
+    pub roles: String,
     /// The wire's figures.
     pub baud: u32,
     /// Added one-way latency (s).

@@ -87,15 +87,21 @@ impl ControlView {
 
 /// The topside and the node as the harness drives them.
 pub trait Roles {
-    /// Run the node at `t_us` (never before its previous pass), `link_in` delivered to its
-    /// node-link receiver first.
-    fn node_pass(&mut self, t_us: u64, link_in: &[u8]) -> Result<NodePass>;
-    /// Run the topside's loop at `t_us`: `tether_in` (from the PC) and `link_in` (from the
-    /// wire) delivered first.
-    fn topside_pass(&mut self, t_us: u64, tether_in: &[u8], link_in: &[u8]) -> Result<TopsidePass>;
+    /// One pass of both at `t_us` (never before the previous pass): the node, `node_in`
+    /// (from the wire) delivered to its node-link receiver first; the topside's loop,
+    /// `tether_in` (from the PC) and `top_in` (from the wire) delivered first. Neither
+    /// pass's input depends on the other's output at the same time (the wire takes time).
+    fn pass(
+        &mut self,
+        t_us: u64,
+        node_in: &[u8],
+        tether_in: &[u8],
+        top_in: &[u8],
+    ) -> Result<(NodePass, TopsidePass)>;
     /// The PC's bytes handled at `t_us` without moving time on (the set-up's commands,
-    /// answered at once); what the topside answered on the tether.
-    fn topside_tether(&mut self, t_us: u64, tether_in: &[u8]) -> Result<Vec<u8>>;
+    /// answered at once); what the topside did (its tether answer; emulated, its loop may
+    /// also have written to the node link).
+    fn topside_tether(&mut self, t_us: u64, tether_in: &[u8]) -> Result<TopsidePass>;
     /// An IMU sample of the plant (available to the node from its time stamp on).
     fn push_imu(&mut self, s: ImuSample);
     /// A pressure conversion of the plant at `t_us` (Pa).
@@ -149,8 +155,8 @@ impl InProcessRoles {
     }
 }
 
-impl Roles for InProcessRoles {
-    fn node_pass(&mut self, t_us: u64, link_in: &[u8]) -> Result<NodePass> {
+impl InProcessRoles {
+    fn node_pass(&mut self, t_us: u64, link_in: &[u8]) -> NodePass {
         self.clock.set(t_us);
         self.node_port
             .rx
@@ -159,7 +165,7 @@ impl Roles for InProcessRoles {
         self.node.tick();
         let read: Vec<u8> = self.node_port.read_log.borrow_mut().drain(..).collect();
         let written: Vec<u8> = self.node_port.tx.borrow_mut().drain(..).collect();
-        Ok(NodePass {
+        NodePass {
             read,
             written,
             pulse_us: self.node.output_us(),
@@ -167,12 +173,12 @@ impl Roles for InProcessRoles {
             accepted: self.node.counters().accepted,
             armed: self.node.armed(),
             imu_read_us: self.feed.borrow().last_imu_read_us,
-        })
+        }
     }
 
     /// The topside board's loop: `app.tick()`, an accepted uplink runs `app.step_now()`,
     /// `link.send_if_due()`.
-    fn topside_pass(&mut self, t_us: u64, tether_in: &[u8], link_in: &[u8]) -> Result<TopsidePass> {
+    fn topside_pass(&mut self, t_us: u64, tether_in: &[u8], link_in: &[u8]) -> TopsidePass {
         self.clock.set(t_us);
         self.top_port
             .rx
@@ -189,19 +195,38 @@ impl Roles for InProcessRoles {
         self.link.send_if_due(t_us, armed);
         let link_written: Vec<u8> = self.top_port.tx.borrow_mut().drain(..).collect();
         let tether_written: Vec<u8> = self.app.parts_mut().1.tx.drain(..).collect();
-        Ok(TopsidePass {
+        TopsidePass {
             link_read,
             link_written,
             tether_written,
             stepped,
-        })
+        }
+    }
+}
+
+impl Roles for InProcessRoles {
+    /// The node's pass, then the topside's.
+    fn pass(
+        &mut self,
+        t_us: u64,
+        node_in: &[u8],
+        tether_in: &[u8],
+        top_in: &[u8],
+    ) -> Result<(NodePass, TopsidePass)> {
+        let np = self.node_pass(t_us, node_in);
+        let tp = self.topside_pass(t_us, tether_in, top_in);
+        Ok((np, tp))
     }
 
-    fn topside_tether(&mut self, t_us: u64, tether_in: &[u8]) -> Result<Vec<u8>> {
+    /// `app.tick()` only (the App answers the PC; the node link waits for the next pass).
+    fn topside_tether(&mut self, t_us: u64, tether_in: &[u8]) -> Result<TopsidePass> {
         self.clock.set(t_us);
         self.app.parts_mut().1.rx.extend(tether_in.iter().copied());
         self.app.tick();
-        Ok(self.app.parts_mut().1.tx.drain(..).collect())
+        Ok(TopsidePass {
+            tether_written: self.app.parts_mut().1.tx.drain(..).collect(),
+            ..TopsidePass::default()
+        })
     }
 
     fn push_imu(&mut self, s: ImuSample) {
