@@ -149,9 +149,11 @@ pub struct TopsideLayout {
     node_accepted: u16,
     /// The node's latest pass as the harness saw it.
     node_view: NodePass,
-    /// The latest uplink's node counters, and the IMU intervals its uplinks carried.
+    /// The latest uplink's node counters, and the IMU intervals its uplinks carried and
+    /// the time they cover (us).
     uplink_counters: Option<firmware::node_link::NodeCounters>,
     uplink_samples: u64,
+    uplink_dt_us: u64,
     /// The emulated roles' pass times to come (frame arrivals, us).
     events: BTreeSet<u64>,
     report: LayoutReport,
@@ -312,6 +314,7 @@ impl TopsideLayout {
             },
             uplink_counters: None,
             uplink_samples: 0,
+            uplink_dt_us: 0,
             events: BTreeSet::new(),
             report: LayoutReport {
                 baud: d.tether_baud,
@@ -493,6 +496,7 @@ impl TopsideLayout {
                 if let Some(LinkFrame::Frame { seq, msg }) = self.node_tx_dec.push(b) {
                     self.uplink_counters = Some(msg.counters);
                     self.uplink_samples += u64::from(msg.samples);
+                    self.uplink_dt_us += u64::from(msg.dt_us);
                     if let Some(imu) = imu {
                         let oldest = self.prev_uplink_imu_us.unwrap_or(imu);
                         self.uplink_imu_us.insert(seq, (imu, oldest));
@@ -584,8 +588,12 @@ impl TopsideLayout {
             .zip(l.quantile_ms(0.99))
             .zip(l.quantile_ms(1.0))
             .map(|((a, b), c)| [a, b, c]);
-        let t_s = self.t_us as f64 * 1e-6;
-        let reads = self.roles.node_imu_reads().unwrap_or(self.uplink_samples);
+        // In process, the node's IMU reads over the run; emulated, the IMU intervals its
+        // uplinks integrated over the time they cover (the node's own count).
+        let (reads, t_s) = match self.roles.node_imu_reads() {
+            Some(n) => (n, self.t_us as f64 * 1e-6),
+            None => (self.uplink_samples, self.uplink_dt_us as f64 * 1e-6),
+        };
         r.node_imu_hz = if t_s > 0.0 { reads as f64 / t_s } else { 0.0 };
         r
     }

@@ -60,7 +60,8 @@ pub struct LayoutReport {
     pub latency_oldest: Latency,
     /// `latency`'s median, 99th percentile and largest (ms), for `layout.json`.
     pub latency_p50_p99_max_ms: Option<[f64; 3]>,
-    /// The node's IMU reads per second of the run.
+    /// The node's IMU reads per second of the run (emulated: the IMU intervals its uplinks
+    /// integrated per second they cover).
     pub node_imu_hz: f64,
     /// Downlinks the node applied (accepted and taken).
     pub downlinks_applied: u64,
