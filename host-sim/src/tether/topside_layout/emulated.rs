@@ -207,7 +207,7 @@ impl EmulatedRoles {
             accel_m_s2: s.accel_m_s2,
         });
         // The node samples at each multiple of its IMU period (each is a step).
-        if imu.is_some() && t_us % u64::from(NODE_IMU_PERIOD_US) == 0 {
+        if imu.is_some() && t_us.is_multiple_of(u64::from(NODE_IMU_PERIOD_US)) {
             self.last_imu_read_us = Some(t_us);
         }
         self.node_h.send(&NodeStep {
@@ -290,7 +290,7 @@ impl Roles for EmulatedRoles {
         tether_in: &[u8],
         top_in: &[u8],
     ) -> Result<(NodePass, TopsidePass)> {
-        let on_grid = t_us % u64::from(NODE_IMU_PERIOD_US) == 0;
+        let on_grid = t_us.is_multiple_of(u64::from(NODE_IMU_PERIOD_US));
         let node_due = on_grid || !node_in.is_empty();
         self.held_tether.extend_from_slice(tether_in);
         let top_due = (on_grid && (t_us >= self.next_top_us || !self.held_tether.is_empty()))
