@@ -31,7 +31,7 @@ use firmware::protocol::MAX_FRAME_LEN;
 use firmware::topside_link::TopsideCounters;
 use serde::de::DeserializeOwned;
 use serde::Serialize;
-use std::collections::VecDeque;
+use std::collections::{BTreeSet, VecDeque};
 use std::io::{BufReader, Read, Write};
 use std::net::TcpStream;
 use std::time::Duration;
@@ -124,6 +124,8 @@ pub struct EmulatedRoles {
     hello: Vec<u8>,
     /// The PC's bytes waiting for the topside's next step.
     held_tether: Vec<u8>,
+    /// Times the node runs at whatever it is given (its failsafes' times).
+    node_wakes: BTreeSet<u64>,
     next_top_us: u64,
     /// The plant's sensors for the node.
     imu: VecDeque<ImuSample>,
@@ -168,6 +170,7 @@ impl EmulatedRoles {
             uplink_steps: 0,
             hello: Vec::new(),
             held_tether: Vec::new(),
+            node_wakes: BTreeSet::new(),
             next_top_us: 0,
             imu: VecDeque::new(),
             current_imu: None,
@@ -291,7 +294,9 @@ impl Roles for EmulatedRoles {
         top_in: &[u8],
     ) -> Result<(NodePass, TopsidePass)> {
         let on_grid = t_us.is_multiple_of(u64::from(NODE_IMU_PERIOD_US));
-        let node_due = on_grid || !node_in.is_empty();
+        let woken = self.node_wakes.remove(&t_us);
+        self.node_wakes = self.node_wakes.split_off(&t_us);
+        let node_due = on_grid || !node_in.is_empty() || woken;
         self.held_tether.extend_from_slice(tether_in);
         let top_due = (on_grid && (t_us >= self.next_top_us || !self.held_tether.is_empty()))
             || !top_in.is_empty()
@@ -329,6 +334,10 @@ impl Roles for EmulatedRoles {
         tether.extend_from_slice(tether_in);
         self.top_send(t_us, &tether, &[])?;
         self.top_recv(t_us, Vec::new())
+    }
+
+    fn wake_node_at(&mut self, t_us: u64) {
+        self.node_wakes.insert(t_us);
     }
 
     fn push_imu(&mut self, s: ImuSample) {

@@ -2,9 +2,15 @@
 //! thin node on the vehicle, the node link between them over the byte-level tether model
 //! ([`crate::world::tether_wire`]).
 //!
-//! [`TopsideLayout`] is a [`ControllerEndpoint`] of [`crate::closed_loop`]'s loop. Both roles
-//! are the firmware library's own code, run in this process on one virtual clock (the
-//! simulation's time, microseconds):
+//! [`TopsideLayout`] is a [`ControllerEndpoint`] of [`crate::closed_loop`]'s loop: the
+//! harness (the PC on the topside's tether, the wire, the watched bytes, the report) around
+//! the two MCUs, which sit behind the [`Roles`] interface with two implementations:
+//! [`InProcessRoles`] ([`TopsideLayout::for_scenario`], described below) and
+//! [`EmulatedRoles`] ([`TopsideLayout::emulated`]: the `topside-emu` and `node-emu` images,
+//! each in QEMU `netduinoplus2`, stepped through their harness UARTs at the node's IMU
+//! times and at frame arrivals; `emulated.rs`). In process, both roles are the firmware
+//! library's own code, run in this process on one virtual clock (the simulation's time,
+//! microseconds):
 //! - the topside: the same [`App`] as every image, its thrusters the node link
 //!   ([`LinkThruster`]), its sensors the node's uplinks ([`LinkSensors`]), the link
 //!   [`TopsideLink`]; its loop is the topside board's (`app.tick()`, an accepted uplink runs
@@ -21,9 +27,9 @@
 //!   their readings reach it the tether's one-way latency later (their own cable, or a
 //!   later version of the node link; the wire times of the node link are not added).
 //!
-//! Both MCUs run one pass of their main loop every [`PASS_US`] of virtual time. Each loop
-//! tick of the closed loop runs the passes since the previous tick; the node's outputs at
-//! the tick are held over the next period. So that holding adds little delay of its own,
+//! In process, both MCUs run one pass of their main loop every [`PASS_US`] of virtual time
+//! (emulated: see `emulated.rs`). Each loop tick of the closed loop runs the passes since
+//! the previous tick; the node's outputs at the tick are held over the next period. So that holding adds little delay of its own,
 //! [`layout_scenario`] runs the loop at the node's IMU period or finer (the largest multiple
 //! of the plant step not above 2.5 ms): the measured sensor-to-thruster latency is the
 //! node's own timeline, and the plant sees the pulses at most one such period later.
@@ -65,8 +71,7 @@ use firmware::topside_link::{
 use firmware::{App, Config, Timing};
 pub use ports::{PlantSensors, VClock, WirePort};
 pub use report::{Latency, LayoutReport};
-pub use roles::InProcessRoles;
-use roles::{ControlView, NodePass, Roles, TopsidePass};
+pub use roles::{ControlView, InProcessRoles, NodePass, Roles, TopsidePass};
 
 pub use crate::scenario::deployment::{told_delay_s, Control, DeploymentSpec, MAX_TOLD_DELAY_S};
 use std::cell::Cell;
@@ -476,6 +481,7 @@ impl TopsideLayout {
                 if self.cut_at_us.is_none_or(|c| t_us < c) {
                     self.report.last_good_frame_s = Some(t_us as f64 * 1e-6);
                 }
+                self.schedule_failsafes(t_us, u64::from(got.ttl_ms) * 1_000);
             }
         }
         if let Some(cut) = self.cut_at_us {
@@ -542,6 +548,23 @@ impl TopsideLayout {
     fn on_arrival(&mut self, arrives_s: f64) {
         if self.roles.pass_period_us().is_none() {
             self.events.insert(arrival_us(arrives_s));
+        }
+    }
+
+    /// With a cut to come, the emulated node also runs a pass when the downlink it applied
+    /// at `t_us` expires (`ttl_us` later) and when it would latch without another (the node's
+    /// 1 s), so that the cut's timings are the node's own, not those of its next IMU time.
+    fn schedule_failsafes(&mut self, t_us: u64, ttl_us: u64) {
+        let Some(cut) = self.cut_at_us else { return };
+        if self.roles.pass_period_us().is_some() {
+            return;
+        }
+        let disarm = u64::from(NodeConfig::DEFAULT.disarm_after_us);
+        for e in [t_us + ttl_us, t_us + disarm] {
+            if e >= cut {
+                self.events.insert(e);
+                self.roles.wake_node_at(e);
+            }
         }
     }
 

@@ -102,6 +102,9 @@ pub trait Roles {
     /// answered at once); what the topside did (its tether answer; emulated, its loop may
     /// also have written to the node link).
     fn topside_tether(&mut self, t_us: u64, tether_in: &[u8]) -> Result<TopsidePass>;
+    /// Run the node at the pass at `t_us` even without bytes for it (a failsafe's time);
+    /// the in-process node runs at every pass anyway.
+    fn wake_node_at(&mut self, _t_us: u64) {}
     /// An IMU sample of the plant (available to the node from its time stamp on).
     fn push_imu(&mut self, s: ImuSample);
     /// A pressure conversion of the plant at `t_us` (Pa).
