@@ -103,7 +103,6 @@ fn take(s: &mut TcpStream, n: u32, what: &str) -> Result<Vec<u8>> {
 
 /// The two emulated boards.
 pub struct EmulatedRoles {
-    // Dropped last: the children outlive their sockets.
     node_link: TcpStream,
     node_h: Harness,
     node_reports: HarnessDecoder<NodeReport>,
@@ -111,6 +110,8 @@ pub struct EmulatedRoles {
     top_link: TcpStream,
     top_h: Harness,
     top_reports: HarnessDecoder<TopsideReport>,
+    /// The two QEMU children, killed when dropped (after the sockets above: fields drop in
+    /// order).
     _qemu: [QemuChild; 2],
     /// Bytes delivered to / read from each UART since boot.
     node_link_in: u32,
