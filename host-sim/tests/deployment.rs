@@ -118,7 +118,7 @@ fn after_a_cut_the_node_arms_again_only_when_the_surface_disarms_and_arms() {
     // The link is back and the topside is still armed, but the node stays latched and
     // neutral, and says so.
     let e = run.endpoint();
-    assert!(e.app().autopilot().armed());
+    assert!(e.topside_armed());
     assert!(!e.node().armed());
     assert_eq!(e.node().output_us(), [1500; 3]);
     assert_eq!(e.link_faults() & fault::NODE_LINK_LOST, 0);
@@ -220,14 +220,24 @@ fn run_and_hil_fly_the_topside_layout_and_deployment_refuses_bad_arguments() {
     assert_eq!(o.status.code(), Some(0), "{o:?}");
     let summary = std::fs::read_to_string(dir.join("o/summary.json")).unwrap();
     assert!(summary.contains("estimator on the vehicle"), "{summary}");
-    // `hil` flies it in process, and refuses the emulators it cannot join yet.
+    // `hil` flies it in process (emulated: tests/deployment_qemu.rs), and refuses one board.
     let o = host_sim(
         &dir,
         &["hil", f.to_str().unwrap(), "--in-process", "--out", "h"],
     );
     assert_eq!(o.status.code(), Some(0), "{o:?}");
     assert!(dir.join("h/layout.json").exists());
-    let o = host_sim(&dir, &["hil", f.to_str().unwrap(), "--out", "q"]);
+    let o = host_sim(
+        &dir,
+        &[
+            "hil",
+            f.to_str().unwrap(),
+            "--tcp",
+            "127.0.0.1:1",
+            "--out",
+            "q",
+        ],
+    );
     assert_eq!(o.status.code(), Some(2), "{o:?}");
     assert!(
         String::from_utf8_lossy(&o.stderr).contains("--in-process"),

@@ -4,7 +4,8 @@
 //! target (this test binary holds only this test, so setting the variables races nothing).
 
 use host_sim::tether::qemu::{
-    firmware_target_installed, image_or_skip, qemu_firmware_image, workspace_root, FirmwareImage,
+    firmware_target_installed, image_or_skip, layout_images_or_skip, qemu_firmware_image,
+    qemu_layout_images, workspace_root, FirmwareImage, LayoutImages,
 };
 use std::path::PathBuf;
 
@@ -35,9 +36,17 @@ fn missing_target_is_a_skip_with_the_fix_or_an_error_in_ci() {
         }
         FirmwareImage::Ready(p) => panic!("built {} without the target", p.display()),
     }
+    // The topside layout's two images (tests/deployment_qemu.rs) take the same path.
+    match qemu_layout_images(&root).unwrap() {
+        LayoutImages::Unavailable(why) => assert!(why.contains("fix: "), "{why}"),
+        LayoutImages::Ready(e) => panic!("built {e:?} without the target"),
+    }
     std::env::remove_var("ROV_REQUIRE_QEMU");
     assert_eq!(image_or_skip().unwrap(), None, "a developer machine skips");
+    assert_eq!(layout_images_or_skip().unwrap(), None);
     std::env::set_var("ROV_REQUIRE_QEMU", "1");
     let e = image_or_skip().unwrap_err().to_string();
+    assert!(e.contains("ROV_REQUIRE_QEMU"), "{e}");
+    let e = layout_images_or_skip().unwrap_err().to_string();
     assert!(e.contains("ROV_REQUIRE_QEMU"), "{e}");
 }

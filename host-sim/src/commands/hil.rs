@@ -12,9 +12,12 @@ pub use crate::tether::endpoint::{
 };
 use crate::tether::in_process::InProcessFirmware;
 use crate::tether::link::{open, Link, NoiseSpec, Port};
-use crate::tether::qemu::{qemu_firmware_image, start_qemu_link, workspace_root, FirmwareImage};
+use crate::tether::qemu::{
+    qemu_firmware_image, qemu_layout_images, start_qemu_link, workspace_root, FirmwareImage,
+    LayoutImages,
+};
 use crate::tether::topside_layout;
-use anyhow::{bail, Result};
+use anyhow::{anyhow, bail, Result};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -165,23 +168,60 @@ fn parse_probability(s: &str) -> std::result::Result<f64, String> {
     Ok(p)
 }
 
+/// `host-sim hil` of a scenario with `[deployment] control = "topside"`: without a target,
+/// the two emulated images (`topside-emu`, `node-emu`, built from the workspace) each in
+/// QEMU; `--in-process`, the firmware library's roles. A board (`--serial`, `--tcp`) or
+/// one image (`--qemu ELF`) is refused with the reason: the layout is two images.
+fn topside_hil(sc: &Scenario, a: HilArgs) -> Result<HilOutput> {
+    let target = if a.in_process {
+        topside_layout::LayoutTarget::InProcess
+    } else if a.firmware.board().is_some() || a.firmware.qemu.is_some() {
+        return Err(crate::checks::refused(anyhow!(
+            "deployment.control = \"topside\": hil flies the topside layout's two emulated \
+             images (the default: topside-emu and node-emu built from the workspace, each in \
+             QEMU) or --in-process; --serial, --tcp and --qemu ELF name one board"
+        )));
+    } else {
+        match qemu_layout_images(&workspace_root())? {
+            LayoutImages::Ready(elfs) => topside_layout::LayoutTarget::Emulated {
+                elfs,
+                qemu: a.qemu_bin.clone(),
+            },
+            LayoutImages::Unavailable(why) => {
+                bail!("the emulated boards cannot run here: {why} (or use --in-process)")
+            }
+        }
+    };
+    let o = topside_layout::hil_main(sc, &target, a.out, a.duration)?;
+    let (name, board) = match target {
+        topside_layout::LayoutTarget::InProcess => (
+            "in-process topside layout",
+            "topside + node (firmware library)",
+        ),
+        topside_layout::LayoutTarget::Emulated { .. } => (
+            "emulated topside layout",
+            "topside-emu + node-emu (qemu netduinoplus2 x 2)",
+        ),
+    };
+    Ok(HilOutput {
+        run: o.run,
+        report: HilReport {
+            target: name.into(),
+            board: board.into(),
+            onboard_estimator: true,
+            ..HilReport::default()
+        },
+        telemetry: Vec::new(),
+    })
+}
+
 /// `host-sim hil`.
 /// Run `host-sim hil`; the output decides the exit code (`main.rs`: 1 when the run diverged,
 /// went non-finite or missed its scenario's targets, as `run`).
 pub fn main(a: HilArgs) -> Result<HilOutput> {
     let sc = Scenario::load_setup(&a.scenario).map_err(crate::checks::refused)?;
     if sc.deployment.control == Control::Topside {
-        let o = topside_layout::hil_main(&sc, a.in_process, a.out, a.duration)?;
-        return Ok(HilOutput {
-            run: o.run,
-            report: HilReport {
-                target: "in-process topside layout".into(),
-                board: "topside + node (firmware library)".into(),
-                onboard_estimator: true,
-                ..HilReport::default()
-            },
-            telemetry: Vec::new(),
-        });
+        return topside_hil(&sc, a);
     }
     let target = if let Some(board) = a.firmware.board() {
         HilTarget::Board(board)

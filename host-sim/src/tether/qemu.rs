@@ -37,6 +37,18 @@ impl QemuChild {
         log: Option<&Path>,
         monitor: bool,
     ) -> Result<Self> {
+        Self::start_serials(qemu, elf, &[port], log, monitor)
+    }
+
+    /// Start QEMU with `elf`, its serial ports (`-serial` 0, 1, ...: USART1, USART2, ... on
+    /// `netduinoplus2`) connecting to `ports` on 127.0.0.1, in that order.
+    pub fn start_serials(
+        qemu: &str,
+        elf: &Path,
+        ports: &[u16],
+        log: Option<&Path>,
+        monitor: bool,
+    ) -> Result<Self> {
         if !elf.is_file() {
             bail!("firmware image {} not found", elf.display());
         }
@@ -57,13 +69,16 @@ impl QemuChild {
             Some(p) => format!("tcp:127.0.0.1:{p},server=on,wait=off"),
             None => "none".into(),
         };
-        let child = std::process::Command::new(qemu)
-            .args(["-M", "netduinoplus2", "-nographic", "-monitor"])
+        let mut cmd = std::process::Command::new(qemu);
+        cmd.args(["-M", "netduinoplus2", "-nographic", "-monitor"])
             .arg(monitor_arg)
             .args(["-semihosting-config", "enable=on,target=native"])
-            .args(["-icount", "shift=0,align=off,sleep=off"])
-            .arg("-serial")
-            .arg(format!("tcp:127.0.0.1:{port},nodelay=on"))
+            .args(["-icount", "shift=0,align=off,sleep=off"]);
+        for port in ports {
+            cmd.arg("-serial")
+                .arg(format!("tcp:127.0.0.1:{port},nodelay=on"));
+        }
+        let child = cmd
             .arg("-kernel")
             .arg(elf)
             .stdin(Stdio::null())
@@ -183,20 +198,37 @@ pub fn firmware_target_installed(root: &Path) -> bool {
 /// `qemu-system-arm` is not installed or the toolchain lacks the thumbv7em target; `Err`
 /// when the build itself fails.
 pub fn qemu_firmware_image(root: &Path) -> Result<FirmwareImage> {
-    if !command_ok(std::process::Command::new("qemu-system-arm").arg("--version")) {
-        return Ok(FirmwareImage::Unavailable(
-            "qemu-system-arm not found; fix: apt-get install -y qemu-system-arm".into(),
-        ));
+    if let Some(why) = qemu_missing() {
+        return Ok(FirmwareImage::Unavailable(why));
     }
     if let Some(p) = std::env::var_os("HIL_FIRMWARE_ELF") {
         return Ok(FirmwareImage::Ready(PathBuf::from(p)));
     }
-    if !firmware_target_installed(root) {
-        return Ok(FirmwareImage::Unavailable(format!(
+    if let Some(why) = target_missing(root) {
+        return Ok(FirmwareImage::Unavailable(why));
+    }
+    build_image(root, "firmware", "qemu", &[]).map(FirmwareImage::Ready)
+}
+
+/// Why QEMU cannot run here (with the fix), if it cannot.
+fn qemu_missing() -> Option<String> {
+    (!command_ok(std::process::Command::new("qemu-system-arm").arg("--version")))
+        .then(|| "qemu-system-arm not found; fix: apt-get install -y qemu-system-arm".into())
+}
+
+/// Why the thumbv7em images cannot be built here (with the fix), if they cannot.
+fn target_missing(root: &Path) -> Option<String> {
+    (!firmware_target_installed(root)).then(|| {
+        format!(
             "the Rust target {FIRMWARE_TARGET} is not installed; fix: rustup target add \
              {FIRMWARE_TARGET}"
-        )));
-    }
+        )
+    })
+}
+
+/// Build `bin` of `package` (with `features`) from the workspace at `root` into
+/// `<target>/hil-firmware` (`target` = `CARGO_TARGET_DIR` or `root/target`); its path.
+fn build_image(root: &Path, package: &str, bin: &str, features: &[&str]) -> Result<PathBuf> {
     let target = std::env::var_os("CARGO_TARGET_DIR")
         .map(PathBuf::from)
         .unwrap_or_else(|| root.join("target"));
@@ -206,27 +238,72 @@ pub fn qemu_firmware_image(root: &Path) -> Result<FirmwareImage> {
         root.join(target).join("hil-firmware")
     };
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    let st = std::process::Command::new(cargo)
-        .current_dir(root)
-        .args([
-            "build",
-            "-q",
-            "-p",
-            "firmware",
-            "--release",
-            "--bin",
-            "qemu",
-        ])
+    let mut cmd = std::process::Command::new(cargo);
+    cmd.current_dir(root)
+        .args(["build", "-q", "-p", package, "--release", "--bin", bin])
         .args(["--target", FIRMWARE_TARGET, "--target-dir"])
-        .arg(&dir)
-        .status()
-        .context("running cargo build for the firmware's qemu image")?;
-    if !st.success() {
-        bail!("building the firmware's qemu image failed ({st})");
+        .arg(&dir);
+    if !features.is_empty() {
+        cmd.args(["--features", &features.join(",")]);
     }
-    Ok(FirmwareImage::Ready(
-        dir.join(FIRMWARE_TARGET).join("release/qemu"),
-    ))
+    let st = cmd
+        .status()
+        .with_context(|| format!("running cargo build for the {bin} image"))?;
+    if !st.success() {
+        bail!("building the {bin} image ({package}) failed ({st})");
+    }
+    Ok(dir.join(FIRMWARE_TARGET).join("release").join(bin))
+}
+
+/// The two emulated images of the topside layout (issue 25): `topside-emu` (crate
+/// `firmware`, feature `topside-board`) and `node-emu` (crate `node-firmware`).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LayoutElfs {
+    /// The topside image.
+    pub topside: PathBuf,
+    /// The node image.
+    pub node: PathBuf,
+}
+
+/// The topside layout's images, or why they cannot be had here.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum LayoutImages {
+    /// Both images, built and current.
+    Ready(LayoutElfs),
+    /// QEMU or the target is missing: the reason and the command that fixes it.
+    Unavailable(String),
+}
+
+/// Both images of the topside layout built from the workspace at `root` into
+/// `<target>/hil-firmware` (cargo rebuilds only what changed), as
+/// [`qemu_firmware_image`] builds the onboard one.
+pub fn qemu_layout_images(root: &Path) -> Result<LayoutImages> {
+    if let Some(why) = qemu_missing().or_else(|| target_missing(root)) {
+        return Ok(LayoutImages::Unavailable(why));
+    }
+    Ok(LayoutImages::Ready(LayoutElfs {
+        topside: build_image(root, "firmware", "topside-emu", &["topside-board"])?,
+        node: build_image(root, "node-firmware", "node-emu", &[])?,
+    }))
+}
+
+/// For the tests: the topside layout's images, or `None` after printing `SKIPPED: <reason>;
+/// fix: <command>`; with `ROV_REQUIRE_QEMU` set (CI) a missing emulator or target fails.
+pub fn layout_images_or_skip() -> Result<Option<LayoutElfs>> {
+    match qemu_layout_images(&workspace_root())? {
+        LayoutImages::Ready(e) => Ok(Some(e)),
+        LayoutImages::Unavailable(why) => skip_or_fail(&why).map(|()| None),
+    }
+}
+
+/// Print `SKIPPED: why`, or fail with it under `ROV_REQUIRE_QEMU`.
+fn skip_or_fail(why: &str) -> Result<()> {
+    if std::env::var_os("ROV_REQUIRE_QEMU").is_some() {
+        bail!("ROV_REQUIRE_QEMU is set, but the emulated-board test cannot run: {why}");
+    }
+    println!("SKIPPED: {why}");
+    eprintln!("SKIPPED: {why}");
+    Ok(())
 }
 
 /// For the tests: the firmware image, or `None` after printing `SKIPPED: <reason>; fix:
@@ -234,14 +311,7 @@ pub fn qemu_firmware_image(root: &Path) -> Result<FirmwareImage> {
 pub fn image_or_skip() -> Result<Option<PathBuf>> {
     match qemu_firmware_image(&workspace_root())? {
         FirmwareImage::Ready(p) => Ok(Some(p)),
-        FirmwareImage::Unavailable(why) => {
-            if std::env::var_os("ROV_REQUIRE_QEMU").is_some() {
-                bail!("ROV_REQUIRE_QEMU is set, but the emulated-board test cannot run: {why}");
-            }
-            println!("SKIPPED: {why}");
-            eprintln!("SKIPPED: {why}");
-            Ok(None)
-        }
+        FirmwareImage::Unavailable(why) => skip_or_fail(&why).map(|()| None),
     }
 }
 
@@ -275,4 +345,50 @@ pub fn start_qemu_link(
     };
     stream.set_nonblocking(false)?;
     Ok((q, Box::new(tcp_port(stream)?)))
+}
+
+/// Start QEMU with `elf` and `serials` serial ports (`-serial` 0.. in order: USART1,
+/// USART2, USART3 on `netduinoplus2`), each accepted on a port of 127.0.0.1 bound here
+/// first; every read on them times out after `read_timeout` (a hung emulator is an error,
+/// not a hang). The child is killed when the guard is dropped.
+pub fn start_qemu_serials(
+    qemu: &str,
+    elf: &Path,
+    serials: usize,
+    log: Option<&Path>,
+    read_timeout: Duration,
+) -> Result<(QemuChild, Vec<std::net::TcpStream>)> {
+    let listeners = (0..serials)
+        .map(|_| TcpListener::bind("127.0.0.1:0").context("cannot bind 127.0.0.1:0"))
+        .collect::<Result<Vec<_>>>()?;
+    let ports = listeners
+        .iter()
+        .map(|l| Ok(l.local_addr()?.port()))
+        .collect::<Result<Vec<_>>>()?;
+    let mut q = QemuChild::start_serials(qemu, elf, &ports, log, false)?;
+    let deadline = Instant::now() + Duration::from_secs(30);
+    let mut streams = Vec::new();
+    for (l, port) in listeners.iter().zip(&ports) {
+        l.set_nonblocking(true)?;
+        let stream = loop {
+            match l.accept() {
+                Ok((s, _)) => break s,
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
+                    if let Some(why) = q.exited() {
+                        bail!("{why}");
+                    }
+                    if Instant::now() > deadline {
+                        bail!("QEMU did not connect to 127.0.0.1:{port} within 30 s");
+                    }
+                    std::thread::sleep(Duration::from_millis(5));
+                }
+                Err(e) => return Err(e).context("accept"),
+            }
+        };
+        stream.set_nonblocking(false)?;
+        stream.set_nodelay(true)?;
+        stream.set_read_timeout(Some(read_timeout))?;
+        streams.push(stream);
+    }
+    Ok((q, streams))
 }

@@ -2,9 +2,15 @@
 //! thin node on the vehicle, the node link between them over the byte-level tether model
 //! ([`crate::world::tether_wire`]).
 //!
-//! [`TopsideLayout`] is a [`ControllerEndpoint`] of [`crate::closed_loop`]'s loop. Both roles
-//! are the firmware library's own code, run in this process on one virtual clock (the
-//! simulation's time, microseconds):
+//! [`TopsideLayout`] is a [`ControllerEndpoint`] of [`crate::closed_loop`]'s loop: the
+//! harness (the PC on the topside's tether, the wire, the watched bytes, the report) around
+//! the two MCUs, which sit behind the [`Roles`] interface with two implementations:
+//! [`InProcessRoles`] ([`TopsideLayout::for_scenario`], described below) and
+//! [`EmulatedRoles`] ([`TopsideLayout::emulated`]: the `topside-emu` and `node-emu` images,
+//! each in QEMU `netduinoplus2`, stepped through their harness UARTs at the node's IMU
+//! times and at frame arrivals; `emulated.rs`). In process, both roles are the firmware
+//! library's own code, run in this process on one virtual clock (the simulation's time,
+//! microseconds):
 //! - the topside: the same [`App`] as every image, its thrusters the node link
 //!   ([`LinkThruster`]), its sensors the node's uplinks ([`LinkSensors`]), the link
 //!   [`TopsideLink`]; its loop is the topside board's (`app.tick()`, an accepted uplink runs
@@ -21,9 +27,9 @@
 //!   their readings reach it the tether's one-way latency later (their own cable, or a
 //!   later version of the node link; the wire times of the node link are not added).
 //!
-//! Both MCUs run one pass of their main loop every [`PASS_US`] of virtual time. Each loop
-//! tick of the closed loop runs the passes since the previous tick; the node's outputs at
-//! the tick are held over the next period. So that holding adds little delay of its own,
+//! In process, both MCUs run one pass of their main loop every [`PASS_US`] of virtual time
+//! (emulated: see `emulated.rs`). Each loop tick of the closed loop runs the passes since
+//! the previous tick; the node's outputs at the tick are held over the next period. So that holding adds little delay of its own,
 //! [`layout_scenario`] runs the loop at the node's IMU period or finer (the largest multiple
 //! of the plant step not above 2.5 ms): the measured sensor-to-thruster latency is the
 //! node's own timeline, and the plant sees the pulses at most one such period later.
@@ -34,14 +40,17 @@
 //! sent (a wrong command applied), the time the node went neutral and latched after a cut,
 //! and when the ground station's `Telemetry` showed the loss.
 
+mod emulated;
 mod ports;
 mod report;
+mod roles;
 
 use crate::clock::us;
 use crate::closed_loop::estimator_nav::{onboard_config, VehicleNav};
 use crate::closed_loop::{run_closed_loop, ControllerEndpoint, RunOptions, RunOutput, StepReply};
 use crate::scenario::{RunSetup, Scenario};
 use crate::tether::in_process::{SimPwm, SimSerial};
+pub use crate::tether::qemu::LayoutElfs;
 use crate::world::sensors::Measurement;
 use crate::world::tether_wire::Duplex;
 use anyhow::{anyhow, bail, Result};
@@ -50,6 +59,7 @@ use controller_core::controller::{Controller, Gains};
 use controller_core::nav::onboard::OnboardConfig;
 use controller_core::reference::{RefSample, Reference};
 use controller_core::state::NavState;
+pub use emulated::{EmulatedRoles, BOARD_TIMEOUT, TOPSIDE_GRID_US};
 use firmware::node::{Node, NodeConfig};
 use firmware::node_link::{status, Downlink, LinkDecoder, LinkFrame, Uplink};
 use firmware::protocol::{
@@ -60,13 +70,13 @@ use firmware::topside_link::{
     TopsideLink,
 };
 use firmware::{App, Config, Timing};
-use ports::SensorFeed;
 pub use ports::{PlantSensors, VClock, WirePort};
 pub use report::{Latency, LayoutReport};
+pub use roles::{ControlView, InProcessRoles, NodePass, Roles, TopsidePass};
 
 pub use crate::scenario::deployment::{told_delay_s, Control, DeploymentSpec, MAX_TOLD_DELAY_S};
-use std::cell::{Cell, RefCell};
-use std::collections::HashMap;
+use std::cell::Cell;
+use std::collections::{BTreeSet, HashMap};
 use std::rc::Rc;
 
 /// One pass of each MCU's main loop every this much virtual time (us).
@@ -106,16 +116,12 @@ pub type NodeRole = Node<SimPwm, WirePort, VClock, PlantSensors>;
 
 /// The topside layout as the loop's controller endpoint.
 pub struct TopsideLayout {
-    clock: Rc<Cell<u64>>,
-    app: TopsideApp,
-    link: TopsideLink<'static, WirePort>,
-    bridge: &'static NodeBridge,
-    node: NodeRole,
+    /// The two MCUs: in process or emulated.
+    roles: Box<dyn Roles>,
     wire: Duplex,
-    feed: Rc<RefCell<SensorFeed>>,
-    node_port: WirePort,
-    top_port: WirePort,
     // The PC's side of the tether to the topside.
+    /// Tether bytes for the topside's next pass.
+    pc_out: Vec<u8>,
     pc_seq: u16,
     pc_session: u32,
     pc_decoder: FrameDecoder<Reply>,
@@ -147,7 +153,49 @@ pub struct TopsideLayout {
     /// Downlink seq -> what the topside sent and the uplink whose step made it.
     sent: HashMap<u16, (Downlink, Option<u16>)>,
     node_accepted: u16,
+    /// The node's latest pass as the harness saw it.
+    node_view: NodePass,
+    /// The latest uplink's node counters, and the IMU intervals its uplinks carried and
+    /// the time they cover (us).
+    uplink_counters: Option<firmware::node_link::NodeCounters>,
+    uplink_samples: u64,
+    uplink_dt_us: u64,
+    /// The emulated roles' pass times to come (frame arrivals, us).
+    events: BTreeSet<u64>,
     report: LayoutReport,
+}
+
+/// The node as the harness saw it after its latest pass.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct NodeView {
+    /// Its three outputs (us).
+    pub pulse_us: [u16; 3],
+    /// Its status bits (`node_link::status`).
+    pub status: u8,
+    /// Armed.
+    pub armed: bool,
+}
+
+impl NodeView {
+    /// Armed.
+    pub fn armed(&self) -> bool {
+        self.armed
+    }
+
+    /// Its three outputs (us).
+    pub fn output_us(&self) -> [u16; 3] {
+        self.pulse_us
+    }
+}
+
+/// The first microsecond at or after `t_s` (a byte delivered at `t_s` is read by a pass
+/// then).
+fn arrival_us(t_s: f64) -> u64 {
+    let mut u = (t_s * 1e6).ceil().max(0.0) as u64;
+    while (u as f64) * 1e-6 < t_s {
+        u += 1;
+    }
+    u
 }
 
 impl TopsideLayout {
@@ -211,16 +259,49 @@ impl TopsideLayout {
             node_config,
         )
         .map_err(|e| anyhow!("node config: {e}"))?;
-        Ok(Self {
+        let roles = InProcessRoles {
             clock,
             app,
             link,
             bridge,
             node,
-            wire: Duplex::new(d.wire(), d.tether_seed),
             feed,
             node_port,
             top_port,
+        };
+        let mut layout = Self::with_roles(sc, Box::new(roles), told);
+        layout.report.roles = layout.roles.describe().into();
+        Ok(layout)
+    }
+
+    /// The two emulated images (`topside-emu`, `node-emu`), each booted in its own
+    /// `qemu` (`qemu-system-arm -M netduinoplus2`), joined by the wire of `sc`'s
+    /// `[deployment]`, stepped through their harness UARTs ([`EmulatedRoles`]). A delay told
+    /// to the laws is refused (the tether protocol has no command for it; in process the
+    /// controller is built with it).
+    pub fn emulated(sc: &RunSetup, elfs: &LayoutElfs, qemu: &str) -> Result<Self> {
+        let d = sc.deployment;
+        if d.tell_delay || d.told_delay_s.is_some() {
+            return Err(crate::checks::refused(anyhow!(
+                "deployment.tell_delay / told_delay_s: the emulated topside cannot be told a \
+                 delay (no tether command sets the laws' measurement delay); fly it \
+                 --in-process or without the told delay"
+            )));
+        }
+        let roles = EmulatedRoles::start(elfs, qemu)?;
+        let mut layout = Self::with_roles(sc, Box::new(roles), None);
+        layout.report.roles = layout.roles.describe().into();
+        Ok(layout)
+    }
+
+    /// The harness around `roles`, joined by the wire of `sc`'s `[deployment]`; `told`: the
+    /// delay told to the laws (s), for the report.
+    fn with_roles(sc: &RunSetup, roles: Box<dyn Roles>, told: Option<f64>) -> Self {
+        let d = sc.deployment;
+        Self {
+            roles,
+            wire: Duplex::new(d.wire(), d.tether_seed),
+            pc_out: Vec::new(),
             pc_seq: 0,
             pc_session: 0,
             pc_decoder: FrameDecoder::new(),
@@ -243,6 +324,14 @@ impl TopsideLayout {
             prev_uplink_imu_us: None,
             sent: HashMap::new(),
             node_accepted: 0,
+            node_view: NodePass {
+                pulse_us: [1500; 3],
+                ..NodePass::default()
+            },
+            uplink_counters: None,
+            uplink_samples: 0,
+            uplink_dt_us: 0,
+            events: BTreeSet::new(),
             report: LayoutReport {
                 baud: d.tether_baud,
                 latency_s: d.tether_latency_s,
@@ -250,7 +339,7 @@ impl TopsideLayout {
                 told_delay_s: told,
                 ..LayoutReport::default()
             },
-        })
+        }
     }
 
     /// Send a command to the topside over the PC's tether.
@@ -260,15 +349,21 @@ impl TopsideLayout {
         let mut buf = [0u8; MAX_FRAME_LEN];
         let frame = encode(self.pc_session, seq, cmd, &mut buf)
             .map_err(|e| anyhow!("encode {cmd:?}: {e}"))?;
-        let rx = &mut self.app.parts_mut().1.rx;
-        rx.push_back(0);
-        rx.extend(frame.iter().copied());
+        self.pc_out.push(0);
+        self.pc_out.extend_from_slice(frame);
         Ok(seq)
     }
 
+    /// The PC's waiting bytes to the topside at once (no node-link pass in process),
+    /// and what it answered.
+    fn pc_exchange(&mut self) -> Result<Vec<(u16, Reply)>> {
+        let bytes = std::mem::take(&mut self.pc_out);
+        let tp = self.roles.topside_tether(self.t_us, &bytes)?;
+        Ok(self.watch_topside(self.t_us as f64 * 1e-6, tp))
+    }
+
     /// What the topside sent the PC: the session, refusals, telemetry.
-    fn pc_receive(&mut self) -> Vec<(u16, Reply)> {
-        let bytes: Vec<u8> = self.app.parts_mut().1.tx.drain(..).collect();
+    fn pc_receive(&mut self, bytes: Vec<u8>) -> Vec<(u16, Reply)> {
         let mut out = Vec::new();
         for b in bytes {
             if let Some(Decoded::Frame { seq, msg, .. }) = self.pc_decoder.push(b) {
@@ -306,8 +401,7 @@ impl TopsideLayout {
     /// A command from the PC, answered (`Ack`) or refused, run at once in the topside.
     pub fn command(&mut self, cmd: &Command) -> Result<()> {
         let seq = self.pc_send(cmd)?;
-        self.app.tick();
-        for (_, r) in self.pc_receive() {
+        for (_, r) in self.pc_exchange()? {
             match r {
                 Reply::Ack { seq: s } if s == seq => return Ok(()),
                 Reply::Nack { seq: s, reason } if s == seq => {
@@ -325,8 +419,7 @@ impl TopsideLayout {
         self.pc_session = 0;
         let nonce = 0x2500_0001;
         self.pc_send(&Command::OpenSession { nonce })?;
-        self.app.tick();
-        for (_, r) in self.pc_receive() {
+        for (_, r) in self.pc_exchange()? {
             if let Reply::Session { nonce: n, session } = r {
                 if n == nonce {
                     self.pc_session = session;
@@ -339,22 +432,16 @@ impl TopsideLayout {
     }
 
     /// One pass of both MCUs at virtual time `t_us`, with the wire between them.
-    fn pass(&mut self, t_us: u64) {
-        self.clock.set(t_us);
+    fn pass(&mut self, t_us: u64) -> Result<()> {
         self.t_us = t_us;
         let t_s = t_us as f64 * 1e-6;
         // The wire delivers what has arrived.
-        let mut bytes = Vec::new();
-        self.wire.down.read_into(t_s, &mut bytes);
-        self.node_port.rx.borrow_mut().extend(bytes.drain(..));
-        self.wire.up.read_into(t_s, &mut bytes);
-        self.top_port.rx.borrow_mut().extend(bytes.drain(..));
+        let mut node_in = Vec::new();
+        self.wire.down.read_into(t_s, &mut node_in);
+        let mut top_in = Vec::new();
+        self.wire.up.read_into(t_s, &mut top_in);
 
-        // The node.
-        self.node.tick();
-        self.watch_node(t_us);
-
-        // The topside: the board's loop.
+        // The PC's bytes to the topside.
         if self.pc_session != 0 && t_us >= self.next_heartbeat_us {
             self.next_heartbeat_us = t_us + HEARTBEAT_PERIOD_US;
             let _ = self.pc_send(&Command::Heartbeat { t_us });
@@ -366,28 +453,23 @@ impl TopsideLayout {
         for (_, cmd) in due {
             let _ = self.pc_send(&cmd);
         }
-        self.app.tick();
-        let armed = self.app.autopilot().armed();
-        let stepped = self.link.poll(t_us, armed);
-        let cause = self.watch_topside_rx(stepped);
-        if stepped {
-            self.app.step_now();
-        }
-        self.link.send_if_due(t_us, armed);
-        self.watch_topside_tx(t_s, if stepped { cause } else { None });
-        self.pc_receive();
+        let tether_in = std::mem::take(&mut self.pc_out);
+        // The node's pass, then the topside's (the board's loop).
+        let (np, tp) = self.roles.pass(t_us, &node_in, &tether_in, &top_in)?;
+        self.watch_node(t_us, np);
+        self.watch_topside(t_s, tp);
+        Ok(())
     }
 
     /// The node's side: what it read and applied, what it sent.
-    fn watch_node(&mut self, t_us: u64) {
-        let read: Vec<u8> = self.node_port.read_log.borrow_mut().drain(..).collect();
+    fn watch_node(&mut self, t_us: u64, np: NodePass) {
         let mut last_valid = None;
-        for b in read {
+        for &b in &np.read {
             if let Some(LinkFrame::Frame { seq, msg }) = self.node_rx_dec.push(b) {
                 last_valid = Some((seq, msg));
             }
         }
-        let accepted = self.node.counters().accepted;
+        let accepted = np.accepted;
         if accepted != self.node_accepted {
             self.report.downlinks_applied += u64::from(accepted.wrapping_sub(self.node_accepted));
             self.node_accepted = accepted;
@@ -395,9 +477,9 @@ impl TopsideLayout {
                 let expect = self.sent.get(&seq).copied();
                 // The frame taken is the one sent with its number, and the outputs carry
                 // its pulses (armed; disarmed they stay neutral).
-                let out = self.node.output_us();
-                let right = expect
-                    .is_some_and(|(d, _)| d == got && (!self.node.armed() || d.pulse_us == out));
+                let out = np.pulse_us;
+                let right =
+                    expect.is_some_and(|(d, _)| d == got && (!np.armed || d.pulse_us == out));
                 if !right {
                     self.report.wrong_commands_applied += 1;
                 }
@@ -410,25 +492,28 @@ impl TopsideLayout {
                 if self.cut_at_us.is_none_or(|c| t_us < c) {
                     self.report.last_good_frame_s = Some(t_us as f64 * 1e-6);
                 }
+                self.schedule_failsafes(t_us, u64::from(got.ttl_ms) * 1_000);
             }
         }
         if let Some(cut) = self.cut_at_us {
             if t_us >= cut {
                 let t_s = t_us as f64 * 1e-6;
-                if self.report.node_neutral_s.is_none() && self.node.output_us() == [1500; 3] {
+                if self.report.node_neutral_s.is_none() && np.pulse_us == [1500; 3] {
                     self.report.node_neutral_s = Some(t_s);
                 }
-                let latched = self.node.status(t_us) & status::LATCHED != 0;
-                if self.report.node_latched_s.is_none() && !self.node.armed() && latched {
+                let latched = np.status & status::LATCHED != 0;
+                if self.report.node_latched_s.is_none() && !np.armed && latched {
                     self.report.node_latched_s = Some(t_s);
                 }
             }
         }
-        let sent: Vec<u8> = self.node_port.tx.borrow_mut().drain(..).collect();
-        if !sent.is_empty() {
-            let imu = self.feed.borrow().last_imu_read_us;
-            for &b in &sent {
-                if let Some(LinkFrame::Frame { seq, .. }) = self.node_tx_dec.push(b) {
+        if !np.written.is_empty() {
+            let imu = np.imu_read_us;
+            for &b in &np.written {
+                if let Some(LinkFrame::Frame { seq, msg }) = self.node_tx_dec.push(b) {
+                    self.uplink_counters = Some(msg.counters);
+                    self.uplink_samples += u64::from(msg.samples);
+                    self.uplink_dt_us += u64::from(msg.dt_us);
                     if let Some(imu) = imu {
                         let oldest = self.prev_uplink_imu_us.unwrap_or(imu);
                         self.uplink_imu_us.insert(seq, (imu, oldest));
@@ -436,85 +521,155 @@ impl TopsideLayout {
                     }
                 }
             }
-            self.wire.up.write(t_us as f64 * 1e-6, &sent);
+            if let Some(arrives_s) = self.wire.up.write(t_us as f64 * 1e-6, &np.written) {
+                self.on_arrival(arrives_s);
+            }
         }
+        self.node_view = NodePass {
+            read: Vec::new(),
+            written: Vec::new(),
+            ..np
+        };
     }
 
-    /// The uplink the topside accepted in this pass (its sequence), if one.
-    fn watch_topside_rx(&mut self, stepped: bool) -> Option<u16> {
-        let read: Vec<u8> = self.top_port.read_log.borrow_mut().drain(..).collect();
+    /// The topside's side: the uplink it accepted (the cause of its step), the downlinks it
+    /// wrote (kept: what was sent; then onto the wire), what it told the PC (returned).
+    fn watch_topside(&mut self, t_s: f64, tp: TopsidePass) -> Vec<(u16, Reply)> {
         let mut last = None;
-        for b in read {
+        for &b in &tp.link_read {
             if let Some(LinkFrame::Frame { seq, .. }) = self.top_rx_dec.push(b) {
                 last = Some(seq);
             }
         }
-        if stepped {
-            last
-        } else {
-            None
-        }
-    }
-
-    /// The downlinks the topside wrote: kept (what was sent), then onto the wire.
-    fn watch_topside_tx(&mut self, t_s: f64, cause: Option<u16>) {
-        let sent: Vec<u8> = self.top_port.tx.borrow_mut().drain(..).collect();
-        if sent.is_empty() {
-            return;
-        }
-        for &b in &sent {
-            if let Some(LinkFrame::Frame { seq, msg }) = self.top_tx_dec.push(b) {
-                self.sent.insert(seq, (msg, cause));
+        let cause = if tp.stepped { last } else { None };
+        if !tp.link_written.is_empty() {
+            for &b in &tp.link_written {
+                if let Some(LinkFrame::Frame { seq, msg }) = self.top_tx_dec.push(b) {
+                    self.sent.insert(seq, (msg, cause));
+                }
+            }
+            if let Some(arrives_s) = self.wire.down.write(t_s, &tp.link_written) {
+                self.on_arrival(arrives_s);
             }
         }
-        self.wire.down.write(t_s, &sent);
+        self.pc_receive(tp.tether_written)
     }
 
-    /// Run both MCUs up to `t_us` (inclusive), one pass every [`PASS_US`].
-    fn run_to(&mut self, t_us: u64) {
-        let mut next = (self.t_us / PASS_US + 1) * PASS_US;
-        while next <= t_us {
-            self.pass(next);
-            next += PASS_US;
+    /// A write's last byte arrives at `arrives_s`: the emulated roles run a pass then.
+    fn on_arrival(&mut self, arrives_s: f64) {
+        if self.roles.pass_period_us().is_none() {
+            self.events.insert(arrival_us(arrives_s));
+        }
+    }
+
+    /// With a cut to come, the emulated node also runs a pass when the downlink it applied
+    /// at `t_us` expires (`ttl_us` later) and when it would latch without another (the node's
+    /// 1 s), so that the cut's timings are the node's own, not those of its next IMU time.
+    fn schedule_failsafes(&mut self, t_us: u64, ttl_us: u64) {
+        let Some(cut) = self.cut_at_us else { return };
+        if self.roles.pass_period_us().is_some() {
+            return;
+        }
+        let disarm = u64::from(NodeConfig::DEFAULT.disarm_after_us);
+        for e in [t_us + ttl_us, t_us + disarm] {
+            if e >= cut {
+                self.events.insert(e);
+                self.roles.wake_node_at(e);
+            }
+        }
+    }
+
+    /// Run both MCUs up to `t_us` (inclusive): one pass every [`PASS_US`] in process; the
+    /// emulated roles at the node's IMU times, at frame arrivals and at `t_us`.
+    fn run_to(&mut self, t_us: u64) -> Result<()> {
+        if let Some(period) = self.roles.pass_period_us() {
+            let mut next = (self.t_us / period + 1) * period;
+            while next <= t_us {
+                self.pass(next)?;
+                next += period;
+            }
+            return Ok(());
+        }
+        loop {
+            let imu = u64::from(NODE_IMU_PERIOD_US);
+            let mut next = ((self.t_us / imu + 1) * imu).min(t_us);
+            if let Some(&e) = self.events.range(self.t_us + 1..).next() {
+                next = next.min(e);
+            }
+            if next <= self.t_us {
+                return Ok(());
+            }
+            self.events = self.events.split_off(&(next + 1));
+            self.pass(next)?;
         }
     }
 
     /// The report so far (the node's and the topside's counters filled in).
     pub fn report(&self) -> LayoutReport {
         let mut r = self.report.clone();
-        r.node_counters = self.node.counters();
-        r.topside_counters = self.link.counters();
+        r.node_counters = self
+            .roles
+            .node_counters()
+            .or(self.uplink_counters)
+            .unwrap_or_default();
+        r.topside_counters = self.roles.topside_counters().unwrap_or_default();
         r.down_wire = self.wire.down.counters();
         r.up_wire = self.wire.up.counters();
-        r.round_trip_us = self.link.round_trip_us();
+        r.round_trip_us = self.roles.round_trip_us();
         let l = &r.latency;
         r.latency_p50_p99_max_ms = l
             .quantile_ms(0.5)
             .zip(l.quantile_ms(0.99))
             .zip(l.quantile_ms(1.0))
             .map(|((a, b), c)| [a, b, c]);
-        let t_s = self.t_us as f64 * 1e-6;
-        r.node_imu_hz = if t_s > 0.0 {
-            self.feed.borrow().imu_reads as f64 / t_s
-        } else {
-            0.0
+        // In process, the node's IMU reads over the run; emulated, the IMU intervals its
+        // uplinks integrated over the time they cover (the node's own count).
+        let (reads, t_s) = match self.roles.node_imu_reads() {
+            Some(n) => (n, self.t_us as f64 * 1e-6),
+            None => (self.uplink_samples, self.uplink_dt_us as f64 * 1e-6),
         };
+        r.node_imu_hz = if t_s > 0.0 { reads as f64 / t_s } else { 0.0 };
         r
     }
 
-    /// The node (its outputs, arm state and counters).
-    pub fn node(&self) -> &NodeRole {
-        &self.node
+    /// The node as the harness saw it after its latest pass (outputs, arm state, status).
+    pub fn node(&self) -> NodeView {
+        NodeView {
+            pulse_us: self.node_view.pulse_us,
+            status: self.node_view.status,
+            armed: self.node_view.armed,
+        }
     }
 
-    /// The topside's App.
-    pub fn app(&self) -> &TopsideApp {
-        &self.app
+    /// The in-process roles (the topside's App, the node itself); `None` when emulated.
+    pub fn in_process(&self) -> Option<&InProcessRoles> {
+        self.roles.in_process()
     }
 
-    /// The topside layout's fault bits now.
+    /// The topside's App, when it runs in this process.
+    pub fn app(&self) -> Option<&TopsideApp> {
+        self.roles.in_process().map(InProcessRoles::app)
+    }
+
+    /// Whether the topside is armed: its App in process, else its latest telemetry.
+    pub fn topside_armed(&self) -> bool {
+        match self.app() {
+            Some(app) => app.autopilot().armed(),
+            None => self.latest_telemetry.is_some_and(|t| t.armed),
+        }
+    }
+
+    /// The topside layout's fault bits now (emulated: in the latest telemetry).
     pub fn link_faults(&self) -> u16 {
-        self.bridge.faults()
+        self.roles
+            .link_faults()
+            .or(self.latest_telemetry.map(|t| t.faults))
+            .unwrap_or(0)
+    }
+
+    /// What the roles are: "in process" or "emulated (QEMU)".
+    pub fn roles(&self) -> &'static str {
+        self.roles.describe()
     }
 
     /// The latest `Telemetry` the ground station received.
@@ -537,12 +692,11 @@ impl ControllerEndpoint for TopsideLayout {
     /// At virtual time 0: the topside's first downlink (disarmed: the node's arm transition
     /// needs it), then the PC's set-up as `hil` sends it to the onboard App.
     fn start(&mut self, nav0: &NavState) -> Result<()> {
-        self.pass(0);
+        self.pass(0)?;
         self.open_session()?;
         // A heartbeat is answered by `Status`, not `Ack`.
         let hb = self.pc_send(&Command::Heartbeat { t_us: 0 })?;
-        self.app.tick();
-        for (_, r) in self.pc_receive() {
+        for (_, r) in self.pc_exchange()? {
             if let Reply::Nack { seq, reason } = r {
                 if seq == hb {
                     bail!("the topside refused the first heartbeat: {reason:?}");
@@ -566,24 +720,24 @@ impl ControllerEndpoint for TopsideLayout {
     }
 
     fn step(&mut self, t_s: f64, _nav: &NavState, _reference: &RefSample) -> Result<StepReply> {
-        self.run_to(us(t_s));
-        let out = *self.app.last_output();
-        let pulse = self.node.output_us();
+        self.run_to(us(t_s))?;
+        // In process the App's latest step; emulated, the latest telemetry's (every 100 ms).
+        let out = self.roles.control().unwrap_or_else(|| {
+            self.latest_telemetry
+                .as_ref()
+                .map_or_else(ControlView::default, ControlView::from_telemetry)
+        });
+        let pulse = self.node_view.pulse_us;
         let applied = pulse.map(|p| f64::from(self.pwm.thrust_n(f32::from(p))));
-        let std = self
-            .app
-            .autopilot()
-            .onboard_nav()
-            .map_or([0.0; 3], |o| o.position_std_m());
         Ok(StepReply {
             requested: out.requested,
-            achieved: out.allocation.achieved,
-            thrust_cmd_n: out.allocation.thrust_n,
+            achieved: out.achieved,
+            thrust_cmd_n: out.thrust_n,
             applied_n: applied,
             pulse_us: pulse.map(f64::from),
             errors: out.errors,
             saturated: out.faults & fault::SATURATED != 0,
-            estimate: Some((self.app.autopilot().nav_state(), std.map(f64::from))),
+            estimate: Some((out.nav, out.position_std_m.map(f64::from))),
         })
     }
 
@@ -592,10 +746,10 @@ impl ControllerEndpoint for TopsideLayout {
     fn forward(&mut self, measurements: &[Measurement]) -> Result<()> {
         for m in measurements {
             match *m {
-                Measurement::Imu(s) => self.feed.borrow_mut().imu.push_back(s),
+                Measurement::Imu(s) => self.roles.push_imu(s),
                 Measurement::Depth(d) => {
                     let p = self.onboard.pressure.pressure_pa(d.depth_m);
-                    self.feed.borrow_mut().pressure.push_back((d.t_us, p));
+                    self.roles.push_pressure(d.t_us, p);
                 }
                 // On the vehicle: they share the tether's latency.
                 Measurement::Heading(h) => self
@@ -625,8 +779,34 @@ pub struct LayoutOutput {
 /// The layout changes the scenario's IMU rate and control period ([`layout_scenario`]), so
 /// the changed scenario is resolved here.
 pub fn run_layout(sc: &Scenario, opts: &RunOptions) -> Result<LayoutOutput> {
+    run_layout_on(sc, opts, &LayoutTarget::InProcess)
+}
+
+/// Where the topside layout's two roles run.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum LayoutTarget {
+    /// The firmware library's roles in this process ([`TopsideLayout::for_scenario`]).
+    InProcess,
+    /// The two emulated images, each in `qemu` ([`TopsideLayout::emulated`]).
+    Emulated {
+        /// The images.
+        elfs: LayoutElfs,
+        /// The QEMU binary (`qemu-system-arm`).
+        qemu: String,
+    },
+}
+
+/// [`run_layout`] with the roles on `target`.
+pub fn run_layout_on(
+    sc: &Scenario,
+    opts: &RunOptions,
+    target: &LayoutTarget,
+) -> Result<LayoutOutput> {
     let sc = layout_scenario(sc).resolve()?;
-    let mut endpoint = TopsideLayout::for_scenario(&sc)?;
+    let mut endpoint = match target {
+        LayoutTarget::InProcess => TopsideLayout::for_scenario(&sc)?,
+        LayoutTarget::Emulated { elfs, qemu } => TopsideLayout::emulated(&sc, elfs, qemu)?,
+    };
     let mut nav =
         VehicleNav::for_scenario(&sc, opts.noise_seed.unwrap_or(sc.disturbance.noise_seed));
     let run = run_closed_loop(&sc, opts, &mut nav, &mut endpoint)?;
@@ -636,29 +816,22 @@ pub fn run_layout(sc: &Scenario, opts: &RunOptions) -> Result<LayoutOutput> {
     })
 }
 
-/// `host-sim hil` of a scenario with `[deployment] control = "topside"`: with
-/// `--in-process`, the two roles of the firmware library over the tether model, written as
-/// `host-sim run` writes (plus `layout.json`, this harness's report). The emulated images
-/// are not joined to host-sim yet: any other target is refused with that reason.
+/// `host-sim hil` of a scenario with `[deployment] control = "topside"`: the two roles on
+/// `target` (the firmware library's in process, or the two emulated images in QEMU) over the
+/// tether model, written as `host-sim run` writes (plus `layout.json`, this harness's
+/// report).
 pub fn hil_main(
     sc: &Scenario,
-    in_process: bool,
+    target: &LayoutTarget,
     out: Option<std::path::PathBuf>,
     duration_s: Option<f64>,
 ) -> Result<LayoutOutput> {
-    if !in_process {
-        return Err(crate::checks::refused(anyhow!(
-            "deployment.control = \"topside\": hil flies the topside layout with --in-process \
-             (the firmware library's topside and node over the tether model); the two emulated \
-             images are not joined to host-sim's loop yet"
-        )));
-    }
     let opts = RunOptions {
         record: true,
         duration_s,
         ..RunOptions::default()
     };
-    let o = run_layout(sc, &opts)?;
+    let o = run_layout_on(sc, &opts, target)?;
     let dir =
         out.unwrap_or_else(|| std::path::PathBuf::from("out").join(format!("hil-{}", sc.name)));
     std::fs::create_dir_all(&dir)?;
@@ -670,8 +843,14 @@ pub fn hil_main(
     let s = &o.run.summary;
     let r = &o.report;
     println!(
-        "{}: {} (topside layout in process, {} Bd, {} s one-way; RMS last 80 % {:.4} m)",
-        s.scenario, s.verdict, r.baud, r.latency_s, s.rms_position_error_last80_m
+        "{}: {} (topside layout {}, {} Bd, {} s one-way; RMS last 80 % {:.4} m; {:.1} s wall)",
+        s.scenario,
+        s.verdict,
+        r.roles,
+        r.baud,
+        r.latency_s,
+        s.rms_position_error_last80_m,
+        s.wall_time_s
     );
     println!(
         "node link: {} downlinks applied, {} wrong; latency IMU sample -> pulse p50 {:.1} ms, \

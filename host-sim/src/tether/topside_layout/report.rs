@@ -42,6 +42,8 @@ impl Latency {
 /// What the harness measured of one topside-layout run.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct LayoutReport {
+    /// Where the two roles ran: "in process" or "emulated (QEMU netduinoplus2 x 2)".
+    pub roles: String,
     /// The wire's figures.
     pub baud: u32,
     /// Added one-way latency (s).
@@ -58,7 +60,8 @@ pub struct LayoutReport {
     pub latency_oldest: Latency,
     /// `latency`'s median, 99th percentile and largest (ms), for `layout.json`.
     pub latency_p50_p99_max_ms: Option<[f64; 3]>,
-    /// The node's IMU reads per second of the run.
+    /// The node's IMU reads per second of the run (emulated: the IMU intervals its uplinks
+    /// integrated per second they cover).
     pub node_imu_hz: f64,
     /// Downlinks the node applied (accepted and taken).
     pub downlinks_applied: u64,
