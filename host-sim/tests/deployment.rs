@@ -357,3 +357,53 @@ fn a_bad_link_period_is_refused_naming_the_key() {
         );
     }
 }
+
+/// The emulated images run the node link at its default 20 ms with arrival stamps: a
+/// scenario asking for another period (1 Mbd's default 5 ms) or node-time stamps is refused
+/// before any emulator starts, with the keys named, and nothing is flown.
+#[test]
+fn the_emulated_layout_refuses_link_settings_its_images_do_not_run() {
+    use host_sim::tether::qemu::LayoutElfs;
+    let base = "name = \"t\"\nplane = \"3d\"\ncontroller = \"tracking\"\nduration_s = 5.0\n\
+        [reference]\nkind = \"hold\"\n[navigation]\nsource = \"estimator\"\n\
+        [sensors.imu]\n[sensors.depth]\n[sensors.compass]\n[sensors.usbl]\n\
+        [deployment]\ncontrol = \"topside\"\n";
+    // Paths that do not exist: the refusal must come before any emulator is started.
+    let elfs = LayoutElfs {
+        topside: "/nonexistent/topside-emu".into(),
+        node: "/nonexistent/node-emu".into(),
+    };
+    for extra in [
+        "tether_baud = 1000000",
+        "link_period_s = 0.0175",
+        "stamp_node_time = true",
+    ] {
+        let sc = Scenario::from_toml(&format!("{base}{extra}\n"), "t")
+            .unwrap()
+            .resolve()
+            .unwrap();
+        let e = TopsideLayout::emulated(&sc, &elfs, "qemu-system-arm-not-started")
+            .map(|_| ())
+            .unwrap_err();
+        let msg = format!("{e:#}");
+        assert!(
+            msg.contains("deployment.link_period_s") && msg.contains("--in-process"),
+            "{extra}: {msg}"
+        );
+    }
+    // The images' own settings pass this check (then the missing images are the error).
+    let sc = Scenario::from_toml(
+        &format!("{base}tether_baud = 1000000\nlink_period_s = 0.02\n"),
+        "t",
+    )
+    .unwrap()
+    .resolve()
+    .unwrap();
+    let e = TopsideLayout::emulated(&sc, &elfs, "qemu-system-arm-not-started")
+        .map(|_| ())
+        .unwrap_err();
+    assert!(
+        !format!("{e:#}").contains("deployment.link_period_s"),
+        "{e:#}"
+    );
+}

@@ -288,6 +288,20 @@ impl TopsideLayout {
                  --in-process or without the told delay"
             )));
         }
+        // The images are built with the link's defaults (`NodeConfig::DEFAULT`,
+        // `TopsideConfig::new`): a 20 ms period and increments stamped at arrival.
+        let image_period_us = firmware::node_link::LINK_PERIOD_US;
+        if d.link_period_us() != image_period_us || d.stamp_node_time {
+            return Err(crate::checks::refused(anyhow!(
+                "deployment.link_period_s = {} s / stamp_node_time = {}: the emulated images \
+                 run the node link at {} s with increments stamped at arrival; set \
+                 deployment.link_period_s = {} (and stamp_node_time = false) or fly --in-process",
+                f64::from(d.link_period_us()) * 1e-6,
+                d.stamp_node_time,
+                f64::from(image_period_us) * 1e-6,
+                f64::from(image_period_us) * 1e-6,
+            )));
+        }
         let roles = EmulatedRoles::start(elfs, qemu)?;
         let mut layout = Self::with_roles(sc, Box::new(roles), None);
         layout.report.roles = layout.roles.describe().into();
