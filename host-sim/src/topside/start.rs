@@ -8,6 +8,7 @@ use super::missions::Missions;
 use super::transport::Gcs;
 use super::vehicle::SimVehicle;
 use super::{open_logs, params, Topside};
+use crate::scenario::deployment::Control;
 use crate::scenario::Scenario;
 use crate::tether::endpoint::HilTarget;
 use crate::tether::in_process::InProcessFirmware;
@@ -111,6 +112,16 @@ pub fn main(a: TopsideArgs) -> Result<()> {
                 sc.resolve()?
             }
         };
+        if sc.deployment.control == Control::Topside {
+            // Flying it as the onboard layout would be a different vehicle than the scenario
+            // describes: refused until the topside layout is behind the tether here.
+            return Err(crate::checks::refused(anyhow::anyhow!(
+                "{}: deployment.control = \"topside\" is not flown by host-sim topside yet \
+                 (it would fly the onboard layout instead); fly it with host-sim hil \
+                 --in-process or host-sim run",
+                sc.name
+            )));
+        }
         let (port, target, hello_wait, firmware): (Box<dyn crate::tether::port::Port>, _, _, _) =
             if a.emulated {
                 let elf = match a.qemu.clone() {
