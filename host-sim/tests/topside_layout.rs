@@ -1,11 +1,25 @@
 //! `host-sim topside` with a scenario of the topside layout (`[deployment] control =
-//! "topside"`, issue 25): never flown silently as the onboard layout.
+//! "topside"`, issue 25): the simulated vehicle is the topside MCU's App with its node behind
+//! the node link (`TopsideLayout` in the scenario's closed loop), flown from a MAVLink ground
+//! station (the `mavlink` crate) as any vehicle; the same flight of the onboard layout is
+//! the comparison. `--emulated` with such a scenario is refused with the reason (the two
+//! emulated boards are not joined to the topside's loop yet), creating nothing.
 
+use mavlink::dialects::ardupilotmega::{
+    MavCmd, MavFrame, MavMessage, MavModeFlag, MavResult, PositionTargetTypemask,
+    COMMAND_LONG_DATA, SET_POSITION_TARGET_LOCAL_NED_DATA,
+};
+use mavlink::{MavConnection, MavHeader};
 use std::path::{Path, PathBuf};
-use std::process::Output;
+use std::process::{Child, Output};
+use std::time::{Duration, Instant};
 
 mod common;
+// Not every helper is used here (pymavlink's check: this test needs only the `mavlink` crate).
+#[allow(dead_code)]
+mod gcs;
 use common::host_sim;
+use gcs::{free_udp_port, stop, topside_sim};
 
 fn text(o: &Output) -> String {
     format!(
@@ -15,39 +29,256 @@ fn text(o: &Output) -> String {
     )
 }
 
-/// The built-in `nav-circle-3d` (the estimator on the full sensor suite) in the topside
-/// layout, as a scenario file in `dir`.
-fn topside_scenario(dir: &Path) -> PathBuf {
+/// The built-in `nav-circle-3d` (the estimator on the full sensor suite: IMU, depth,
+/// compass, DVL, USBL) as a scenario file in `dir`, with `extra` appended (its `[expect]`
+/// dropped: the ground station flies it, not its reference).
+fn scenario(dir: &Path, name: &str, extra: &str) -> PathBuf {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/nav-circle-3d.toml");
     let text = std::fs::read_to_string(src).unwrap();
     let text = text.split("\n[expect]").next().unwrap();
-    let p = dir.join("layout.toml");
-    std::fs::write(&p, format!("{text}\n[deployment]\ncontrol = \"topside\"\n")).unwrap();
+    let p = dir.join(format!("{name}.toml"));
+    std::fs::write(&p, format!("{text}\n{extra}")).unwrap();
     p
 }
 
+const TOPSIDE: &str = "[deployment]\ncontrol = \"topside\"\n";
+
 #[test]
-fn a_topside_layout_scenario_is_refused_not_flown_onboard() {
-    let dir = common::scratch("topside-layout", "refused");
-    let sc = topside_scenario(&dir);
+fn a_topside_layout_scenario_with_emulated_is_refused_and_creates_nothing() {
+    let dir = common::scratch("topside-layout", "emulated");
+    let sc = scenario(&dir, "layout", TOPSIDE);
     let o = host_sim(
         &dir,
         &[
             "topside",
             "--sim",
             sc.to_str().unwrap(),
+            "--emulated",
             "--mavlink",
             "udpout:127.0.0.1:9",
             "--duration",
             "1",
-            "--speedup",
-            "50",
         ],
     );
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let t = text(&o);
     assert!(
-        text(&o).contains("deployment.control = \"topside\""),
-        "{}",
-        text(&o)
+        t.contains("deployment.control = \"topside\" with --emulated"),
+        "{t}"
+    );
+    assert!(!dir.join("out").exists(), "a refusal creates no log");
+}
+
+/// The ground station's end: `udpin` on the port the topside sends to.
+struct Station(mavlink::Connection<MavMessage>);
+
+impl Station {
+    fn send(&self, msg: &MavMessage) {
+        let h = MavHeader {
+            system_id: 255,
+            component_id: 190,
+            sequence: 0,
+        };
+        self.0.send(&h, msg).unwrap();
+    }
+
+    /// The first message `pick` takes within `timeout` (wall clock).
+    fn wait<T>(
+        &self,
+        timeout: Duration,
+        mut pick: impl FnMut(&MavMessage) -> Option<T>,
+    ) -> Option<T> {
+        let end = Instant::now() + timeout;
+        while Instant::now() < end {
+            match self.0.try_recv() {
+                Ok((_, m)) => {
+                    if let Some(t) = pick(&m) {
+                        return Some(t);
+                    }
+                }
+                Err(_) => std::thread::sleep(Duration::from_millis(1)),
+            }
+        }
+        None
+    }
+
+    /// `COMMAND_LONG` `command` with `param1`, `param2`: its `COMMAND_ACK`'s result.
+    fn command(&self, command: MavCmd, param1: f32, param2: f32) -> Option<MavResult> {
+        self.send(&MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+            param1,
+            param2,
+            command,
+            target_system: 1,
+            target_component: 1,
+            ..Default::default()
+        }));
+        self.wait(Duration::from_secs(5), |m| match m {
+            MavMessage::COMMAND_ACK(a) if a.command == command => Some(a.result),
+            _ => None,
+        })
+    }
+
+    fn set_mode(&self, custom: u32) -> Option<MavResult> {
+        let flag = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED.bits() as f32;
+        self.command(MavCmd::MAV_CMD_DO_SET_MODE, flag, custom as f32)
+    }
+}
+
+const POSHOLD: u32 = 16;
+const GUIDED: u32 = 4;
+/// The GUIDED target (NED, m): 3 m north and 2 m east of the launch point (0, 0, 2 m deep),
+/// 0.5 m deeper.
+const TARGET_M: [f64; 3] = [3.0, 2.0, 2.5];
+/// Simulated time of the flight (s): the target is given within the first 20 s.
+const FLIGHT_S: f64 = 80.0;
+/// The last this many seconds are scored.
+const SCORED_S: f64 = 20.0;
+
+/// What one flight measured.
+struct Flight {
+    /// When POSHOLD was accepted (the estimate ready), simulated s.
+    ready_s: f64,
+    /// True distance to the target: RMS and largest over the last [`SCORED_S`] (m).
+    rms_m: f64,
+    max_m: f64,
+    /// The estimate against the truth over the same span, RMS (m).
+    est_rms_m: f64,
+}
+
+/// Fly `scenario` from a ground station: POSHOLD as soon as the vehicle accepts it (its
+/// estimate ready: before that it refuses with `NavNotReady`; the scenario's launch point is
+/// told to the estimator, so it is ready at once here), arm, GUIDED, the target; then score
+/// the truth log.
+fn fly(scenario: &Path, dir: &Path) -> Flight {
+    let port = free_udp_port();
+    let topside: Child = topside_sim(
+        scenario,
+        port,
+        &dir.join("fly.tlog"),
+        &dir.join("params.json"),
+        &["--duration", &FLIGHT_S.to_string(), "--speedup", "10"],
+    );
+    let gcs = Station(mavlink::connect::<MavMessage>(&format!("udpin:127.0.0.1:{port}")).unwrap());
+    let sim_s = |gcs: &Station| {
+        gcs.wait(Duration::from_secs(20), |m| match m {
+            MavMessage::LOCAL_POSITION_NED(p) => Some(f64::from(p.time_boot_ms) * 1e-3),
+            _ => None,
+        })
+        .expect("LOCAL_POSITION_NED from the topside")
+    };
+    let mut ready_s = None;
+    let mut refusals = 0;
+    while ready_s.is_none() {
+        let t = sim_s(&gcs);
+        assert!(
+            t < 20.0,
+            "POSHOLD still refused at {t:.1} s ({refusals} refusals)"
+        );
+        match gcs.set_mode(POSHOLD) {
+            Some(MavResult::MAV_RESULT_ACCEPTED) => ready_s = Some(t),
+            Some(_) => refusals += 1,
+            None => panic!("no answer to DO_SET_MODE"),
+        }
+    }
+    assert_eq!(
+        gcs.command(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 1.0, 0.0),
+        Some(MavResult::MAV_RESULT_ACCEPTED),
+        "arm"
+    );
+    assert_eq!(
+        gcs.set_mode(GUIDED),
+        Some(MavResult::MAV_RESULT_ACCEPTED),
+        "GUIDED"
+    );
+    gcs.send(&MavMessage::SET_POSITION_TARGET_LOCAL_NED(
+        SET_POSITION_TARGET_LOCAL_NED_DATA {
+            x: TARGET_M[0] as f32,
+            y: TARGET_M[1] as f32,
+            z: TARGET_M[2] as f32,
+            target_system: 1,
+            target_component: 1,
+            coordinate_frame: MavFrame::MAV_FRAME_LOCAL_NED,
+            type_mask: PositionTargetTypemask::empty(),
+            ..Default::default()
+        },
+    ));
+    // The topside stops at --duration.
+    let end = Instant::now() + Duration::from_secs(120);
+    let mut topside = topside;
+    let status = loop {
+        if let Some(s) = topside.try_wait().unwrap() {
+            break s;
+        }
+        if Instant::now() > end {
+            stop(topside);
+            panic!("the topside did not stop at --duration");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    assert!(status.success(), "topside exit {status:?}");
+
+    let truth = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.to_string_lossy().ends_with(".truth.csv"))
+        .expect("the topside's truth log");
+    let text = std::fs::read_to_string(truth).unwrap();
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    let last_s = rows.last().unwrap()[0];
+    assert!(last_s > FLIGHT_S - 0.1, "the truth log ends at {last_s} s");
+    let (mut sq, mut max, mut est, mut n) = (0.0, 0.0f64, 0.0, 0usize);
+    for r in rows.iter().filter(|r| r[0] >= last_s - SCORED_S) {
+        assert_eq!(r[9], 1.0, "armed at {} s", r[0]);
+        let d2: f64 = (0..3).map(|k| (r[1 + k] - TARGET_M[k]).powi(2)).sum();
+        sq += d2;
+        max = max.max(d2.sqrt());
+        est += (0..3).map(|k| (r[5 + k] - r[1 + k]).powi(2)).sum::<f64>();
+        n += 1;
+    }
+    Flight {
+        ready_s: ready_s.unwrap(),
+        rms_m: (sq / n as f64).sqrt(),
+        max_m: max,
+        est_rms_m: (est / n as f64).sqrt(),
+    }
+}
+
+/// Issue 25 item 4: `host-sim topside --sim` of a topside-layout scenario is flown from a
+/// ground station like any vehicle: the position modes wait for the topside's estimate, the
+/// vehicle is armed, goes to a GUIDED target and holds it. Its true position over the last
+/// 20 s is held against the target, and against the same flight of the onboard layout.
+#[test]
+fn a_ground_station_flies_the_topside_layout_to_a_guided_target() {
+    let dir = common::scratch("topside-layout", "fly");
+    let layout_dir = dir.join("layout");
+    let onboard_dir = dir.join("onboard");
+    std::fs::create_dir_all(&layout_dir).unwrap();
+    std::fs::create_dir_all(&onboard_dir).unwrap();
+    let layout = fly(&scenario(&dir, "layout", TOPSIDE), &layout_dir);
+    let onboard = fly(&scenario(&dir, "onboard", ""), &onboard_dir);
+    for (name, f) in [("topside layout", &layout), ("onboard layout", &onboard)] {
+        println!(
+            "{name}: POSHOLD accepted at {:.1} s; true distance to the target over the last \
+             {SCORED_S} s: RMS {:.2} cm, largest {:.2} cm; estimate against the truth RMS {:.2} cm",
+            f.ready_s,
+            f.rms_m * 100.0,
+            f.max_m * 100.0,
+            f.est_rms_m * 100.0
+        );
+    }
+    assert!(
+        layout.rms_m <= 0.10,
+        "topside layout: RMS {:.3} m from the target",
+        layout.rms_m
+    );
+    assert!(
+        layout.rms_m <= 1.1 * onboard.rms_m + 0.01,
+        "topside layout {:.4} m, onboard {:.4} m: not within 10 % + 1 cm",
+        layout.rms_m,
+        onboard.rms_m
     );
 }

@@ -154,8 +154,9 @@ pub fn manual_thrust(x: i16, z: i16, r: i16) -> ManualThrust {
     }
 }
 
-/// Names of the fault flags, for `STATUSTEXT`.
-const FAULT_NAMES: [(u16, &str); 7] = [
+/// Names of the fault flags, for `STATUSTEXT`: the tether protocol's, then the topside
+/// layout's (a topside board reports its node link in the same `faults`).
+const FAULT_NAMES: [(u16, &str); 9] = [
     (
         fault::HEARTBEAT_LOST,
         "tether heartbeat lost: thrusters neutral",
@@ -166,7 +167,19 @@ const FAULT_NAMES: [(u16, &str); 7] = [
     (fault::PWM_ERROR, "PWM output error"),
     (fault::SERIAL_ERROR, "tether serial error"),
     (fault::OVERRUN, "control loop overrun"),
+    (
+        firmware::topside_link::fault::NODE_LINK_LOST,
+        "node link lost: estimator predicting, neutral after 250 ms",
+    ),
+    (
+        firmware::topside_link::fault::NODE_NOT_ARMED,
+        "node not armed: disarm and arm again",
+    ),
 ];
+
+/// The pilot's sticks are forwarded at most this often (s): the onboard layout's control
+/// period; the topside layout's loop runs at the node's 400 Hz and needs them no faster.
+const MANUAL_PERIOD_S: f64 = 0.02;
 
 /// The topside's state: the ground stations, the vehicle behind the tether, who commands,
 /// the missions, the pilot's sticks and the mode shown.
@@ -195,6 +208,7 @@ impl Topside {
         let mut k: u64 = 0;
         let per_second = (1.0 / self.v.period_s).round().max(1.0) as u64;
         let per_tenth = (per_second / 10).max(1);
+        let manual_every = (MANUAL_PERIOD_S / self.v.period_s).round().max(1.0) as u64;
         loop {
             if let Some(d) = a.duration {
                 if self.v.t_s >= d {
@@ -219,11 +233,11 @@ impl Topside {
                 .is_some_and(|at| at.elapsed() < MANUAL_CONTROL_TIMEOUT);
             let v = &mut self.v;
             let pilot_mode = matches!(v.tel.mode, Mode::Manual | Mode::Stabilize | Mode::DepthHold);
-            if pilot_mode && v.tel.armed && fresh {
+            if pilot_mode && v.tel.armed && fresh && k.is_multiple_of(manual_every) {
                 // Forwarded every period while the pilot's stream lives; when it stops,
                 // nothing is forwarded and the firmware's MANUAL_STALE failsafe neutralizes
                 // the thrusters.
-                v.link().send(&Command::ManualThrust(self.manual))?;
+                v.send(&Command::ManualThrust(self.manual))?;
             }
             v.step()?;
             self.poll_mag_cal()?;

@@ -9,14 +9,15 @@ use super::transport::Gcs;
 use super::vehicle::SimVehicle;
 use super::{open_logs, params, Topside};
 use crate::scenario::deployment::Control;
-use crate::scenario::Scenario;
+use crate::scenario::{RunSetup, Scenario};
 use crate::tether::endpoint::HilTarget;
 use crate::tether::in_process::InProcessFirmware;
 use crate::tether::qemu::{qemu_firmware_image, start_qemu_link, workspace_root, FirmwareImage};
+use crate::tether::topside_layout::{layout_scenario, TopsideLayout};
 use crate::world::sensors::NavSource;
-use anyhow::{bail, Result};
+use anyhow::{anyhow, bail, Result};
 use firmware::protocol::ManualThrust;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 /// `host-sim topside` options.
@@ -84,11 +85,34 @@ pub fn main(a: TopsideArgs) -> Result<()> {
     if !(a.speedup.is_finite() && a.speedup > 0.0) {
         bail!("--speedup must be > 0 (got {})", a.speedup);
     }
+    // The scenario first: a scenario refused creates no log.
+    let scenario = match &a.sim {
+        None => None,
+        // Checked once; with --vehicle, the scenario file, then the set-up with that vehicle.
+        Some(sim) => Some(match vehicle_file {
+            None => Scenario::load_setup(sim)?,
+            Some(p) => {
+                let mut sc = Scenario::load(sim)?;
+                sc.vehicle_params = p;
+                sc.resolve()?
+            }
+        }),
+    };
+    if let Some(sc) = &scenario {
+        if sc.deployment.control == Control::Topside && a.emulated {
+            return Err(crate::checks::refused(anyhow!(
+                "{}: deployment.control = \"topside\" with --emulated: the two emulated boards \
+                 (topside and node) are not joined to host-sim's loop yet; without --emulated \
+                 the topside layout runs as the firmware library in process",
+                sc.name
+            )));
+        }
+    }
     let (tlog, tlog_path, tether_path) = open_logs(&a.tlog, a.tether_log.as_deref())?;
     let gcs = Gcs::open(&a.mavlink, a.system_id, tlog)?;
     // The QEMU child lives as long as this guard.
     let mut _qemu = None;
-    let (mut v, what) = if let Some(device) = &a.serial {
+    let (v, what) = if let Some(device) = &a.serial {
         let port = crate::tether::port::serial_port(device, a.baud)?;
         let port = Box::new(crate::tether::tether_log::LoggedPort::new(
             port,
@@ -100,27 +124,12 @@ pub fn main(a: TopsideArgs) -> Result<()> {
             format!("vehicle on {} at {} Bd", device.display(), a.baud),
         )
     } else {
-        let Some(sim) = &a.sim else {
+        let Some(sc) = scenario else {
             bail!("--sim SCENARIO or --serial DEV");
         };
-        // Checked once; with --vehicle, the scenario file, then the set-up with that vehicle.
-        let sc = match vehicle_file {
-            None => Scenario::load_setup(sim)?,
-            Some(p) => {
-                let mut sc = Scenario::load(sim)?;
-                sc.vehicle_params = p;
-                sc.resolve()?
-            }
-        };
         if sc.deployment.control == Control::Topside {
-            // Flying it as the onboard layout would be a different vehicle than the scenario
-            // describes: refused until the topside layout is behind the tether here.
-            return Err(crate::checks::refused(anyhow::anyhow!(
-                "{}: deployment.control = \"topside\" is not flown by host-sim topside yet \
-                 (it would fly the onboard layout instead); fly it with host-sim hil \
-                 --in-process or host-sim run",
-                sc.name
-            )));
+            let (v, what) = topside_layout_vehicle(&sc, &tether_path)?;
+            return run_topside(&a, gcs, v, what, &tlog_path, &tether_path);
         }
         let (port, target, hello_wait, firmware): (Box<dyn crate::tether::port::Port>, _, _, _) =
             if a.emulated {
@@ -168,6 +177,41 @@ pub fn main(a: TopsideArgs) -> Result<()> {
         );
         (v, what)
     };
+    run_topside(&a, gcs, v, what, &tlog_path, &tether_path)
+}
+
+/// The simulated vehicle of a scenario with `[deployment] control = "topside"`: the topside
+/// layout ([`TopsideLayout`]) in the scenario's closed loop, as `host-sim run` and `hil
+/// --in-process` fly it (`layout_scenario`: the node's 400 Hz IMU, the loop at its period).
+/// The ground stations talk to the topside App, as they would to the topside board.
+fn topside_layout_vehicle(sc: &RunSetup, tether_path: &Path) -> Result<(SimVehicle, String)> {
+    let sc = layout_scenario(sc).resolve()?;
+    let layout = TopsideLayout::for_scenario(&sc)?;
+    let truth = tether_path.with_extension("truth.csv");
+    let v = SimVehicle::topside_layout(&sc, layout, &truth)?;
+    let d = sc.deployment;
+    let what = format!(
+        "simulated vehicle {:?} ({}) in the topside layout: the topside App and its node \
+         (firmware library in process), node link {} Bd, {} s one-way; truth log {} (the tether log stays empty: the \
+         topside App's tether is in memory)",
+        sc.name,
+        sc.plane.as_str(),
+        d.tether_baud,
+        d.tether_latency_s,
+        truth.display()
+    );
+    Ok((v, what))
+}
+
+/// The saved parameters restored, then the topside's loop.
+fn run_topside(
+    a: &TopsideArgs,
+    gcs: Gcs,
+    mut v: SimVehicle,
+    what: String,
+    tlog_path: &Path,
+    tether_path: &Path,
+) -> Result<()> {
     if a.params.exists() {
         let saved = params::load(&a.params, v.settings)?;
         for group in params::GROUPS {
@@ -198,5 +242,5 @@ pub fn main(a: TopsideArgs) -> Result<()> {
         mag_cal: None,
         params_file: a.params.clone(),
     };
-    t.run(&a)
+    t.run(a)
 }
