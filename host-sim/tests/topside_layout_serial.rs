@@ -11,7 +11,7 @@
 
 use controller_core::alloc::PwmMap;
 use controller_core::controller::{Controller, Gains};
-use controller_core::nav::onboard::PressureModel;
+use controller_core::nav::onboard::PressureDepth;
 use controller_core::nav::ImuSample;
 use controller_core::reference::RefSample;
 use controller_core::state::NavState;
@@ -138,7 +138,7 @@ struct Boards {
     node_port: Port,
     wire: Duplex,
     sensors: NodeSensors,
-    pressure: PressureModel,
+    pressure: PressureDepth,
     pwm: PwmMap,
     pty: TTYPort,
     cut: Arc<AtomicBool>,
@@ -174,7 +174,11 @@ impl Boards {
     fn tether(&mut self) {
         let mut buf = [0u8; 512];
         // Until the topside opens its end, reads and writes fail: bytes lost, as on a UART.
-        let n = self.pty.read(&mut buf).unwrap_or(0);
+        // Read only what is there (a read waits for its timeout otherwise).
+        let n = match self.pty.bytes_to_read() {
+            Ok(waiting) if waiting > 0 => self.pty.read(&mut buf).unwrap_or(0),
+            _ => 0,
+        };
         self.app.parts_mut().1.rx.extend(buf[..n].iter().copied());
         let out: Vec<u8> = self.app.parts_mut().1.tx.drain(..).collect();
         if !out.is_empty() {
@@ -197,7 +201,6 @@ impl ControllerEndpoint for Boards {
         let t_us = (t_s * 1e6).round() as u64;
         let mut next = (self.t_us / PASS_US + 1) * PASS_US;
         while next <= t_us {
-            self.tether();
             self.pass(next);
             next += PASS_US;
         }

@@ -169,7 +169,7 @@ const FAULT_NAMES: [(u16, &str); 9] = [
     (fault::OVERRUN, "control loop overrun"),
     (
         firmware::topside_link::fault::NODE_LINK_LOST,
-        "node link lost: estimator predicting, neutral after 250 ms",
+        "node link lost: prediction only",
     ),
     (
         firmware::topside_link::fault::NODE_NOT_ARMED,
