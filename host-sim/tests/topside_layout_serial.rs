@@ -7,7 +7,8 @@
 //! host's clock in a thread, as the boards run. The topside opens the terminal's other end
 //! as it would a USB-serial adapter; a MAVLink ground station (the `mavlink` crate) talks to
 //! the topside: the heartbeat, a parameter set on the topside board, and the node link's
-//! state: healthy in `SYS_STATUS`, then cut, lost in `SYS_STATUS` with a `STATUSTEXT`.
+//! state: healthy in `SYS_STATUS`; cut, lost in `SYS_STATUS` with a `STATUSTEXT`; joined
+//! again, healthy with a `STATUSTEXT`.
 
 use controller_core::alloc::PwmMap;
 use controller_core::controller::{Controller, Gains};
@@ -194,9 +195,11 @@ impl ControllerEndpoint for Boards {
         _nav: &NavState,
         _reference: &RefSample,
     ) -> anyhow::Result<StepReply> {
-        if self.cut.load(Ordering::Relaxed) && !self.cut_done {
-            self.wire.set_cut(Some(t_s));
-            self.cut_done = true;
+        // The test cuts the node link and joins it again.
+        let cut = self.cut.load(Ordering::Relaxed);
+        if cut != self.cut_done {
+            self.wire.set_cut(cut.then_some(t_s));
+            self.cut_done = cut;
         }
         let t_us = (t_s * 1e6).round() as u64;
         let mut next = (self.t_us / PASS_US + 1) * PASS_US;
@@ -457,6 +460,33 @@ fn the_topside_drives_a_topside_board_on_a_serial_line_and_shows_its_node_link()
     // The topside's 60 ms silence plus the 100 ms telemetry period and the 20 ms topside
     // period, with the host's scheduling: well under a second.
     assert!(text_after < Duration::from_secs(1), "{text_after:?}");
+
+    // Joined again: the ground station is told the link is back, and the health returns.
+    let joined_at = Instant::now();
+    cut.store(false, Ordering::Relaxed);
+    let (mut cleared, mut healthy) = (None, None);
+    let end = Instant::now() + Duration::from_secs(5);
+    while Instant::now() < end && (cleared.is_none() || healthy.is_none()) {
+        if let Some(m) = wait(&gcs, Duration::from_millis(50), |m| Some(m.clone())) {
+            if let MavMessage::STATUSTEXT(t) = &m {
+                let s = t.text.to_str().unwrap_or("").to_string();
+                if s.starts_with("Cleared: node link lost") && cleared.is_none() {
+                    cleared = Some(joined_at.elapsed());
+                }
+            }
+            if node_healthy(&m) == Some(true) && healthy.is_none() {
+                healthy = Some(joined_at.elapsed());
+            }
+        }
+    }
+    let cleared = cleared.expect("no STATUSTEXT of the node link's return");
+    let healthy = healthy.expect("SYS_STATUS never showed the node link healthy again");
+    println!(
+        "node link joined again: \"Cleared: node link lost\" after {:.0} ms, SYS_STATUS \
+         healthy after {:.0} ms",
+        cleared.as_secs_f64() * 1e3,
+        healthy.as_secs_f64() * 1e3
+    );
 
     let _ = topside.kill();
     let _ = topside.wait();
