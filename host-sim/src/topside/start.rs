@@ -24,7 +24,8 @@ use std::time::Duration;
 #[derive(clap::Args, Debug, Clone)]
 pub struct TopsideArgs {
     /// The simulated vehicle: a built-in scenario or a .toml file (its plant, navigation and
-    /// start; the reference is not used: the ground station commands).
+    /// start; the reference is not used: the ground station commands). Its `[deployment]
+    /// control` chooses the layout: `"topside"` flies the topside MCU's App and its node.
     #[arg(long, required_unless_present = "serial", conflicts_with = "serial")]
     pub sim: Option<String>,
     /// A real vehicle on this serial device (`/dev/ttyUSB0`): it runs on its own clock and
@@ -54,7 +55,8 @@ pub struct TopsideArgs {
     #[arg(long, default_value_t = 1)]
     pub system_id: u8,
     /// Run the vehicle's firmware image in QEMU (the emulated STM32F405, lock-step) instead of
-    /// the firmware library in process; the plant stays simulated here.
+    /// the firmware library in process; the plant stays simulated here. Refused with a
+    /// scenario of the topside layout (its two emulated boards are not joined to the loop).
     #[arg(long)]
     pub emulated: bool,
     /// With --emulated: this image (default: the workspace's `qemu` image, built if needed).
