@@ -7,7 +7,7 @@
 
 use mavlink::dialects::ardupilotmega::{
     MavCmd, MavFrame, MavMessage, MavModeFlag, MavResult, PositionTargetTypemask,
-    COMMAND_LONG_DATA, SET_POSITION_TARGET_LOCAL_NED_DATA,
+    COMMAND_LONG_DATA, MANUAL_CONTROL_DATA, SET_POSITION_TARGET_LOCAL_NED_DATA,
 };
 use mavlink::{MavConnection, MavHeader};
 use std::path::{Path, PathBuf};
@@ -281,4 +281,99 @@ fn a_ground_station_flies_the_topside_layout_to_a_guided_target() {
         layout.rms_m,
         onboard.rms_m
     );
+}
+
+const MANUAL: u32 = 19;
+
+/// The pilot's sticks reach the topside layout's thrusters: in MANUAL, half surge ahead
+/// streamed at 50 Hz makes both horizontal pulses rise above 1550 us (`SERVO_OUTPUT_RAW`,
+/// the pulses the topside sends the node) and the vehicle move ahead (the truth log); when
+/// the stream stops, the topside App's `MANUAL_STALE` failsafe is shown.
+#[test]
+fn a_pilot_drives_the_topside_layout_in_manual() {
+    let dir = common::scratch("topside-layout", "manual");
+    let sc = scenario(&dir, "layout", TOPSIDE);
+    let port = free_udp_port();
+    let topside = topside_sim(
+        &sc,
+        port,
+        &dir.join("manual.tlog"),
+        &dir.join("params.json"),
+        &["--duration", "60", "--speedup", "2"],
+    );
+    let gcs = Station(mavlink::connect::<MavMessage>(&format!("udpin:127.0.0.1:{port}")).unwrap());
+    let started = gcs.wait(Duration::from_secs(20), |m| {
+        matches!(m, MavMessage::HEARTBEAT(_)).then_some(())
+    });
+    assert!(started.is_some(), "no HEARTBEAT from the topside");
+    assert_eq!(
+        gcs.set_mode(MANUAL),
+        Some(MavResult::MAV_RESULT_ACCEPTED),
+        "MANUAL"
+    );
+    assert_eq!(
+        gcs.command(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 1.0, 0.0),
+        Some(MavResult::MAV_RESULT_ACCEPTED),
+        "arm"
+    );
+    let (mut samples, mut ahead) = (0, 0);
+    let end = Instant::now() + Duration::from_secs(2);
+    while Instant::now() < end {
+        gcs.send(&MavMessage::MANUAL_CONTROL(MANUAL_CONTROL_DATA {
+            x: 500,
+            y: 0,
+            z: 500,
+            r: 0,
+            buttons: 0,
+            target: 1,
+            ..Default::default()
+        }));
+        let step_end = Instant::now() + Duration::from_millis(20);
+        while let Some(p) = gcs.wait(
+            step_end.saturating_duration_since(Instant::now()),
+            |m| match m {
+                MavMessage::SERVO_OUTPUT_RAW(p) => Some((p.servo1_raw, p.servo2_raw)),
+                _ => None,
+            },
+        ) {
+            samples += 1;
+            if p.0 > 1550 && p.1 > 1550 {
+                ahead += 1;
+            }
+        }
+    }
+    let stale = gcs.wait(Duration::from_secs(5), |m| match m {
+        MavMessage::STATUSTEXT(t) => {
+            let s = t.text.to_str().unwrap_or("").to_string();
+            s.contains("pilot input lost").then_some(s)
+        }
+        _ => None,
+    });
+    stop(topside);
+    println!(
+        "SERVO_OUTPUT_RAW: {ahead} of {samples} samples with both horizontal pulses > 1550 us"
+    );
+    assert!(
+        samples >= 20,
+        "{samples} SERVO_OUTPUT_RAW in 2 s (10 Hz at --speedup 2)"
+    );
+    assert!(ahead >= samples / 2, "{ahead} of {samples} ahead");
+    assert_eq!(
+        stale.as_deref(),
+        Some("Failsafe: pilot input lost: thrusters neutral")
+    );
+    let truth = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.to_string_lossy().ends_with(".truth.csv"))
+        .expect("the topside's truth log");
+    let rows: Vec<Vec<f64>> = std::fs::read_to_string(truth)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    let moved_m = rows.last().unwrap()[1] - rows[0][1];
+    println!("moved {moved_m:.2} m north");
+    assert!(moved_m > 0.2, "the vehicle moved {moved_m:.3} m ahead");
 }
