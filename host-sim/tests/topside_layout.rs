@@ -377,3 +377,84 @@ fn a_pilot_drives_the_topside_layout_in_manual() {
     println!("moved {moved_m:.2} m north");
     assert!(moved_m > 0.2, "the vehicle moved {moved_m:.3} m ahead");
 }
+
+/// The node link cut (`[deployment] tether_cut_s`) reaches the ground station through the
+/// topside program: "Failsafe: node link lost" within the 250 ms of the cut (by the
+/// simulated time of the state messages around it, 10 Hz), and `SYS_STATUS` shows the
+/// node's sensors and motors unhealthy.
+#[test]
+fn the_ground_station_sees_the_node_link_cut_within_250_ms() {
+    use mavlink::dialects::ardupilotmega::MavSysStatusSensor as S;
+    let dir = common::scratch("topside-layout", "cut");
+    let cut_s = 5.0;
+    let sc = scenario(
+        &dir,
+        "layout",
+        &format!("{TOPSIDE}tether_cut_s = {cut_s}\n"),
+    );
+    let port = free_udp_port();
+    let topside = topside_sim(
+        &sc,
+        port,
+        &dir.join("cut.tlog"),
+        &dir.join("params.json"),
+        &["--duration", "9", "--speedup", "2"],
+    );
+    let gcs = Station(mavlink::connect::<MavMessage>(&format!("udpin:127.0.0.1:{port}")).unwrap());
+    let node = S::MAV_SYS_STATUS_SENSOR_3D_GYRO
+        | S::MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
+        | S::MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS;
+    // The simulated time of the latest state message, the loss's `STATUSTEXT` between two of
+    // them, the node's health before and after.
+    let (mut now_s, mut shown) = (0.0f64, None);
+    let (mut healthy_before, mut unhealthy_after) = (false, false);
+    let end = Instant::now() + Duration::from_secs(30);
+    while Instant::now() < end && !(shown.is_some() && unhealthy_after) {
+        let Some(m) = gcs.wait(Duration::from_millis(100), |m| Some(m.clone())) else {
+            continue;
+        };
+        match m {
+            MavMessage::LOCAL_POSITION_NED(p) => now_s = f64::from(p.time_boot_ms) * 1e-3,
+            MavMessage::STATUSTEXT(t) => {
+                let s = t.text.to_str().unwrap_or("").to_string();
+                if s.starts_with("Failsafe: node link lost") && now_s > 1.0 && shown.is_none() {
+                    shown = Some(now_s);
+                }
+            }
+            MavMessage::SYS_STATUS(st) => {
+                let ok = st.onboard_control_sensors_health.contains(node);
+                if ok && now_s > 1.0 && now_s < cut_s {
+                    healthy_before = true;
+                }
+                if !ok && shown.is_some() {
+                    unhealthy_after = true;
+                }
+            }
+            _ => {}
+        }
+    }
+    stop(topside);
+    // The state messages come every 0.1 s and the `STATUSTEXT` before the next one: the
+    // loss was told after `shown` and at most 0.1 s later.
+    let shown = shown.expect("no \"Failsafe: node link lost\" after the cut");
+    println!(
+        "node link cut at {cut_s} s: the ground station told between {shown:.1} and {:.1} s",
+        shown + 0.1
+    );
+    assert!(
+        healthy_before,
+        "SYS_STATUS never showed the node healthy before the cut"
+    );
+    assert!(
+        unhealthy_after,
+        "SYS_STATUS never showed the node unhealthy after the cut"
+    );
+    assert!(
+        shown + 0.1 >= cut_s,
+        "told by {shown} + 0.1 s, before the cut"
+    );
+    assert!(
+        shown + 0.1 <= cut_s + 0.25,
+        "told after {shown} s, possibly more than 250 ms after the cut"
+    );
+}

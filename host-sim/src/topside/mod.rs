@@ -181,10 +181,6 @@ const FAULT_NAMES: [(u16, &str); 9] = [
     ),
 ];
 
-/// The pilot's sticks are forwarded at most this often (s): the onboard layout's control
-/// period; the topside layout's loop runs at the node's 400 Hz and needs them no faster.
-const MANUAL_PERIOD_S: f64 = 0.02;
-
 /// The topside's state: the ground stations, the vehicle behind the tether, who commands,
 /// the missions, the pilot's sticks and the mode shown.
 struct Topside {
@@ -212,7 +208,6 @@ impl Topside {
         let mut k: u64 = 0;
         let per_second = (1.0 / self.v.period_s).round().max(1.0) as u64;
         let per_tenth = (per_second / 10).max(1);
-        let manual_every = (MANUAL_PERIOD_S / self.v.period_s).round().max(1.0) as u64;
         loop {
             if let Some(d) = a.duration {
                 if self.v.t_s >= d {
@@ -237,8 +232,9 @@ impl Topside {
                 .is_some_and(|at| at.elapsed() < MANUAL_CONTROL_TIMEOUT);
             let v = &mut self.v;
             let pilot_mode = matches!(v.tel.mode, Mode::Manual | Mode::Stabilize | Mode::DepthHold);
-            if pilot_mode && v.tel.armed && fresh && k.is_multiple_of(manual_every) {
-                // Forwarded every period while the pilot's stream lives; when it stops,
+            if pilot_mode && v.tel.armed && fresh && k.is_multiple_of(v.stride) {
+                // Forwarded every period (every stride of the topside layout's finer loop)
+                // while the pilot's stream lives; when it stops,
                 // nothing is forwarded and the firmware's MANUAL_STALE failsafe neutralizes
                 // the thrusters.
                 v.send(&Command::ManualThrust(self.manual))?;

@@ -64,6 +64,10 @@ pub(super) struct SimVehicle {
     pub(super) tel: Telemetry,
     /// The gains, timeouts and description in force on the vehicle (as last accepted).
     pub(super) settings: Settings,
+    /// The pilot's sticks are forwarded every this many periods, and the truth log gets a
+    /// row as often: every period, except for the topside layout, whose loop period (2.5 ms,
+    /// the node's IMU period) is finer than its topside's control (the node link's 20 ms).
+    pub(super) stride: u64,
 }
 
 /// A real vehicle is sent a heartbeat every this many control periods (10 Hz): its
@@ -72,10 +76,9 @@ const HEARTBEAT_EVERY: u64 = 5;
 
 const TETHER_TIMEOUT: Duration = Duration::from_millis(500);
 
-/// The truth log gets a row at most this often (s): every control period of the onboard
-/// layout (20 ms); the topside layout's loop runs at 2.5 ms, and 400 rows a second would be
-/// about 100 MB an hour.
-const TRUTH_PERIOD_S: f64 = 0.02;
+/// The topside layout's sticks and truth rows: every this long (s), its topside's control
+/// period (the node link's 50 Hz); 400 rows a second would be about 100 MB an hour.
+const LAYOUT_STRIDE_S: f64 = 0.02;
 
 /// The columns of the simulated vehicle's truth log.
 pub const TRUTH_HEADER: &str = "t_s,x_m,y_m,z_m,yaw_rad,nav_x_m,nav_y_m,nav_z_m,nav_yaw_rad,armed";
@@ -136,11 +139,11 @@ impl SimEndpoint for TopsideLayout {
 }
 
 /// A simulated vehicle: the scenario's closed loop with `E` as its controller; the true
-/// state beside what the vehicle said, to `truth`, every control period (at most every
-/// [`TRUTH_PERIOD_S`]).
+/// state beside what the vehicle said, to `truth`, every `stride` periods.
 struct Simulated<E: SimEndpoint> {
     run: ClosedLoop<Box<dyn Navigation>, E>,
     truth: BufWriter<File>,
+    stride: u64,
     last: Telemetry,
 }
 
@@ -164,7 +167,7 @@ impl<E: SimEndpoint> VehicleEnd for Simulated<E> {
         if let Some(t) = tel {
             self.last = t;
         }
-        let every = (TRUTH_PERIOD_S / run.period_s()).round().max(1.0) as u64;
+        let every = self.stride;
         if !periods.is_multiple_of(every) {
             return Ok((run.t_s(), tel));
         }
@@ -277,7 +280,7 @@ impl SimVehicle {
             hello_wait,
             true,
         )?;
-        Self::simulated(sc, endpoint, truth)
+        Self::simulated(sc, endpoint, truth, 1)
     }
 
     /// The topside layout (`[deployment] control = "topside"`): the scenario's closed loop
@@ -291,14 +294,17 @@ impl SimVehicle {
         truth: &Path,
     ) -> Result<Self> {
         layout.ground_station_commands();
-        Self::simulated(sc, layout, truth)
+        let stride = (LAYOUT_STRIDE_S / sc.control_period_s).round().max(1.0) as u64;
+        Self::simulated(sc, layout, truth, stride)
     }
 
-    /// The scenario's closed loop with `endpoint`, its first control period run.
+    /// The scenario's closed loop with `endpoint`, its first control period run; the sticks
+    /// and the truth rows every `stride` periods.
     fn simulated<E: SimEndpoint + 'static>(
         sc: &RunSetup,
         endpoint: E,
         truth: &Path,
+        stride: u64,
     ) -> Result<Self> {
         let run_opts = RunOptions {
             open_ended: true,
@@ -316,6 +322,7 @@ impl SimVehicle {
         let end = Simulated {
             run,
             truth,
+            stride,
             last: Telemetry::default(),
         };
         let mut v = Self {
@@ -327,6 +334,7 @@ impl SimVehicle {
             tel: Telemetry::default(),
             // What the endpoint sends at the start (the firmware boots with the Observer's).
             settings: Settings::new(sc.vehicle_params),
+            stride,
         };
         v.step()?;
         Ok(v)
@@ -365,6 +373,7 @@ impl SimVehicle {
             state: NavState::default(),
             tel: Telemetry::default(),
             settings: Settings::new(vehicle.unwrap_or(VehicleParams::OBSERVER)),
+            stride: 1,
         };
         if vehicle.is_some() {
             let s = v.settings;
