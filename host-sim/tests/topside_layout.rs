@@ -326,7 +326,6 @@ fn a_pilot_drives_the_topside_layout_in_manual() {
             r: 0,
             buttons: 0,
             target: 1,
-            ..Default::default()
         }));
         let step_end = Instant::now() + Duration::from_millis(20);
         while let Some(p) = gcs.wait(
