@@ -52,7 +52,7 @@ impl Topside {
     /// After each control period: when the vehicle reports a turn that ended (and was not
     /// reported yet), tell every station; an accepted one sets `COMPASS_DEV_*`.
     pub(super) fn poll_mag_cal(&mut self) -> Result<()> {
-        let Some(outcome) = self.v.link().last_status.map(|st| st.compass_swing) else {
+        let Some(outcome) = self.v.last_status().map(|st| st.compass_swing) else {
             return Ok(());
         };
         let ended = matches!(

@@ -8,8 +8,12 @@
 //! image), or with `--emulated` the firmware image itself in QEMU; in real time or
 //! `--speedup K` faster. With `[navigation] source = "estimator"` the simulated sensors go to
 //! the vehicle's own estimator, and the ground stations see its estimate; the true state
-//! beside it goes to a `.truth.csv` next to the logs. Or `--serial DEV`: a real vehicle. The
-//! modes run on the vehicle: the topside translates.
+//! beside it goes to a `.truth.csv` next to the logs. A scenario of the topside layout
+//! (`[deployment] control = "topside"`, issue 25) is flown in that layout: the topside MCU's
+//! App and its node behind the node link (`tether::topside_layout::TopsideLayout`), the
+//! commands going to the topside App (`vehicle`). Or `--serial DEV`: a real vehicle, or the
+//! topside board of the topside layout (the same tether protocol). The modes run on the
+//! vehicle (or the topside board): the topside translates.
 //!
 //! | MAVLink in | tether out |
 //! |---|---|
@@ -154,8 +158,9 @@ pub fn manual_thrust(x: i16, z: i16, r: i16) -> ManualThrust {
     }
 }
 
-/// Names of the fault flags, for `STATUSTEXT`.
-const FAULT_NAMES: [(u16, &str); 7] = [
+/// Names of the fault flags, for `STATUSTEXT`: the tether protocol's, then the topside
+/// layout's (a topside board reports its node link in the same `faults`).
+const FAULT_NAMES: [(u16, &str); 9] = [
     (
         fault::HEARTBEAT_LOST,
         "tether heartbeat lost: thrusters neutral",
@@ -166,6 +171,14 @@ const FAULT_NAMES: [(u16, &str); 7] = [
     (fault::PWM_ERROR, "PWM output error"),
     (fault::SERIAL_ERROR, "tether serial error"),
     (fault::OVERRUN, "control loop overrun"),
+    (
+        firmware::topside_link::fault::NODE_LINK_LOST,
+        "node link lost: prediction only",
+    ),
+    (
+        firmware::topside_link::fault::NODE_NOT_ARMED,
+        "node not armed: disarm and arm again",
+    ),
 ];
 
 /// The topside's state: the ground stations, the vehicle behind the tether, who commands,
@@ -219,11 +232,12 @@ impl Topside {
                 .is_some_and(|at| at.elapsed() < MANUAL_CONTROL_TIMEOUT);
             let v = &mut self.v;
             let pilot_mode = matches!(v.tel.mode, Mode::Manual | Mode::Stabilize | Mode::DepthHold);
-            if pilot_mode && v.tel.armed && fresh {
-                // Forwarded every period while the pilot's stream lives; when it stops,
+            if pilot_mode && v.tel.armed && fresh && k.is_multiple_of(v.stride) {
+                // Forwarded every period (every stride of the topside layout's finer loop)
+                // while the pilot's stream lives; when it stops,
                 // nothing is forwarded and the firmware's MANUAL_STALE failsafe neutralizes
                 // the thrusters.
-                v.link().send(&Command::ManualThrust(self.manual))?;
+                v.send(&Command::ManualThrust(self.manual))?;
             }
             v.step()?;
             self.poll_mag_cal()?;

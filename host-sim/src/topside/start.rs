@@ -8,21 +8,27 @@ use super::missions::Missions;
 use super::transport::Gcs;
 use super::vehicle::SimVehicle;
 use super::{open_logs, params, Topside};
-use crate::scenario::Scenario;
+use crate::scenario::deployment::Control;
+use crate::scenario::{RunSetup, Scenario};
 use crate::tether::endpoint::HilTarget;
 use crate::tether::in_process::InProcessFirmware;
-use crate::tether::qemu::{qemu_firmware_image, start_qemu_link, workspace_root, FirmwareImage};
+use crate::tether::qemu::{
+    qemu_firmware_image, qemu_layout_images, start_qemu_link, workspace_root, FirmwareImage,
+    LayoutImages,
+};
+use crate::tether::topside_layout::{layout_scenario, TopsideLayout};
 use crate::world::sensors::NavSource;
-use anyhow::{bail, Result};
+use anyhow::{anyhow, bail, Result};
 use firmware::protocol::ManualThrust;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 /// `host-sim topside` options.
 #[derive(clap::Args, Debug, Clone)]
 pub struct TopsideArgs {
     /// The simulated vehicle: a built-in scenario or a .toml file (its plant, navigation and
-    /// start; the reference is not used: the ground station commands).
+    /// start; the reference is not used: the ground station commands). Its `[deployment]
+    /// control` chooses the layout: `"topside"` flies the topside MCU's App and its node.
     #[arg(long, required_unless_present = "serial", conflicts_with = "serial")]
     pub sim: Option<String>,
     /// A real vehicle on this serial device (`/dev/ttyUSB0`): it runs on its own clock and
@@ -52,7 +58,8 @@ pub struct TopsideArgs {
     #[arg(long, default_value_t = 1)]
     pub system_id: u8,
     /// Run the vehicle's firmware image in QEMU (the emulated STM32F405, lock-step) instead of
-    /// the firmware library in process; the plant stays simulated here.
+    /// the firmware library in process; the plant stays simulated here. With a scenario of
+    /// the topside layout: its two images (topside-emu, node-emu), each in QEMU.
     #[arg(long)]
     pub emulated: bool,
     /// With --emulated: this image (default: the workspace's `qemu` image, built if needed).
@@ -83,11 +90,34 @@ pub fn main(a: TopsideArgs) -> Result<()> {
     if !(a.speedup.is_finite() && a.speedup > 0.0) {
         bail!("--speedup must be > 0 (got {})", a.speedup);
     }
+    // The scenario first: a scenario refused creates no log.
+    let scenario = match &a.sim {
+        None => None,
+        // Checked once; with --vehicle, the scenario file, then the set-up with that vehicle.
+        Some(sim) => Some(match vehicle_file {
+            None => Scenario::load_setup(sim)?,
+            Some(p) => {
+                let mut sc = Scenario::load(sim)?;
+                sc.vehicle_params = p;
+                sc.resolve()?
+            }
+        }),
+    };
+    if let Some(sc) = &scenario {
+        if sc.deployment.control == Control::Topside && a.qemu.is_some() {
+            return Err(crate::checks::refused(anyhow!(
+                "{}: deployment.control = \"topside\" with --qemu ELF: the topside layout is two \
+                 images (topside-emu and node-emu, built from the workspace); give --emulated \
+                 without --qemu",
+                sc.name
+            )));
+        }
+    }
     let (tlog, tlog_path, tether_path) = open_logs(&a.tlog, a.tether_log.as_deref())?;
     let gcs = Gcs::open(&a.mavlink, a.system_id, tlog)?;
     // The QEMU child lives as long as this guard.
     let mut _qemu = None;
-    let (mut v, what) = if let Some(device) = &a.serial {
+    let (v, what) = if let Some(device) = &a.serial {
         let port = crate::tether::port::serial_port(device, a.baud)?;
         let port = Box::new(crate::tether::tether_log::LoggedPort::new(
             port,
@@ -99,18 +129,13 @@ pub fn main(a: TopsideArgs) -> Result<()> {
             format!("vehicle on {} at {} Bd", device.display(), a.baud),
         )
     } else {
-        let Some(sim) = &a.sim else {
+        let Some(sc) = scenario else {
             bail!("--sim SCENARIO or --serial DEV");
         };
-        // Checked once; with --vehicle, the scenario file, then the set-up with that vehicle.
-        let sc = match vehicle_file {
-            None => Scenario::load_setup(sim)?,
-            Some(p) => {
-                let mut sc = Scenario::load(sim)?;
-                sc.vehicle_params = p;
-                sc.resolve()?
-            }
-        };
+        if sc.deployment.control == Control::Topside {
+            let (v, what) = topside_layout_vehicle(&sc, &tether_path, a.emulated)?;
+            return run_topside(&a, gcs, v, what, &tlog_path, &tether_path);
+        }
         let (port, target, hello_wait, firmware): (Box<dyn crate::tether::port::Port>, _, _, _) =
             if a.emulated {
                 let elf = match a.qemu.clone() {
@@ -157,6 +182,61 @@ pub fn main(a: TopsideArgs) -> Result<()> {
         );
         (v, what)
     };
+    run_topside(&a, gcs, v, what, &tlog_path, &tether_path)
+}
+
+/// The simulated vehicle of a scenario with `[deployment] control = "topside"`: the topside
+/// layout ([`TopsideLayout`]) in the scenario's closed loop, as `host-sim run` and `hil
+/// --in-process` fly it (`layout_scenario`: the node's 400 Hz IMU, the loop at its period).
+/// The ground stations talk to the topside App, as they would to the topside board.
+fn topside_layout_vehicle(
+    sc: &RunSetup,
+    tether_path: &Path,
+    emulated: bool,
+) -> Result<(SimVehicle, String)> {
+    let sc = layout_scenario(sc).resolve()?;
+    let (layout, roles) = if emulated {
+        let elfs = match qemu_layout_images(&workspace_root())? {
+            LayoutImages::Ready(elfs) => elfs,
+            LayoutImages::Unavailable(why) => {
+                bail!("the emulated topside layout cannot run here: {why}")
+            }
+        };
+        (
+            TopsideLayout::emulated(&sc, &elfs, "qemu-system-arm")?,
+            "the images topside-emu and node-emu, each in QEMU, on the host's clock",
+        )
+    } else {
+        (
+            TopsideLayout::for_scenario(&sc)?,
+            "firmware library in process",
+        )
+    };
+    let truth = tether_path.with_extension("truth.csv");
+    let v = SimVehicle::topside_layout(&sc, layout, &truth)?;
+    let d = sc.deployment;
+    let what = format!(
+        "simulated vehicle {:?} ({}) in the topside layout: the topside App and its node \
+         ({roles}), node link {} Bd, {} s one-way; truth log {} (the tether log stays empty: \
+         the harness holds the topside's tether)",
+        sc.name,
+        sc.plane.as_str(),
+        d.tether_baud,
+        d.tether_latency_s,
+        truth.display()
+    );
+    Ok((v, what))
+}
+
+/// The saved parameters restored, then the topside's loop.
+fn run_topside(
+    a: &TopsideArgs,
+    gcs: Gcs,
+    mut v: SimVehicle,
+    what: String,
+    tlog_path: &Path,
+    tether_path: &Path,
+) -> Result<()> {
     if a.params.exists() {
         let saved = params::load(&a.params, v.settings)?;
         for group in params::GROUPS {
@@ -187,5 +267,5 @@ pub fn main(a: TopsideArgs) -> Result<()> {
         mag_cal: None,
         params_file: a.params.clone(),
     };
-    t.run(&a)
+    t.run(a)
 }

@@ -7,6 +7,7 @@ use super::{custom_mode_of, StationId};
 use crate::topside::params::{Settings, PARAMS};
 use anyhow::Result;
 use firmware::protocol::fault;
+use firmware::topside_link::fault as link_fault;
 use mavlink::dialects::ardupilotmega::{
     MavAutopilot, MavMessage, MavModeFlag, MavParamType, MavState, MavSysStatusSensor, MavType,
     ATTITUDE_DATA, GLOBAL_POSITION_INT_DATA, HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA,
@@ -73,7 +74,18 @@ pub(super) fn send_heartbeat(gcs: &mut Gcs, v: &SimVehicle, guided: bool) -> Res
     if v.tel.faults & fault::PWM_ERROR != 0 {
         healthy &= !MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS;
     }
-    let drops = v.link_stats().frames_dropped.min(u64::from(u16::MAX)) as u16;
+    // The topside layout (issue 25): the IMU, the pressure sensor and the ESCs are on the
+    // node, behind the node link; lost, none of them reaches the topside.
+    if v.tel.faults & link_fault::NODE_LINK_LOST != 0 {
+        healthy &= !(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO
+            | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_ACCEL
+            | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
+            | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS);
+    }
+    if v.tel.faults & link_fault::NODE_NOT_ARMED != 0 {
+        healthy &= !MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS;
+    }
+    let drops = v.frames_dropped().min(u64::from(u16::MAX)) as u16;
     gcs.send(MavMessage::SYS_STATUS(SYS_STATUS_DATA {
         onboard_control_sensors_present: sensors,
         onboard_control_sensors_enabled: sensors,

@@ -63,7 +63,8 @@ pub use emulated::{EmulatedRoles, BOARD_TIMEOUT, TOPSIDE_GRID_US};
 use firmware::node::{Node, NodeConfig};
 use firmware::node_link::{status, Downlink, LinkDecoder, LinkFrame, Uplink};
 use firmware::protocol::{
-    encode, fault, Board, Command, Decoded, FrameDecoder, Mode, Reply, Telemetry, MAX_FRAME_LEN,
+    encode, fault, Board, Command, Decoded, FrameDecoder, Mode, NackReason, Reply, Status,
+    Telemetry, MAX_FRAME_LEN,
 };
 use firmware::topside_link::{
     fault as link_fault, ImuStamp, LinkSensors, LinkThruster, NodeBridge, TopsideConfig,
@@ -126,6 +127,11 @@ pub struct TopsideLayout {
     pc_session: u32,
     pc_decoder: FrameDecoder<Reply>,
     latest_telemetry: Option<Telemetry>,
+    /// The latest `Status` the PC received (the answer to its heartbeats).
+    latest_status: Option<Status>,
+    /// `start` flies the scenario (its reference, mode and arm); off for `host-sim
+    /// topside`, where the ground stations command.
+    fly_scenario: bool,
     next_heartbeat_us: u64,
     /// PC commands and when they are due at the topside (us).
     pending_pc: Vec<(u64, Command)>,
@@ -320,6 +326,8 @@ impl TopsideLayout {
             pc_session: 0,
             pc_decoder: FrameDecoder::new(),
             latest_telemetry: None,
+            latest_status: None,
+            fly_scenario: true,
             next_heartbeat_us: 0,
             pending_pc: Vec::new(),
             vehicle_fix_delay_us: us(d.tether_latency_s),
@@ -387,6 +395,7 @@ impl TopsideLayout {
                         self.latest_telemetry = Some(t);
                         self.on_ground_telemetry(&t);
                     }
+                    Reply::Status(st) => self.latest_status = Some(st),
                     Reply::Nack { reason, .. } => {
                         self.report.nacks += 1;
                         *self
@@ -414,17 +423,35 @@ impl TopsideLayout {
 
     /// A command from the PC, answered (`Ack`) or refused, run at once in the topside.
     pub fn command(&mut self, cmd: &Command) -> Result<()> {
+        if let Err(reason) = self.try_command(cmd)? {
+            bail!("the topside refused {cmd:?}: {reason:?}")
+        }
+        Ok(())
+    }
+
+    /// [`command`](Self::command) with the refusal's reason as a value (`host-sim topside`
+    /// shows it to the ground station); an error only when the topside did not answer.
+    pub fn try_command(&mut self, cmd: &Command) -> Result<Result<(), NackReason>> {
         let seq = self.pc_send(cmd)?;
         for (_, r) in self.pc_exchange()? {
             match r {
-                Reply::Ack { seq: s } if s == seq => return Ok(()),
-                Reply::Nack { seq: s, reason } if s == seq => {
-                    bail!("the topside refused {cmd:?}: {reason:?}")
-                }
+                Reply::Ack { seq: s } if s == seq => return Ok(Ok(())),
+                Reply::Nack { seq: s, reason } if s == seq => return Ok(Err(reason)),
                 _ => {}
             }
         }
         bail!("the topside did not answer {cmd:?}")
+    }
+
+    /// The ground stations command (`host-sim topside`): `start` sends the vehicle and
+    /// starts the navigation, but neither the scenario's reference and mode nor `Arm`.
+    pub fn ground_station_commands(&mut self) {
+        self.fly_scenario = false;
+    }
+
+    /// The latest `Status` the PC received.
+    pub fn latest_status(&self) -> Option<&Status> {
+        self.latest_status.as_ref()
     }
 
     /// Open the PC's session with the topside.
@@ -724,6 +751,9 @@ impl ControllerEndpoint for TopsideLayout {
             initial: *nav0,
             config: self.onboard,
         })?;
+        if !self.fly_scenario {
+            return Ok(());
+        }
         self.command(&Command::SetReference {
             reference: self.reference,
             start_us: Some(0),

@@ -1,0 +1,517 @@
+//! `host-sim topside` with a scenario of the topside layout (`[deployment] control =
+//! "topside"`, issue 25): the simulated vehicle is the topside MCU's App with its node behind
+//! the node link (`TopsideLayout` in the scenario's closed loop), flown from a MAVLink ground
+//! station (the `mavlink` crate) as any vehicle; the same flight of the onboard layout is
+//! the comparison. With `--emulated` the two images (`topside-emu`, `node-emu`) fly in QEMU
+//! (SKIPPED without QEMU or the thumbv7em target); `--qemu ELF` names one image and is refused
+//! with the reason, creating nothing.
+
+use mavlink::dialects::ardupilotmega::{
+    MavCmd, MavFrame, MavMessage, MavModeFlag, MavResult, PositionTargetTypemask,
+    COMMAND_LONG_DATA, MANUAL_CONTROL_DATA, SET_POSITION_TARGET_LOCAL_NED_DATA,
+};
+use mavlink::{MavConnection, MavHeader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Output};
+use std::time::{Duration, Instant};
+
+mod common;
+// Not every helper is used here (pymavlink's check: this test needs only the `mavlink` crate).
+#[allow(dead_code)]
+mod gcs;
+use common::host_sim;
+use gcs::{free_udp_port, stop, topside_sim};
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+/// The built-in `nav-circle-3d` (the estimator on the full sensor suite: IMU, depth,
+/// compass, DVL, USBL) as a scenario file in `dir`, with `extra` appended (its `[expect]`
+/// dropped: the ground station flies it, not its reference).
+fn scenario(dir: &Path, name: &str, extra: &str) -> PathBuf {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/nav-circle-3d.toml");
+    let text = std::fs::read_to_string(src).unwrap();
+    let text = text.split("\n[expect]").next().unwrap();
+    let p = dir.join(format!("{name}.toml"));
+    std::fs::write(&p, format!("{text}\n{extra}")).unwrap();
+    p
+}
+
+const TOPSIDE: &str = "[deployment]\ncontrol = \"topside\"\n";
+
+#[test]
+fn a_topside_layout_scenario_with_one_qemu_image_is_refused_and_creates_nothing() {
+    let dir = common::scratch("topside-layout", "qemu-elf");
+    let sc = scenario(&dir, "layout", TOPSIDE);
+    let o = host_sim(
+        &dir,
+        &[
+            "topside",
+            "--sim",
+            sc.to_str().unwrap(),
+            "--emulated",
+            "--qemu",
+            "some.elf",
+            "--mavlink",
+            "udpout:127.0.0.1:9",
+            "--duration",
+            "1",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let t = text(&o);
+    assert!(
+        t.contains("deployment.control = \"topside\" with --qemu ELF"),
+        "{t}"
+    );
+    assert!(!dir.join("out").exists(), "a refusal creates no log");
+}
+
+/// `host-sim topside --sim LAYOUT --emulated`: the two emulated images behind the topside
+/// program. The ground station hears the vehicle (HEARTBEAT), its simulated time advances
+/// (LOCAL_POSITION_NED), the node is healthy (SYS_STATUS), and the topside exits 0 at
+/// `--duration`. The images run on the host's clock, several times slower than real time
+/// on a loaded 2-core machine, so the flight is short.
+#[test]
+fn the_topside_program_runs_the_emulated_topside_layout() {
+    let Some(_elfs) = host_sim::tether::qemu::layout_images_or_skip().unwrap() else {
+        return;
+    };
+    let dir = common::scratch("topside-layout", "emulated");
+    let sc = scenario(&dir, "layout", TOPSIDE);
+    let port = free_udp_port();
+    let topside: Child = topside_sim(
+        &sc,
+        port,
+        &dir.join("emulated.tlog"),
+        &dir.join("params.json"),
+        &["--duration", "2", "--emulated"],
+    );
+    let gcs = Station(mavlink::connect::<MavMessage>(&format!("udpin:127.0.0.1:{port}")).unwrap());
+    let heartbeat = gcs.wait(Duration::from_secs(120), |m| match m {
+        MavMessage::HEARTBEAT(h) => Some(h.clone()),
+        _ => None,
+    });
+    assert!(heartbeat.is_some(), "no HEARTBEAT from the emulated layout");
+    let healthy = gcs.wait(Duration::from_secs(120), |m| match m {
+        MavMessage::SYS_STATUS(s) => Some(s.onboard_control_sensors_health),
+        _ => None,
+    });
+    assert!(healthy.is_some(), "no SYS_STATUS from the emulated layout");
+    let t_s = gcs
+        .wait(Duration::from_secs(300), |m| match m {
+            MavMessage::LOCAL_POSITION_NED(p) if p.time_boot_ms >= 1_000 => {
+                Some(f64::from(p.time_boot_ms) * 1e-3)
+            }
+            _ => None,
+        })
+        .expect("the emulated layout's time did not reach 1 s");
+    println!("emulated topside layout: LOCAL_POSITION_NED at {t_s:.2} s");
+    let end = Instant::now() + Duration::from_secs(600);
+    let mut topside = topside;
+    let status = loop {
+        if let Some(s) = topside.try_wait().unwrap() {
+            break s;
+        }
+        if Instant::now() > end {
+            stop(topside);
+            panic!("the emulated topside did not stop at --duration");
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    assert!(status.success(), "topside exit {status:?}");
+}
+
+/// The ground station's end: `udpin` on the port the topside sends to.
+struct Station(mavlink::Connection<MavMessage>);
+
+impl Station {
+    fn send(&self, msg: &MavMessage) {
+        let h = MavHeader {
+            system_id: 255,
+            component_id: 190,
+            sequence: 0,
+        };
+        self.0.send(&h, msg).unwrap();
+    }
+
+    /// The first message `pick` takes within `timeout` (wall clock).
+    fn wait<T>(
+        &self,
+        timeout: Duration,
+        mut pick: impl FnMut(&MavMessage) -> Option<T>,
+    ) -> Option<T> {
+        let end = Instant::now() + timeout;
+        while Instant::now() < end {
+            match self.0.try_recv() {
+                Ok((_, m)) => {
+                    if let Some(t) = pick(&m) {
+                        return Some(t);
+                    }
+                }
+                Err(_) => std::thread::sleep(Duration::from_millis(1)),
+            }
+        }
+        None
+    }
+
+    /// `COMMAND_LONG` `command` with `param1`, `param2`: its `COMMAND_ACK`'s result.
+    fn command(&self, command: MavCmd, param1: f32, param2: f32) -> Option<MavResult> {
+        self.send(&MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+            param1,
+            param2,
+            command,
+            target_system: 1,
+            target_component: 1,
+            ..Default::default()
+        }));
+        self.wait(Duration::from_secs(5), |m| match m {
+            MavMessage::COMMAND_ACK(a) if a.command == command => Some(a.result),
+            _ => None,
+        })
+    }
+
+    fn set_mode(&self, custom: u32) -> Option<MavResult> {
+        let flag = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED.bits() as f32;
+        self.command(MavCmd::MAV_CMD_DO_SET_MODE, flag, custom as f32)
+    }
+}
+
+const POSHOLD: u32 = 16;
+const GUIDED: u32 = 4;
+/// The GUIDED target (NED, m): 3 m north and 2 m east of the launch point (0, 0, 2 m deep),
+/// 0.5 m deeper.
+const TARGET_M: [f64; 3] = [3.0, 2.0, 2.5];
+/// Simulated time of the flight (s): the target is given within the first 20 s.
+const FLIGHT_S: f64 = 80.0;
+/// The last this many seconds are scored.
+const SCORED_S: f64 = 20.0;
+
+/// What one flight measured.
+struct Flight {
+    /// When POSHOLD was accepted (the estimate ready), simulated s.
+    ready_s: f64,
+    /// True distance to the target: RMS and largest over the last [`SCORED_S`] (m).
+    rms_m: f64,
+    max_m: f64,
+    /// The estimate against the truth over the same span, RMS (m).
+    est_rms_m: f64,
+}
+
+/// Fly `scenario` from a ground station: POSHOLD as soon as the vehicle accepts it (its
+/// estimate ready: before that it refuses with `NavNotReady`; the scenario's launch point is
+/// told to the estimator, so it is ready at once here), arm, GUIDED, the target; then score
+/// the truth log.
+fn fly(scenario: &Path, dir: &Path) -> Flight {
+    let port = free_udp_port();
+    let topside: Child = topside_sim(
+        scenario,
+        port,
+        &dir.join("fly.tlog"),
+        &dir.join("params.json"),
+        &["--duration", &FLIGHT_S.to_string(), "--speedup", "10"],
+    );
+    let gcs = Station(mavlink::connect::<MavMessage>(&format!("udpin:127.0.0.1:{port}")).unwrap());
+    let sim_s = |gcs: &Station| {
+        gcs.wait(Duration::from_secs(20), |m| match m {
+            MavMessage::LOCAL_POSITION_NED(p) => Some(f64::from(p.time_boot_ms) * 1e-3),
+            _ => None,
+        })
+        .expect("LOCAL_POSITION_NED from the topside")
+    };
+    let mut ready_s = None;
+    let mut refusals = 0;
+    while ready_s.is_none() {
+        let t = sim_s(&gcs);
+        assert!(
+            t < 20.0,
+            "POSHOLD still refused at {t:.1} s ({refusals} refusals)"
+        );
+        match gcs.set_mode(POSHOLD) {
+            Some(MavResult::MAV_RESULT_ACCEPTED) => ready_s = Some(t),
+            Some(_) => refusals += 1,
+            None => panic!("no answer to DO_SET_MODE"),
+        }
+    }
+    assert_eq!(
+        gcs.command(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 1.0, 0.0),
+        Some(MavResult::MAV_RESULT_ACCEPTED),
+        "arm"
+    );
+    assert_eq!(
+        gcs.set_mode(GUIDED),
+        Some(MavResult::MAV_RESULT_ACCEPTED),
+        "GUIDED"
+    );
+    gcs.send(&MavMessage::SET_POSITION_TARGET_LOCAL_NED(
+        SET_POSITION_TARGET_LOCAL_NED_DATA {
+            x: TARGET_M[0] as f32,
+            y: TARGET_M[1] as f32,
+            z: TARGET_M[2] as f32,
+            target_system: 1,
+            target_component: 1,
+            coordinate_frame: MavFrame::MAV_FRAME_LOCAL_NED,
+            type_mask: PositionTargetTypemask::empty(),
+            ..Default::default()
+        },
+    ));
+    // The topside stops at --duration.
+    let end = Instant::now() + Duration::from_secs(120);
+    let mut topside = topside;
+    let status = loop {
+        if let Some(s) = topside.try_wait().unwrap() {
+            break s;
+        }
+        if Instant::now() > end {
+            stop(topside);
+            panic!("the topside did not stop at --duration");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    assert!(status.success(), "topside exit {status:?}");
+
+    let truth = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.to_string_lossy().ends_with(".truth.csv"))
+        .expect("the topside's truth log");
+    let text = std::fs::read_to_string(truth).unwrap();
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    let last_s = rows.last().unwrap()[0];
+    assert!(last_s > FLIGHT_S - 0.1, "the truth log ends at {last_s} s");
+    let (mut sq, mut max, mut est, mut n) = (0.0, 0.0f64, 0.0, 0usize);
+    for r in rows.iter().filter(|r| r[0] >= last_s - SCORED_S) {
+        assert_eq!(r[9], 1.0, "armed at {} s", r[0]);
+        let d2: f64 = (0..3).map(|k| (r[1 + k] - TARGET_M[k]).powi(2)).sum();
+        sq += d2;
+        max = max.max(d2.sqrt());
+        est += (0..3).map(|k| (r[5 + k] - r[1 + k]).powi(2)).sum::<f64>();
+        n += 1;
+    }
+    Flight {
+        ready_s: ready_s.unwrap(),
+        rms_m: (sq / n as f64).sqrt(),
+        max_m: max,
+        est_rms_m: (est / n as f64).sqrt(),
+    }
+}
+
+/// Issue 25 item 4: `host-sim topside --sim` of a topside-layout scenario is flown from a
+/// ground station like any vehicle: the position modes wait for the topside's estimate, the
+/// vehicle is armed, goes to a GUIDED target and holds it. Its true position over the last
+/// 20 s is held against the target, and against the same flight of the onboard layout.
+#[test]
+fn a_ground_station_flies_the_topside_layout_to_a_guided_target() {
+    let dir = common::scratch("topside-layout", "fly");
+    let layout_dir = dir.join("layout");
+    let onboard_dir = dir.join("onboard");
+    std::fs::create_dir_all(&layout_dir).unwrap();
+    std::fs::create_dir_all(&onboard_dir).unwrap();
+    let layout = fly(&scenario(&dir, "layout", TOPSIDE), &layout_dir);
+    let onboard = fly(&scenario(&dir, "onboard", ""), &onboard_dir);
+    for (name, f) in [("topside layout", &layout), ("onboard layout", &onboard)] {
+        println!(
+            "{name}: POSHOLD accepted at {:.1} s; true distance to the target over the last \
+             {SCORED_S} s: RMS {:.2} cm, largest {:.2} cm; estimate against the truth RMS {:.2} cm",
+            f.ready_s,
+            f.rms_m * 100.0,
+            f.max_m * 100.0,
+            f.est_rms_m * 100.0
+        );
+    }
+    assert!(
+        layout.rms_m <= 0.10,
+        "topside layout: RMS {:.3} m from the target",
+        layout.rms_m
+    );
+    assert!(
+        layout.rms_m <= 1.1 * onboard.rms_m + 0.01,
+        "topside layout {:.4} m, onboard {:.4} m: not within 10 % + 1 cm",
+        layout.rms_m,
+        onboard.rms_m
+    );
+}
+
+const MANUAL: u32 = 19;
+
+/// The pilot's sticks reach the topside layout's thrusters: in MANUAL, half surge ahead
+/// streamed at 50 Hz makes both horizontal pulses rise above 1550 us (`SERVO_OUTPUT_RAW`,
+/// the pulses the topside sends the node) and the vehicle move ahead (the truth log); when
+/// the stream stops, the topside App's `MANUAL_STALE` failsafe is shown.
+#[test]
+fn a_pilot_drives_the_topside_layout_in_manual() {
+    let dir = common::scratch("topside-layout", "manual");
+    let sc = scenario(&dir, "layout", TOPSIDE);
+    let port = free_udp_port();
+    let topside = topside_sim(
+        &sc,
+        port,
+        &dir.join("manual.tlog"),
+        &dir.join("params.json"),
+        &["--duration", "60", "--speedup", "2"],
+    );
+    let gcs = Station(mavlink::connect::<MavMessage>(&format!("udpin:127.0.0.1:{port}")).unwrap());
+    let started = gcs.wait(Duration::from_secs(20), |m| {
+        matches!(m, MavMessage::HEARTBEAT(_)).then_some(())
+    });
+    assert!(started.is_some(), "no HEARTBEAT from the topside");
+    assert_eq!(
+        gcs.set_mode(MANUAL),
+        Some(MavResult::MAV_RESULT_ACCEPTED),
+        "MANUAL"
+    );
+    assert_eq!(
+        gcs.command(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 1.0, 0.0),
+        Some(MavResult::MAV_RESULT_ACCEPTED),
+        "arm"
+    );
+    let (mut samples, mut ahead) = (0, 0);
+    let end = Instant::now() + Duration::from_secs(2);
+    while Instant::now() < end {
+        gcs.send(&MavMessage::MANUAL_CONTROL(MANUAL_CONTROL_DATA {
+            x: 500,
+            y: 0,
+            z: 500,
+            r: 0,
+            buttons: 0,
+            target: 1,
+        }));
+        let step_end = Instant::now() + Duration::from_millis(20);
+        while let Some(p) = gcs.wait(
+            step_end.saturating_duration_since(Instant::now()),
+            |m| match m {
+                MavMessage::SERVO_OUTPUT_RAW(p) => Some((p.servo1_raw, p.servo2_raw)),
+                _ => None,
+            },
+        ) {
+            samples += 1;
+            if p.0 > 1550 && p.1 > 1550 {
+                ahead += 1;
+            }
+        }
+    }
+    let stale = gcs.wait(Duration::from_secs(5), |m| match m {
+        MavMessage::STATUSTEXT(t) => {
+            let s = t.text.to_str().unwrap_or("").to_string();
+            s.contains("pilot input lost").then_some(s)
+        }
+        _ => None,
+    });
+    stop(topside);
+    println!(
+        "SERVO_OUTPUT_RAW: {ahead} of {samples} samples with both horizontal pulses > 1550 us"
+    );
+    assert!(
+        samples >= 20,
+        "{samples} SERVO_OUTPUT_RAW in 2 s (10 Hz at --speedup 2)"
+    );
+    assert!(ahead >= samples / 2, "{ahead} of {samples} ahead");
+    assert_eq!(
+        stale.as_deref(),
+        Some("Failsafe: pilot input lost: thrusters neutral")
+    );
+    let truth = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.to_string_lossy().ends_with(".truth.csv"))
+        .expect("the topside's truth log");
+    let rows: Vec<Vec<f64>> = std::fs::read_to_string(truth)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    let moved_m = rows.last().unwrap()[1] - rows[0][1];
+    println!("moved {moved_m:.2} m north");
+    assert!(moved_m > 0.2, "the vehicle moved {moved_m:.3} m ahead");
+}
+
+/// The node link cut (`[deployment] tether_cut_s`) reaches the ground station through the
+/// topside program: "Failsafe: node link lost" within the issue's 250 ms of the cut (by the
+/// simulated time of the state messages around it, 10 Hz), and `SYS_STATUS` shows the
+/// node's sensors and motors unhealthy.
+#[test]
+fn the_ground_station_sees_the_node_link_cut_within_250_ms() {
+    use mavlink::dialects::ardupilotmega::MavSysStatusSensor as S;
+    let dir = common::scratch("topside-layout", "cut");
+    let cut_s = 5.0;
+    let sc = scenario(
+        &dir,
+        "layout",
+        &format!("{TOPSIDE}tether_cut_s = {cut_s}\n"),
+    );
+    let port = free_udp_port();
+    let topside = topside_sim(
+        &sc,
+        port,
+        &dir.join("cut.tlog"),
+        &dir.join("params.json"),
+        &["--duration", "9", "--speedup", "2"],
+    );
+    let gcs = Station(mavlink::connect::<MavMessage>(&format!("udpin:127.0.0.1:{port}")).unwrap());
+    let node = S::MAV_SYS_STATUS_SENSOR_3D_GYRO
+        | S::MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
+        | S::MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS;
+    // The simulated time of the latest state message, the loss's `STATUSTEXT` between two of
+    // them, the node's health before and after.
+    let (mut now_s, mut shown) = (0.0f64, None);
+    let (mut healthy_before, mut unhealthy_after) = (false, false);
+    let end = Instant::now() + Duration::from_secs(30);
+    while Instant::now() < end && !(shown.is_some() && unhealthy_after) {
+        let Some(m) = gcs.wait(Duration::from_millis(100), |m| Some(m.clone())) else {
+            continue;
+        };
+        match m {
+            MavMessage::LOCAL_POSITION_NED(p) => now_s = f64::from(p.time_boot_ms) * 1e-3,
+            MavMessage::STATUSTEXT(t) => {
+                let s = t.text.to_str().unwrap_or("").to_string();
+                if s.starts_with("Failsafe: node link lost") && now_s > 1.0 && shown.is_none() {
+                    shown = Some(now_s);
+                }
+            }
+            MavMessage::SYS_STATUS(st) => {
+                let ok = st.onboard_control_sensors_health.contains(node);
+                if ok && now_s > 1.0 && now_s < cut_s {
+                    healthy_before = true;
+                }
+                if !ok && shown.is_some() {
+                    unhealthy_after = true;
+                }
+            }
+            _ => {}
+        }
+    }
+    stop(topside);
+    // The state messages come every 0.1 s and the `STATUSTEXT` before the next one: the
+    // loss was told after `shown` and at most 0.1 s later.
+    let shown = shown.expect("no \"Failsafe: node link lost\" after the cut");
+    println!(
+        "node link cut at {cut_s} s: the ground station told between {shown:.1} and {:.1} s",
+        shown + 0.1
+    );
+    assert!(
+        healthy_before,
+        "SYS_STATUS never showed the node healthy before the cut"
+    );
+    assert!(
+        unhealthy_after,
+        "SYS_STATUS never showed the node unhealthy after the cut"
+    );
+    assert!(
+        shown + 0.1 >= cut_s,
+        "told by {shown} + 0.1 s, before the cut"
+    );
+    assert!(
+        shown + 0.1 <= cut_s + 0.25,
+        "told after {shown} s, possibly more than 250 ms after the cut"
+    );
+}
