@@ -13,11 +13,14 @@
 //! parallel) and the whole-length runs are `#[ignore]`d with their figures
 //! (`docs/navigation.md`, "Issue 26's errors on the emulated MCU").
 
+mod nav_twins;
+
 use host_sim::closed_loop::runner::{run, RunOptions};
 use host_sim::closed_loop::{RunOutput, Sample};
 use host_sim::commands::hil::{run_hil, HilOptions, HilOutput, HilTarget};
 use host_sim::scenario::Scenario;
 use host_sim::tether::qemu::image_or_skip;
+use nav_twins::{drawn_run, rms_from, within_10_percent_plus_1_cm};
 use std::time::{Duration, Instant};
 
 /// Longest wall time one emulated run of a few minutes may take.
@@ -80,15 +83,6 @@ fn in_software(sc: &Scenario) -> RunOutput {
     .unwrap();
     assert!(!out.summary.nan_detected && !out.summary.diverged);
     out
-}
-
-/// `|hil - sw| <= 10 % of sw + 1 cm`.
-fn within_10_percent_plus_1_cm(what: &str, hil_m: f64, sw_m: f64) {
-    let bound_m = 0.1 * sw_m + 0.01;
-    assert!(
-        (hil_m - sw_m).abs() <= bound_m,
-        "{what}: HIL {hil_m} m vs software {sw_m} m (bound {bound_m} m)"
-    );
 }
 
 /// Largest horizontal distance of the estimate from the truth after `t0_s` (m): an estimate
@@ -305,12 +299,6 @@ fn turn_and_survey(h: &HilOutput) -> (f64, [f64; 2], f64) {
     )
 }
 
-/// RMS of `f` over the samples from `t0_s` on.
-fn rms_from(log: &[Sample], t0_s: f64, f: impl Fn(&Sample) -> f64) -> f64 {
-    let v: Vec<f64> = log.iter().filter(|x| x.t_s >= t0_s).map(f).collect();
-    (v.iter().map(|e| e * e).sum::<f64>() / v.len().max(1) as f64).sqrt()
-}
-
 /// The turn flown by the emulated board against the same firmware library in process (the
 /// software twin: a software `run` refuses `[calibration]`, the turn is the firmware's).
 fn calibration_turn_matches_the_library(survey_s: f64, tracking_bound_m: Option<f64>) {
@@ -359,32 +347,6 @@ fn hil_flown_compass_turn_fits_within_1_deg_and_matches_the_library() {
 #[ignore = "~12 min of QEMU: run with --ignored; measured on 2026-11-26 (docs/navigation.md)"]
 fn hil_flown_compass_turn_then_the_whole_survey_matches_the_library() {
     calibration_turn_matches_the_library(280.0, Some(0.10));
-}
-
-/// Run `k` of `nav_monte_carlo.rs`'s campaign: its noise seed and its draw of the compass
-/// bias (+-5 deg), the DVL scale (+-1 %) and mounting yaw (+-2 deg), and the start the
-/// estimator is told (5 m off in a random direction, heading +-5 deg, with that
-/// uncertainty); the same stream, so the twin of that campaign's run `k`.
-fn drawn_run(base: &Scenario, k: u64) -> Scenario {
-    use rand::{Rng, SeedableRng};
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x26_0000 + k);
-    let mut uniform = |half: f64| half * (2.0 * rng.random::<f64>() - 1.0);
-    let mut sc = base.clone();
-    sc.disturbance.noise_seed = 1000 + k;
-    if let Some(c) = sc.sensors.compass.as_mut() {
-        c.bias_rad = uniform(5f64.to_radians());
-    }
-    if let Some(d) = sc.sensors.dvl.as_mut() {
-        d.scale_error = uniform(0.01);
-        d.mounting_yaw_rad = uniform(2f64.to_radians());
-    }
-    let direction_rad = uniform(std::f64::consts::PI);
-    sc.navigation.start_error_m = [5.0 * direction_rad.cos(), 5.0 * direction_rad.sin()];
-    sc.navigation.start_heading_error_rad = uniform(5f64.to_radians());
-    sc.navigation.start_position_std_m = Some(5.0);
-    sc.navigation.start_heading_std_rad = Some(0.2);
-    sc.validate().unwrap();
-    sc
 }
 
 /// Runs `0..runs` of the campaign, each `duration_s` long, on the emulated board, each
