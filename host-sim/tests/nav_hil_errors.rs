@@ -20,7 +20,7 @@ use host_sim::closed_loop::{RunOutput, Sample};
 use host_sim::commands::hil::{run_hil, HilOptions, HilOutput, HilTarget};
 use host_sim::scenario::Scenario;
 use host_sim::tether::qemu::image_or_skip;
-use nav_twins::{drawn_run, rms_from, within_10_percent_plus_1_cm};
+use nav_twins::{drawn_run, rms_from, within_10_percent_plus_1_cm, worst_deviation_error_deg};
 use std::time::{Duration, Instant};
 
 /// Longest wall time one emulated run of a few minutes may take.
@@ -267,7 +267,6 @@ fn survey_after_the_turn(survey_s: f64) -> Scenario {
 /// its `(sin, cos)` terms (rad), and the tracking RMS over the last 80 % of the time after the
 /// turn (m).
 fn turn_and_survey(h: &HilOutput) -> (f64, [f64; 2], f64) {
-    use controller_core::nav::compass_cal::CompassCalibration;
     use firmware::compass_swing::SwingOutcome;
     let end_s = h.report.calibration_end_s.expect("the turn ended");
     let Some(SwingOutcome::Accepted { cal, .. }) = h.report.compass_swing else {
@@ -278,22 +277,11 @@ fn turn_and_survey(h: &HilOutput) -> (f64, [f64; 2], f64) {
         Some(cal),
         "the fit is the calibration in force"
     );
-    let worst_deg = |c: &CompassCalibration| {
-        (0..360)
-            .map(|d| {
-                let psi = f64::from(d).to_radians();
-                let truth = HARD_IRON_RAD * (psi + HARD_IRON_PHASE_RAD).sin();
-                (f64::from(c.deviation_rad(psi as f32)) - truth)
-                    .abs()
-                    .to_degrees()
-            })
-            .fold(0.0, f64::max)
-    };
     let t_last = h.run.log.last().map_or(0.0, |x| x.t_s);
     let from_s = end_s + 0.2 * (t_last - end_s);
     let rms_m = rms_from(&h.run.log, from_s, |x| x.pos_err_norm_m);
     (
-        worst_deg(&cal),
+        worst_deviation_error_deg(&cal, HARD_IRON_RAD, HARD_IRON_PHASE_RAD),
         [f64::from(cal.sin_rad), f64::from(cal.cos_rad)],
         rms_m,
     )

@@ -1,10 +1,12 @@
 //! What the issue-26 navigation tests share: the comparison of an emulated run with its
 //! software twin (`nav_hil.rs`, `nav_hil_errors.rs`) and the Monte Carlo campaign's draw of a
-//! run (`nav_monte_carlo.rs`, and its twins on the emulated board in `nav_hil_errors.rs`).
+//! run (`nav_monte_carlo.rs`, and its twins on the emulated board in `nav_hil_errors.rs`);
+//! the error of a fitted compass deviation (`nav_compass_cal_flown.rs`, `nav_hil_errors.rs`).
 
 // Each test binary that includes this module uses part of it.
 #![allow(dead_code)]
 
+use controller_core::nav::compass_cal::CompassCalibration;
 use host_sim::closed_loop::Sample;
 use host_sim::scenario::Scenario;
 use rand::{Rng, SeedableRng};
@@ -49,4 +51,22 @@ pub fn drawn_run(base: &Scenario, k: u64) -> Scenario {
     sc.navigation.start_heading_std_rad = Some(0.2);
     sc.validate().unwrap();
     sc
+}
+
+/// Worst error of the deviation curve `cal` against a hard iron `amplitude_rad * sin(psi +
+/// phase_rad)` over 360 headings (deg).
+pub fn worst_deviation_error_deg(
+    cal: &CompassCalibration,
+    amplitude_rad: f64,
+    phase_rad: f64,
+) -> f64 {
+    (0..360)
+        .map(|d| {
+            let psi = f64::from(d).to_radians();
+            let truth = amplitude_rad * (psi + phase_rad).sin();
+            (f64::from(cal.deviation_rad(psi as f32)) - truth)
+                .abs()
+                .to_degrees()
+        })
+        .fold(0.0, f64::max)
 }
