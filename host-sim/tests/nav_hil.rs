@@ -3,8 +3,8 @@
 //! beam current (`scenarios/nav-survey-compass-bias-3d.toml`), the USBL-only circle with a
 //! 5 degree bias, and the circle told a start 5 m and 30 degrees off. Skipped, with a
 //! message, without `qemu-system-arm` or the thumbv7em target (the pattern of `hil_qemu.rs`).
-//! The 23-minute survey with 30 % far outliers is not repeated here: about 35 minutes of
-//! emulation.
+//! The near outliers, the flown compass turn, drawn Monte Carlo runs and the 23-minute survey
+//! with 30 % far outliers (ignored: about 30 minutes of emulation) are in `nav_hil_errors.rs`.
 
 mod nav_twins;
 

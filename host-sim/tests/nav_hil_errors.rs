@@ -23,8 +23,12 @@ use host_sim::tether::qemu::image_or_skip;
 use nav_twins::{drawn_run, rms_from, within_10_percent_plus_1_cm, worst_deviation_error_deg};
 use std::time::{Duration, Instant};
 
-/// Longest wall time one emulated run of a few minutes may take.
-const WALL_LIMIT: Duration = Duration::from_secs(900);
+/// Longest wall time an emulated run of `simulated_s` may take: 6 s of wall per simulated
+/// second and a minute (a 310 s run took over 900 s with the machine's load at 8 on 2 cores,
+/// 2026-11-26).
+fn wall_limit(simulated_s: f64) -> Duration {
+    Duration::from_secs_f64(60.0 + 6.0 * simulated_s)
+}
 
 /// The scenario with 20 % of its USBL fixes replaced by near outliers 1-2 m off (the
 /// software test's draw, `nav_outliers.rs`).
@@ -40,13 +44,12 @@ fn with_near_outliers(mut sc: Scenario) -> Scenario {
 /// The scenario on the emulated board (its wall time in seconds) or `None` when QEMU or the
 /// image is missing (skipped).
 fn on_qemu(sc: &Scenario) -> Option<(HilOutput, f64)> {
-    on_qemu_within(sc, WALL_LIMIT)
-}
-
-/// [`on_qemu`] with its own wall-clock limit.
-fn on_qemu_within(sc: &Scenario, wall_limit: Duration) -> Option<(HilOutput, f64)> {
     let elf = image_or_skip().expect("the firmware's qemu image")?;
-    Some(on_target(sc, HilTarget::Qemu { elf }, wall_limit))
+    Some(on_target(
+        sc,
+        HilTarget::Qemu { elf },
+        wall_limit(sc.duration_s),
+    ))
 }
 
 /// The scenario on `target`, recorded, with its wall time (s).
@@ -192,7 +195,7 @@ fn hil_23_minute_survey_with_30_percent_far_outliers_matches_software() {
         "/../scenarios/nav-survey-outliers-3d.toml"
     ))
     .unwrap();
-    let Some((h, wall_s)) = on_qemu_within(&sc, Duration::from_secs(4 * 3600)) else {
+    let Some((h, wall_s)) = on_qemu(&sc) else {
         return;
     };
     let sw = in_software(&sc);
@@ -294,7 +297,7 @@ fn calibration_turn_matches_the_library(survey_s: f64, tracking_bound_m: Option<
     let Some((q, wall_s)) = on_qemu(&sc) else {
         return;
     };
-    let (l, _) = on_target(&sc, HilTarget::InProcess, WALL_LIMIT);
+    let (l, _) = on_target(&sc, HilTarget::InProcess, wall_limit(sc.duration_s));
     let (q_worst_deg, q_fit, q_rms_m) = turn_and_survey(&q);
     let (l_worst_deg, l_fit, l_rms_m) = turn_and_survey(&l);
     eprintln!(
@@ -407,6 +410,6 @@ fn hil_drawn_monte_carlo_run_1_matches_its_software_twin() {
 
 #[test]
 #[ignore = "~15 min of QEMU: run with --ignored; measured on 2026-11-26 (docs/navigation.md)"]
-fn hil_four_drawn_monte_carlo_runs_of_100_s_match_their_software_twins() {
-    drawn_runs_match_software(0..4, 100.0);
+fn hil_three_drawn_monte_carlo_runs_of_100_s_match_their_software_twins() {
+    drawn_runs_match_software(0..3, 100.0);
 }
