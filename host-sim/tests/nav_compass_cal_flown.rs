@@ -5,11 +5,14 @@
 //! `[calibration]` makes the vehicle turn a full circle in `Hold` first; the fit becomes the
 //! calibration in force, then the survey is flown. Figures on the TRUE position.
 
+mod nav_twins;
+
 use controller_core::nav::compass_cal::{CalRefusal, CompassCalibration};
 use firmware::compass_swing::SwingOutcome;
 use host_sim::commands::hil::{run_hil, HilOptions, HilOutput, HilTarget};
 use host_sim::scenario::{CalibrationSpec, Scenario};
 use host_sim::world::sensors::CompassSpec;
+use nav_twins::worst_deviation_error_deg;
 
 const HARD_IRON_RAD: f64 = 0.0873; // 5 deg
 const PHASE_RAD: f64 = 0.7;
@@ -40,19 +43,6 @@ fn survey_with_calibration(time_limit_s: f64) -> HilOutput {
     run_hil(&sc, &o, None).unwrap()
 }
 
-/// Worst error of the deviation curve against the truth over 360 headings (deg).
-fn worst_error_deg(cal: &CompassCalibration) -> f64 {
-    (0..360)
-        .map(|d| {
-            let psi = f64::from(d).to_radians();
-            let truth = HARD_IRON_RAD * (psi + PHASE_RAD).sin();
-            (f64::from(cal.deviation_rad(psi as f32)) - truth)
-                .abs()
-                .to_degrees()
-        })
-        .fold(0.0, f64::max)
-}
-
 #[test]
 fn the_flown_turn_fits_within_1_deg_and_the_survey_after_it_tracks_within_10_cm() {
     let h = survey_with_calibration(60.0);
@@ -75,7 +65,7 @@ fn the_flown_turn_fits_within_1_deg_and_the_survey_after_it_tracks_within_10_cm(
         .map(|x| x.pos_err_norm_m)
         .collect();
     let rms = (errs.iter().map(|e| e * e).sum::<f64>() / errs.len().max(1) as f64).sqrt();
-    let worst = worst_error_deg(&cal);
+    let worst = worst_deviation_error_deg(&cal, HARD_IRON_RAD, PHASE_RAD);
     eprintln!(
         "flown turn at 0.25 rad/s: ended at {end_s:.2} s, fit sin {:.4} cos {:.4} rad (truth {:.4}, {:.4}), residual {residual_rad:.4} rad, worst deviation error {worst:.2} deg; survey after it ({:.0} s): tracking last-80 % RMS {:.2} cm; {:?}",
         cal.sin_rad,

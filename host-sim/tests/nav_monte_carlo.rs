@@ -5,34 +5,14 @@
 //! +-5 deg off, with that uncertainty). Figures on the TRUE position, RMS over the last
 //! 80 %.
 
+mod nav_twins;
+
 use host_sim::closed_loop::runner::{run, RunOptions};
 use host_sim::scenario::Scenario;
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+use nav_twins::drawn_run;
 use rayon::prelude::*;
 
 const RUNS: u64 = 200;
-
-fn drawn(base: &Scenario, run_index: u64) -> Scenario {
-    let mut rng = ChaCha8Rng::seed_from_u64(0x26_0000 + run_index);
-    let mut u = |half: f64| half * (2.0 * rng.random::<f64>() - 1.0);
-    let mut sc = base.clone();
-    sc.disturbance.noise_seed = 1000 + run_index;
-    if let Some(c) = sc.sensors.compass.as_mut() {
-        c.bias_rad = u(5f64.to_radians());
-    }
-    if let Some(d) = sc.sensors.dvl.as_mut() {
-        d.scale_error = u(0.01);
-        d.mounting_yaw_rad = u(2f64.to_radians());
-    }
-    let a = u(std::f64::consts::PI);
-    sc.navigation.start_error_m = [5.0 * a.cos(), 5.0 * a.sin()];
-    sc.navigation.start_heading_error_rad = u(5f64.to_radians());
-    sc.navigation.start_position_std_m = Some(5.0);
-    sc.navigation.start_heading_std_rad = Some(0.2);
-    sc.validate().unwrap();
-    sc
-}
 
 fn percentile(sorted: &[f64], p: f64) -> f64 {
     let i = ((sorted.len() - 1) as f64 * p).round() as usize;
@@ -45,9 +25,12 @@ fn two_hundred_surveys_with_drawn_biases_and_start_errors_p95_within_15_cm() {
     let results: Vec<_> = (0..RUNS)
         .into_par_iter()
         .map(|k| {
-            let s = run(&drawn(&base, k).resolve().unwrap(), &RunOptions::default())
-                .unwrap()
-                .summary;
+            let s = run(
+                &drawn_run(&base, k).resolve().unwrap(),
+                &RunOptions::default(),
+            )
+            .unwrap()
+            .summary;
             (
                 s.rms_position_error_last80_m,
                 s.rms_estimation_error_m,
