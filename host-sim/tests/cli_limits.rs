@@ -154,3 +154,36 @@ fn a_delay_line_too_long_to_hold_is_refused_before_it_allocates() {
     assert!(stderr(&o).contains("delay_s"), "{}", stderr(&o));
     assert!(!dir.join("out").exists());
 }
+
+/// `hil --wall-limit`: a run that cannot finish in its wall-clock budget stops with the
+/// reason and the option that gives it more; 0 is refused by the parser (exit 2).
+#[test]
+fn hil_stops_at_its_wall_clock_limit_and_names_the_option() {
+    let dir = scratch("wall-limit");
+    // Heavy noise: every corrupted frame costs a reply timeout, ~30 s of wall a second.
+    let o = host_sim(
+        &dir,
+        &[
+            "hil",
+            "line-3d",
+            "--in-process",
+            "--noise",
+            "0.5",
+            "--duration",
+            "60",
+            "--wall-limit",
+            "1",
+        ],
+    );
+    assert!(!o.status.success(), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains("wall-clock limit of 1 s") && e.contains("--wall-limit"),
+        "{e}"
+    );
+    let o = host_sim(
+        &dir,
+        &["hil", "line-3d", "--in-process", "--wall-limit", "0"],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+}

@@ -155,6 +155,10 @@ pub struct HilArgs {
     /// (an unknown start); past it the run fails with the reason (s).
     #[arg(long, value_name = "SECONDS", default_value_t = DEFAULT_NAV_READY_LIMIT_S)]
     pub nav_ready_limit: f64,
+    /// Give up after this much wall-clock time (s): a guard against a hung emulator. The
+    /// 23-minute survey on QEMU takes about an hour on a loaded 2-core machine.
+    #[arg(long, value_name = "SECONDS", default_value_t = 600, value_parser = clap::value_parser!(u64).range(1..))]
+    pub wall_limit: u64,
 }
 
 /// `--noise`: a probability (clap refuses anything else, naming the reason, exit 2).
@@ -257,6 +261,7 @@ pub fn main(a: HilArgs) -> Result<HilOutput> {
     o.qemu = a.qemu_bin;
     o.ram_dump = a.ram_dump;
     o.nav_ready_limit_s = a.nav_ready_limit;
+    o.wall_limit = std::time::Duration::from_secs(a.wall_limit);
     if !sc.thrusters.saturate {
         eprintln!(
             "note: scenario {} has no thruster limits, but the firmware always applies the \

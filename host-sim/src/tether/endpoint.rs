@@ -591,7 +591,8 @@ impl ControllerEndpoint for TetherEndpoint {
     fn step(&mut self, t_s: f64, nav: &NavState, _reference: &RefSample) -> Result<StepReply> {
         if self.wall.elapsed() > self.wall_limit {
             bail!(
-                "wall-clock limit of {} s reached at t = {t_s:.3} s",
+                "wall-clock limit of {} s reached at t = {t_s:.3} s (hil --wall-limit SECONDS \
+                 gives a long run more)",
                 self.wall_limit.as_secs()
             );
         }
