@@ -16,8 +16,6 @@ use std::process::{Child, Output};
 use std::time::{Duration, Instant};
 
 mod common;
-// Not every helper is used here (pymavlink's check: this test needs only the `mavlink` crate).
-#[allow(dead_code)]
 mod gcs;
 use common::host_sim;
 use gcs::{free_udp_port, stop, topside_sim};

@@ -40,11 +40,12 @@ use std::collections::VecDeque;
 use std::convert::Infallible;
 use std::io::{Read, Write};
 use std::path::PathBuf;
-use std::process::Command;
 use std::rc::Rc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
+
+mod gcs;
 
 /// Both MCUs' clock: the host's, since the thread started (us).
 #[derive(Clone, Default)]
@@ -365,28 +366,8 @@ fn the_topside_drives_a_topside_board_on_a_serial_line_and_shows_its_node_link()
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("topside-layout-serial");
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let port = std::net::UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port();
-    let mut topside = Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .args([
-            "topside",
-            "--serial",
-            &device,
-            "--baud",
-            "115200",
-            "--mavlink",
-        ])
-        .arg(format!("udpout:127.0.0.1:{port}"))
-        .arg("--tlog")
-        .arg(dir.join("serial.tlog"))
-        .arg("--params")
-        .arg(dir.join("params.json"))
-        .args(["--duration", "60"])
-        .spawn()
-        .unwrap();
+    let port = gcs::free_udp_port();
+    let mut topside = gcs::topside_serial(&device, port, &dir, 60);
     let gcs = mavlink::connect::<MavMessage>(&format!("udpin:127.0.0.1:{port}")).unwrap();
     let send = |msg: &MavMessage| {
         let h = MavHeader {

@@ -22,13 +22,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-fn free_udp_port() -> u16 {
-    std::net::UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
+mod gcs;
+use gcs::free_udp_port;
 
 /// The next message that `pick` takes, within `timeout`.
 fn wait<T>(
@@ -96,23 +91,7 @@ fn the_topside_drives_a_vehicle_on_a_serial_line() {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let port = free_udp_port();
-    let mut topside = Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .args([
-            "topside",
-            "--serial",
-            &device,
-            "--baud",
-            "115200",
-            "--mavlink",
-        ])
-        .arg(format!("udpout:127.0.0.1:{port}"))
-        .arg("--tlog")
-        .arg(dir.join("serial.tlog"))
-        .arg("--params")
-        .arg(dir.join("params.json"))
-        .args(["--duration", "30"])
-        .spawn()
-        .unwrap();
+    let mut topside = gcs::topside_serial(&device, port, &dir, 30);
 
     let gcs = mavlink::connect::<MavMessage>(&format!("udpin:127.0.0.1:{port}")).unwrap();
     let hb = wait(&gcs, Duration::from_secs(10), |m| match m {

@@ -326,8 +326,20 @@ pub fn start_qemu_link(
     let listener = TcpListener::bind("127.0.0.1:0").context("cannot bind 127.0.0.1:0")?;
     let port = listener.local_addr()?.port();
     let mut q = QemuChild::start(qemu, elf, port, log, monitor)?;
-    listener.set_nonblocking(true)?;
     let deadline = Instant::now() + Duration::from_secs(30);
+    let stream = accept_from(&mut q, &listener, port, deadline)?;
+    Ok((q, Box::new(tcp_port(stream)?)))
+}
+
+/// The connection QEMU makes to `listener` (on `port`), by `deadline`; an error as soon as
+/// the emulator exits. The stream is blocking.
+fn accept_from(
+    q: &mut QemuChild,
+    listener: &TcpListener,
+    port: u16,
+    deadline: Instant,
+) -> Result<std::net::TcpStream> {
+    listener.set_nonblocking(true)?;
     let stream = loop {
         match listener.accept() {
             Ok((s, _)) => break s,
@@ -344,7 +356,7 @@ pub fn start_qemu_link(
         }
     };
     stream.set_nonblocking(false)?;
-    Ok((q, Box::new(tcp_port(stream)?)))
+    Ok(stream)
 }
 
 /// Start QEMU with `elf` and `serials` serial ports (`-serial` 0.. in order: USART1,
@@ -368,24 +380,8 @@ pub fn start_qemu_serials(
     let mut q = QemuChild::start_serials(qemu, elf, &ports, log, false)?;
     let deadline = Instant::now() + Duration::from_secs(30);
     let mut streams = Vec::new();
-    for (l, port) in listeners.iter().zip(&ports) {
-        l.set_nonblocking(true)?;
-        let stream = loop {
-            match l.accept() {
-                Ok((s, _)) => break s,
-                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
-                    if let Some(why) = q.exited() {
-                        bail!("{why}");
-                    }
-                    if Instant::now() > deadline {
-                        bail!("QEMU did not connect to 127.0.0.1:{port} within 30 s");
-                    }
-                    std::thread::sleep(Duration::from_millis(5));
-                }
-                Err(e) => return Err(e).context("accept"),
-            }
-        };
-        stream.set_nonblocking(false)?;
+    for (l, &port) in listeners.iter().zip(&ports) {
+        let stream = accept_from(&mut q, l, port, deadline)?;
         stream.set_nodelay(true)?;
         stream.set_read_timeout(Some(read_timeout))?;
         streams.push(stream);

@@ -2,6 +2,9 @@
 //! share: the check that pymavlink is there (SKIPPED with the fix, or a failure with
 //! `ROV_REQUIRE_PYMAVLINK=1` as `.ci/run` sets it), a free UDP port, stopping a topside.
 
+// Each test binary that includes this module uses a part of it.
+#![allow(dead_code)]
+
 use std::ffi::OsStr;
 use std::net::UdpSocket;
 use std::os::unix::process::CommandExt;
@@ -66,6 +69,29 @@ pub fn topside_sim(
         .arg(params)
         .args(extra)
         .process_group(0)
+        .spawn()
+        .unwrap()
+}
+
+/// `host-sim topside --serial DEVICE` (115,200 Bd) sending MAVLink to
+/// `udpout:127.0.0.1:PORT`, its tlog and parameters in `dir`, stopping after `duration_s`
+/// of its own time.
+pub fn topside_serial(device: &str, port: u16, dir: &Path, duration_s: u32) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args([
+            "topside",
+            "--serial",
+            device,
+            "--baud",
+            "115200",
+            "--mavlink",
+        ])
+        .arg(format!("udpout:127.0.0.1:{port}"))
+        .arg("--tlog")
+        .arg(dir.join("serial.tlog"))
+        .arg("--params")
+        .arg(dir.join("params.json"))
+        .args(["--duration", &duration_s.to_string()])
         .spawn()
         .unwrap()
 }
