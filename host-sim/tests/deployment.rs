@@ -55,8 +55,12 @@ fn sensor_to_thruster_latency_p99_is_within_10_ms_at_115200_and_1_mbd() {
     );
 }
 
+/// Issue 25's "told the delay, within 5 cm up to at least 100 ms", as it is judged here:
+/// within 5 cm of the zero-latency told run (`deployment::delay_met`). The absolute 5 cm is
+/// not reached at any latency (6.8 cm at 0 ms: the estimate's own error), as
+/// README's table says.
 #[test]
-fn told_the_delay_the_error_stays_within_5_cm_up_to_100_ms_one_way() {
+fn told_the_delay_the_error_grows_by_at_most_5_cm_up_to_100_ms_one_way() {
     let rows: Vec<_> = [0.0, 0.05, 0.1]
         .iter()
         .map(|&l| deployment::delay(l, 115_200, None).unwrap())
@@ -406,4 +410,17 @@ fn the_emulated_layout_refuses_link_settings_its_images_do_not_run() {
         !format!("{e:#}").contains("deployment.link_period_s"),
         "{e:#}"
     );
+}
+
+/// Issue 25's bound read as absolute: told the delay, the true-position RMS itself within
+/// 5 cm up to 100 ms one-way. Not met: the estimate's own error at 0 ms is above it.
+#[test]
+#[ignore = "not met: told, 115,200 Bd, nav-circle-3d: 6.8 / 6.2 / 6.5 cm at 0 / 50 / 100 ms one-way (2026-11-26, node link v2); 5 cm is not reached at 0 ms either"]
+fn told_the_delay_the_error_stays_within_5_cm_absolute_up_to_100_ms_one_way() {
+    for l in [0.0, 0.05, 0.1] {
+        let r = deployment::delay(l, 115_200, None).unwrap();
+        let m = r.rms_told_m.unwrap();
+        println!("{} ms one-way, told: {:.2} cm", l * 1e3, 100.0 * m);
+        assert!(m <= 0.05, "{} ms: {:.2} cm", l * 1e3, 100.0 * m);
+    }
 }

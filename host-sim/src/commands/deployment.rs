@@ -280,27 +280,19 @@ pub fn delay(latency_s: f64, baud: u32, duration_s: Option<f64>) -> Result<Delay
         .then(|| run.lost_control.unwrap_or(run.stop_reason));
     sc.deployment.tell_delay = true;
     let told = told_delay_s(&sc.deployment);
-    let rms_told = if told <= f64::from(MAX_TOLD_DELAY_S) {
-        Some(
-            fly(&sc, duration_s)?
-                .run
-                .summary
-                .rms_position_error_last80_m,
-        )
-    } else {
-        None
+    // A told delay over the laws' limit is refused: no run, no figure.
+    let told_ok = told <= f64::from(MAX_TOLD_DELAY_S);
+    let rms = |sc: &Scenario| -> Result<Option<f64>> {
+        if !told_ok {
+            return Ok(None);
+        }
+        Ok(Some(
+            fly(sc, duration_s)?.run.summary.rms_position_error_last80_m,
+        ))
     };
-    let rms_told_node_time = if told <= f64::from(MAX_TOLD_DELAY_S) {
-        sc.deployment.stamp_node_time = true;
-        Some(
-            fly(&sc, duration_s)?
-                .run
-                .summary
-                .rms_position_error_last80_m,
-        )
-    } else {
-        None
-    };
+    let rms_told = rms(&sc)?;
+    sc.deployment.stamp_node_time = true;
+    let rms_told_node_time = rms(&sc)?;
     Ok(DelayRow {
         latency_s,
         rms_not_told_m: not_told,
