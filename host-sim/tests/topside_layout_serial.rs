@@ -46,6 +46,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 mod gcs;
+use gcs::wait;
 
 /// Both MCUs' clock: the host's, since the thread started (us).
 #[derive(Clone, Default)]
@@ -317,26 +318,6 @@ fn run_boards(pty: TTYPort, stop: Arc<AtomicBool>, cut: Arc<AtomicBool>) -> f32 
         .gains()
         .tracking
         .xy_kp
-}
-
-/// The next message `pick` takes within `timeout`.
-fn wait<T>(
-    gcs: &mavlink::Connection<MavMessage>,
-    timeout: Duration,
-    mut pick: impl FnMut(&MavMessage) -> Option<T>,
-) -> Option<T> {
-    let end = Instant::now() + timeout;
-    while Instant::now() < end {
-        match gcs.try_recv() {
-            Ok((_, m)) => {
-                if let Some(t) = pick(&m) {
-                    return Some(t);
-                }
-            }
-            Err(_) => std::thread::sleep(Duration::from_millis(2)),
-        }
-    }
-    None
 }
 
 /// The node's sensors and motors are healthy in `SYS_STATUS`.

@@ -23,27 +23,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 mod gcs;
-use gcs::free_udp_port;
-
-/// The next message that `pick` takes, within `timeout`.
-fn wait<T>(
-    gcs: &mavlink::Connection<MavMessage>,
-    timeout: Duration,
-    mut pick: impl FnMut(&MavMessage) -> Option<T>,
-) -> Option<T> {
-    let end = Instant::now() + timeout;
-    while Instant::now() < end {
-        match gcs.try_recv() {
-            Ok((_, m)) => {
-                if let Some(t) = pick(&m) {
-                    return Some(t);
-                }
-            }
-            Err(_) => std::thread::sleep(Duration::from_millis(2)),
-        }
-    }
-    None
-}
+use gcs::{free_udp_port, wait};
 
 fn send(gcs: &mavlink::Connection<MavMessage>, msg: &MavMessage) {
     let h = MavHeader {

@@ -95,3 +95,25 @@ pub fn topside_serial(device: &str, port: u16, dir: &Path, duration_s: u32) -> C
         .spawn()
         .unwrap()
 }
+
+/// The next message from a `mavlink`-crate ground station that `pick` takes, within
+/// `timeout`.
+pub fn wait<T>(
+    gcs: &mavlink::Connection<mavlink::dialects::ardupilotmega::MavMessage>,
+    timeout: std::time::Duration,
+    mut pick: impl FnMut(&mavlink::dialects::ardupilotmega::MavMessage) -> Option<T>,
+) -> Option<T> {
+    use mavlink::MavConnection;
+    let end = std::time::Instant::now() + timeout;
+    while std::time::Instant::now() < end {
+        match gcs.try_recv() {
+            Ok((_, m)) => {
+                if let Some(t) = pick(&m) {
+                    return Some(t);
+                }
+            }
+            Err(_) => std::thread::sleep(std::time::Duration::from_millis(2)),
+        }
+    }
+    None
+}
