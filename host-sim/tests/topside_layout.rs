@@ -18,7 +18,7 @@ use std::time::{Duration, Instant};
 mod common;
 mod gcs;
 use common::host_sim;
-use gcs::{free_udp_port, stop, topside_sim};
+use gcs::{exits_at_duration, free_udp_port, stop, topside_sim};
 
 fn text(o: &Output) -> String {
     format!(
@@ -110,19 +110,7 @@ fn the_topside_program_runs_the_emulated_topside_layout() {
         })
         .expect("the emulated layout's time did not reach 1 s");
     println!("emulated topside layout: LOCAL_POSITION_NED at {t_s:.2} s");
-    let end = Instant::now() + Duration::from_secs(600);
-    let mut topside = topside;
-    let status = loop {
-        if let Some(s) = topside.try_wait().unwrap() {
-            break s;
-        }
-        if Instant::now() > end {
-            stop(topside);
-            panic!("the emulated topside did not stop at --duration");
-        }
-        std::thread::sleep(Duration::from_millis(100));
-    };
-    assert!(status.success(), "topside exit {status:?}");
+    exits_at_duration(topside, Duration::from_secs(600));
 }
 
 /// The ground station's end: `udpin` on the port the topside sends to.
@@ -259,19 +247,7 @@ fn fly(scenario: &Path, dir: &Path) -> Flight {
         },
     ));
     // The topside stops at --duration.
-    let end = Instant::now() + Duration::from_secs(120);
-    let mut topside = topside;
-    let status = loop {
-        if let Some(s) = topside.try_wait().unwrap() {
-            break s;
-        }
-        if Instant::now() > end {
-            stop(topside);
-            panic!("the topside did not stop at --duration");
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    };
-    assert!(status.success(), "topside exit {status:?}");
+    exits_at_duration(topside, Duration::from_secs(120));
 
     let truth = std::fs::read_dir(dir)
         .unwrap()

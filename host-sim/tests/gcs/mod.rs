@@ -48,6 +48,23 @@ pub fn stop(mut child: Child) {
     let _ = child.wait();
 }
 
+/// Wait up to `timeout` for a topside started with `--duration` to stop by itself, and
+/// assert it exited 0; past the timeout it is stopped (its group) and the test fails.
+pub fn exits_at_duration(mut child: Child, timeout: std::time::Duration) {
+    let end = std::time::Instant::now() + timeout;
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if std::time::Instant::now() > end {
+            stop(child);
+            panic!("the topside did not stop at --duration within {timeout:?}");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    };
+    assert!(status.success(), "topside exit {status:?}");
+}
+
 /// `host-sim topside --sim SCENARIO` sending MAVLink to `udpout:127.0.0.1:PORT`, its tlog and
 /// parameters file where the test says, with `extra` arguments (`--duration`, `--speedup`,
 /// ...), in a process group of its own so that [`stop`] ends what it starts (QEMU).
