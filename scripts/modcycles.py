@@ -1,12 +1,17 @@
 #!/usr/bin/env python3
-"""Module cycles of the workspace's crates: top-level modules of one crate that reach each other
-through `crate::` paths (a pair that use each other, or a longer circle a -> b -> c -> a).
+"""Module cycles of the workspace's crates, at two levels: the top-level modules of one crate
+that reach each other through `crate::` paths, and the files (each file is a module) of one
+crate that reach each other through `crate::`, `super::`, `self::` or child-module paths (a
+pair that use each other, or a longer circle a -> b -> c -> a).
 
 Prints one `CYCLE` line per circle found and exits 1 when there is any; prints `checked` and
 exits 0 when there is none.
 
 What counts as a use: a `crate::m` path in code, including grouped imports
-(`use crate::{a::X, b}`). Comments (doc links among them) are not uses, and neither are
+(`use crate::{a::X, b}`); at file level also `super::x`, `self::x` and `child::x` for a
+`mod child;` the file declares. A path names the longest module it starts with: `crate::a::b::C`
+is a use of file `a/b.rs` (or `a/b/mod.rs`) when it exists, else of `a`. Declaring a child
+(`mod b;`) is not a use of it. Comments (doc links among them) are not uses, and neither are
 `#[cfg(test)]` modules: a test may drive a module through its caller without the shipped
 modules depending on each other.
 
@@ -16,7 +21,12 @@ import os
 import re
 import sys
 
-CRATES = ['firmware/src', 'host-sim/src', 'mcu-bench/src', 'controller-core/src', 'sensor-drivers/src']
+def crates():
+    """The `src` folder of every workspace member (the root `Cargo.toml`'s `members`)."""
+    with open('Cargo.toml') as fh:
+        m = re.search(r'members\s*=\s*\[([^\]]*)\]', fh.read())
+    names = re.findall(r'"([^"]+)"', m.group(1)) if m else []
+    return [os.path.join(n, 'src') for n in names if os.path.isdir(os.path.join(n, 'src'))]
 
 
 def strip_comments(txt):
@@ -158,13 +168,91 @@ def cycles(graph):
     return out
 
 
+def module_path(crate, path):
+    """The module path of a source file: `a/b.rs` and `a/b/mod.rs` are `a::b`; `lib.rs` and
+    `main.rs` are the crate root `''`; a file under `bin/` is `None` (a crate of its own)."""
+    parts = os.path.relpath(path, crate)[:-3].split(os.sep)
+    if parts[0] == 'bin':
+        return None
+    if parts[-1] == 'mod' or (len(parts) == 1 and parts[0] in ('lib', 'main')):
+        parts = parts[:-1]
+    return '::'.join(parts)
+
+
+def test_files(crate):
+    """Files declared as test modules (`#[cfg(test)] mod x;`), by module path."""
+    out = set()
+    for root, _, files in os.walk(crate):
+        for f in files:
+            if not f.endswith('.rs'):
+                continue
+            p = os.path.join(root, f)
+            me = module_path(crate, p)
+            if me is None:
+                continue
+            with open(p) as fh:
+                txt = strip_comments(fh.read())
+            for name in re.findall(r'#\[cfg\(test\)\]\s*(?:pub(?:\([^)]*\))?\s+)?mod\s+(\w+)\s*;', txt):
+                out.add(f'{me}::{name}' if me else name)
+    return out
+
+
+def file_modules(crate):
+    """Each file's module -> the other files' modules it uses (see the module doc)."""
+    texts, known = {}, set()
+    for root, _, files in os.walk(crate):
+        for f in sorted(files):
+            if f.endswith('.rs'):
+                p = os.path.join(root, f)
+                me = module_path(crate, p)
+                if me is not None:
+                    with open(p) as fh:
+                        texts[me] = strip_test_modules(strip_comments(fh.read()))
+                    known.add(me)
+    tests = test_files(crate)
+    tests = {m for m in known if any(m == t or m.startswith(t + '::') for t in tests)}
+
+    def resolve(segs):
+        for k in range(len(segs), 0, -1):
+            cand = '::'.join(segs[:k])
+            if cand in known:
+                return cand
+        return ''
+
+    graph = {}
+    for me, txt in texts.items():
+        if me in tests:
+            continue
+        here = me.split('::') if me else []
+        used = set()
+        for path in re.findall(r'\bcrate((?:::\w+)+)', txt):
+            used.add(resolve(path.strip(':').split('::')))
+        for group in re.findall(r'\bcrate::\{([^;]*)\}', txt):
+            for item in re.findall(r'(\w+(?:::\w+)*)', group):
+                used.add(resolve(item.split('::')))
+        for m in re.finditer(r'(?<![\w:])((?:super::)+)((?:\w+::)*\w+)', txt):
+            up = m.group(1).count('super')
+            # A `mod.rs` file is its folder's module: `super` climbs from it like from a.rs.
+            base = here[:len(here) - up] if up <= len(here) else []
+            used.add(resolve(base + [s for s in m.group(2).split('::') if s != 'super']))
+        children = re.findall(r'\bmod\s+(\w+)\s*;', txt)
+        for child in children:
+            for m in re.finditer(r'(?<![\w:])(?:self::)?' + child + r'::((?:\w+::)*\w+)', txt):
+                used.add(resolve(here + [child] + m.group(1).split('::')))
+        for m in re.finditer(r'(?<![\w:])self::((?:\w+::)*\w+)', txt):
+            used.add(resolve(here + m.group(1).split('::')))
+        graph[me] = {u for u in used if u != me and u not in tests}
+    return {m: {u for u in us if u in graph} for m, us in graph.items()}
+
+
 def main():
     found = 0
-    for crate in CRATES:
-        if not os.path.isdir(crate):
-            continue
+    for crate in crates():
         for circle in cycles(modules(crate)):
             print(crate, 'CYCLE', ' -> '.join(circle))
+            found += 1
+        for circle in cycles(file_modules(crate)):
+            print(crate, 'CYCLE (files)', ' -> '.join(c or '(crate root)' for c in circle))
             found += 1
     print('checked')
     return 1 if found else 0

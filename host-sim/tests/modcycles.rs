@@ -43,6 +43,11 @@ fn a_circle_of_three_modules_is_found_and_fails_the_check() {
     let src = dir.join("host-sim/src");
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&src).unwrap();
+    std::fs::write(
+        dir.join("Cargo.toml"),
+        "[workspace]\nmembers = [\"host-sim\"]\n",
+    )
+    .unwrap();
     std::fs::write(src.join("a.rs"), "use crate::b::B;\n").unwrap();
     std::fs::write(src.join("b.rs"), "use crate::{c::C, d};\n").unwrap();
     std::fs::write(src.join("c.rs"), "pub use crate::a::A;\n").unwrap();
@@ -58,6 +63,42 @@ fn a_circle_of_three_modules_is_found_and_fails_the_check() {
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("host-sim/src CYCLE a -> b -> c -> a"), "{out}");
     assert!(!out.contains(" d"), "{out}");
+    assert_eq!(o.status.code(), Some(1), "{out}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_file_that_uses_its_parent_which_uses_it_is_a_circle() {
+    let dir = std::env::temp_dir().join(format!("modcycles-files-{}", std::process::id()));
+    let src = dir.join("host-sim/src");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(src.join("t")).unwrap();
+    std::fs::write(
+        dir.join("Cargo.toml"),
+        "[workspace]\nmembers = [\"host-sim\"]\n",
+    )
+    .unwrap();
+    std::fs::write(src.join("lib.rs"), "mod t;\nmod u;\n").unwrap();
+    // t/mod.rs calls its child x, and x uses an item of t: a circle of two files.
+    std::fs::write(
+        src.join("t/mod.rs"),
+        "mod x;\nmod y;\npub struct S;\npub fn f() { x::g(); }\n",
+    )
+    .unwrap();
+    std::fs::write(src.join("t/x.rs"), "use super::S;\npub fn g() {}\n").unwrap();
+    // y uses its sibling through super: not a use of the parent file.
+    std::fs::write(src.join("t/y.rs"), "use super::x::g;\n").unwrap();
+    std::fs::write(src.join("u.rs"), "use crate::t::f;\n").unwrap();
+    let Some(o) = modcycles(&dir) else {
+        return;
+    };
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        out.contains("host-sim/src CYCLE (files) t -> t::x -> t"),
+        "{out}"
+    );
+    assert!(!out.contains("t::y"), "{out}");
+    assert!(!out.contains(" u"), "{out}");
     assert_eq!(o.status.code(), Some(1), "{out}");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -10,34 +10,9 @@ use serde::{Deserialize, Serialize};
 pub mod feasible;
 pub mod mission;
 pub mod path;
+mod sample;
 
-/// Position and derivatives of the reference point at one instant (inertial, z down).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct RefSample {
-    /// Time of the sample.
-    pub t_s: f32,
-    /// Position `[x, y, z]`.
-    pub pos_m: [f32; 3],
-    /// Velocity.
-    pub vel_m_s: [f32; 3],
-    /// Acceleration.
-    pub acc_m_s2: [f32; 3],
-    /// Jerk.
-    pub jerk_m_s3: [f32; 3],
-}
-
-/// Scalar value with its first three derivatives.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Deriv3 {
-    /// Value.
-    pub p: f32,
-    /// First derivative.
-    pub dp: f32,
-    /// Second derivative.
-    pub ddp: f32,
-    /// Third derivative.
-    pub dddp: f32,
-}
+pub use sample::{Deriv3, RefSample};
 
 /// The paper's reference (Section IV): `h_r t^5 / (t^5 + (t_f - t)^5)`, used for
 /// `x_r = y_r = z_r`. `t` is clamped to `[0, t_f]`, so the reference rests at 0 before the

@@ -14,7 +14,7 @@
 //! jerk. A finite path (the lawnmower, virtual length `Sigma`) also ends at rest:
 //! `sigma_dot(t) = S(t / T_r) - S((t - Sigma) / T_r)`, which integrates to exactly `Sigma`.
 
-use super::RefSample;
+use super::sample::RefSample;
 use crate::math::sin_cos;
 
 /// Ramp time `T_r` of the smooth start (and stop) of every path reference.
