@@ -4,6 +4,9 @@
 //!   first- and second-order temperature compensation, depth from pressure.
 //! - [`icm42688`]: TDK ICM-42688-P 6-axis IMU on SPI: identity, reset, low-noise mode,
 //!   full scale and output data rate, a burst read in SI units.
+//! - [`a50`]: Water Linked DVL A50 serial protocol: velocity (`wrz`) and dead-reckoning
+//!   (`wrp`) reports, their CRC-8, the validity / figure-of-merit gate.
+//! - [`fields`]: the comma-separated field reader the instrument parsers share.
 //!
 //! `no_std`, no allocation, no panics; every failure is an error value (a bus error, a wrong
 //! chip, a bad PROM CRC, a reading outside what the sensor can produce) so that the firmware
@@ -13,5 +16,7 @@
 //! `docs/drivers.md`.
 #![cfg_attr(not(test), no_std)]
 
+pub mod a50;
+pub mod fields;
 pub mod icm42688;
 pub mod ms5837;
