@@ -13,6 +13,8 @@
 //! - `wrp`: dead-reckoning report: time stamp (Unix s), x, y, z (m), position standard
 //!   deviation (m), roll, pitch, yaw (degrees), status (0 good, 1 not).
 //!
+//! The fixed-point fields must carry their documented number of decimals (see [`parse`]).
+//!
 //! Other reports (`wru`, `wrs`, `wrx`, `wrt`, acknowledgements) pass the checksum check and
 //! come back as [`Report::Other`] with their letter; the vehicle uses only `wrz`.
 //!
@@ -106,7 +108,18 @@ pub const MAX_SPEED_M_S: f32 = 20.0;
 /// Largest altitude the parser accepts (m): the A125's 125 m range with margin.
 pub const MAX_ALTITUDE_M: f32 = 200.0;
 
+/// Longest time from a report's validity to its transmission accepted (us): the DVL's
+/// processing takes tens of milliseconds; a report sent before its validity or a second
+/// after it has a corrupted time stamp.
+pub const MAX_LATENCY_US: u64 = 1_000_000;
+
 /// Checks the line's start and CRC-8 and parses its fields. `line` may end in CR / LF.
+///
+/// The CRC-8 catches every error within 8 consecutive bits but only 255 in 256 deleted or
+/// inserted bytes, so the fields are held to the documented layout: velocities and the
+/// figure of merit with 3 decimals, altitude and time since the last report with 2, the
+/// time of transmission not before the time of validity nor more than [`MAX_LATENCY_US`]
+/// after it. The covariance entries have no fixed layout (`1e-07`, `0`, `1.4`).
 pub fn parse(line: &[u8]) -> Result<Report, FrameError> {
     let line = trim_line_end(line);
     let (covered, sent) = match line {
@@ -127,29 +140,35 @@ pub fn parse(line: &[u8]) -> Result<Report, FrameError> {
 
 fn parse_wrz(body: &[u8]) -> Result<VelocityReport, FrameError> {
     let mut f = Fields::new(body, b',');
-    let velocity_m_s = [f.next_f32()?, f.next_f32()?, f.next_f32()?];
+    let velocity_m_s = [
+        f.next_fixed_f32(3)?,
+        f.next_fixed_f32(3)?,
+        f.next_fixed_f32(3)?,
+    ];
     let valid = f.next_flag(b'y', b'n')?;
-    let altitude_m = f.next_f32()?;
-    let fom_m_s = f.next_f32()?;
+    let altitude_m = f.next_fixed_f32(2)?;
+    let fom_m_s = f.next_fixed_f32(3)?;
     let cov_idx = f.index();
     let cov_field = f.next_raw()?;
     let mut covariance = [0.0_f32; 9];
     let mut c = Fields::new(cov_field, b';');
     for slot in covariance.iter_mut() {
-        *slot = c
-            .next_f32()
-            .map_err(|_| FieldError::Malformed(cov_idx))?;
+        *slot = c.next_f32().map_err(|_| FieldError::Malformed(cov_idx))?;
     }
     c.end().map_err(|_| FieldError::Malformed(cov_idx))?;
     let time_of_validity_us = f.next_int::<u64>()?;
     let time_of_transmission_us = f.next_int::<u64>()?;
-    let since_last_ms = f.next_f32()?;
+    let since_last_ms = f.next_fixed_f32(2)?;
     let status = f.next_int::<u8>()?;
     f.end()?;
+    let latency_ok = time_of_transmission_us
+        .checked_sub(time_of_validity_us)
+        .is_some_and(|l| l <= MAX_LATENCY_US);
     let in_range = velocity_m_s.iter().all(|v| v.abs() <= MAX_SPEED_M_S)
         && altitude_m <= MAX_ALTITUDE_M
         && (0.0..=MAX_SPEED_M_S).contains(&fom_m_s)
-        && since_last_ms >= 0.0;
+        && since_last_ms >= 0.0
+        && latency_ok;
     if !in_range {
         return Err(FrameError::OutOfRange);
     }

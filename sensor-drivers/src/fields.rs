@@ -69,6 +69,27 @@ impl<'a> Fields<'a> {
         parse_f32(self.next_str()?).ok_or(FieldError::Malformed(idx))
     }
 
+    /// The next field as a finite `f32` printed with exactly `decimals` digits after the
+    /// point (an optional sign, digits, `.`, `decimals` digits).
+    pub fn next_fixed_f32(&mut self, decimals: usize) -> Result<f32, FieldError> {
+        let idx = self.index;
+        let s = self.next_str()?;
+        let digits = s.strip_prefix(['+', '-']).unwrap_or(s);
+        let ok = match digits.split_once('.') {
+            Some((int, frac)) => {
+                !int.is_empty()
+                    && int.bytes().all(|b| b.is_ascii_digit())
+                    && frac.len() == decimals
+                    && frac.bytes().all(|b| b.is_ascii_digit())
+            }
+            None => false,
+        };
+        if !ok {
+            return Err(FieldError::Malformed(idx));
+        }
+        parse_f32(s).ok_or(FieldError::Malformed(idx))
+    }
+
     /// The next field as a finite `f64`.
     pub fn next_f64(&mut self) -> Result<f64, FieldError> {
         let idx = self.index;

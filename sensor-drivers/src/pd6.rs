@@ -143,11 +143,7 @@ fn velocity(f: &mut Fields<'_>) -> Result<Option<f32>, Pd6Error> {
 fn velocity_group(body: &[u8], with_error: bool) -> Result<VelocityGroup, Pd6Error> {
     let mut f = Fields::new(body, b',');
     let velocity_m_s = [velocity(&mut f)?, velocity(&mut f)?, velocity(&mut f)?];
-    let error_m_s = if with_error {
-        velocity(&mut f)?
-    } else {
-        None
-    };
+    let error_m_s = if with_error { velocity(&mut f)? } else { None };
     let good = f.next_flag(b'A', b'V')?;
     f.end()?;
     Ok(VelocityGroup {

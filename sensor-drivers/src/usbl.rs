@@ -175,7 +175,9 @@ fn time_of_day(s: &str) -> Option<TimeOfDayS> {
     };
     let (h, m) = (digits(0)?, digits(2)?);
     let sec_text = s.get(4..)?;
-    let sec_ok = sec_text.get(..2).is_some_and(|t| t.bytes().all(|c| c.is_ascii_digit()))
+    let sec_ok = sec_text
+        .get(..2)
+        .is_some_and(|t| t.bytes().all(|c| c.is_ascii_digit()))
         && match sec_text.get(2..) {
             Some("") => true,
             Some(frac) => {
@@ -290,7 +292,9 @@ fn lat_lon_field_ok(s: &str, deg_digits: usize) -> bool {
     };
     let b = s.as_bytes();
     point == deg_digits + 2
-        && b.iter().enumerate().all(|(i, c)| c.is_ascii_digit() || i == point)
+        && b.iter()
+            .enumerate()
+            .all(|(i, c)| c.is_ascii_digit() || i == point)
         && s.len() > point + 1
         && s.get(deg_digits..)
             .and_then(crate::fields::parse_f64)

@@ -1,11 +1,14 @@
 //! Water Linked DVL A50 serial protocol: every example of Water Linked's "DVL A50/A125
 //! serial protocol" page (protocol 2.6.x / 2.7.x) decodes to its documented values, and the
 //! refusals (checksum, missing checksum, invalid, figure of merit, malformed fields).
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
 
-use sensor_drivers::a50::{
-    parse, FrameError, Refusal, Report, VelocityGate, VelocityReport, CRC8,
-};
+use sensor_drivers::a50::{parse, FrameError, Refusal, Report, VelocityGate, VelocityReport, CRC8};
 use sensor_drivers::fields::FieldError;
 
 fn velocity(line: &[u8]) -> VelocityReport {
@@ -49,7 +52,8 @@ fn documented_wrz_example_decodes() {
 /// Every line ending the page allows: LF, CR LF, CR, and none (a line already split).
 #[test]
 fn every_documented_line_ending_is_accepted() {
-    let base = b"wrz,0.120,-0.400,2.000,y,1.30,1.855,1e-07;0;1.4;0;1.2;0;0.2;0;1e+09,7,14,123.00,1*50";
+    let base =
+        b"wrz,0.120,-0.400,2.000,y,1.30,1.855,1e-07;0;1.4;0;1.2;0;0.2;0;1e+09,7,14,123.00,1*50";
     for end in [&b""[..], b"\n", b"\r\n", b"\r"] {
         let mut line = base.to_vec();
         line.extend_from_slice(end);
@@ -139,7 +143,8 @@ fn wrz(body: &str) -> Vec<u8> {
 
 #[test]
 fn a_bad_or_missing_checksum_is_refused() {
-    let good = b"wrz,0.120,-0.400,2.000,y,1.30,1.855,1e-07;0;1.4;0;1.2;0;0.2;0;1e+09,7,14,123.00,1*50";
+    let good =
+        b"wrz,0.120,-0.400,2.000,y,1.30,1.855,1e-07;0;1.4;0;1.2;0;0.2;0;1e+09,7,14,123.00,1*50";
     let mut flipped = good.to_vec();
     flipped[5] = b'2'; // 0.120 -> 0.220
     assert!(matches!(
@@ -158,25 +163,25 @@ fn a_bad_or_missing_checksum_is_refused() {
 fn malformed_fields_are_refused_even_with_a_right_checksum() {
     let cases = [
         // 10 fields, not 11.
-        "0.1,0.2,0.3,y,1.0,0.01,0;0;0;0;0;0;0;0;0,7,14,123.00",
+        "0.100,0.200,0.300,y,1.00,0.010,0;0;0;0;0;0;0;0;0,7,14,123.00",
         // An extra field.
-        "0.1,0.2,0.3,y,1.0,0.01,0;0;0;0;0;0;0;0;0,7,14,123.00,0,9",
+        "0.100,0.200,0.300,y,1.00,0.010,0;0;0;0;0;0;0;0;0,7,14,123.00,0,9",
         // Eight covariance entries.
-        "0.1,0.2,0.3,y,1.0,0.01,0;0;0;0;0;0;0;0,7,14,123.00,0",
+        "0.100,0.200,0.300,y,1.00,0.010,0;0;0;0;0;0;0;0,7,14,123.00,0",
         // Ten covariance entries.
-        "0.1,0.2,0.3,y,1.0,0.01,0;0;0;0;0;0;0;0;0;0,7,14,123.00,0",
+        "0.100,0.200,0.300,y,1.00,0.010,0;0;0;0;0;0;0;0;0;0,7,14,123.00,0",
         // Valid flag neither y nor n.
-        "0.1,0.2,0.3,Y,1.0,0.01,0;0;0;0;0;0;0;0;0,7,14,123.00,0",
+        "0.100,0.200,0.300,Y,1.00,0.010,0;0;0;0;0;0;0;0;0,7,14,123.00,0",
         // Not-a-number and infinite velocities.
-        "NaN,0.2,0.3,y,1.0,0.01,0;0;0;0;0;0;0;0;0,7,14,123.00,0",
-        "inf,0.2,0.3,y,1.0,0.01,0;0;0;0;0;0;0;0;0,7,14,123.00,0",
+        "NaN,0.200,0.300,y,1.00,0.010,0;0;0;0;0;0;0;0;0,7,14,123.00,0",
+        "inf,0.200,0.300,y,1.00,0.010,0;0;0;0;0;0;0;0;0,7,14,123.00,0",
         // Empty field.
-        "0.1,,0.3,y,1.0,0.01,0;0;0;0;0;0;0;0;0,7,14,123.00,0",
+        "0.100,,0.300,y,1.00,0.010,0;0;0;0;0;0;0;0;0,7,14,123.00,0",
         // Negative or fractional time stamp.
-        "0.1,0.2,0.3,y,1.0,0.01,0;0;0;0;0;0;0;0;0,-7,14,123.00,0",
-        "0.1,0.2,0.3,y,1.0,0.01,0;0;0;0;0;0;0;0;0,7.5,14,123.00,0",
+        "0.100,0.200,0.300,y,1.00,0.010,0;0;0;0;0;0;0;0;0,-7,14,123.00,0",
+        "0.100,0.200,0.300,y,1.00,0.010,0;0;0;0;0;0;0;0;0,7.5,14,123.00,0",
         // Status beyond 8 bits.
-        "0.1,0.2,0.3,y,1.0,0.01,0;0;0;0;0;0;0;0;0,7,14,123.00,256",
+        "0.100,0.200,0.300,y,1.00,0.010,0;0;0;0;0;0;0;0;0,7,14,123.00,256",
     ];
     for body in cases {
         assert!(
@@ -186,14 +191,40 @@ fn malformed_fields_are_refused_even_with_a_right_checksum() {
         );
     }
     assert_eq!(
-        parse(&wrz("0.1,0.2,0.3,y,1.0,0.01,0;0;0;0;0;0;0;0;0,7,14,123.00")),
+        parse(&wrz(
+            "0.100,0.200,0.300,y,1.00,0.010,0;0;0;0;0;0;0;0;0,7,14,123.00"
+        )),
         Err(FrameError::Field(FieldError::Missing(10)))
     );
+    // The documented layout: 3 decimals for velocities and the figure of merit, 2 for
+    // altitude and time (what a deleted or inserted digit breaks, which the CRC-8 misses
+    // once in 256).
+    for body in [
+        "0.10,0.200,0.300,y,1.00,0.010,0;0;0;0;0;0;0;0;0,7,14,123.00,0",
+        "0.100,0.200,0.3000,y,1.00,0.010,0;0;0;0;0;0;0;0;0,7,14,123.00,0",
+        "0.100,0.200,0.300,y,1.0,0.010,0;0;0;0;0;0;0;0;0,7,14,123.00,0",
+        "0.100,0.200,0.300,y,1.00,0.01,0;0;0;0;0;0;0;0;0,7,14,123.00,0",
+        "0.100,0.200,0.300,y,1.00,0.010,0;0;0;0;0;0;0;0;0,7,14,123.0,0",
+        "0.100,0.200,.300,y,1.00,0.010,0;0;0;0;0;0;0;0;0,7,14,123.00,0",
+        "0.100,0.200,1e-3,y,1.00,0.010,0;0;0;0;0;0;0;0;0,7,14,123.00,0",
+    ] {
+        assert!(
+            matches!(parse(&wrz(body)), Err(FrameError::Field(_))),
+            "{body}"
+        );
+    }
+    // Transmitted before its validity, or more than a second after.
+    for body in [
+        "0.100,0.200,0.300,y,1.00,0.010,0;0;0;0;0;0;0;0;0,15,14,123.00,0",
+        "0.100,0.200,0.300,y,1.00,0.010,0;0;0;0;0;0;0;0;0,7,1000008,123.00,0",
+    ] {
+        assert_eq!(parse(&wrz(body)), Err(FrameError::OutOfRange), "{body}");
+    }
     // Speeds no DVL reports, a negative figure of merit.
     for body in [
-        "25.0,0.2,0.3,y,1.0,0.01,0;0;0;0;0;0;0;0;0,7,14,123.00,0",
-        "0.1,0.2,0.3,y,1.0,-0.01,0;0;0;0;0;0;0;0;0,7,14,123.00,0",
-        "0.1,0.2,0.3,y,500.0,0.01,0;0;0;0;0;0;0;0;0,7,14,123.00,0",
+        "25.000,0.200,0.300,y,1.00,0.010,0;0;0;0;0;0;0;0;0,7,14,123.00,0",
+        "0.100,0.200,0.300,y,1.00,-0.010,0;0;0;0;0;0;0;0;0,7,14,123.00,0",
+        "0.100,0.200,0.300,y,500.00,0.010,0;0;0;0;0;0;0;0;0,7,14,123.00,0",
     ] {
         assert_eq!(parse(&wrz(body)), Err(FrameError::OutOfRange), "{body}");
     }
@@ -203,7 +234,7 @@ fn malformed_fields_are_refused_even_with_a_right_checksum() {
 fn the_gate_refuses_no_lock_and_a_poor_figure_of_merit() {
     let gate = VelocityGate { max_fom_m_s: 0.05 };
     let good = velocity(&wrz(
-        "0.1,0.2,0.3,y,1.0,0.01,1e-4;0;0;0;1e-4;0;0;0;1e-4,1700000000000000,1700000000050000,100.0,0",
+        "0.100,0.200,0.300,y,1.00,0.010,1e-4;0;0;0;1e-4;0;0;0;1e-4,1700000000000000,1700000000050000,100.00,0",
     ));
     assert_eq!(gate.admit(&good), Ok(good));
     // The documented "not valid" figures: altitude -1.00, figure of merit 2.707, valid n.
@@ -212,7 +243,7 @@ fn the_gate_refuses_no_lock_and_a_poor_figure_of_merit() {
     ));
     assert_eq!(gate.admit(&lost), Err(Refusal::NoBottomLock));
     let poor = velocity(&wrz(
-        "0.1,0.2,0.3,y,1.0,0.06,0;0;0;0;0;0;0;0;0,1,2,100.0,0",
+        "0.100,0.200,0.300,y,1.00,0.060,0;0;0;0;0;0;0;0;0,1,2,100.00,0",
     ));
     assert_eq!(
         gate.admit(&poor),

@@ -1,7 +1,12 @@
 //! PD6: Water Linked's documented PD6 output (their "PD formats" page, the example copied
 //! from their encoder's test) decodes to its values; the "no value" -32768 and the `V`
 //! status of Teledyne's field definitions; the refusals.
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
 
 use sensor_drivers::fields::FieldError;
 use sensor_drivers::pd6::{parse, Ensemble, Line, Pd6Error, VelocityGroup};
@@ -140,10 +145,7 @@ fn malformed_lines_are_refused() {
             b":BI,+1.5,-420,+2000,+0,A",
             Pd6Error::Field(FieldError::Malformed(0)),
         ),
-        (
-            b":BD,+0.00,+0.00,+0.00,-5.32,0.00",
-            Pd6Error::OutOfRange,
-        ),
+        (b":BD,+0.00,+0.00,+0.00,-5.32,0.00", Pd6Error::OutOfRange),
         (
             b":TS,22130812061800, 0.0, +0.0,   0.0,1475.0,  0",
             Pd6Error::OutOfRange,

@@ -1,7 +1,12 @@
 //! NMEA 0183 from a USBL / underwater GPS: Water Linked's `$PSIMSSB` example, the
 //! Kongsberg field layout as integrators document it, Water Linked's GGA bridge test vectors
 //! and the NMEA standard's GGA example; the refusals and the local frame.
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
 
 use sensor_drivers::usbl::{parse, xor_checksum, LocalOrigin, NmeaError, Orientation, Sentence};
 
@@ -57,13 +62,16 @@ fn psimssb_refusals() {
         parse(b"$PSIMSSB,180554.432,M44,V,NRY,C,N,M,-61.300,39.017,34.026,0.072,T,0.050576,*15"),
         Err(NmeaError::NotOk)
     );
-    let with_sum = |body: &str| {
-        format!("${body}*{:02X}", xor_checksum(body.as_bytes())).into_bytes()
-    };
+    let with_sum =
+        |body: &str| format!("${body}*{:02X}", xor_checksum(body.as_bytes())).into_bytes();
     // Polar and UTM coordinates are not read.
     for cs in ["P", "U", "R"] {
         let body = format!("PSIMSSB,180554.43,B01,A,,{cs},N,M,1.0,2.0,3.0,,,,");
-        assert_eq!(parse(&with_sum(&body)), Err(NmeaError::NotCartesian), "{cs}");
+        assert_eq!(
+            parse(&with_sum(&body)),
+            Err(NmeaError::NotCartesian),
+            "{cs}"
+        );
     }
     // Missing field, extra field, bad time, bad filter, non-finite coordinate.
     for body in [
@@ -100,7 +108,9 @@ fn psimssb_refusals() {
         Err(NmeaError::NoChecksum)
     );
     assert_eq!(
-        parse(&with_sum("GPRMC,123519,A,4807.038,N,01131.000,E,022.4,084.4,230394,003.1,W")),
+        parse(&with_sum(
+            "GPRMC,123519,A,4807.038,N,01131.000,E,022.4,084.4,230394,003.1,W"
+        )),
         Err(NmeaError::Unsupported)
     );
 }
@@ -153,12 +163,13 @@ fn water_linked_gga_vectors() {
 
 #[test]
 fn gga_refusals() {
-    let with_sum = |body: &str| {
-        format!("${body}*{:02X}", xor_checksum(body.as_bytes())).into_bytes()
-    };
+    let with_sum =
+        |body: &str| format!("${body}*{:02X}", xor_checksum(body.as_bytes())).into_bytes();
     // Quality 0 with a position.
     assert_eq!(
-        parse(&with_sum("GPGGA,123519,4807.038,N,01131.000,E,0,08,0.9,545.4,M,46.9,M,,")),
+        parse(&with_sum(
+            "GPGGA,123519,4807.038,N,01131.000,E,0,08,0.9,545.4,M,46.9,M,,"
+        )),
         Err(NmeaError::NoFix)
     );
     // Minutes >= 60, a longitude of 181 degrees, no decimals.
