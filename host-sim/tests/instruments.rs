@@ -76,3 +76,38 @@ fn nav_circle_3d_with_the_dvl_on_its_uart() {
 fn nav_lawnmower_3d_with_the_dvl_on_its_uart() {
     same_figures_through_the_wire("nav-lawnmower-3d");
 }
+
+/// The simulated DVL's line: a fix sent as `wrz` comes out of the firmware's DVL port as the
+/// same fix (velocity to the report's 1 mm/s, the same time of validity and deviation).
+#[test]
+fn the_simulated_dvl_line_carries_the_fix() {
+    use controller_core::nav::DvlFix;
+    use firmware::sensors::dvl::{a50, DvlPort};
+    use host_sim::world::sensors::DvlWire;
+
+    let mut wire = DvlWire::default();
+    let mut port = DvlPort::new(wire.clone(), a50::VelocityGate::default(), 0);
+    for (k, v) in [[0.25_f32, -0.1234], [-1.5, 0.0], [0.0004, 2.9996]]
+        .into_iter()
+        .enumerate()
+    {
+        let fix = DvlFix {
+            t_us: 1_000_000 + 200_000 * k as u64,
+            velocity_m_s: v,
+            std_m_s: 0.01,
+        };
+        wire.send_wrz(&fix);
+        let got = port.poll(fix.t_us).expect("admitted");
+        assert_eq!(got.t_us, fix.t_us);
+        assert_eq!(got.std_m_s, 0.01);
+        for i in 0..2 {
+            assert!(
+                (got.velocity_m_s[i] - v[i]).abs() <= 0.0005 + 1e-6,
+                "{got:?} {v:?}"
+            );
+        }
+        assert_eq!(wire.pending(), 0);
+    }
+    let s = port.stats();
+    assert_eq!((s.accepted, s.refused()), (3, 0));
+}
