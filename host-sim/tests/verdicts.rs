@@ -65,12 +65,41 @@ fn a_reference_beyond_the_vehicles_range_is_refused_with_its_bound() {
 }
 
 #[test]
-fn an_unknown_delay_that_wanders_metres_off_is_lost_position_control() {
-    let (o, s) = run("delay-0.4-circle-3d");
+fn an_unknown_delay_that_wanders_metres_off_is_a_runaway() {
+    // 5.8 m off at most, 3.4 m (last-20 % RMS) at the end, 1.5 turns more than the path.
+    let (o, s) = run("delay-0.42-current-3d");
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     let s = s.unwrap();
     assert_eq!(s["diverged"], true, "{s}");
-    assert!(text(&o).contains("lost position control"), "{}", text(&o));
     assert_eq!(s["rule"]["name"], "runaway", "{s}");
-    assert!(s["rule"]["figure"].as_f64().unwrap() > 1.0, "{s}");
+    assert_eq!(s["rule"]["threshold"], 1.0, "{s}");
+    let figure = s["rule"]["figure"].as_f64().unwrap();
+    assert!(figure > 2.0, "{s}");
+    assert!(s["max_turns_off_path"].as_f64().unwrap() < 2.0, "{s}");
+    assert!(text(&o).contains("lost position control"), "{}", text(&o));
+    assert!(text(&o).contains("DIVERGED runaway"), "{}", text(&o));
+}
+
+#[test]
+fn an_unknown_delay_that_keeps_to_its_circle_is_not_called_lost() {
+    // 18 cm last-20 % RMS, 25 cm at most: worse tracking, no control lost, no targets.
+    let (o, s) = run("delay-0.4-circle-3d");
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let s = s.unwrap();
+    assert_eq!(s["diverged"], false, "{s}");
+    assert!(s["rule"].is_null(), "{s}");
+    assert!(s["max_position_error_after_settle_m"].as_f64().unwrap() < 0.5, "{s}");
+}
+
+#[test]
+fn a_run_that_tracks_in_a_beam_current_is_not_lost_however_it_turns() {
+    let (o, s) = run("beam-current-nav-circle-3d");
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let s = s.unwrap();
+    // The turns that fired the heading rule before: the vehicle heads into the current.
+    assert!(s["max_turns_off_path"].as_f64().unwrap() > 2.0, "{s}");
+    assert!(s["rms_position_error_last80_m"].as_f64().unwrap() <= 0.10, "{s}");
+    assert_eq!(s["diverged"], false, "{s}");
+    assert!(s["lost_control"].is_null() && s["rule"].is_null(), "{s}");
+    assert!(text(&o).contains("meets its targets"), "{}", text(&o));
 }

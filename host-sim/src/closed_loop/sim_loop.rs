@@ -29,7 +29,9 @@
 
 use super::endpoint::ControllerEndpoint;
 use super::navigation::Navigation;
-use super::report::{judge, len, ratio, verdict, RunOutput, Summary};
+use super::report::{
+    judge, len, meets_tracking_figures, missed_rule, ratio, verdict, Rule, RunOutput, Summary,
+};
 use crate::scenario::{ExpectSpec, Plane, RunSetup, Scenario, MAX_CONTROL_TICKS};
 use crate::world::frames::body_to_inertial;
 use crate::world::plant::six_dof_factory;
@@ -155,22 +157,42 @@ impl Rms {
     }
 }
 
-/// Why a run left the physical, if it did (the run stops: the figures after would mean
-/// nothing). A vehicle that drifts off is judged at the end ([`still_growing`]), not here.
-fn divergence(truth: &PlantState, cmd: &[f64; 3]) -> Option<&'static str> {
+/// The physical bounds of the plant's state and of a thrust command: beyond them the run
+/// stops (the figures after would mean nothing). `(rule, threshold, unit, what)`.
+const PHYSICAL: [(&str, f64, &str, &str); 4] = [
+    ("position_beyond", 1.0e4, "m", "|position|"),
+    ("velocity_beyond", 100.0, "m/s", "|velocity|"),
+    ("rate_beyond", 100.0, "rad/s", "|angular rate|"),
+    ("thrust_beyond", 1.0e4, "N", "thrust command"),
+];
+
+/// Why a run left the physical, if it did: the rule of [`PHYSICAL`] and the figure. A
+/// vehicle that drifts off is judged at the end ([`still_growing`], the runaway rule), not
+/// here.
+fn divergence(truth: &PlantState, cmd: &[f64; 3], t: f64) -> Option<Rule> {
     let max_abs = |v: &[f64]| v.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-    if max_abs(&truth.eta[..3]) > 1.0e4 {
-        Some("|position| > 10 km")
-    } else if max_abs(&truth.nu[..3]) > 100.0 {
-        Some("|velocity| > 100 m/s")
-    } else if max_abs(&truth.nu[3..]) > 100.0 {
-        Some("|angular rate| > 100 rad/s")
-    } else if max_abs(cmd) > 1.0e4 {
-        Some("thrust command > 10 kN")
-    } else {
-        None
-    }
+    let figures = [
+        max_abs(&truth.eta[..3]),
+        max_abs(&truth.nu[..3]),
+        max_abs(&truth.nu[3..]),
+        max_abs(cmd),
+    ];
+    PHYSICAL
+        .iter()
+        .zip(figures)
+        .find(|((_, limit, _, _), v)| v > limit)
+        .map(|((name, limit, unit, what), v)| Rule {
+            name: (*name).into(),
+            figure: v,
+            threshold: *limit,
+            unit,
+            text: format!("diverged at t = {t:.3} s: {what} {v:.4e} {unit} > {limit:.0e} {unit}"),
+        })
 }
+
+/// The run's error beyond which, after the settle time, a run that misses its tracking
+/// figures has run away (m): ten times the tracking figure, the floor of the growth rule.
+pub const RUNAWAY_M: f64 = 1.0;
 
 /// Turns of the vehicle beyond the path's: over this the heading control is lost.
 pub const MAX_TURNS_OFF_PATH: f64 = 2.0;
@@ -493,6 +515,13 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
         if !truth.is_finite() || !out.requested.is_finite() || !pen.is_finite() {
             s.nan_detected = true;
             s.stop_reason = format!("non-finite state or force at t = {t:.3} s");
+            s.rule = Some(Rule {
+                name: "non_finite".into(),
+                figure: t,
+                threshold: 0.0,
+                unit: "s",
+                text: s.stop_reason.clone(),
+            });
             self.done = true;
             return Ok(false);
         }
@@ -539,9 +568,10 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
             s.max_turns_off_path = s.max_turns_off_path.max(m.turns.off_path_turns());
         }
 
-        if let Some(why) = divergence(&truth, &cmd) {
+        if let Some(rule) = divergence(&truth, &cmd, t) {
             s.diverged = true;
-            s.stop_reason = format!("diverged at t = {t:.3} s: {why}");
+            s.stop_reason = rule.text.clone();
+            s.rule = Some(rule);
             self.done = true;
             return Ok(false);
         }
@@ -617,33 +647,15 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
                 s.rms_position_error_last80_m = f64::INFINITY;
             }
         }
-        if !s.diverged && !s.nan_detected {
-            s.lost_control = if m.depth_judged
-                && still_growing(m.first_half_depth_max, m.tail_depth_min)
-            {
-                let z = last.state.eta[2] - last.ref_pos_m[2];
-                Some(format!(
-                    "lost depth control: {:.1} m {} its reference depth at the end, and still going",
-                    z.abs(),
-                    if z > 0.0 { "below" } else { "above" }
-                ))
-            } else if s.max_turns_off_path > MAX_TURNS_OFF_PATH {
-                Some(format!(
-                    "lost heading control: turned {:.1} turns more than the path",
-                    s.max_turns_off_path
-                ))
-            } else if still_growing(m.first_half_max, m.tail_min) {
-                Some(format!(
-                    "lost position control: the error grows ({} at the end, at most {} in the first half)",
-                    len(last.pos_err_norm_m),
-                    len(m.first_half_max)
-                ))
-            } else {
-                None
-            };
-            s.diverged = s.lost_control.is_some();
+        if !s.diverged && !s.nan_detected && !meets_tracking_figures(expect.as_ref(), &s) {
+            s.rule = lost_control(&s, &m, &last);
+            s.lost_control = s.rule.as_ref().map(|r| r.text.clone());
+            s.diverged = s.rule.is_some();
         }
         s.targets = expect.map(|e| judge(&e, &s));
+        if s.rule.is_none() {
+            s.rule = expect.and_then(|e| missed_rule(&e, &s));
+        }
         s.verdict = verdict(&s);
         let fs = last.state;
         s.final_state = fs.eta.iter().chain(fs.nu.iter()).copied().collect();
@@ -658,6 +670,74 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
             endpoint,
         )
     }
+}
+
+/// The rules of control lost, judged at the end on the true state of a run that completed
+/// and misses its tracking figures, in this order: the depth error still growing, the
+/// vehicle turned over [`MAX_TURNS_OFF_PATH`] more than its path, the position error still
+/// growing, the position error over [`RUNAWAY_M`] after the settle time.
+fn lost_control(s: &Summary, m: &Metrics, last: &Sample) -> Option<Rule> {
+    let rule = |name: &str, figure: f64, threshold: f64, unit, text: String| Rule {
+        name: name.into(),
+        figure,
+        threshold,
+        unit,
+        text,
+    };
+    if m.depth_judged && still_growing(m.first_half_depth_max, m.tail_depth_min) {
+        let z = last.state.eta[2] - last.ref_pos_m[2];
+        return Some(rule(
+            "depth_growing",
+            m.tail_depth_min,
+            m.first_half_depth_max.max(1.0),
+            "m",
+            format!(
+                "lost depth control: {:.1} m {} its reference depth at the end, and still going",
+                z.abs(),
+                if z > 0.0 { "below" } else { "above" }
+            ),
+        ));
+    }
+    if s.max_turns_off_path > MAX_TURNS_OFF_PATH {
+        return Some(rule(
+            "heading_turns",
+            s.max_turns_off_path,
+            MAX_TURNS_OFF_PATH,
+            "turns",
+            format!(
+                "lost heading control: turned {:.1} turns more than the path",
+                s.max_turns_off_path
+            ),
+        ));
+    }
+    if still_growing(m.first_half_max, m.tail_min) {
+        return Some(rule(
+            "position_growing",
+            m.tail_min,
+            m.first_half_max.max(1.0),
+            "m",
+            format!(
+                "lost position control: the error grows ({} at the end, at most {} in the first half)",
+                len(last.pos_err_norm_m),
+                len(m.first_half_max)
+            ),
+        ));
+    }
+    let worst = s.max_position_error_after_settle_m;
+    (worst > RUNAWAY_M).then(|| {
+        rule(
+            "runaway",
+            worst,
+            RUNAWAY_M,
+            "m",
+            format!(
+                "lost position control: {} off its reference after the first {} s (over {})",
+                len(worst),
+                m.settle_s,
+                len(RUNAWAY_M)
+            ),
+        )
+    })
 }
 
 /// Run a scenario in closed loop to its end with `nav` as the navigation stage and
