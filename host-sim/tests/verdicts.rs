@@ -40,23 +40,20 @@ fn assert_refused(name: &str, reason: &str) {
     let (o, summary) = run(name);
     assert_eq!(o.status.code(), Some(2), "{name}: {}", text(&o));
     assert!(text(&o).contains(reason), "{name}: {}", text(&o));
-    assert!(summary.is_none(), "{name}: a refused scenario wrote outputs");
+    assert!(
+        summary.is_none(),
+        "{name}: a refused scenario wrote outputs"
+    );
 }
 
 #[test]
 fn a_vehicle_as_heavy_as_its_vertical_thruster_is_refused_with_the_vehicles_reason() {
-    assert_refused(
-        "buoyancy-heavy-15n",
-        "more than half the vertical thrust",
-    );
+    assert_refused("buoyancy-heavy-15n", "more than half the vertical thrust");
 }
 
 #[test]
 fn a_vehicle_18_n_light_is_refused_with_the_vehicles_reason() {
-    assert_refused(
-        "buoyancy-light-18n",
-        "more than half the vertical thrust",
-    );
+    assert_refused("buoyancy-light-18n", "more than half the vertical thrust");
 }
 
 #[test]
@@ -88,7 +85,10 @@ fn an_unknown_delay_that_keeps_to_its_circle_is_not_called_lost() {
     let s = s.unwrap();
     assert_eq!(s["diverged"], false, "{s}");
     assert!(s["rule"].is_null(), "{s}");
-    assert!(s["max_position_error_after_settle_m"].as_f64().unwrap() < 0.5, "{s}");
+    assert!(
+        s["max_position_error_after_settle_m"].as_f64().unwrap() < 0.5,
+        "{s}"
+    );
 }
 
 #[test]
@@ -98,7 +98,10 @@ fn a_run_that_tracks_in_a_beam_current_is_not_lost_however_it_turns() {
     let s = s.unwrap();
     // The turns that fired the heading rule before: the vehicle heads into the current.
     assert!(s["max_turns_off_path"].as_f64().unwrap() > 2.0, "{s}");
-    assert!(s["rms_position_error_last80_m"].as_f64().unwrap() <= 0.10, "{s}");
+    assert!(
+        s["rms_position_error_last80_m"].as_f64().unwrap() <= 0.10,
+        "{s}"
+    );
     assert_eq!(s["diverged"], false, "{s}");
     assert!(s["lost_control"].is_null() && s["rule"].is_null(), "{s}");
     assert!(text(&o).contains("meets its targets"), "{}", text(&o));

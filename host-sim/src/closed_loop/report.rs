@@ -1,8 +1,6 @@
-//! What a run reports: the summary (`summary.json`), its targets (`[expect]`) and verdicts,
-//! and the run's output (summary, per-tick log, USBL fixes).
+//! What a run reports: the summary (`summary.json`), its targets (`[expect]`), the rules
+//! that judged it and its verdict.
 
-use super::navigation::FixRecord;
-use super::sim_loop::Sample;
 use crate::scenario::ExpectSpec;
 use serde::Serialize;
 
@@ -210,7 +208,10 @@ fn first_missed(expect: &ExpectSpec, s: &Summary, t: &Targets) -> Option<Rule> {
         ),
     };
     let (figure, threshold) = if key == "tracks" {
-        (s.final_position_error_m.max(s.rms_position_error_tail_m), TRACKING_M)
+        (
+            s.final_position_error_m.max(s.rms_position_error_tail_m),
+            TRACKING_M,
+        )
     } else {
         (figure, threshold)
     };
@@ -245,17 +246,6 @@ pub struct Targets {
     pub met: bool,
     /// Each target.
     pub checks: Vec<TargetCheck>,
-}
-
-/// The result of one run.
-#[derive(Debug, Clone, Default)]
-pub struct RunOutput {
-    /// Summary figures.
-    pub summary: Summary,
-    /// Per-tick log (empty unless `record`).
-    pub log: Vec<Sample>,
-    /// The USBL fixes of an estimator run (empty unless `record`).
-    pub usbl_fixes: Vec<FixRecord>,
 }
 
 /// The verdict for a table: against the targets `meets` / `MISSES`; without targets `-`,

@@ -28,10 +28,10 @@
 //! the link was lost) ends the run with an error.
 
 use super::endpoint::ControllerEndpoint;
+use super::navigation::FixRecord;
 use super::navigation::Navigation;
-use super::report::{
-    judge, len, meets_tracking_figures, missed_rule, ratio, verdict, Rule, RunOutput, Summary,
-};
+use super::report::{judge, meets_tracking_figures, missed_rule, ratio, verdict, Rule, Summary};
+use super::rules::{divergence, lost_control, DiagonalNees, EndFigures, Turns};
 use crate::scenario::{ExpectSpec, Plane, RunSetup, Scenario, MAX_CONTROL_TICKS};
 use crate::world::frames::body_to_inertial;
 use crate::world::plant::six_dof_factory;
@@ -45,6 +45,17 @@ use controller_core::reference::{RefSample, Reference};
 use controller_core::state::{BodyForces, TrackingErrors};
 use serde::Serialize;
 use std::time::Instant;
+
+/// The result of one run.
+#[derive(Debug, Clone, Default)]
+pub struct RunOutput {
+    /// Summary figures.
+    pub summary: Summary,
+    /// Per-tick log (empty unless `record`).
+    pub log: Vec<Sample>,
+    /// The USBL fixes of an estimator run (empty unless `record`).
+    pub usbl_fixes: Vec<FixRecord>,
+}
 
 /// What a run may change from the scenario (Monte Carlo and HIL use these).
 #[derive(Debug, Clone, Copy, Default)]
@@ -128,13 +139,6 @@ pub fn nominal_plant_params(sc: &Scenario) -> VehicleParams {
     p
 }
 
-/// The control lost, judged at the end of a run that completed: `first_half` is the largest
-/// error of the first half, `tail_min` the smallest of the last 20 %. The error still
-/// growing: the whole end larger than anything of the first half, and over 1 m.
-pub(super) fn still_growing(first_half: f64, tail_min: f64) -> bool {
-    tail_min > 1.0 && tail_min > first_half
-}
-
 /// Sums of squares over the windows the summary reports.
 #[derive(Debug, Default)]
 struct Rms {
@@ -154,92 +158,6 @@ impl Rms {
         } else {
             f64::NAN
         }
-    }
-}
-
-/// The physical bounds of the plant's state and of a thrust command: beyond them the run
-/// stops (the figures after would mean nothing). `(rule, threshold, unit, what)`.
-const PHYSICAL: [(&str, f64, &str, &str); 4] = [
-    ("position_beyond", 1.0e4, "m", "|position|"),
-    ("velocity_beyond", 100.0, "m/s", "|velocity|"),
-    ("rate_beyond", 100.0, "rad/s", "|angular rate|"),
-    ("thrust_beyond", 1.0e4, "N", "thrust command"),
-];
-
-/// Why a run left the physical, if it did: the rule of [`PHYSICAL`] and the figure. A
-/// vehicle that drifts off is judged at the end ([`still_growing`], the runaway rule), not
-/// here.
-fn divergence(truth: &PlantState, cmd: &[f64; 3], t: f64) -> Option<Rule> {
-    let max_abs = |v: &[f64]| v.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-    let figures = [
-        max_abs(&truth.eta[..3]),
-        max_abs(&truth.nu[..3]),
-        max_abs(&truth.nu[3..]),
-        max_abs(cmd),
-    ];
-    PHYSICAL
-        .iter()
-        .zip(figures)
-        .find(|((_, limit, _, _), v)| v > limit)
-        .map(|((name, limit, unit, what), v)| Rule {
-            name: (*name).into(),
-            figure: v,
-            threshold: *limit,
-            unit,
-            text: format!("diverged at t = {t:.3} s: {what} {v:.4e} {unit} > {limit:.0e} {unit}"),
-        })
-}
-
-/// The run's error beyond which, after the settle time, a run that misses its tracking
-/// figures has run away (m): ten times the tracking figure, the floor of the growth rule.
-pub const RUNAWAY_M: f64 = 1.0;
-
-/// Turns of the vehicle beyond the path's: over this the heading control is lost.
-pub const MAX_TURNS_OFF_PATH: f64 = 2.0;
-
-/// The vehicle's yaw and the path's direction, unwrapped, for the turns one made more than
-/// the other.
-#[derive(Debug, Default)]
-struct Turns {
-    yaw: Option<(f64, f64)>,
-    path: Option<(f64, f64)>,
-    offset: Option<f64>,
-    off: f64,
-}
-
-impl Turns {
-    /// Unwrap `(last, total)` by the new angle `a`.
-    fn unwrap(acc: &mut Option<(f64, f64)>, a: f64) -> f64 {
-        let (last, total) = acc.unwrap_or((a, a));
-        let mut d = (a - last) % std::f64::consts::TAU;
-        if d > std::f64::consts::PI {
-            d -= std::f64::consts::TAU;
-        } else if d < -std::f64::consts::PI {
-            d += std::f64::consts::TAU;
-        }
-        *acc = Some((a, total + d));
-        total + d
-    }
-
-    /// One tick: the vehicle's yaw, the path's direction when it moves (it keeps the last
-    /// one while the reference holds a point).
-    fn update(&mut self, yaw_rad: f64, path_rad: Option<f64>) {
-        let y = Self::unwrap(&mut self.yaw, yaw_rad);
-        if let Some(p) = path_rad {
-            if self.path.is_none() {
-                // The path starts moving: count from here.
-                self.offset = None;
-            }
-            Self::unwrap(&mut self.path, p);
-        }
-        let p = self.path.map_or(0.0, |(_, total)| total);
-        let diff = y - p;
-        let offset = *self.offset.get_or_insert(diff);
-        self.off = (diff - offset).abs() / std::f64::consts::TAU;
-    }
-
-    fn off_path_turns(&self) -> f64 {
-        self.off
     }
 }
 
@@ -263,6 +181,9 @@ struct Metrics {
     heading_judged: bool,
     depth_judged: bool,
     turns: Turns,
+    /// The NEES of an endpoint's own estimate (the firmware's), from the standard deviations
+    /// it reports.
+    endpoint_nees: DiagonalNees,
 }
 
 /// The closed loop of one run, stepped one control period at a time: the plant, the
@@ -373,6 +294,7 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
             heading_judged: sc.plane != Plane::Xz,
             depth_judged: sc.plane != Plane::Xy,
             turns: Turns::default(),
+            endpoint_nees: DiagonalNees::default(),
         };
         Ok(Self {
             nav,
@@ -455,6 +377,7 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
         let r: RefSample = self.reference.sample(t_ref as f32);
         self.endpoint.forward(&self.nav.for_vehicle(t))?;
         let out = self.endpoint.step(t, &nav_state, &r)?;
+        let endpoint_std = out.estimate.map(|(_, std)| std);
         let (nav_state, nav_std) = match out.estimate {
             Some((e, std)) => (e, Some(std)),
             None => (nav_state, self.nav.position_std_m()),
@@ -476,6 +399,9 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
         }
         let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
         let pen = norm(pe);
+        if let Some(std) = endpoint_std {
+            self.m.endpoint_nees.add(ee, std, axes);
+        }
         let angle_err = f64::from(match self.plane {
             Plane::Xz => out.errors.pitch_rad,
             _ => out.errors.yaw_rad,
@@ -627,6 +553,14 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
         s.rms_position_error_last80_m = m.last80.value();
         s.rms_estimation_error_m = m.est.value();
         s.navigation = nav.report();
+        // An estimator in the endpoint (the firmware's, on the vehicle or the topside): its
+        // figures, as the host's estimator stage gives its own.
+        if s.navigation.nees_in_bounds_fraction.is_none() {
+            s.navigation.nees_in_bounds_fraction = m.endpoint_nees.fraction();
+        }
+        if let Some(n) = endpoint.usbl_fixes_rejected() {
+            s.navigation.usbl_fixes_rejected = n;
+        }
         // An outlier counts when the estimator received it: the stage draws each fix at its
         // ping and delivers it `latency_s` later, so one drawn in the last latency window of
         // the run never arrives. The fix records are kept on delivery.
@@ -648,7 +582,16 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
             }
         }
         if !s.diverged && !s.nan_detected && !meets_tracking_figures(expect.as_ref(), &s) {
-            s.rule = lost_control(&s, &m, &last);
+            let end = EndFigures {
+                depth_judged: m.depth_judged,
+                first_half_max_m: m.first_half_max,
+                first_half_depth_max_m: m.first_half_depth_max,
+                tail_min_m: m.tail_min,
+                tail_depth_min_m: m.tail_depth_min,
+                settle_s: m.settle_s,
+                depth_off_end_m: last.state.eta[2] - last.ref_pos_m[2],
+            };
+            s.rule = lost_control(&s, &end);
             s.lost_control = s.rule.as_ref().map(|r| r.text.clone());
             s.diverged = s.rule.is_some();
         }
@@ -670,74 +613,6 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
             endpoint,
         )
     }
-}
-
-/// The rules of control lost, judged at the end on the true state of a run that completed
-/// and misses its tracking figures, in this order: the depth error still growing, the
-/// vehicle turned over [`MAX_TURNS_OFF_PATH`] more than its path, the position error still
-/// growing, the position error over [`RUNAWAY_M`] after the settle time.
-fn lost_control(s: &Summary, m: &Metrics, last: &Sample) -> Option<Rule> {
-    let rule = |name: &str, figure: f64, threshold: f64, unit, text: String| Rule {
-        name: name.into(),
-        figure,
-        threshold,
-        unit,
-        text,
-    };
-    if m.depth_judged && still_growing(m.first_half_depth_max, m.tail_depth_min) {
-        let z = last.state.eta[2] - last.ref_pos_m[2];
-        return Some(rule(
-            "depth_growing",
-            m.tail_depth_min,
-            m.first_half_depth_max.max(1.0),
-            "m",
-            format!(
-                "lost depth control: {:.1} m {} its reference depth at the end, and still going",
-                z.abs(),
-                if z > 0.0 { "below" } else { "above" }
-            ),
-        ));
-    }
-    if s.max_turns_off_path > MAX_TURNS_OFF_PATH {
-        return Some(rule(
-            "heading_turns",
-            s.max_turns_off_path,
-            MAX_TURNS_OFF_PATH,
-            "turns",
-            format!(
-                "lost heading control: turned {:.1} turns more than the path",
-                s.max_turns_off_path
-            ),
-        ));
-    }
-    if still_growing(m.first_half_max, m.tail_min) {
-        return Some(rule(
-            "position_growing",
-            m.tail_min,
-            m.first_half_max.max(1.0),
-            "m",
-            format!(
-                "lost position control: the error grows ({} at the end, at most {} in the first half)",
-                len(last.pos_err_norm_m),
-                len(m.first_half_max)
-            ),
-        ));
-    }
-    let worst = s.max_position_error_after_settle_m;
-    (worst > RUNAWAY_M).then(|| {
-        rule(
-            "runaway",
-            worst,
-            RUNAWAY_M,
-            "m",
-            format!(
-                "lost position control: {} off its reference after the first {} s (over {})",
-                len(worst),
-                m.settle_s,
-                len(RUNAWAY_M)
-            ),
-        )
-    })
 }
 
 /// Run a scenario in closed loop to its end with `nav` as the navigation stage and
