@@ -25,13 +25,19 @@ fn fixture(name: &str) -> PathBuf {
 
 /// `host-sim run FIXTURE --out DIR/o` in a fresh folder; the output and `summary.json`.
 fn run(name: &str) -> (Output, Option<serde_json::Value>) {
+    let (o, s, _) = run_in(name);
+    (o, s)
+}
+
+/// [`run`], and the output folder.
+fn run_in(name: &str) -> (Output, Option<serde_json::Value>, PathBuf) {
     let dir = common::scratch("verdicts", name);
     let f = fixture(name);
     let o = host_sim(&dir, &["run", f.to_str().unwrap(), "--out", "o"]);
     let summary = std::fs::read_to_string(dir.join("o/summary.json"))
         .ok()
         .map(|t| serde_json::from_str(&t).unwrap());
-    (o, summary)
+    (o, summary, dir.join("o"))
 }
 
 /// A scenario the vehicle would refuse is refused (exit 2) with the vehicle's reason, and
@@ -104,5 +110,35 @@ fn a_run_that_tracks_in_a_beam_current_is_not_lost_however_it_turns() {
     );
     assert_eq!(s["diverged"], false, "{s}");
     assert!(s["lost_control"].is_null() && s["rule"].is_null(), "{s}");
+    assert!(text(&o).contains("meets its targets"), "{}", text(&o));
+}
+
+#[test]
+fn the_topside_layouts_summary_carries_the_estimators_figures() {
+    let (o, s, dir) = run_in("topside-usbl-outliers-3d");
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let s = s.unwrap();
+    let layout: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("layout.json")).unwrap()).unwrap();
+    let nav = &s["navigation"];
+    // The NEES share of the topside's estimate (in process 99.9 % of 6,000 ticks; the onboard
+    // estimator on the same sensors 99.2 %).
+    let nees = nav["nees_in_bounds_fraction"].as_f64().unwrap();
+    assert!((0.9..=1.0).contains(&nees), "{nav}");
+    // The fixes refused on the gate: the layout's own count of the topside's refusals, every
+    // outlier the topside received (13 of 13 in 60 s at 20 %).
+    let rejected = nav["usbl_fixes_rejected"].as_u64().unwrap();
+    assert!(rejected >= 5, "{nav}");
+    assert_eq!(layout["usbl_fixes_rejected"].as_u64(), Some(rejected));
+    assert_eq!(
+        layout["nack_reasons"]["NavRefused(Outlier)"].as_u64(),
+        Some(rejected),
+        "{layout}"
+    );
+    assert_eq!(
+        nav["usbl_outliers_injected"].as_u64(),
+        Some(rejected),
+        "{nav}"
+    );
     assert!(text(&o).contains("meets its targets"), "{}", text(&o));
 }

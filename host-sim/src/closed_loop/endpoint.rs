@@ -143,4 +143,7 @@ impl<T: ControllerEndpoint + ?Sized> ControllerEndpoint for &mut T {
     fn reference_start_s(&self) -> f64 {
         (**self).reference_start_s()
     }
+    fn usbl_fixes_rejected(&self) -> Option<u64> {
+        (**self).usbl_fixes_rejected()
+    }
 }
