@@ -70,7 +70,7 @@ pub struct Summary {
     /// 3-D only, 0 otherwise).
     pub max_turns_off_path: f64,
     /// The run diverged: a state or force beyond the physical (the run stopped), or, judged
-    /// at the end, control lost (`lost_control`).
+    /// at the end of a run that misses its tracking figures, control lost (`lost_control`).
     pub diverged: bool,
     /// Control lost, judged on the true state of a run that misses its tracking figures
     /// ([`meets_tracking_figures`]): depth (the depth error at the end larger than all of the

@@ -21,10 +21,12 @@
 //! The run stops early when the state or the requested forces stop being finite
 //! (`nan_detected`) or when it leaves the physical (`diverged`: |position| > 10 km,
 //! |velocity| > 100 m/s, |rate| > 100 rad/s, or a thrust command above 10 kN). A run that
-//! completes is judged at its end on the true state for control lost (`lost_control`, then
-//! `diverged`): the depth or position error still growing past 1 m, or the vehicle turning
-//! over 2 turns more than its path; no fixed distance. Then the run is judged against its
-//! scenario's `[expect]` ([`judge`]). An endpoint that fails (the firmware refused a command,
+//! completes and misses its tracking figures is judged at its end on the true state for
+//! control lost (`lost_control`, then `diverged`): the depth or position error still growing
+//! past 1 m, the vehicle turning over 2 turns more than its path, or over 1 m off after the
+//! settle time ([`crate::closed_loop::rules`]). Then the run is judged against its
+//! scenario's `[expect]` ([`judge`]); the rule that decided is the summary's `rule`. An
+//! endpoint that fails (the firmware refused a command,
 //! the link was lost) ends the run with an error.
 
 use super::endpoint::ControllerEndpoint;
