@@ -15,7 +15,6 @@ use controller_core::math::sin_cos;
 use controller_core::nav::compass_cal::{CalRefusal, CompassCalibration, CompassSwing};
 use controller_core::params::XyCoeffs;
 use controller_core::state::NavState;
-use serde::{Deserialize, Serialize};
 
 /// The turn goes on this far past a full circle, so that the fit (which needs `2 pi` of the
 /// gyro's heading change) sees every heading at least once with some margin (rad, 20 deg).
@@ -40,30 +39,9 @@ pub const TIME_LIMIT_MAX_S: f32 = 600.0;
 /// A turn's fit: the calibration and its RMS residual (rad), or why it was refused.
 pub type SwingFit = Result<(CompassCalibration, f32), CalRefusal>;
 
-/// How the latest calibration turn ended (or that one is flying), reported in `Status`.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub enum SwingOutcome {
-    /// None flown since boot.
-    #[default]
-    None,
-    /// Turning now: the heading turned so far (rad).
-    Turning {
-        /// Heading turned (rad, the gyro's).
-        turned_rad: f32,
-    },
-    /// Accepted: the calibration now in force and the fit's RMS residual (rad).
-    Accepted {
-        /// The fitted deviation, in force.
-        cal: CompassCalibration,
-        /// RMS residual of the fit (rad).
-        residual_rad: f32,
-    },
-    /// Refused: why; the calibration in force did not change.
-    Refused(CalRefusal),
-    /// Stopped before its end (disarmed, a mode change, the estimator stopped); the
-    /// calibration in force did not change.
-    Aborted,
-}
+/// How the latest calibration turn ended (or that one is flying), reported in `Status`: a
+/// wire type, defined with the messages.
+pub use protocol::SwingOutcome;
 
 /// A calibration turn in flight.
 #[derive(Debug, Clone, Copy)]

@@ -1,4 +1,8 @@
-//! The tether protocol: [`messages`], [`framing`] and the streaming [`decoder`].
+//! The ROV's tether protocol, shared by the vehicle and the surface: [`messages`],
+//! [`framing`], the streaming [`decoder`], the wire's limits that both ends check
+//! ([`limits`]), and [`Client`], the surface's end of a session (no I/O of its own).
+//!
+//! `no_std`, no allocation; the firmware re-exports it as `firmware::protocol`.
 //!
 //! A frame on the wire is
 //!
@@ -23,6 +27,8 @@
 //! lock-step `Telemetry`) can name the command they answer.
 //!
 //! `docs/protocol.md` has the message table and how the emulated board is driven.
+
+#![cfg_attr(not(any(test, feature = "std")), no_std)]
 
 pub mod decoder;
 pub mod framing;

@@ -1,14 +1,14 @@
 //! The tether's messages: what the topside sends ([`Command`]) and what the ROV answers
 //! ([`Reply`]), with the types they carry. Serialized by postcard (varints, `f32` as four
-//! little-endian bytes, enums by variant index) inside an [`Envelope`](super::Envelope).
+//! little-endian bytes, enums by variant index) inside an [`Envelope`](crate::Envelope).
 //! `docs/protocol.md` has the table.
 
-use super::decoder::DropCounters;
+use crate::decoder::DropCounters;
 use controller_core::controller::ControlMode;
 use controller_core::law::paper_xy::PaperXyGains;
 use controller_core::law::paper_xz::PaperXzGains;
 use controller_core::law::tracking::TrackingGains;
-use controller_core::nav::compass_cal::CompassCalibration;
+use controller_core::nav::compass_cal::{CalRefusal, CompassCalibration};
 use controller_core::nav::onboard::OnboardConfig;
 use controller_core::nav::{DvlFix, HeadingFix, ImuSample, NavHealth, PositionFix, Refusal};
 use controller_core::params::VehicleParams;
@@ -240,7 +240,7 @@ pub enum Command {
     /// `MAV_CMD_DO_START_MAG_CAL`): armed in `Hold` with the on-board estimate ready, a full
     /// circle in place at `yaw_rate_rad_s` (0.05-0.6 rad/s, either sign), refused as
     /// `NotFullTurn` if not done within `time_limit_s` (at most 600 s). The outcome is in
-    /// `Status::compass_swing`; an accepted fit is the calibration in force.
+    /// [`Status::compass_swing`]; an accepted fit is the calibration in force.
     StartCompassCal {
         /// Yaw rate of the turn (rad/s).
         yaw_rate_rad_s: f32,
@@ -308,7 +308,7 @@ impl Default for Failsafe {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[non_exhaustive]
 pub enum NackReason {
-    /// The frame's protocol version is not [`PROTOCOL_VERSION`](super::PROTOCOL_VERSION).
+    /// The frame's protocol version is not [`PROTOCOL_VERSION`](crate::PROTOCOL_VERSION).
     UnsupportedVersion,
     /// CRC was right but the payload did not decode as a command.
     Malformed,
@@ -487,7 +487,33 @@ pub struct Status {
     /// The compass calibration in force (`COMPASS_DEV_*`, radians).
     pub compass_cal: CompassCalibration,
     /// The latest compass calibration turn: flying, accepted or refused with the reason.
-    pub compass_swing: crate::compass_swing::SwingOutcome,
+    pub compass_swing: SwingOutcome,
+}
+
+/// How the latest compass calibration turn ended (or that one is flying), reported in
+/// [`Status`].
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub enum SwingOutcome {
+    /// None flown since boot.
+    #[default]
+    None,
+    /// Turning now: the heading turned so far (rad).
+    Turning {
+        /// Heading turned (rad, the gyro's).
+        turned_rad: f32,
+    },
+    /// Accepted: the calibration now in force and the fit's RMS residual (rad).
+    Accepted {
+        /// The fitted deviation, in force.
+        cal: CompassCalibration,
+        /// RMS residual of the fit (rad).
+        residual_rad: f32,
+    },
+    /// Refused: why; the calibration in force did not change.
+    Refused(CalRefusal),
+    /// Stopped before its end (disarmed, a mode change, the estimator stopped); the
+    /// calibration in force did not change.
+    Aborted,
 }
 
 /// Which board sent a [`Reply::Hello`].
@@ -508,7 +534,7 @@ pub enum Reply {
     /// Sent once at boot: the host waits for it before sending (the emulated USART drops
     /// bytes that arrive before it is enabled).
     Hello {
-        /// [`PROTOCOL_VERSION`](super::PROTOCOL_VERSION) (also in the envelope).
+        /// [`PROTOCOL_VERSION`](crate::PROTOCOL_VERSION) (also in the envelope).
         protocol: u8,
         /// Which board.
         board: Board,
