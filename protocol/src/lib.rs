@@ -30,10 +30,13 @@
 
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
 
+pub mod client;
 pub mod decoder;
 pub mod framing;
+pub mod limits;
 pub mod messages;
 
+pub use client::{Answer, Client, ClientConfig, Event, Frame, SendError, Sent};
 pub use decoder::{decode_frame, Decoded, DropCounters, DropReason, FrameDecoder};
 pub use framing::{
     encode, encode_with_version, EncodeError, Envelope, Header, CRC, CRC_LEN, MAX_ENCODED_LEN,

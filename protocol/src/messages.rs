@@ -249,6 +249,52 @@ pub enum Command {
     },
 }
 
+/// What the vehicle sends back for a command it takes; a refused command is answered by
+/// `Nack` whatever it is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Response {
+    /// `Reply::Ack` with the command's sequence number.
+    Ack,
+    /// `Reply::Status` naming the heartbeat (`Status::heartbeat_seq`).
+    Status,
+    /// `Reply::Session` with the command's nonce.
+    Session,
+    /// `Reply::Telemetry` in lock-step (`Telemetry::nav_seq`); nothing at a fixed rate.
+    TelemetryInLockStep,
+    /// Nothing: a high-rate input (the pilot's sticks, a sensor reading).
+    Nothing,
+}
+
+impl Command {
+    /// The navigation inputs: the commands the vehicle's on-board navigation takes (the
+    /// estimator's start, its sensor readings and fixes, the compass calibration).
+    pub const fn is_nav_input(&self) -> bool {
+        matches!(
+            self,
+            Command::StartNav { .. }
+                | Command::Imu(_)
+                | Command::Pressure { .. }
+                | Command::UsblFix(_)
+                | Command::DvlFix(_)
+                | Command::Compass(_)
+                | Command::SetCompassCal(_)
+        )
+    }
+
+    /// What the vehicle answers when it takes this command.
+    pub const fn response(&self) -> Response {
+        match self {
+            Command::Heartbeat { .. } => Response::Status,
+            Command::OpenSession { .. } => Response::Session,
+            Command::Nav(_) | Command::Step { .. } => Response::TelemetryInLockStep,
+            Command::ManualThrust(_) | Command::Imu(_) | Command::Pressure { .. } => {
+                Response::Nothing
+            }
+            _ => Response::Ack,
+        }
+    }
+}
+
 /// Failsafe timeouts, microseconds of the firmware's clock.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Failsafe {
@@ -395,6 +441,13 @@ pub mod fault {
     /// The on-board IMU or pressure sensor stopped answering (or answers only refused
     /// values): thrust is neutral in the modes that need navigation.
     pub const SENSOR_LOST: u16 = 1 << 8;
+    /// The paper's layout (a topside MCU and a node on the vehicle): no valid uplink from the
+    /// node for 3 link periods; the estimator predicts only, and from 250 ms neutral is
+    /// commanded.
+    pub const NODE_LINK_LOST: u16 = 1 << 15;
+    /// The paper's layout: the topside is armed but the node is not (latched after a loss of
+    /// the link, or its command outlived its time to live): disarm and arm again.
+    pub const NODE_NOT_ARMED: u16 = 1 << 14;
 }
 
 /// Link statistics, as counted by the firmware.
