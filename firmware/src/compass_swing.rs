@@ -28,13 +28,6 @@ const SURGE_N_PER_M: f32 = 2.0;
 const SURGE_MAX_N: f32 = 1.5;
 /// Yaw rate feedback (1/s) on top of the feed-forward of the drag at the target rate.
 const YAW_RATE_GAIN_1_S: f32 = 2.0;
-/// Slowest and fastest yaw rate accepted (rad/s): slower than 0.05 a turn takes over two
-/// minutes; faster than 0.6 the compass (10 Hz) sees too few headings per cycle.
-pub const RATE_MIN_RAD_S: f32 = 0.05;
-/// See [`RATE_MIN_RAD_S`].
-pub const RATE_MAX_RAD_S: f32 = 0.6;
-/// Longest time limit accepted (s).
-pub const TIME_LIMIT_MAX_S: f32 = 600.0;
 
 /// A turn's fit: the calibration and its RMS residual (rad), or why it was refused.
 pub type SwingFit = Result<(CompassCalibration, f32), CalRefusal>;
@@ -67,11 +60,10 @@ pub struct SwingFlight {
 
 impl SwingFlight {
     /// A turn from `nav` at `yaw_rate_rad_s` (either sign), ending with a refusal if not
-    /// done within `time_limit_s`. `None` when the rate or the limit is out of range.
+    /// done within `time_limit_s`. `None` when the rate or the limit is out of range
+    /// ([`protocol::limits::compass_turn_in_range`]).
     pub fn new(nav: &NavState, yaw_rate_rad_s: f32, time_limit_s: f32) -> Option<Self> {
-        let rate_ok = (RATE_MIN_RAD_S..=RATE_MAX_RAD_S).contains(&yaw_rate_rad_s.abs());
-        let limit_ok = time_limit_s > 0.0 && time_limit_s <= TIME_LIMIT_MAX_S;
-        (rate_ok && limit_ok).then_some(Self {
+        protocol::limits::compass_turn_in_range(yaw_rate_rad_s, time_limit_s).then_some(Self {
             swing: CompassSwing::new(),
             hold_m: [nav.x_m, nav.y_m, nav.z_m],
             yaw_rate_rad_s,
