@@ -9,7 +9,7 @@
 //!   streaming decoder), re-exported;
 //! - [`autopilot`]: arming, modes, failsafes and the control step, no I/O;
 //! - [`app`]: the loop: serial in, control, PWM out, telemetry;
-//! - the paper's layout (issue 25, `docs/deployment.md`): [`node_link`] (the wire between
+//! - the paper's layout (`docs/deployment.md`): [`node_link`] (the wire between
 //!   the surface and the vehicle), [`node`] (the vehicle's thin role), [`topside_link`] (the
 //!   `App` at the surface, its thrusters and sensors over the node link).
 #![cfg_attr(not(any(test, feature = "std")), no_std)]

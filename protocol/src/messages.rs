@@ -195,7 +195,7 @@ pub enum Command {
     Compass(HeadingFix),
     /// Waypoint `index` (from 0) of a mission of `count` (at most 32), local NED frame; the
     /// mission in use is replaced when the last one arrives (version 4); refused while AUTO
-    /// flies a mission (`Unsupported`, issue 22).
+    /// flies a mission (`Unsupported`).
     MissionItem {
         /// This waypoint's place in the mission.
         index: u16,
@@ -231,12 +231,12 @@ pub enum Command {
         /// The surface's random number, echoed in the answer.
         nonce: u32,
     },
-    /// Replace the compass calibration (issue 26: the ground station's `COMPASS_DEV_SIN` /
+    /// Replace the compass calibration (the ground station's `COMPASS_DEV_SIN` /
     /// `COMPASS_DEV_COS`, or a calibration turn's result): the deviation the on-board
     /// estimator takes off every heading. Refused while armed (`Armed`) and when not finite
     /// or beyond 30 degrees (`CompassCal`); the calibration in force then stays.
     SetCompassCal(CompassCalibration),
-    /// Fly the compass calibration turn (issue 26; the ground station's
+    /// Fly the compass calibration turn (the ground station's
     /// `MAV_CMD_DO_START_MAG_CAL`): armed in `Hold` with the on-board estimate ready, a full
     /// circle in place at `yaw_rate_rad_s` (0.05-0.6 rad/s, either sign), refused as
     /// `NotFullTurn` if not done within `time_limit_s` (at most 600 s). The outcome is in
@@ -396,10 +396,9 @@ pub enum NackReason {
     ClockAhead,
     /// A sensor reading over the tether on a board that reads its own sensors (version 6).
     OwnSensors,
-    /// A mode that needs a position while the on-board estimate is not ready (issue 26;
-    /// version 6).
+    /// A mode that needs a position while the on-board estimate is not ready (version 6).
     NavNotReady(controller_core::nav::NotReady),
-    /// A compass calibration refused (issue 26): the reason; the one in force stays.
+    /// A compass calibration refused: the reason; the one in force stays.
     CompassCal(controller_core::nav::compass_cal::CalRefusal),
     /// A compass calibration turn while disarmed.
     NotArmed,
