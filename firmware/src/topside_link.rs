@@ -42,14 +42,10 @@ use embedded_hal::pwm::SetDutyCycle;
 use embedded_io::{Read, ReadReady, Write, WriteReady};
 
 /// Fault bits of the topside layout, reported in `Telemetry.faults` / `Status.faults`
-/// through [`Sensors::faults`]. The two top bits: the tether protocol's own bits are 0-8.
+/// through [`Sensors::faults`]: the two top bits, defined with the others in
+/// [`protocol::fault`].
 pub mod fault {
-    /// No valid uplink from the node for 3 link periods: the estimator predicts only; from
-    /// 250 ms neutral is commanded.
-    pub const NODE_LINK_LOST: u16 = 1 << 15;
-    /// The topside is armed but the node is not (latched after a loss of the link, or its
-    /// command outlived its time to live): disarm and arm again.
-    pub const NODE_NOT_ARMED: u16 = 1 << 14;
+    pub use protocol::fault::{NODE_LINK_LOST, NODE_NOT_ARMED};
 }
 
 /// Largest rate accepted from the node, rad/s (the ICM-42688-P's range is 2000 deg/s).
