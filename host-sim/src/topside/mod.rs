@@ -39,8 +39,22 @@
 //! raises or clears and every refusal.
 //!
 //! Several ground stations: all see everything, one commands (`commander`: the first to
-//! command, the one that armed or the one that sent `CHANGE_OPERATOR_CONTROL`; anyone may
-//! disarm). No input from a ground station ends the topside (`transport`). Refused inputs
+//! command, the one that armed, or the one granted `CHANGE_OPERATOR_CONTROL` with the
+//! passkey `CTRL_PASSKEY`; anyone may disarm). No input from a ground station ends the
+//! topside (`transport`). A message addressed to another system or component (its
+//! `target_system` not ours and not 0, or its `target_component` not 1 and not 0) is
+//! ignored, as ArduPilot does, and counted (`SYS_STATUS` `errors_count2`).
+//!
+//! The pilot's sticks: before an arm in a stick mode the latest sticks go to the vehicle
+//! (whose own check refuses off-centre sticks) and the topside itself refuses to arm while
+//! they are off centre ([`STICK_CENTRED`]), saying so. After any arm, mode change or change
+//! of commander the vehicle is sent centred sticks until the commander's sticks have been
+//! seen at centre: a stick held through the change gives no thrust.
+//!
+//! The vehicle: a telemetry frame out of range is refused (`vehicle::check_telemetry`,
+//! counted in `SYS_STATUS` `errors_count1`, said once a second at most); a silent vehicle
+//! is said to be silent, its commands refused at once, the heartbeats to it and to the
+//! ground stations go on, and it is said when it answers again. Refused inputs
 //! are answered (`COMMAND_ACK` / `MISSION_ACK` / `PARAM_VALUE`) with a `STATUSTEXT` reason:
 //! `ARM_DISARM` with param1 other than 1 or 0, `DO_SET_MODE` with param2 not a whole mode
 //! number, GUIDED targets outside the surface..100 m / 1 km box, `VEH_PWM_NEUTRAL`.
@@ -84,6 +98,19 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 use transport::Gcs;
 use vehicle::SimVehicle;
+
+/// Largest stick deflection that counts as centred (fraction of full scale): the vehicle's.
+pub const STICK_CENTRED: f32 = firmware::autopilot::STICK_CENTRED;
+
+/// Are all three sticks centred?
+pub fn sticks_centred(m: &ManualThrust) -> bool {
+    [m.surge, m.yaw, m.heave]
+        .iter()
+        .all(|v| v.abs() <= STICK_CENTRED)
+}
+
+/// Our MAVLink component id (`MAV_COMP_ID_AUTOPILOT1`).
+const COMPONENT_ID: u8 = 1;
 
 /// A `MANUAL_CONTROL` older than this (wall clock) is no longer forwarded.
 pub const MANUAL_CONTROL_TIMEOUT: Duration = Duration::from_millis(500);
@@ -200,6 +227,15 @@ struct Topside {
     params_file: PathBuf,
     /// The compass calibration turn's outcome last reported (`calibration.rs`).
     mag_cal: Option<firmware::compass_swing::SwingOutcome>,
+    /// The commander's sticks have been seen at centre since the last arm, mode change or
+    /// change of commander: until then the vehicle is sent centred sticks.
+    sticks_seen_centred: bool,
+    /// Saved parameters the vehicle did not take at start, applied when it does.
+    pending: start::Pending,
+    /// The vehicle was last said to be silent.
+    vehicle_silent: bool,
+    /// Telemetry refusals already said.
+    refusals_said: u64,
 }
 
 impl Topside {
@@ -220,8 +256,11 @@ impl Topside {
                 std::thread::sleep(wait);
             }
 
-            for (station, header, msg) in self.gcs.poll()? {
-                self.on_message(station, header, msg)?;
+            for (station, header, msg, mission_type) in self.gcs.poll()? {
+                self.on_message(station, header, msg, mission_type)?;
+            }
+            for (station, header, item) in std::mem::take(&mut self.gcs.unknown_items) {
+                self.on_unknown_item(station, header, item)?;
             }
             let before = self.commander.holder();
             self.commander.tick(&mut self.gcs)?;
@@ -234,13 +273,19 @@ impl Topside {
             let pilot_mode = matches!(v.tel.mode, Mode::Manual | Mode::Stabilize | Mode::DepthHold);
             if pilot_mode && v.tel.armed && fresh && k.is_multiple_of(v.stride) {
                 // Forwarded every period (every stride of the topside layout's finer loop)
-                // while the pilot's stream lives; when it stops,
-                // nothing is forwarded and the firmware's MANUAL_STALE failsafe neutralizes
-                // the thrusters.
-                v.send(&Command::ManualThrust(self.manual))?;
+                // while the pilot's stream lives, centred until the commander's sticks were
+                // seen at centre; when it stops, nothing is forwarded and the firmware's
+                // MANUAL_STALE failsafe neutralizes the thrusters.
+                let sticks = if self.sticks_seen_centred {
+                    self.manual
+                } else {
+                    ManualThrust::default()
+                };
+                v.send(&Command::ManualThrust(sticks))?;
             }
             v.step()?;
             self.poll_mag_cal()?;
+            self.watch_vehicle(k.is_multiple_of(per_second))?;
 
             let faults = self.v.tel.faults & !fault::SATURATED;
             for (bit, name) in FAULT_NAMES {
@@ -270,16 +315,20 @@ impl Topside {
         let s = self.gcs.stats;
         eprintln!(
             "topside: {:.1} s simulated; MAVLink {} sent, {} handled, {} ignored, {} malformed, \
-             {} disconnects; {} commands refused and {} MANUAL_CONTROL ignored from stations \
-             not in control",
+             {} addressed to another system or component, {} disconnects; {} commands refused \
+             and {} MANUAL_CONTROL ignored from stations not in control, {} takeovers \
+             refused; {} vehicle frames refused",
             self.v.t_s,
             s.sent,
             s.handled,
             s.ignored,
             s.malformed,
+            s.not_ours,
             s.disconnects,
             self.commander.refused,
-            self.commander.manual_ignored
+            self.commander.manual_ignored,
+            self.commander.takeovers_refused,
+            self.v.frames_refused
         );
         Ok(())
     }
@@ -292,6 +341,7 @@ impl Topside {
         }
         self.manual = ManualThrust::default();
         self.manual_at = None;
+        self.sticks_seen_centred = false;
         if self.missions.uploader().is_some_and(|u| Some(u) != now) {
             self.missions
                 .abandon(&mut self.gcs, "control changed during the upload")?;
@@ -299,10 +349,77 @@ impl Topside {
         Ok(())
     }
 
-    /// One message from `station`: arbitrated, then handled.
-    fn on_message(&mut self, station: StationId, header: MavHeader, msg: MavMessage) -> Result<()> {
+    /// Every control period: the vehicle's silence and refused frames said to the operator;
+    /// once a second, the saved parameters it has not taken yet tried again.
+    fn watch_vehicle(&mut self, every_second: bool) -> Result<()> {
+        let silent_for = self.v.silent_for();
+        let silent = silent_for >= vehicle::VEHICLE_SILENCE;
+        if silent != self.vehicle_silent {
+            self.vehicle_silent = silent;
+            let (severity, text) = if silent {
+                (
+                    MavSeverity::MAV_SEVERITY_CRITICAL,
+                    format!(
+                        "Vehicle silent for {:.1} s: commands refused until it answers; \
+                         heartbeats go on",
+                        silent_for.as_secs_f64()
+                    ),
+                )
+            } else {
+                (
+                    MavSeverity::MAV_SEVERITY_INFO,
+                    "Vehicle answers again".to_string(),
+                )
+            };
+            eprintln!("topside: {text}");
+            self.gcs.text(severity, &text)?;
+        }
+        if every_second && self.v.frames_refused > self.refusals_said {
+            let n = self.v.frames_refused - self.refusals_said;
+            self.refusals_said = self.v.frames_refused;
+            let why = self.v.last_refusal.clone().unwrap_or_default();
+            let text = format!("Vehicle frames refused: {n} ({why})");
+            eprintln!("topside: {text}");
+            self.gcs.text(MavSeverity::MAV_SEVERITY_WARNING, &text)?;
+        }
+        if every_second && !silent {
+            self.pending.retry(&mut self.v, &mut self.gcs)?;
+        }
+        Ok(())
+    }
+
+    /// One message from `station`: ignored if addressed to another system or component,
+    /// else arbitrated, then handled.
+    fn on_message(
+        &mut self,
+        station: StationId,
+        header: MavHeader,
+        msg: MavMessage,
+        mission_type: u8,
+    ) -> Result<()> {
+        use mavlink::Message;
+        let ours = self.gcs.system_id();
+        let not_ours = msg.target_system_id().is_some_and(|t| t != 0 && t != ours)
+            || msg
+                .target_component_id()
+                .is_some_and(|c| c != 0 && c != COMPONENT_ID);
+        if not_ours {
+            self.gcs.stats.not_ours += 1;
+            let what = format!(
+                "{}: {} addressed to {}/{} ignored (we are {ours}/{COMPONENT_ID})",
+                self.gcs.label(station),
+                msg.message_name(),
+                msg.target_system_id().unwrap_or(0),
+                msg.target_component_id().unwrap_or(0)
+            );
+            self.gcs.note(&what);
+            return Ok(());
+        }
         let before = self.commander.holder();
-        let verdict = self.commander.judge(&mut self.gcs, station, header, &msg)?;
+        let passkey = self.v.settings.passkey();
+        let verdict =
+            self.commander
+                .judge(&mut self.gcs, station, header, &msg, passkey.as_deref())?;
         self.after_control_change(before)?;
         if let Verdict::Refuse(holder) = verdict {
             return self.refuse_station(station, header, holder, &msg);
@@ -310,16 +427,59 @@ impl Topside {
         if matches!(msg, MavMessage::CHANGE_OPERATOR_CONTROL(_)) {
             return Ok(());
         }
-        if matches!(msg, MavMessage::MANUAL_CONTROL(_)) {
+        if let MavMessage::MANUAL_CONTROL(m) = &msg {
             self.manual_at = Some(Instant::now());
+            if sticks_centred(&manual_thrust(m.x, m.z, m.r)) {
+                self.sticks_seen_centred = true;
+            }
         }
-        if !self
-            .missions
-            .handle(&mut self.gcs, &mut self.v, station, header, &msg)?
-        {
+        if !self.missions.handle(
+            &mut self.gcs,
+            &mut self.v,
+            station,
+            header,
+            &msg,
+            mission_type,
+        )? {
             self.handle(station, msg)?;
         }
         Ok(())
+    }
+
+    /// A mission item this dialect cannot parse: ignored if addressed elsewhere, refused for
+    /// a station not in control, else answered by the mission protocol.
+    fn on_unknown_item(
+        &mut self,
+        station: StationId,
+        header: MavHeader,
+        item: transport::UnknownItem,
+    ) -> Result<()> {
+        let ours = self.gcs.system_id();
+        if (item.target_system != 0 && item.target_system != ours)
+            || (item.target_component != 0 && item.target_component != COMPONENT_ID)
+        {
+            self.gcs.stats.not_ours += 1;
+            return Ok(());
+        }
+        if let Some(holder) = self.commander.holder().filter(|&h| h != station) {
+            let why = format!(
+                "{} has control (CHANGE_OPERATOR_CONTROL to take it)",
+                self.gcs.label(holder)
+            );
+            let peer = (
+                station,
+                u8::try_from(header.system_id).unwrap_or(u8::MAX),
+                header.component_id,
+            );
+            return Missions::deny(
+                &mut self.gcs,
+                peer,
+                MavMissionResult::MAV_MISSION_DENIED,
+                &why,
+            );
+        }
+        self.missions
+            .unknown_item(&mut self.gcs, station, header, item)
     }
 
     /// A command from a station not in control: refused with the reason, nothing changes.
@@ -381,6 +541,35 @@ impl Topside {
         }
     }
 
+    /// Before an arm in a stick mode: the commander's latest sticks (if fresh) go to the
+    /// vehicle, whose own check refuses off-centre sticks; off centre here, the arm is
+    /// refused with the reason.
+    fn sticks_refuse_arming(&mut self) -> Result<Option<String>> {
+        let stick_mode = matches!(
+            self.v.tel.mode,
+            Mode::Manual | Mode::Stabilize | Mode::DepthHold | Mode::Idle
+        );
+        let fresh = self
+            .manual_at
+            .is_some_and(|at| at.elapsed() < MANUAL_CONTROL_TIMEOUT);
+        if !(stick_mode && fresh) {
+            return Ok(None);
+        }
+        let m = self.manual;
+        // The sticks are not acknowledged: sent, and one control period run so that the
+        // vehicle holds them before the arm (its own check runs then).
+        self.v.send(&Command::ManualThrust(m))?;
+        self.v.step()?;
+        if sticks_centred(&m) {
+            return Ok(None);
+        }
+        Ok(Some(format!(
+            "Arming refused: sticks not centred (surge {:+.2}, yaw {:+.2}, heave {:+.2}; \
+             centred is within {STICK_CENTRED}): centre them first",
+            m.surge, m.yaw, m.heave
+        )))
+    }
+
     fn refuse(&mut self, station: StationId, cmd: MavCmd, why: &str) -> Result<()> {
         self.gcs
             .text_to(station, MavSeverity::MAV_SEVERITY_WARNING, why)?;
@@ -415,6 +604,7 @@ impl Topside {
         match v.command(&Command::SetMode(firmware_mode))? {
             Ok(()) => {
                 self.guided = custom == ardusub_mode::GUIDED;
+                self.sticks_seen_centred = false;
                 self.gcs.ack(station, cmd, MavResult::MAV_RESULT_ACCEPTED)
             }
             Err(why) => self.refuse(station, cmd, &format!("Mode refused: {why:?}")),
@@ -465,8 +655,16 @@ impl Topside {
                             );
                             return self.refuse(station, c.command, &why);
                         };
+                        if cmd == Command::Arm {
+                            if let Some(why) = self.sticks_refuse_arming()? {
+                                return self.refuse(station, c.command, &why);
+                            }
+                        }
                         match self.v.command(&cmd)? {
                             Ok(()) => {
+                                if cmd == Command::Arm {
+                                    self.sticks_seen_centred = false;
+                                }
                                 self.gcs
                                     .ack(station, c.command, MavResult::MAV_RESULT_ACCEPTED)?
                             }
@@ -587,7 +785,12 @@ impl Topside {
         };
         match refusal {
             Some(text) => self.gcs.text_to(station, warn, &text)?,
-            None => params::save(&self.params_file, &self.v.settings)?,
+            None => {
+                // The operator's value wins over a saved one still waiting.
+                let group = params::group(param);
+                self.pending.forget(group);
+                params::save(&self.params_file, &self.pending.merged(&self.v.settings))?
+            }
         }
         // The answer is the value in force (the new one, or the old one on a refusal), to
         // every station: all see what the vehicle holds.

@@ -15,6 +15,12 @@
 //! (at most [`MAX_NOTES`] lines, then only counted), counted as malformed and dropped. Each
 //! datagram is parsed on its own (a cut frame never glues to the next datagram); a TCP
 //! stream keeps an incomplete frame for the next read.
+//!
+//! The mission messages' `mission_type` (a MAVLink 2 extension the `mavlink` crate's
+//! ardupilotmega messages leave out) is read from the payload, and answers for a type other
+//! than the mission carry it (`send_typed`). A CRC-valid mission item whose frame or command
+//! this dialect does not know cannot be parsed; it is kept as an [`UnknownItem`] so that
+//! it is answered, not dropped.
 
 use super::split_text;
 use anyhow::{anyhow, bail, Context, Result};
@@ -57,7 +63,79 @@ pub struct GcsStats {
     pub sent: u64,
     /// Ground-station connections closed (TCP disconnects, write failures).
     pub disconnects: u64,
+    /// Messages addressed to another system or component (ignored).
+    pub not_ours: u64,
 }
+
+/// A mission item (`MISSION_ITEM_INT` or `MISSION_ITEM`) whose frame or command this dialect
+/// does not know: what is needed to answer it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct UnknownItem {
+    /// Its sequence number.
+    pub seq: u16,
+    /// Its addressee.
+    pub target_system: u8,
+    /// Its addressee's component.
+    pub target_component: u8,
+    /// Its frame is one this dialect knows (else the command is unknown).
+    pub frame_known: bool,
+    /// Its `mission_type`.
+    pub mission_type: u8,
+}
+
+/// MAVLink message ids of the mission protocol and where `mission_type` sits in each
+/// payload (after the base fields; absent when the sender truncated it as zero).
+const MISSION_TYPE_AT: [(u32, usize); 8] = [
+    (39, 37), // MISSION_ITEM
+    (40, 4),  // MISSION_REQUEST
+    (43, 2),  // MISSION_REQUEST_LIST
+    (44, 4),  // MISSION_COUNT
+    (45, 2),  // MISSION_CLEAR_ALL
+    (47, 3),  // MISSION_ACK
+    (51, 4),  // MISSION_REQUEST_INT
+    (73, 37), // MISSION_ITEM_INT
+];
+
+/// The `mission_type` of a mission message's payload (0, the mission, when absent).
+fn mission_type_of(msgid: u32, payload: &[u8]) -> u8 {
+    MISSION_TYPE_AT
+        .iter()
+        .find(|(id, _)| *id == msgid)
+        .and_then(|&(_, at)| payload.get(at).copied())
+        .unwrap_or(0)
+}
+
+/// A mission item's payload that would not parse: its fields by their wire offsets
+/// (`MISSION_ITEM` and `MISSION_ITEM_INT` share them).
+fn unknown_item(msgid: u32, payload: &[u8]) -> Option<UnknownItem> {
+    use mavlink::Message;
+    if msgid != 39 && msgid != 73 {
+        return None;
+    }
+    // MAVLink 2 drops trailing zero bytes: pad to the base length.
+    let mut p = [0u8; 38];
+    let n = payload.len().min(p.len());
+    p[..n].copy_from_slice(payload.get(..n)?);
+    let [.., seq0, seq1, _, _, ts, tc, _, _, _, mission_type] = p;
+    // With the command made a known one (MAV_CMD_NAV_WAYPOINT, 16), does it parse? Then the
+    // frame is known and the command was not.
+    let mut known_command = p;
+    if let Some(c) = known_command.get_mut(30..32) {
+        c.copy_from_slice(&16u16.to_le_bytes());
+    }
+    let frame_known = MavMessage::parse(mavlink::MavlinkVersion::V2, msgid, &known_command).is_ok();
+    Some(UnknownItem {
+        seq: u16::from_le_bytes([seq0, seq1]),
+        target_system: ts,
+        target_component: tc,
+        frame_known,
+        mission_type,
+    })
+}
+
+/// A message from a station: its header, the message and its `mission_type` (0 for
+/// messages without one).
+pub type Received = (StationId, MavHeader, MavMessage, u8);
 
 struct TcpPeer {
     stream: TcpStream,
@@ -133,6 +211,8 @@ pub struct Gcs {
     notes: u64,
     /// The origin of the local frame on the globe, once a ground station set it.
     pub origin: Option<super::geodesy::GlobalOrigin>,
+    /// Mission items received that this dialect cannot parse, to be answered.
+    pub unknown_items: Vec<(StationId, MavHeader, UnknownItem)>,
 }
 
 fn unix_us() -> u64 {
@@ -154,7 +234,23 @@ fn resolve(address: &str) -> Result<SocketAddr> {
 /// malformed. A garbage run counts once; a corrupted frame once (parsing resumes after its
 /// first byte).
 pub fn take_frames(bytes: &mut Vec<u8>, stream: bool) -> (Vec<(MavHeader, MavMessage)>, u64) {
+    let (msgs, items, bad) = take_all_frames(bytes, stream);
+    let msgs = msgs.into_iter().map(|(h, m, _)| (h, m)).collect();
+    (msgs, bad + items.len() as u64)
+}
+
+/// A frame taken: its header, the message, its `mission_type`.
+type Taken = (MavHeader, MavMessage, u8);
+
+/// [`take_frames`] with each message's `mission_type`, and the CRC-valid mission items
+/// whose frame or command this dialect does not know.
+fn take_all_frames(
+    bytes: &mut Vec<u8>,
+    stream: bool,
+) -> (Vec<Taken>, Vec<(MavHeader, UnknownItem)>, u64) {
+    use mavlink::Message;
     let mut out = Vec::new();
+    let mut items = Vec::new();
     let mut bad = 0;
     let mut i = 0;
     while i < bytes.len() {
@@ -180,9 +276,21 @@ pub fn take_frames(bytes: &mut Vec<u8>, stream: bool) -> (Vec<(MavHeader, MavMes
         match need {
             Some(need) if rest.len() >= need => {
                 let mut reader = mavlink::MavlinkReader::new(&rest[..need]);
-                match reader.read_any_message::<MavMessage>() {
-                    Ok(m) => {
-                        out.push(m);
+                match reader.read_any_raw_message::<MavMessage>() {
+                    Ok(raw) => {
+                        let header = MavHeader {
+                            system_id: raw.system_id(),
+                            component_id: raw.component_id(),
+                            sequence: raw.sequence(),
+                        };
+                        let (id, payload) = (raw.message_id(), raw.payload());
+                        match MavMessage::parse(raw.version(), id, payload) {
+                            Ok(m) => out.push((header, m, mission_type_of(id, payload))),
+                            Err(_) => match unknown_item(id, payload) {
+                                Some(item) => items.push((header, item)),
+                                None => bad += 1,
+                            },
+                        }
                         i += need;
                     }
                     Err(_) => {
@@ -200,7 +308,7 @@ pub fn take_frames(bytes: &mut Vec<u8>, stream: bool) -> (Vec<(MavHeader, MavMes
         }
     }
     bytes.drain(..i);
-    (out, bad)
+    (out, items, bad)
 }
 
 impl TcpPeer {
@@ -276,6 +384,7 @@ impl Gcs {
             stats: GcsStats::default(),
             notes: 0,
             origin: None,
+            unknown_items: Vec::new(),
         };
         for address in addresses {
             let (kind, host) = address.split_once(':').ok_or_else(|| {
@@ -351,8 +460,13 @@ impl Gcs {
             .map(|t| t.elapsed())
     }
 
+    /// Our MAVLink system id.
+    pub fn system_id(&self) -> u8 {
+        self.system_id
+    }
+
     /// A line on stderr, the first [`MAX_NOTES`] of them.
-    fn note(&mut self, text: &str) {
+    pub fn note(&mut self, text: &str) {
         self.notes += 1;
         if self.notes <= MAX_NOTES {
             eprintln!("topside: {text}");
@@ -393,6 +507,43 @@ impl Gcs {
     /// requests, refusals of its commands).
     pub fn send_to(&mut self, station: StationId, msg: MavMessage) -> Result<()> {
         self.send_where(msg, Some(station))
+    }
+
+    /// To one station, a mission message with its `mission_type` (`MISSION_ACK`,
+    /// `MISSION_COUNT`, `MISSION_REQUEST_INT`): the extension byte appended to the payload
+    /// and the frame's length and checksum made again (the crate's CRC).
+    pub fn send_typed(
+        &mut self,
+        station: StationId,
+        msg: MavMessage,
+        mission_type: u8,
+    ) -> Result<()> {
+        use mavlink::Message;
+        let id = msg.message_id();
+        let Some(&(_, at)) = MISSION_TYPE_AT.iter().find(|(m, _)| *m == id) else {
+            return self.send_to(station, msg);
+        };
+        if mission_type == 0 {
+            return self.send_to(station, msg);
+        }
+        let frame = self.frame(&msg)?;
+        // MAVLink 2: magic, 9 header bytes (len at 1), payload, 2 CRC.
+        let len = usize::from(*frame.get(1).ok_or_else(|| anyhow!("empty frame"))?);
+        let mut payload = frame.get(10..10 + len).unwrap_or_default().to_vec();
+        payload.resize(at, 0);
+        payload.push(mission_type);
+        let mut out = frame.get(..10).unwrap_or_default().to_vec();
+        if let Some(l) = out.get_mut(1) {
+            *l = payload.len() as u8;
+        }
+        out.extend_from_slice(&payload);
+        let crc =
+            mavlink::calculate_crc(out.get(1..).unwrap_or_default(), MavMessage::extra_crc(id));
+        out.extend_from_slice(&crc.to_le_bytes());
+        let to = |s: StationId| s == station;
+        let sent: u64 = self.conns.iter_mut().map(|c| c.send(&out, to)).sum();
+        self.stats.sent += sent;
+        Ok(())
     }
 
     fn send_where(&mut self, msg: MavMessage, only: Option<StationId>) -> Result<()> {
@@ -445,7 +596,7 @@ impl Gcs {
         station: StationId,
         bytes: &mut Vec<u8>,
         stream: bool,
-        out: &mut Vec<(StationId, MavHeader, MavMessage)>,
+        out: &mut Vec<Received>,
     ) -> Result<()> {
         if let Some(s) = self.stations.get_mut(station) {
             s.1 = Some(Instant::now());
@@ -456,7 +607,7 @@ impl Gcs {
             self.note(&what);
             return Ok(());
         }
-        let (msgs, bad) = take_frames(bytes, stream);
+        let (msgs, items, bad) = take_all_frames(bytes, stream);
         if bad > 0 {
             self.stats.malformed += bad;
             let what = format!(
@@ -465,10 +616,12 @@ impl Gcs {
             );
             self.note(&what);
         }
-        for (header, msg) in msgs {
+        for (header, msg, mission_type) in msgs {
             self.log(header, &msg)?;
-            out.push((station, header, msg));
+            out.push((station, header, msg, mission_type));
         }
+        self.unknown_items
+            .extend(items.into_iter().map(|(h, item)| (station, h, item)));
         Ok(())
     }
 
@@ -477,7 +630,7 @@ impl Gcs {
     /// control period, so that one station flooding (a `MANUAL_CONTROL` storm) neither stalls
     /// the tether loop nor crowds out another. No input is an error: what cannot be read is
     /// noted, counted and dropped; a closed TCP station is dropped and a new one accepted.
-    pub fn poll(&mut self) -> Result<Vec<(StationId, MavHeader, MavMessage)>> {
+    pub fn poll(&mut self) -> Result<Vec<Received>> {
         let mut out = Vec::new();
         let mut conns = std::mem::take(&mut self.conns);
         for conn in &mut conns {

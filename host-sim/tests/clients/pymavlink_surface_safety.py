@@ -64,10 +64,25 @@ class Sticks:
         self.t.join()
 
 
+TEXTS = {}
+
+
 def command(m, cmd, *params, target=(1, 1), timeout=5.0):
+    """The COMMAND_ACK of `cmd`; the status texts meanwhile kept for `text`."""
     p = list(params) + [0] * (7 - len(params))
     m.mav.command_long_send(target[0], target[1], cmd, 0, *p)
-    return wait(m, "COMMAND_ACK", timeout, lambda a: a.command == cmd)
+    end = time.time() + timeout
+    while time.time() < end:
+        msg = m.recv_match(type=["COMMAND_ACK", "STATUSTEXT"], blocking=True,
+                           timeout=max(0.02, end - time.time()))
+        if msg is None:
+            continue
+        if msg.get_type() == "STATUSTEXT":
+            TEXTS.setdefault(id(m), []).append(msg)
+            print(f"TEXT: {msg.text}", flush=True)
+        elif msg.command == cmd:
+            return msg
+    return None
 
 
 def set_mode(m, mode, target=(1, 1), timeout=5.0):
@@ -121,6 +136,12 @@ def param_set(m, name, value, target=(1, 1), timeout=3.0):
 
 
 def text(m, needle, timeout=3.0):
+    """A status text with `needle`, among those kept while waiting for an ACK or new."""
+    kept = TEXTS.get(id(m), [])
+    for i, t in enumerate(kept):
+        if needle in t.text:
+            del kept[: i + 1]
+            return t
     return wait(m, "STATUSTEXT", timeout, lambda s: needle in s.text)
 
 
@@ -129,25 +150,38 @@ def check_target(port):
     kp = param(m, "TRK_XY_KP")
     expect(kp is not None, f"TRK_XY_KP reads {kp}")
     for target in ((2, 1), (1, 5)):
+        p = param_set(m, "TRK_XY_KP", kp * 2, target=target, timeout=1.5)
+        expect(p is None, f"PARAM_SET to {target} is not answered ({p})")
         ack = set_mode(m, MANUAL, target=target, timeout=1.5)
         expect(ack is None, f"DO_SET_MODE to {target} is not answered ({ack})")
         ack = arm(m, target=target, timeout=1.5)
         expect(ack is None, f"ARM to {target} is not answered ({ack})")
-        p = param_set(m, "TRK_XY_KP", kp * 2, target=target, timeout=1.5)
-        expect(p is None, f"PARAM_SET to {target} is not answered ({p})")
-        m.mav.set_mode_send(target[0], mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, MANUAL)
-        for _ in range(50):
-            m.mav.manual_control_send(target[0], 1000, 0, 500, 0, 0)
-            time.sleep(0.02)
     hb = heartbeat(m)
     expect(hb is not None and not armed(hb), "the vehicle is not armed")
-    expect(hb.custom_mode != MANUAL, f"the mode is not MANUAL ({hb.custom_mode})")
     expect(param(m, "TRK_XY_KP") == kp, "TRK_XY_KP unchanged")
-    # Broadcast (0) is for every system.
-    ack = set_mode(m, MANUAL, target=(0, 0))
-    expect(accepted(ack), "DO_SET_MODE broadcast (0, 0) is obeyed")
-    t = text(m, "addressed", timeout=0.1)
-    print(f"SUMMARY: {t.text if t else ''}")
+    # Armed in MANUAL by commands to us (broadcast 0 is for every system), the sticks at rest:
+    # full ahead addressed to system 2 gives no thrust, and a disarm to system 2 is ignored.
+    expect(accepted(set_mode(m, MANUAL, target=(0, 0))), "DO_SET_MODE broadcast (0, 0) is obeyed")
+    s = Sticks(m)
+    try:
+        time.sleep(0.3)
+        expect(accepted(arm(m)), "armed with the sticks at rest")
+        time.sleep(0.3)
+        s.on = False
+        end = time.time() + 1.0
+        while time.time() < end:
+            m.mav.manual_control_send(2, 1000, 0, 500, 0, 0)
+            time.sleep(0.02)
+        s.on = True
+        seen, _ = pulses(m, 0.5)
+        expect(seen and not any(away(p) for p in seen),
+               f"MANUAL_CONTROL to system 2: 0 pulses away from neutral ({len(seen)} samples)")
+        ack = arm(m, 0, target=(2, 1), timeout=1.5)
+        hb = heartbeat(m)
+        expect(ack is None and hb is not None and armed(hb), "a disarm to system 2 is ignored")
+    finally:
+        s.close()
+    expect(accepted(arm(m, 0)), "disarmed")
 
 
 def check_sticks(port):
@@ -173,6 +207,7 @@ def check_sticks(port):
         s.x = 0
         time.sleep(0.5)
         expect(accepted(arm(m)), "with the sticks centred, arming is accepted")
+        time.sleep(0.3)
         s.x = 1000
         seen, _ = pulses(m, 1.5)
         ahead = [p for p in seen if p.servo1_raw > NEUTRAL_US + DEADBAND_US]
@@ -205,6 +240,7 @@ def check_handover(port_a, port_b):
     sa, sb = Sticks(a), Sticks(b)
     try:
         expect(accepted(arm(a)), "A arms (sticks centred)")
+        time.sleep(0.3)
         sa.x, sb.x = 1000, -1000
         seen, _ = pulses(a, 1.5)
         expect(sum(p.servo1_raw > NEUTRAL_US + DEADBAND_US for p in seen) >= 3, "A flies full ahead")
@@ -300,6 +336,7 @@ def check_dive(port):
     s = Sticks(m)
     try:
         expect(accepted(arm(m)), "armed")
+        time.sleep(0.3)
         s.x = 800
         seen, _ = pulses(m, 1.0)
         expect(any(p.servo1_raw > NEUTRAL_US + DEADBAND_US for p in seen), "flying ahead")
