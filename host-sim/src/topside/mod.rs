@@ -41,20 +41,10 @@
 //! Several ground stations: all see everything, one commands (`commander`: the first to
 //! command, the one that armed, or the one granted `CHANGE_OPERATOR_CONTROL` with the
 //! passkey `CTRL_PASSKEY`; anyone may disarm). No input from a ground station ends the
-//! topside (`transport`). A message addressed to another system or component (its
-//! `target_system` not ours and not 0, or its `target_component` not 1 and not 0) is
-//! ignored, as ArduPilot does, and counted (`SYS_STATUS` `errors_count2`).
-//!
-//! The pilot's sticks: before an arm in a stick mode the latest sticks go to the vehicle
-//! (whose own check refuses off-centre sticks) and the topside itself refuses to arm while
-//! they are off centre ([`STICK_CENTRED`]), saying so. After any arm, mode change or change
-//! of commander the vehicle is sent centred sticks until the commander's sticks have been
-//! seen at centre: a stick held through the change gives no thrust.
-//!
-//! The vehicle: a telemetry frame out of range is refused (`vehicle::check_telemetry`,
-//! counted in `SYS_STATUS` `errors_count1`, said once a second at most); a silent vehicle
-//! is said to be silent, its commands refused at once, the heartbeats to it and to the
-//! ground stations go on, and it is said when it answers again. Refused inputs
+//! topside (`transport`). What is refused or held back before it reaches the vehicle
+//! (messages for another system, arming with a stick held, thrust before a centred stick
+//! after an arm, mode change or change of commander) and what is not believed from it is in
+//! `guard`. Refused inputs
 //! are answered (`COMMAND_ACK` / `MISSION_ACK` / `PARAM_VALUE`) with a `STATUSTEXT` reason:
 //! `ARM_DISARM` with param1 other than 1 or 0, `DO_SET_MODE` with param2 not a whole mode
 //! number, GUIDED targets outside the surface..100 m / 1 km box, `VEH_PWM_NEUTRAL`.
@@ -68,7 +58,9 @@
 
 mod calibration;
 mod commander;
+mod frames;
 mod geodesy;
+mod guard;
 mod logs;
 mod missions;
 pub mod params;
@@ -79,6 +71,7 @@ mod vehicle;
 
 pub use commander::{Commander, Verdict, COMMANDER_SILENCE};
 pub use geodesy::{item_position, GlobalOrigin};
+pub use guard::{sticks_centred, STICK_CENTRED};
 pub use logs::{open_logs, utc_stamp};
 pub use missions::MISSION_MAX_ITEMS;
 pub use start::{main, TopsideArgs};
@@ -98,19 +91,6 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 use transport::Gcs;
 use vehicle::SimVehicle;
-
-/// Largest stick deflection that counts as centred (fraction of full scale): the vehicle's.
-pub const STICK_CENTRED: f32 = firmware::autopilot::STICK_CENTRED;
-
-/// Are all three sticks centred?
-pub fn sticks_centred(m: &ManualThrust) -> bool {
-    [m.surge, m.yaw, m.heave]
-        .iter()
-        .all(|v| v.abs() <= STICK_CENTRED)
-}
-
-/// Our MAVLink component id (`MAV_COMP_ID_AUTOPILOT1`).
-const COMPONENT_ID: u8 = 1;
 
 /// A `MANUAL_CONTROL` older than this (wall clock) is no longer forwarded.
 pub const MANUAL_CONTROL_TIMEOUT: Duration = Duration::from_millis(500);
@@ -349,45 +329,6 @@ impl Topside {
         Ok(())
     }
 
-    /// Every control period: the vehicle's silence and refused frames said to the operator;
-    /// once a second, the saved parameters it has not taken yet tried again.
-    fn watch_vehicle(&mut self, every_second: bool) -> Result<()> {
-        let silent_for = self.v.silent_for();
-        let silent = silent_for >= vehicle::VEHICLE_SILENCE;
-        if silent != self.vehicle_silent {
-            self.vehicle_silent = silent;
-            let (severity, text) = if silent {
-                (
-                    MavSeverity::MAV_SEVERITY_CRITICAL,
-                    format!(
-                        "Vehicle silent for {:.1} s: commands refused until it answers; \
-                         heartbeats go on",
-                        silent_for.as_secs_f64()
-                    ),
-                )
-            } else {
-                (
-                    MavSeverity::MAV_SEVERITY_INFO,
-                    "Vehicle answers again".to_string(),
-                )
-            };
-            eprintln!("topside: {text}");
-            self.gcs.text(severity, &text)?;
-        }
-        if every_second && self.v.frames_refused > self.refusals_said {
-            let n = self.v.frames_refused - self.refusals_said;
-            self.refusals_said = self.v.frames_refused;
-            let why = self.v.last_refusal.clone().unwrap_or_default();
-            let text = format!("Vehicle frames refused: {n} ({why})");
-            eprintln!("topside: {text}");
-            self.gcs.text(MavSeverity::MAV_SEVERITY_WARNING, &text)?;
-        }
-        if every_second && !silent {
-            self.pending.retry(&mut self.v, &mut self.gcs)?;
-        }
-        Ok(())
-    }
-
     /// One message from `station`: ignored if addressed to another system or component,
     /// else arbitrated, then handled.
     fn on_message(
@@ -397,22 +338,7 @@ impl Topside {
         msg: MavMessage,
         mission_type: u8,
     ) -> Result<()> {
-        use mavlink::Message;
-        let ours = self.gcs.system_id();
-        let not_ours = msg.target_system_id().is_some_and(|t| t != 0 && t != ours)
-            || msg
-                .target_component_id()
-                .is_some_and(|c| c != 0 && c != COMPONENT_ID);
-        if not_ours {
-            self.gcs.stats.not_ours += 1;
-            let what = format!(
-                "{}: {} addressed to {}/{} ignored (we are {ours}/{COMPONENT_ID})",
-                self.gcs.label(station),
-                msg.message_name(),
-                msg.target_system_id().unwrap_or(0),
-                msg.target_component_id().unwrap_or(0)
-            );
-            self.gcs.note(&what);
+        if self.addressed_elsewhere(station, &msg) {
             return Ok(());
         }
         let before = self.commander.holder();
@@ -444,42 +370,6 @@ impl Topside {
             self.handle(station, msg)?;
         }
         Ok(())
-    }
-
-    /// A mission item this dialect cannot parse: ignored if addressed elsewhere, refused for
-    /// a station not in control, else answered by the mission protocol.
-    fn on_unknown_item(
-        &mut self,
-        station: StationId,
-        header: MavHeader,
-        item: transport::UnknownItem,
-    ) -> Result<()> {
-        let ours = self.gcs.system_id();
-        if (item.target_system != 0 && item.target_system != ours)
-            || (item.target_component != 0 && item.target_component != COMPONENT_ID)
-        {
-            self.gcs.stats.not_ours += 1;
-            return Ok(());
-        }
-        if let Some(holder) = self.commander.holder().filter(|&h| h != station) {
-            let why = format!(
-                "{} has control (CHANGE_OPERATOR_CONTROL to take it)",
-                self.gcs.label(holder)
-            );
-            let peer = (
-                station,
-                u8::try_from(header.system_id).unwrap_or(u8::MAX),
-                header.component_id,
-            );
-            return Missions::deny(
-                &mut self.gcs,
-                peer,
-                MavMissionResult::MAV_MISSION_DENIED,
-                &why,
-            );
-        }
-        self.missions
-            .unknown_item(&mut self.gcs, station, header, item)
     }
 
     /// A command from a station not in control: refused with the reason, nothing changes.
@@ -539,35 +429,6 @@ impl Topside {
             }
             _ => gcs.text_to(station, warn, &format!("Refused: {why}")),
         }
-    }
-
-    /// Before an arm in a stick mode: the commander's latest sticks (if fresh) go to the
-    /// vehicle, whose own check refuses off-centre sticks; off centre here, the arm is
-    /// refused with the reason.
-    fn sticks_refuse_arming(&mut self) -> Result<Option<String>> {
-        let stick_mode = matches!(
-            self.v.tel.mode,
-            Mode::Manual | Mode::Stabilize | Mode::DepthHold | Mode::Idle
-        );
-        let fresh = self
-            .manual_at
-            .is_some_and(|at| at.elapsed() < MANUAL_CONTROL_TIMEOUT);
-        if !(stick_mode && fresh) {
-            return Ok(None);
-        }
-        let m = self.manual;
-        // The sticks are not acknowledged: sent, and one control period run so that the
-        // vehicle holds them before the arm (its own check runs then).
-        self.v.send(&Command::ManualThrust(m))?;
-        self.v.step()?;
-        if sticks_centred(&m) {
-            return Ok(None);
-        }
-        Ok(Some(format!(
-            "Arming refused: sticks not centred (surge {:+.2}, yaw {:+.2}, heave {:+.2}; \
-             centred is within {STICK_CENTRED}): centre them first",
-            m.surge, m.yaw, m.heave
-        )))
     }
 
     fn refuse(&mut self, station: StationId, cmd: MavCmd, why: &str) -> Result<()> {

@@ -256,12 +256,13 @@ def check_handover(port_a, port_b):
         c = wait(b, "CHANGE_OPERATOR_CONTROL_ACK", 3)
         t0 = time.time()
         expect(c is not None and c.ack == 0, f"B with the passkey: granted ({c.ack if c else None})")
-        seen, texts = pulses(a, 1.0 - (time.time() - t0))
+        # On B's connection: what was sent after the grant (A's holds older samples).
+        seen, _ = pulses(b, 1.0 - (time.time() - t0))
         bad = [p for p in seen if away(p)]
         expect(len(seen) >= 3 and not bad,
                f"B's full astern: 0 pulses away from neutral within 1 s ({len(bad)} of {len(seen)})")
-        told = [t for t in texts if "Control" in t]
-        expect(told, f"A is told: {told}")
+        told = text(a, "Control taken", 2.0)
+        expect(told is not None, f"A is told: {told.text if told else None!r}")
         sb.x = 0
         time.sleep(0.3)
         sb.x = -1000
