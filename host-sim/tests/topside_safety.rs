@@ -176,7 +176,33 @@ fn a_restart_mid_dive_with_the_saved_file_flies_again_within_5_s() {
         .to_string();
     assert!(params.exists(), "the accepted change was saved");
 
+    // The ground station is there before the restart, as an operator's is.
     let port = free_udp_port();
+    let mut resume = Command::new("python3")
+        .arg(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tests/clients/pymavlink_surface_safety.py"
+        ))
+        .args(["resume", &port.to_string(), &kp])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdout = resume.stdout.take().unwrap();
+    let mut ready = String::new();
+    let end = Instant::now() + Duration::from_secs(60);
+    while !ready.contains("READY") && Instant::now() < end {
+        let n = stdout.read(&mut buf).unwrap();
+        if n == 0 {
+            break;
+        }
+        ready.push_str(&String::from_utf8_lossy(&buf[..n]));
+    }
+    assert!(
+        ready.contains("READY"),
+        "the resuming station did not start: {ready}"
+    );
     let t0 = SystemTime::now()
         .duration_since(UNIX_EPOCH)
         .unwrap()
@@ -188,14 +214,19 @@ fn a_restart_mid_dive_with_the_saved_file_flies_again_within_5_s() {
         &params,
         &["--duration", "300"],
     );
-    let out = Command::new("python3")
-        .arg(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/tests/clients/pymavlink_surface_safety.py"
-        ))
-        .args(["resume", &port.to_string(), &format!("{t0}"), &kp])
-        .output()
+    resume
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(format!("{t0}\n").as_bytes())
         .unwrap();
+    let mut rest = String::new();
+    stdout.read_to_string(&mut rest).unwrap();
+    let out = resume.wait_with_output().unwrap();
+    let out = std::process::Output {
+        stdout: (ready + &rest).into_bytes(),
+        ..out
+    };
     stop(second);
     let stdout = String::from_utf8_lossy(&out.stdout).to_string();
     println!("{stdout}{}", String::from_utf8_lossy(&out.stderr));

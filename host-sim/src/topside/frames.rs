@@ -157,3 +157,41 @@ pub(super) fn take_all_frames(
     bytes.drain(..i);
     (out, items, bad)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mavlink::dialects::ardupilotmega::{MavCmd, MavFrame, MISSION_ITEM_INT_DATA};
+
+    #[test]
+    fn mission_type_is_read_past_the_base_fields_and_an_unknown_command_is_kept() {
+        assert_eq!(mission_type_of(45, &[1, 1]), 0);
+        assert_eq!(mission_type_of(45, &[1, 1, 1]), 1);
+        assert_eq!(mission_type_of(44, &[3, 0, 1, 1, 2]), 2);
+        assert_eq!(mission_type_of(0, &[9, 9, 9, 9, 9]), 0);
+        // A MISSION_ITEM_INT with command 64999 (none of this dialect's): CRC-valid, kept.
+        let item = MavMessage::MISSION_ITEM_INT(MISSION_ITEM_INT_DATA {
+            seq: 7,
+            command: MavCmd::MAV_CMD_NAV_WAYPOINT,
+            frame: MavFrame::MAV_FRAME_LOCAL_NED,
+            target_system: 1,
+            target_component: 1,
+            ..Default::default()
+        });
+        let mut frame = Vec::new();
+        mavlink::write_v2_msg(&mut frame, MavHeader::default(), &item).unwrap();
+        // The payload starts after 10 bytes; the command sits at payload offset 30.
+        frame[10 + 30..10 + 32].copy_from_slice(&64999u16.to_le_bytes());
+        let n = frame.len();
+        let crc = mavlink::calculate_crc(&frame[1..n - 2], {
+            use mavlink::Message;
+            MavMessage::extra_crc(73)
+        });
+        frame[n - 2..].copy_from_slice(&crc.to_le_bytes());
+        let (msgs, items, bad) = take_all_frames(&mut frame, false);
+        assert_eq!((msgs.len(), bad), (0, 0));
+        assert_eq!(items.len(), 1);
+        let it = items[0].1;
+        assert_eq!((it.seq, it.frame_known, it.mission_type), (7, true, 0));
+    }
+}

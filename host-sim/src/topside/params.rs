@@ -475,6 +475,29 @@ mod tests {
     }
 
     #[test]
+    fn the_passkey_is_a_whole_number_and_0_means_no_takeover() {
+        let mut s = Settings::new(VehicleParams::OBSERVER);
+        assert_eq!(s.passkey(), None);
+        s.control_passkey = 4321.0;
+        s.check(Group::Control).unwrap();
+        assert_eq!(s.passkey().as_deref(), Some("4321"));
+        for bad in [0.5, -1.0, 1e6, f32::NAN] {
+            s.control_passkey = bad;
+            assert!(s.check(Group::Control).is_err(), "{bad}");
+        }
+        assert_eq!(
+            group(&PARAMS[find("CTRL_PASSKEY").unwrap().0]),
+            Group::Control
+        );
+        let (a, mut b) = (
+            Settings::new(VehicleParams::OBSERVER),
+            Settings::new(VehicleParams::OBSERVER),
+        );
+        b.vehicle.mass_kg += 1.0;
+        assert!(a.same_group(&b, Group::Tracking) && !a.same_group(&b, Group::Vehicle));
+    }
+
+    #[test]
     fn every_parameter_reads_back_what_was_written() {
         let mut g = Settings::new(VehicleParams::OBSERVER);
         for (i, p) in PARAMS.iter().enumerate() {

@@ -18,7 +18,9 @@
 //!
 //! Every telemetry frame is checked before it is believed ([`check_telemetry`]): finite
 //! values in physical ranges, pulse widths an ESC can be sent, at most a mission's waypoints
-//! reached; a frame out of range is refused whole (the last good one stays) and counted. A
+//! reached; in a frame out of range no number is believed (the last good ones stay; the armed
+//! flag, the mode and the fault flags, bounded by their types, are still shown) and it is
+//! counted. A
 //! vehicle that says nothing for [`VEHICLE_SILENCE`] is silent: its commands are refused at
 //! once (`Refusal::Silent`) instead of waited for, and a command it leaves unanswered is a
 //! refusal, never the end of the topside.
@@ -576,11 +578,47 @@ impl SimVehicle {
                 Err(why) => {
                     self.frames_refused += 1;
                     self.last_refusal = Some(why);
+                    // What every frame says in values its type bounds (armed, the mode, the
+                    // fault flags) is still shown; the numbers stay the last good ones.
+                    self.tel.armed = t.armed;
+                    self.tel.mode = t.mode;
+                    self.tel.faults = t.faults;
+                    self.tel.t_us = t.t_us;
                 }
             }
         }
         self.t_s = t_s;
         self.periods += 1;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn telemetry_out_of_range_is_named_and_a_plain_frame_passes() {
+        let good = Telemetry {
+            pulse_us: [1500; 3],
+            ..Telemetry::default()
+        };
+        assert_eq!(check_telemetry(&good), Ok(()));
+        let mut t = good;
+        t.mission_reached = u16::MAX;
+        assert!(check_telemetry(&t).unwrap_err().contains("65535 waypoints"));
+        let mut t = good;
+        t.nav.x_m = f32::NAN;
+        assert!(check_telemetry(&t).unwrap_err().contains("not finite"));
+        let mut t = good;
+        t.pulse_us = [1500, u16::MAX, 1500];
+        assert!(check_telemetry(&t).unwrap_err().contains("pulse"));
+        let mut t = good;
+        t.nav.z_m = 5_000.0;
+        assert!(check_telemetry(&t).unwrap_err().contains("position"));
+        // An output off (0 us) is a pulse an ESC can be sent.
+        let mut t = good;
+        t.pulse_us = [0; 3];
+        assert_eq!(check_telemetry(&t), Ok(()));
     }
 }

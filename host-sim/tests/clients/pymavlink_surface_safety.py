@@ -15,8 +15,9 @@ CHECK is one of:
   full ahead against full astern reverse no thruster; anyone may disarm.
 - `dive PORT`: arms in MANUAL, flies ahead, sets TRK_XY_KP (saved), and keeps flying (the test
   kills the surface program mid-dive).
-- `resume PORT T0 KP`: after a restart at UNIX time T0: a heartbeat, TRK_XY_KP = KP restored,
-  MANUAL and arming accepted, each within 5 s of T0, and no thrust before a stick asks.
+- `resume PORT KP`: the ground station already listening (it prints READY), the surface
+  program restarted at the UNIX time read from stdin: a heartbeat, TRK_XY_KP = KP restored,
+  MANUAL and arming accepted, each within 5 s of that time, and no thrust before a stick asks.
 
 A pulse is "away from neutral" when it is more than the ESC's dead band (25 us) from 1500 us.
 """
@@ -347,8 +348,10 @@ def check_dive(port):
         s.close()
 
 
-def check_resume(port, t0, kp):
+def check_resume(port, kp):
     m = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=255)
+    print("READY", flush=True)
+    t0 = float(sys.stdin.readline())
     hb = m.wait_heartbeat(timeout=10)
     t_hb = time.time() - t0
     expect(hb is not None, f"a HEARTBEAT {t_hb:.2f} s after the restart")
@@ -455,7 +458,7 @@ def main():
     elif check == "dive":
         check_dive(int(args[0]))
     elif check == "resume":
-        check_resume(int(args[0]), float(args[1]), float(args[2]))
+        check_resume(int(args[0]), float(args[1]))
     else:
         raise SystemExit(f"unknown check {check}")
 
