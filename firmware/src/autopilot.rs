@@ -938,3 +938,6 @@ mod tests {
         }
     }
 }
+
+#[cfg(test)]
+mod tests_sticks;

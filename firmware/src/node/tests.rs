@@ -170,6 +170,14 @@ impl Bench {
         self.send_raw(&f);
     }
 
+    /// Send a downlink with the next sequence number and return its bytes (a recording).
+    fn send_recorded(&mut self, d: Downlink) -> Vec<u8> {
+        self.seq = self.seq.wrapping_add(1);
+        let f = encode_frame_for_tests(NODE_LINK_VERSION, self.seq, &d);
+        self.send_raw(&f);
+        f
+    }
+
     /// Neutral, then armed with `pulse_us`.
     fn arm(&mut self, pulse_us: [u16; 3]) {
         self.send(cmd([ESC_NEUTRAL_US; 3], 100, ArmCommand::Disarmed));
@@ -533,4 +541,25 @@ fn duty_is_the_pulse_over_the_period() {
     assert_eq!(duty_for_pulse_us(1500, 20_000, 65_535), 4915); // 4915.1
     assert_eq!(duty_for_pulse_us(1900, 2_500, 1_000), 760);
     assert_eq!(duty_for_pulse_us(u16::MAX, 20_000, 20_000), 20_000);
+}
+
+#[test]
+fn a_downlink_replayed_at_any_distance_is_refused() {
+    let genuine = [1600, 1500, 1500];
+    for distance in [1u32, 1_000, 0x7fff, 0x8000, 0x8001, 0xffff, 0x1_0000, 0x1_8000] {
+        let mut b = Bench::new();
+        b.arm(PULSES);
+        let recorded = b.send_recorded(cmd([1900, 1100, 1900], 100, ArmCommand::Armed));
+        for _ in 0..distance {
+            b.send(cmd(genuine, 100, ArmCommand::Armed));
+        }
+        let before = b.node.counters();
+        b.send_raw(&recorded);
+        assert_eq!(b.out(), genuine, "replayed {distance} frames later");
+        assert_eq!(b.node.counters().replayed, before.replayed + 1, "{distance}");
+        assert_eq!(b.node.counters().accepted, before.accepted, "{distance}");
+        // The genuine topside's next frame is still taken.
+        b.send(cmd([1700, 1500, 1500], 100, ArmCommand::Armed));
+        assert_eq!(b.out(), [1700, 1500, 1500], "{distance}");
+    }
 }
