@@ -5,6 +5,7 @@
 
 use super::*;
 use crate::protocol::{Command, ManualThrust, Mode, NackReason, NavSample};
+use controller_core::alloc::ESC_NEUTRAL_US;
 use controller_core::controller::Gains;
 use controller_core::params::Vehicle;
 
@@ -97,7 +98,10 @@ fn a_stick_held_at_an_arming_without_stick_state_gives_no_thrust_until_centred()
     // 1 s of full ahead: neutral throughout (the stick counts as centred).
     assert_eq!(fly(&mut a, &mut t, &mut seq, &ahead, 100), 0.0);
     // Centred once, then ahead: thrust.
-    assert_eq!(fly(&mut a, &mut t, &mut seq, &sticks(0.0, 0.0, 0.0), 1), 0.0);
+    assert_eq!(
+        fly(&mut a, &mut t, &mut seq, &sticks(0.0, 0.0, 0.0), 1),
+        0.0
+    );
     assert!(fly(&mut a, &mut t, &mut seq, &ahead, 5) > 300.0);
 }
 
