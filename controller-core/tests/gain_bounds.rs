@@ -16,6 +16,7 @@ fn velocity_gains() -> [(&'static str, Setter); 2] {
 
 #[test]
 fn a_velocity_gain_of_999_or_1e_30_is_refused_naming_its_range() {
+    assert_eq!(Gains::default().validate(), Ok(()));
     for (name, set) in velocity_gains() {
         for v in [999.0, 1.0e-30] {
             let mut g = Gains::default();

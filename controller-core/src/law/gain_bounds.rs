@@ -26,9 +26,7 @@
 //!   drifting; a rate gain of 1e-30 with an integral leaves it unstable: `k_i > k_p k_d`).
 //!
 //! The nonlinear gains (the paper laws' cubic and quartic terms) and the lengths and limits
-//! (`hand_m`, `error_limit_m`, ...) keep their own checks and [`MAX_GAIN`].
-//!
-//! [`MAX_GAIN`]: crate::controller::MAX_GAIN
+//! (`hand_m`, `error_limit_m`, ...) keep their own checks and the controller's `MAX_GAIN`.
 
 use crate::error::Error;
 use crate::law::paper_xy::PaperXyGains;

@@ -26,8 +26,10 @@ fn sticks(surge: f32, yaw: f32, heave: f32) -> Command {
 fn keep_alive(a: &mut Autopilot, t: u64, seq: &mut u16) {
     *seq = seq.wrapping_add(1);
     assert_eq!(a.handle(t, *seq, &Command::Heartbeat { t_us: t }), Ok(()));
-    let mut state = NavState::default();
-    state.z_m = 2.0;
+    let state = NavState {
+        z_m: 2.0,
+        ..NavState::default()
+    };
     *seq = seq.wrapping_add(1);
     let nav = Command::Nav(NavSample { t_us: t, state });
     assert_eq!(a.handle(t, *seq, &nav), Ok(()));
