@@ -29,10 +29,10 @@
 //! | after 250 ms without a valid uplink | the next uplink's sequence is taken whatever it is (a node restarted by its watchdog counts from 0) | |
 
 use crate::node_link::{
-    check_link_period, default_link_period_us, seal, seq_newer, status, wire_time_us, ArmCommand,
-    Downlink, LinkDecoder, LinkFrame, LinkPeriodError, NodeCounters, Uplink, ESC_MAX_US,
-    ESC_MIN_US, ESC_NEUTRAL_US, LINK_BAUD, LINK_PERIOD_US, MAX_DOWNLINK_FRAME_LEN, MAX_TTL_MS,
-    MAX_UPLINK_FRAME_LEN,
+    check_link_period, default_link_period_us, low_16, seal, seq_newer, status, wire_time_us,
+    ArmCommand, Downlink, LinkDecoder, LinkFrame, LinkPeriodError, NodeCounters, Uplink,
+    ESC_MAX_US, ESC_MIN_US, ESC_NEUTRAL_US, LINK_BAUD, LINK_PERIOD_US, MAX_DOWNLINK_FRAME_LEN,
+    MAX_TTL_MS, MAX_UPLINK_FRAME_LEN,
 };
 use crate::protocol::{DropReason, MAX_FRAME_LEN};
 use crate::sensors::Sensors;
@@ -307,7 +307,8 @@ pub struct TopsideLink<'a, S> {
     tx_buf: [u8; MAX_FRAME_LEN],
     tx_sent: usize,
     tx_len: usize,
-    tx_seq: u16,
+    /// The latest downlink's sequence (`u64`, from 1, never wrapping).
+    tx_seq: u64,
     next_downlink_us: u64,
     last_uplink_us: Option<u64>,
     last_up_seq: Option<u16>,
@@ -497,8 +498,11 @@ where
         } else {
             b.pulses_us()
         };
+        let seq = self.tx_seq.saturating_add(1);
+        self.tx_seq = seq;
         let cmd = Downlink {
             session: self.config.session,
+            seq,
             pulse_us,
             ttl_ms: self.config.ttl_ms.clamp(1, MAX_TTL_MS),
             arm: if armed {
@@ -508,11 +512,9 @@ where
             },
             t_us: now as u32,
         };
-        let seq = self.tx_seq.wrapping_add(1);
-        self.tx_seq = seq;
         self.next_downlink_us = now.saturating_add(u64::from(self.config.link_period_us));
         // A frame still going out is cut short: the node drops it and takes this one.
-        (self.tx_sent, self.tx_len) = match seal(seq, &cmd, &mut self.tx_buf) {
+        (self.tx_sent, self.tx_len) = match seal(low_16(seq), &cmd, &mut self.tx_buf) {
             Ok(f) => (0, f.len()),
             Err(_) => (0, 0),
         };

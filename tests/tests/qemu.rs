@@ -196,6 +196,8 @@ fn emulated_board_boots_and_answers_in_lockstep() {
 
     link.expect_ack(&Command::Arm);
     link.expect_ack(&Command::SetMode(Mode::Manual));
+    // The sticks seen at centre since the change of mode: the push acts.
+    link.send(&Command::ManualThrust(ManualThrust::default()));
     let push = ManualThrust {
         surge: 0.5,
         yaw: 0.2,

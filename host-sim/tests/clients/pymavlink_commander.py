@@ -88,6 +88,11 @@ def main():
             m.mav.manual_control_send(m.target_system, x if time.time() - t0 > 0.3 else 0, 0, 500, 0, 0)
             time.sleep(0.02)
 
+    # A's sticks seen at centre first: after an arming or a change of mode a stick acts
+    # only once the vehicle has seen the sticks centred.
+    for _ in range(15):
+        a.mav.manual_control_send(a.target_system, 0, 0, 500, 0, 0)
+        time.sleep(0.02)
     threads = [threading.Thread(target=sticks, args=(a, 1000)),
                threading.Thread(target=sticks, args=(b, -1000))]
     for t in threads:

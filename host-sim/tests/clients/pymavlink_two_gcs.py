@@ -47,6 +47,11 @@ def main():
     a, _ = ack(pilot, mav.MAV_CMD_COMPONENT_ARM_DISARM)
     expect(a is not None and a.result == mav.MAV_RESULT_ACCEPTED, "the pilot arms")
 
+    # The sticks seen at centre first: after an arming a stick acts only once the vehicle
+    # has seen the sticks centred.
+    for _ in range(15):
+        pilot.mav.manual_control_send(pilot.target_system, 0, 0, 500, 0, 0)
+        time.sleep(0.02)
     sent = [0]
     stop = threading.Event()
 
