@@ -9,7 +9,8 @@
 //! The integral absorbs a buoyancy offset (5 N needs 0.45 m/s^2) and is frozen while the
 //! heave thruster saturates.
 
-use super::{integrate, sat, TrackingGains, TrackingState};
+use super::gains::TrackingGains;
+use super::state::{integrate, sat, TrackingState};
 use crate::math::{max, sin_cos};
 use crate::params::Vehicle;
 use crate::reference::RefSample;

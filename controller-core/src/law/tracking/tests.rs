@@ -1,4 +1,5 @@
 use super::*;
+use crate::error::Error;
 use crate::params::Vehicle;
 use crate::reference::Reference;
 

@@ -16,7 +16,8 @@
 //! analytic from the sample, `beta` is the quasi-static sideslip advanced by `T_adv`, and its
 //! derivatives are filtered differences (time constant [`DERIV_TAU_S`]).
 
-use super::{integrate, sat2, HeadingRef, TrackingGains, TrackingState};
+use super::gains::TrackingGains;
+use super::state::{integrate, sat2, CurrentObserver, HeadingRef, TrackingState};
 use crate::math::{atan2, clamp, min, sin_cos, sqrt, wrap_angle};
 use crate::params::{Vehicle, XyCoeffs};
 use crate::reference::feasible::{course_of, sideslip, Course};
@@ -47,7 +48,7 @@ fn filt_gain(dt: f32) -> f32 {
 impl HeadingRef {
     /// Advance the generator with the water-relative course `course` (`None` below the speed
     /// floor) and the direction of the reference motion `rest_dir` (see
-    /// [`rest_direction`]); `dt` must be clean ([`super::clean_dt`]).
+    /// [`rest_direction`]); `dt` must be clean ([`super::state::clean_dt`]).
     /// Returns `(psi_r, psi_r_dot, psi_r_ddot)`.
     pub(crate) fn update(
         &mut self,
@@ -227,7 +228,7 @@ fn inv_drag(k1: f32, k2: f32, f: f32) -> f32 {
     }
 }
 
-impl super::CurrentObserver {
+impl CurrentObserver {
     /// One step of the observer. The surge and sway momenta `m11 u`, `m22 v` obey
     /// `m11 u_dot = m22 v r - X(u) + tau_1 + d_x`, `m22 v_dot = -m11 u r - Y(v) + d_y`; the
     /// observer `d_hat = z + L M nu`, `z_dot = -L (d_hat + f_model + tau)` gives

@@ -17,7 +17,8 @@
 //! `q_dot_c = theta_d_ddot - k_th (theta - theta_d) - k_q (q - theta_d_dot)`, solved for
 //! `tau_1` through the coupled mass matrix.
 
-use super::{integrate, sat, TrackingGains, TrackingState};
+use super::gains::TrackingGains;
+use super::state::{integrate, sat, TrackingState};
 use crate::math::{asin, sqrt, tanh, wrap_angle};
 use crate::params::Vehicle;
 use crate::reference::feasible::pitch_xz_sc;
