@@ -139,6 +139,9 @@ pub fn write_csv_to<W: Write>(out: W, log: &[Sample]) -> Result<()> {
     let mut w = csv::WriterBuilder::new()
         .has_headers(false)
         .buffer_capacity(1 << 16)
+        // Numbers and the column names hold no delimiter, quote or newline: no field is
+        // scanned for quoting.
+        .quote_style(csv::QuoteStyle::Never)
         .from_writer(out);
     w.write_record(CSV_COLUMNS)?;
     let mut number = zmij::Buffer::new();
@@ -199,14 +202,26 @@ pub fn write_run_with(dir: &Path, out: &RunOutput, outputs: Outputs) -> Result<(
     let json = serde_json::to_string_pretty(&out.summary)?;
     std::fs::write(dir.join("summary.json"), json + "\n")
         .with_context(|| format!("cannot write {}", dir.join("summary.json").display()))?;
-    if !out.log.is_empty() {
-        if outputs.timeseries {
-            write_csv(&dir.join("timeseries.csv"), &out.log)?;
-        }
-        if outputs.plots {
-            crate::output::plots::run_plots(dir, out)?;
-        }
+    if out.log.is_empty() {
+        return Ok(());
     }
+    // The time series and the figures are independent: written side by side.
+    let (csv, plots) = rayon::join(
+        || {
+            outputs
+                .timeseries
+                .then(|| write_csv(&dir.join("timeseries.csv"), &out.log))
+                .transpose()
+        },
+        || {
+            outputs
+                .plots
+                .then(|| crate::output::plots::run_plots(dir, out))
+                .transpose()
+        },
+    );
+    csv?;
+    plots?;
     Ok(())
 }
 
