@@ -299,4 +299,35 @@ mod tests {
         // Every field is short: no padding to a fixed number of digits.
         assert!(data.len() < 6 * N_COLUMNS, "{} bytes: {data}", data.len());
     }
+
+    #[test]
+    fn without_the_time_series_and_figures_only_the_summary_is_written() {
+        let dir = std::env::temp_dir().join(format!("host-sim-outputs-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let out = RunOutput {
+            log: vec![Sample::default(); 3],
+            ..RunOutput::default()
+        };
+        let none = Outputs {
+            timeseries: false,
+            plots: false,
+        };
+        assert!(!none.need_log());
+        write_run_with(&dir, &out, none).unwrap();
+        let mut names: Vec<String> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert_eq!(names, ["summary.json"]);
+        let csv_only = Outputs {
+            timeseries: true,
+            plots: false,
+        };
+        write_run_with(&dir, &out, csv_only).unwrap();
+        let text = std::fs::read_to_string(dir.join("timeseries.csv")).unwrap();
+        assert_eq!(text.lines().count(), 1 + out.log.len());
+        assert!(!dir.join("fig_errors.png").exists());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }
