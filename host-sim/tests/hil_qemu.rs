@@ -66,7 +66,7 @@ fn hil(sc: &Scenario, f: impl FnOnce(&mut HilOptions), name: &str) -> Option<Hil
 /// compared with must too (`paper-xy` itself lets the software ask for 425 N).
 #[test]
 fn hil_paper_xy_tracks_within_2x_of_software() {
-    if !long_emulated::long_test("hil_qemu", "hil_paper_xy_tracks_within_2x_of_software", 60) {
+    if !long_emulated::long_test("hil_qemu", "hil_paper_xy_tracks_within_2x_of_software", 95) {
         return;
     }
     let sc = Scenario::load("paper-xy-saturated").unwrap();

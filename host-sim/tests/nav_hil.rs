@@ -58,7 +58,7 @@ fn hil_usbl_only_circle_with_a_5_deg_compass_bias_matches_software() {
     if !long_emulated::long_test(
         "nav_hil",
         "hil_usbl_only_circle_with_a_5_deg_compass_bias_matches_software",
-        200,
+        140,
     ) {
         return;
     }
@@ -143,7 +143,7 @@ fn hil_circle_told_5_m_and_30_deg_off_matches_software_from_120_s() {
     if !long_emulated::long_test(
         "nav_hil",
         "hil_circle_told_5_m_and_30_deg_off_matches_software_from_120_s",
-        300,
+        140,
     ) {
         return;
     }
@@ -173,7 +173,7 @@ fn hil_survey_with_a_6_deg_compass_bias_matches_software_within_10_percent_plus_
     if !long_emulated::long_test(
         "nav_hil",
         "hil_survey_with_a_6_deg_compass_bias_matches_software_within_10_percent_plus_1_cm",
-        300,
+        230,
     ) {
         return;
     }
