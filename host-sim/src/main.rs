@@ -84,7 +84,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
     let done = |r: Result<()>| r.map(|()| ExitCode::SUCCESS);
     match cli.command {
         None => commands::all::main(Path::new("out")),
-        Some(Command::All(a)) => commands::all::main(&a.out),
+        Some(Command::All(a)) => commands::all::main_with(&a),
         Some(Command::Run(a)) => commands::run::main(a),
         Some(Command::List) => {
             commands::list::main();

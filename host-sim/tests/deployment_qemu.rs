@@ -8,9 +8,12 @@
 //! QEMU: seconds of wall time on loaded cores). Builds both images into
 //! `<target>/hil-firmware`; without `qemu-system-arm` or the thumbv7em target it prints
 //! `SKIPPED` with the fix and passes (`ROV_REQUIRE_QEMU` makes that a failure, as in CI). A
-//! hung emulator fails the run: every read from a board times out after 30 s.
+//! hung emulator fails the run: every read from a board times out after 30 s. The flown
+//! comparison runs where `ROV_LONG` is set (CI; `long_emulated`), the cut node link
+//! (2.5 s simulated) everywhere.
 
 mod common;
+mod long_emulated;
 
 use common::{host_sim, scratch};
 use host_sim::closed_loop::RunOptions;
@@ -29,6 +32,13 @@ fn json(path: &std::path::Path) -> serde_json::Value {
 
 #[test]
 fn hil_flies_the_emulated_topside_layout_as_the_in_process_one() {
+    if !long_emulated::long_test(
+        "deployment_qemu",
+        "hil_flies_the_emulated_topside_layout_as_the_in_process_one",
+        60,
+    ) {
+        return;
+    }
     let Some(elfs) = layout_images_or_skip().unwrap() else {
         return;
     };

@@ -5,7 +5,10 @@
 //! message, without `qemu-system-arm` or the thumbv7em target (the pattern of `hil_qemu.rs`).
 //! The near outliers, the flown compass turn, drawn Monte Carlo runs and the 23-minute survey
 //! with 30 % far outliers (ignored: about 30 minutes of emulation) are in `nav_hil_errors.rs`.
+//! The three emulated runs (whole scenarios, minutes each) run where `ROV_LONG` is set (CI);
+//! the two in-process tests everywhere.
 
+mod long_emulated;
 mod nav_twins;
 
 use host_sim::closed_loop::runner::{run, RunOptions};
@@ -52,6 +55,13 @@ fn horizontal_estimation_error_m(x: &Sample) -> f64 {
 
 #[test]
 fn hil_usbl_only_circle_with_a_5_deg_compass_bias_matches_software() {
+    if !long_emulated::long_test(
+        "nav_hil",
+        "hil_usbl_only_circle_with_a_5_deg_compass_bias_matches_software",
+        140,
+    ) {
+        return;
+    }
     let mut sc = Scenario::load("nav-usbl-circle-3d").unwrap();
     if let Some(c) = sc.sensors.compass.as_mut() {
         c.bias_rad = 5f64.to_radians();
@@ -130,6 +140,13 @@ fn hil_fails_with_the_reason_when_the_estimate_is_not_ready_in_time() {
 
 #[test]
 fn hil_circle_told_5_m_and_30_deg_off_matches_software_from_120_s() {
+    if !long_emulated::long_test(
+        "nav_hil",
+        "hil_circle_told_5_m_and_30_deg_off_matches_software_from_120_s",
+        140,
+    ) {
+        return;
+    }
     let sc = circle_told_5_m_and_30_deg_off();
     let Some((h, sw, wall_s)) = hil_and_software(&sc) else {
         return;
@@ -153,6 +170,13 @@ fn hil_circle_told_5_m_and_30_deg_off_matches_software_from_120_s() {
 
 #[test]
 fn hil_survey_with_a_6_deg_compass_bias_matches_software_within_10_percent_plus_1_cm() {
+    if !long_emulated::long_test(
+        "nav_hil",
+        "hil_survey_with_a_6_deg_compass_bias_matches_software_within_10_percent_plus_1_cm",
+        230,
+    ) {
+        return;
+    }
     let Some(elf) = image_or_skip().expect("the firmware's qemu image") else {
         return;
     };

@@ -11,8 +11,10 @@
 //! The emulation runs at about 1-2 s of wall time per simulated second (lock-step, on the
 //! host's clock; 2 shared cores), so CI runs shortened versions (about 4 minutes in all, in
 //! parallel) and the whole-length runs are `#[ignore]`d with their figures
-//! (`docs/navigation.md`, "Issue 26's errors on the emulated MCU").
+//! (`docs/navigation.md`, "Issue 26's errors on the emulated MCU"). The shortened runs too
+//! take minutes of QEMU: they run where `ROV_LONG` is set (CI; `long_emulated`).
 
+mod long_emulated;
 mod nav_twins;
 
 use host_sim::closed_loop::runner::{run, RunOptions};
@@ -158,6 +160,13 @@ fn near_outliers_match_software(label: &str, clean: Scenario, clean_too: bool) {
 /// comparison is of the two estimators on the same fixes, which a shorter run still makes.
 #[test]
 fn hil_circle_with_20_percent_near_outliers_matches_software() {
+    if !long_emulated::long_test(
+        "nav_hil_errors",
+        "hil_circle_with_20_percent_near_outliers_matches_software",
+        90,
+    ) {
+        return;
+    }
     let mut sc = Scenario::load("nav-circle-3d").unwrap();
     sc.duration_s = 60.0;
     near_outliers_match_software("nav-circle-3d, 60 s", sc, false);
@@ -331,6 +340,13 @@ fn calibration_turn_matches_the_library(survey_s: f64, tracking_bound_m: Option<
 /// the whole survey (ignored run below and `nav_compass_cal_flown.rs`).
 #[test]
 fn hil_flown_compass_turn_fits_within_1_deg_and_matches_the_library() {
+    if !long_emulated::long_test(
+        "nav_hil_errors",
+        "hil_flown_compass_turn_fits_within_1_deg_and_matches_the_library",
+        110,
+    ) {
+        return;
+    }
     calibration_turn_matches_the_library(40.0, None);
 }
 
@@ -400,11 +416,25 @@ fn drawn_runs_match_software(runs: std::ops::Range<u64>, duration_s: f64) {
 /// 5 m start is inside the window, the part where the board and the software could part).
 #[test]
 fn hil_drawn_monte_carlo_run_0_matches_its_software_twin() {
+    if !long_emulated::long_test(
+        "nav_hil_errors",
+        "hil_drawn_monte_carlo_run_0_matches_its_software_twin",
+        90,
+    ) {
+        return;
+    }
     drawn_runs_match_software(0..1, 60.0);
 }
 
 #[test]
 fn hil_drawn_monte_carlo_run_1_matches_its_software_twin() {
+    if !long_emulated::long_test(
+        "nav_hil_errors",
+        "hil_drawn_monte_carlo_run_1_matches_its_software_twin",
+        90,
+    ) {
+        return;
+    }
     drawn_runs_match_software(1..2, 60.0);
 }
 

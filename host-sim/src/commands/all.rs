@@ -2,9 +2,10 @@
 //! tracking law on the paper's saturated scenarios for the side-by-side figures.
 
 use crate::closed_loop::runner::RunOutput;
-use crate::commands::run::{print_table, run_one};
+use crate::commands::run::{print_table, run_one, OutputArgs};
 use crate::commands::EXIT_NOT_AS_EXPECTED;
 use crate::output::plots::compare_plot;
+use crate::output::Outputs;
 use crate::scenario::{ControllerKind, ExpectSpec, RunSetup, Scenario, BUILT_IN};
 use anyhow::{bail, Result};
 use rayon::prelude::*;
@@ -17,11 +18,24 @@ pub struct AllArgs {
     /// Output folder; each scenario goes to DIR/<scenario>/.
     #[arg(long, default_value = "out")]
     pub out: PathBuf,
+    /// Which files besides each summary.json.
+    #[command(flatten)]
+    pub outputs: OutputArgs,
 }
 
-/// Run `host-sim all`: 1 when a built-in's result differs from what its file expects.
+/// Run `host-sim all` into `out_dir` with every output: 1 when a built-in's result differs
+/// from what its file expects.
 pub fn main(out_dir: &Path) -> Result<ExitCode> {
-    Ok(if run_all(out_dir)? {
+    main_with(&AllArgs {
+        out: out_dir.to_path_buf(),
+        outputs: OutputArgs::default(),
+    })
+}
+
+/// Run `host-sim all` with its arguments: 1 when a built-in's result differs from what its
+/// file expects.
+pub fn main_with(a: &AllArgs) -> Result<ExitCode> {
+    Ok(if run_all(&a.out, a.outputs.outputs())? {
         ExitCode::SUCCESS
     } else {
         ExitCode::from(EXIT_NOT_AS_EXPECTED)
@@ -30,7 +44,7 @@ pub fn main(out_dir: &Path) -> Result<ExitCode> {
 
 /// Every built-in scenario; `Ok(false)` when one's result differs from what its file
 /// expects.
-fn run_all(out_dir: &Path) -> Result<bool> {
+fn run_all(out_dir: &Path, outputs: Outputs) -> Result<bool> {
     // Every built-in, plus the tracking law on the paper's saturated scenarios for the
     // side-by-side figures.
     let mut jobs: Vec<(String, Result<RunSetup>)> = BUILT_IN
@@ -57,7 +71,7 @@ fn run_all(out_dir: &Path) -> Result<bool> {
     let results: Vec<(String, Result<RunOutput>)> = jobs
         .into_par_iter()
         .map(|(name, sc)| {
-            let r = sc.and_then(|sc| run_one(&sc, &out_dir.join(&sc.name)));
+            let r = sc.and_then(|sc| run_one(&sc, &out_dir.join(&sc.name), outputs));
             (name, r)
         })
         .collect();
@@ -74,6 +88,9 @@ fn run_all(out_dir: &Path) -> Result<bool> {
     }
     for p in ["xz", "xy"] {
         let find = |n: &str| ok.iter().find(|o| o.summary.scenario == n).copied();
+        if !outputs.plots {
+            break;
+        }
         if let (Some(a), Some(b)) = (
             find(&format!("paper-{p}-saturated")),
             find(&format!("paper-{p}-saturated-tracking")),

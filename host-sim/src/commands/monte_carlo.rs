@@ -317,6 +317,7 @@ pub fn run_batch(
 ) -> Result<(McSummary, ShardRuns)> {
     check_campaign(cfg.runs, shard)?;
     let wall = Instant::now();
+    let cpu = cpu_time::ProcessTime::try_now().ok();
     let campaign = Campaign {
         scenario: sc.name.clone(),
         runs: cfg.runs,
@@ -340,7 +341,7 @@ pub fn run_batch(
     };
     pb.set_style(
         ProgressStyle::with_template(
-            "{msg} [{elapsed_precise}] {wide_bar} {pos}/{len} (eta {eta})",
+            "{msg} [{elapsed_precise}] {wide_bar} {pos}/{len} ({per_sec}, eta {eta})",
         )
         .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
@@ -395,12 +396,29 @@ pub fn run_batch(
     let summary = summarize(&shard_runs.campaign, &shard_runs.runs);
     if cfg.progress {
         eprintln!(
-            "{} runs in {:.1} s",
-            shard_runs.runs.len(),
-            wall.elapsed().as_secs_f64()
+            "{}",
+            throughput_line(
+                shard_runs.runs.len(),
+                wall.elapsed().as_secs_f64(),
+                cpu.and_then(|c| c.try_elapsed().ok())
+                    .map(|d| d.as_secs_f64())
+            )
         );
     }
     Ok((summary, shard_runs))
+}
+
+/// `N runs in W s (C CPU-s: R runs per CPU-second, on T threads)`: the campaign's cost per
+/// run whatever the machine's number of cores (the CPU time is the whole process's).
+pub fn throughput_line(runs: usize, wall_s: f64, cpu_s: Option<f64>) -> String {
+    match cpu_s.filter(|c| *c > 0.0) {
+        Some(c) => format!(
+            "{runs} runs in {wall_s:.1} s ({c:.2} CPU-s: {:.1} runs per CPU-second, on {} threads)",
+            runs as f64 / c,
+            rayon::current_num_threads()
+        ),
+        None => format!("{runs} runs in {wall_s:.1} s (CPU time not available here)"),
+    }
 }
 
 /// The summary of a set of runs of a campaign.

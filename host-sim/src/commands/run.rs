@@ -4,7 +4,7 @@ use crate::checks::refused;
 use crate::closed_loop::runner::{run, RunOptions, RunOutput};
 use crate::closed_loop::verdict_word;
 use crate::commands::run_code;
-use crate::output::write_run;
+use crate::output::{write_run_with, Outputs};
 use crate::scenario::deployment::Control;
 use crate::scenario::{ControllerKind, RunSetup, Scenario};
 use crate::tether::topside_layout::run_layout;
@@ -23,6 +23,30 @@ pub struct RunArgs {
     /// Output folder (default out/<scenario>[-<controller>]).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Which files besides summary.json.
+    #[command(flatten)]
+    pub outputs: OutputArgs,
+}
+
+/// The files a run writes besides `summary.json` (campaigns of many runs may want neither).
+#[derive(Debug, Clone, Copy, Default, clap::Args)]
+pub struct OutputArgs {
+    /// Write no timeseries.csv (the summary and its figures are the same).
+    #[arg(long)]
+    pub no_timeseries: bool,
+    /// Write no PNG figures.
+    #[arg(long)]
+    pub no_plots: bool,
+}
+
+impl OutputArgs {
+    /// The files to write.
+    pub fn outputs(self) -> Outputs {
+        Outputs {
+            timeseries: !self.no_timeseries,
+            plots: !self.no_plots,
+        }
+    }
 }
 
 /// The table of finished runs (one line each, then each verdict).
@@ -68,14 +92,16 @@ pub fn print_table(rows: &[&RunOutput]) {
 /// A recorded software run of `sc`, its outputs written to `dir`: the core in process, or
 /// with `[deployment] control = "topside"` the topside layout (issue 25; `layout.json`
 /// beside the run's outputs holds the node link's figures).
-pub fn run_one(sc: &RunSetup, dir: &Path) -> Result<RunOutput> {
+/// Only the files of `outputs` besides `summary.json` are written; with neither the
+/// time series nor the figures, no per-tick log is kept.
+pub fn run_one(sc: &RunSetup, dir: &Path, outputs: Outputs) -> Result<RunOutput> {
     let opts = RunOptions {
-        record: true,
+        record: outputs.need_log(),
         ..RunOptions::default()
     };
     if sc.deployment.control == Control::Topside {
         let o = run_layout(sc, &opts)?;
-        write_run(dir, &o.run)?;
+        write_run_with(dir, &o.run, outputs)?;
         std::fs::write(
             dir.join("layout.json"),
             serde_json::to_string_pretty(&o.report)? + "\n",
@@ -83,7 +109,7 @@ pub fn run_one(sc: &RunSetup, dir: &Path) -> Result<RunOutput> {
         return Ok(o.run);
     }
     let out = run(sc, &opts)?;
-    write_run(dir, &out)?;
+    write_run_with(dir, &out, outputs)?;
     Ok(out)
 }
 
@@ -106,7 +132,7 @@ pub fn main(a: RunArgs) -> Result<ExitCode> {
         }
     };
     let dir = a.out.unwrap_or_else(|| PathBuf::from("out").join(&sc.name));
-    let o = run_one(&sc, &dir)?;
+    let o = run_one(&sc, &dir, a.outputs.outputs())?;
     print_table(&[&o]);
     println!("outputs in {}", dir.display());
     Ok(run_code(&o))
