@@ -5,7 +5,10 @@ crate that reach each other through `crate::`, `super::`, `self::` or child-modu
 pair that use each other, or a longer circle a -> b -> c -> a).
 
 Prints one `CYCLE` line per circle found and exits 1 when there is any; prints `checked` and
-exits 0 when there is none.
+exits 0 when there is none. The top-level check always runs; `--files` adds the file level.
+
+    python3 scripts/modcycles.py            # top-level modules (CI)
+    python3 scripts/modcycles.py --files    # and the files of each crate
 
 What counts as a use: a `crate::m` path in code, including grouped imports
 (`use crate::{a::X, b}`); at file level also `super::x`, `self::x` and `child::x` for a
@@ -14,8 +17,6 @@ is a use of file `a/b.rs` (or `a/b/mod.rs`) when it exists, else of `a`. Declari
 (`mod b;`) is not a use of it. Comments (doc links among them) are not uses, and neither are
 `#[cfg(test)]` modules: a test may drive a module through its caller without the shipped
 modules depending on each other.
-
-    python3 scripts/modcycles.py    # from the workspace root
 """
 import os
 import re
@@ -247,11 +248,12 @@ def file_modules(crate):
 
 def main():
     found = 0
+    files = '--files' in sys.argv[1:]
     for crate in crates():
         for circle in cycles(modules(crate)):
             print(crate, 'CYCLE', ' -> '.join(circle))
             found += 1
-        for circle in cycles(file_modules(crate)):
+        for circle in cycles(file_modules(crate)) if files else []:
             print(crate, 'CYCLE (files)', ' -> '.join(c or '(crate root)' for c in circle))
             found += 1
     print('checked')

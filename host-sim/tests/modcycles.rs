@@ -11,11 +11,12 @@ fn workspace() -> PathBuf {
         .to_path_buf()
 }
 
-/// The script run in `cwd`, or `None` (SKIPPED) without python3.
-fn modcycles(cwd: &Path) -> Option<Output> {
+/// The script run in `cwd` with `args`, or `None` (SKIPPED) without python3.
+fn modcycles_with(cwd: &Path, args: &[&str]) -> Option<Output> {
     let script = workspace().join("scripts/modcycles.py");
     match Command::new("python3")
         .arg(script)
+        .args(args)
         .current_dir(cwd)
         .output()
     {
@@ -24,6 +25,32 @@ fn modcycles(cwd: &Path) -> Option<Output> {
             eprintln!("SKIPPED: python3 not runnable ({e})");
             None
         }
+    }
+}
+
+/// The script's top-level check run in `cwd`.
+fn modcycles(cwd: &Path) -> Option<Output> {
+    modcycles_with(cwd, &[])
+}
+
+/// The file-level circles the workspace still has: each a parent file that re-exports from
+/// its children while they use the parent's types (`impl Autopilot` split over files, the
+/// topside's state used by its transport, `Scenario` used by `RunSetup`). No other may
+/// appear; one mended is taken off this list.
+const KNOWN_FILE_CIRCLES: [&str; 3] = [
+    "firmware/src CYCLE (files) autopilot -> autopilot::arming -> autopilot",
+    "host-sim/src CYCLE (files) scenario -> scenario::setup -> scenario",
+    "host-sim/src CYCLE (files) topside -> topside::transport -> topside",
+];
+
+#[test]
+fn no_file_level_circle_but_the_known_ones() {
+    let Some(o) = modcycles_with(&workspace(), &["--files"]) else {
+        return;
+    };
+    let out = String::from_utf8_lossy(&o.stdout);
+    for line in out.lines().filter(|l| l.contains("CYCLE")) {
+        assert!(KNOWN_FILE_CIRCLES.contains(&line), "a new circle: {line}\n{out}");
     }
 }
 
@@ -89,7 +116,7 @@ fn a_file_that_uses_its_parent_which_uses_it_is_a_circle() {
     // y uses its sibling through super: not a use of the parent file.
     std::fs::write(src.join("t/y.rs"), "use super::x::g;\n").unwrap();
     std::fs::write(src.join("u.rs"), "use crate::t::f;\n").unwrap();
-    let Some(o) = modcycles(&dir) else {
+    let Some(o) = modcycles_with(&dir, &["--files"]) else {
         return;
     };
     let out = String::from_utf8_lossy(&o.stdout);
