@@ -174,6 +174,11 @@ impl Horizontal {
         (self.kf.x[BC], self.kf.var(BC))
     }
 
+    /// Move the compass bias estimate by `d_rad`.
+    pub(super) fn shift_compass_bias(&mut self, d_rad: f32) {
+        self.kf.x[BC] = wrap_angle(self.kf.x[BC] + d_rad);
+    }
+
     pub(super) fn gyro_bias_r(&self) -> f32 {
         self.kf.x[BR]
     }

@@ -65,6 +65,12 @@ pub struct NavFloor {
     pub filter_rms_m: f64,
     /// `filter_rms_m / floor_rms_m`.
     pub ratio: f64,
+    /// RMS of the smoother's forward pass alone over the same epochs (m): the same model in
+    /// `f64` with every fix at its time of validity, but no hindsight. The best a causal
+    /// filter on this model could do (with the fixes' latency bridged exactly).
+    pub forward_rms_m: f64,
+    /// `filter_rms_m / forward_rms_m`.
+    pub ratio_to_forward: f64,
     /// Epochs of the smoother scored.
     pub epochs_scored: u64,
     /// USBL fixes the smoother's gate refused.
@@ -213,7 +219,7 @@ impl FloorRecorder {
         })?;
         let mut truth = self.truth.clone();
         truth.sort_by_key(|(t, _)| *t);
-        let (mut sq, mut n) = (0.0, 0u64);
+        let (mut sq, mut sq_f, mut n) = (0.0, 0.0, 0u64);
         for (ep, (x, _)) in epochs.iter().zip(&smoothed) {
             let t_s = ep.t_us as f64 * 1e-6;
             if t_s < SCORE_FROM_S {
@@ -224,17 +230,22 @@ impl FloorRecorder {
             };
             let tp = truth[i].1;
             sq += self.on_axes([x[N] - tp[0], x[E] - tp[1], x[Z] - tp[2]]);
+            let xf = &ep.x_f;
+            sq_f += self.on_axes([xf[N] - tp[0], xf[E] - tp[1], xf[Z] - tp[2]]);
             n += 1;
         }
         if n == 0 || self.filter_n == 0 {
             return None;
         }
         let floor_rms_m = (sq / n as f64).sqrt();
+        let forward_rms_m = (sq_f / n as f64).sqrt();
         let filter_rms_m = (self.filter_sq / self.filter_n as f64).sqrt();
         Some(NavFloor {
             floor_rms_m,
             filter_rms_m,
             ratio: filter_rms_m / floor_rms_m,
+            forward_rms_m,
+            ratio_to_forward: filter_rms_m / forward_rms_m,
             epochs_scored: n,
             usbl_refused,
         })
