@@ -120,3 +120,44 @@ fn a_calibration_set_before_any_heading_leaves_the_bias_prior() {
     .unwrap();
     assert_eq!(nav.estimator().compass_bias_rad().0, 0.0);
 }
+
+/// A compass whose bias jumps (a thruster's field, a hard iron at a new heading) while the
+/// gyro carries the heading: after the run of gated fixes the bias takes the jump and the
+/// heading stays.
+#[test]
+fn a_jump_in_the_compass_bias_moves_the_bias_not_the_heading() {
+    let start = NavState {
+        yaw_rad: HEADING_RAD,
+        z_m: 2.0,
+        ..NavState::default()
+    };
+    let mut nav = OnboardNav::new(Vehicle::observer(), OnboardConfig::default(), &start, 0, 0)
+        .unwrap();
+    let t = run(&mut nav, 0, 60);
+    let yaw_before = nav.estimator().state().yaw_rad;
+    let (b_before, _) = nav.estimator().compass_bias_rad();
+    let resets = nav.estimator().health().resets;
+    let jump = 0.15f32;
+    for k in 1..=300u64 {
+        let tk = t + k * 10_000;
+        let imu = ImuSample {
+            t_us: tk,
+            gyro_rad_s: [0.0; 3],
+            accel_m_s2: [0.0, 0.0, -GRAVITY_M_S2],
+        };
+        nav.imu(tk, &imu, [0.0; 3]).unwrap();
+        if k % 10 == 0 {
+            let _ = nav.heading(&HeadingFix {
+                t_us: tk,
+                yaw_rad: raw_reading(k / 10) + jump,
+                std_rad: 0.02,
+            });
+        }
+    }
+    assert!(nav.estimator().health().resets > resets, "the gate saw the jump");
+    let yaw_after = nav.estimator().state().yaw_rad;
+    let (b_after, _) = nav.estimator().compass_bias_rad();
+    eprintln!("heading {yaw_before} -> {yaw_after}, bias {b_before} -> {b_after}");
+    assert!((yaw_after - yaw_before).abs() < 0.02, "heading moved to {yaw_after}");
+    assert!((b_after - b_before - jump).abs() < 0.02, "bias {b_after}");
+}
