@@ -21,7 +21,9 @@ const PHASE_RAD: f32 = 0.7;
 /// The raw compass at the (constant) heading: `psi + A sin(psi + phase)` plus a fixed
 /// pattern of noise (+-0.02 rad).
 fn raw_reading(k: u64) -> f32 {
-    let noise = [0.013f32, -0.021, 0.004, 0.017, -0.009, -0.015, 0.022, -0.002];
+    let noise = [
+        0.013f32, -0.021, 0.004, 0.017, -0.009, -0.015, 0.022, -0.002,
+    ];
     HEADING_RAD + HARD_IRON_RAD * (HEADING_RAD + PHASE_RAD).sin() + noise[(k % 8) as usize]
 }
 
@@ -62,8 +64,8 @@ fn a_calibration_swapped_in_carries_the_heading_and_the_bias() {
         z_m: 2.0,
         ..NavState::default()
     };
-    let mut nav = OnboardNav::new(Vehicle::observer(), OnboardConfig::default(), &start, 0, 0)
-        .unwrap();
+    let mut nav =
+        OnboardNav::new(Vehicle::observer(), OnboardConfig::default(), &start, 0, 0).unwrap();
     // Uncalibrated: the bias state takes up the deviation at this heading.
     let t = run(&mut nav, 0, 60);
     let before = nav.estimator().clone();
@@ -80,7 +82,11 @@ fn a_calibration_swapped_in_carries_the_heading_and_the_bias() {
         cos_rad: HARD_IRON_RAD * PHASE_RAD.sin(),
     })
     .unwrap();
-    assert_eq!(nav.estimator().state().yaw_rad, yaw_before, "the heading stays");
+    assert_eq!(
+        nav.estimator().state().yaw_rad,
+        yaw_before,
+        "the heading stays"
+    );
     let (b_after, _) = nav.estimator().compass_bias_rad();
     assert!(
         (b_after - (b_before - deviation)).abs() < 0.01,
@@ -131,8 +137,8 @@ fn a_jump_in_the_compass_bias_moves_the_bias_not_the_heading() {
         z_m: 2.0,
         ..NavState::default()
     };
-    let mut nav = OnboardNav::new(Vehicle::observer(), OnboardConfig::default(), &start, 0, 0)
-        .unwrap();
+    let mut nav =
+        OnboardNav::new(Vehicle::observer(), OnboardConfig::default(), &start, 0, 0).unwrap();
     let t = run(&mut nav, 0, 60);
     let yaw_before = nav.estimator().state().yaw_rad;
     let (b_before, _) = nav.estimator().compass_bias_rad();
@@ -154,10 +160,16 @@ fn a_jump_in_the_compass_bias_moves_the_bias_not_the_heading() {
             });
         }
     }
-    assert!(nav.estimator().health().resets > resets, "the gate saw the jump");
+    assert!(
+        nav.estimator().health().resets > resets,
+        "the gate saw the jump"
+    );
     let yaw_after = nav.estimator().state().yaw_rad;
     let (b_after, _) = nav.estimator().compass_bias_rad();
     eprintln!("heading {yaw_before} -> {yaw_after}, bias {b_before} -> {b_after}");
-    assert!((yaw_after - yaw_before).abs() < 0.02, "heading moved to {yaw_after}");
+    assert!(
+        (yaw_after - yaw_before).abs() < 0.02,
+        "heading moved to {yaw_after}"
+    );
     assert!((b_after - b_before - jump).abs() < 0.02, "bias {b_after}");
 }

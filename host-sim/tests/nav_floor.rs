@@ -34,7 +34,11 @@ fn measure(label: &str, sc: &Scenario) -> (Summary, NavFloor) {
     let s = run(&sc.resolve().unwrap(), &RunOptions::default())
         .unwrap()
         .summary;
-    let f = s.navigation.floor.clone().expect("an estimator run has a floor");
+    let f = s
+        .navigation
+        .floor
+        .clone()
+        .expect("an estimator run has a floor");
     println!(
         "| {label} | {:.2} cm | {:.2} cm | {:.2} cm | **{:.2}** | {:.2} cm | {:.2} | {:.2} | {} |",
         100.0 * s.rms_position_error_last80_m,
@@ -68,7 +72,11 @@ fn every_estimator_run_reports_its_floor_and_the_filter_is_measured_against_it()
     }
     let label = "survey, USBL 0.2 Hz".to_string();
     rows.push((label.clone(), measure(&label, &survey_usbl_slow())));
-    for name in ["nav-usbl-circle-3d", "nav-usbl-outliers-3d", "nav-usbl-dropout-3d"] {
+    for name in [
+        "nav-usbl-circle-3d",
+        "nav-usbl-outliers-3d",
+        "nav-usbl-dropout-3d",
+    ] {
         rows.push((name.to_string(), measure(name, &load(name))));
     }
     for (label, (s, f)) in &rows {

@@ -221,9 +221,14 @@ impl Navigation for EstimatorNav {
         self.sensors.sample(t_s, truth, &mut self.pending);
         self.truth = *truth;
         // The truth at each IMU sample's time, for the floor's score.
-        let imu_now = self.pending.iter().skip(before).any(|(_, m)| matches!(m, Measurement::Imu(_)));
+        let imu_now = self
+            .pending
+            .iter()
+            .skip(before)
+            .any(|(_, m)| matches!(m, Measurement::Imu(_)));
         if imu_now {
-            self.floor.truth(us(t_s), [truth.eta[0], truth.eta[1], truth.eta[2]]);
+            self.floor
+                .truth(us(t_s), [truth.eta[0], truth.eta[1], truth.eta[2]]);
         }
     }
 

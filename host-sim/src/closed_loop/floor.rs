@@ -345,7 +345,14 @@ impl FloorRecorder {
                     h[Z] = 1.0;
                     let nu = f64::from(f.depth_m) - x[Z];
                     let r = sq(f.std_m);
-                    update(&mut x, &mut p, &h, &nu1(nu), &SMatrix::from_element(r), GATE_1);
+                    update(
+                        &mut x,
+                        &mut p,
+                        &h,
+                        &nu1(nu),
+                        &SMatrix::from_element(r),
+                        GATE_1,
+                    );
                     fused_here = true;
                 }
                 Event::Heading(f) => {
@@ -354,7 +361,14 @@ impl FloorRecorder {
                     h[BC] = 1.0;
                     let nu = wrap(f64::from(f.yaw_rad) - x[PSI] - x[BC]);
                     let r = sq(f.std_rad);
-                    update(&mut x, &mut p, &h, &nu1(nu), &SMatrix::from_element(r), GATE_1);
+                    update(
+                        &mut x,
+                        &mut p,
+                        &h,
+                        &nu1(nu),
+                        &SMatrix::from_element(r),
+                        GATE_1,
+                    );
                     x[PSI] = wrap(x[PSI]);
                     fused_here = true;
                 }
@@ -526,7 +540,7 @@ fn update<const M: usize>(
         return false;
     };
     let nis = nu.dot(&chol.solve(nu));
-    if !(nis <= gate) {
+    if nis.is_nan() || nis > gate {
         return false;
     }
     // K = P H^T S^-1, from S K^T = H P.
