@@ -21,10 +21,15 @@ const THRUST_OFFSET_RAD_PER_N: f64 = 0.00349;
 
 /// The survey with that compass and the turn first.
 fn survey_with_calibration(time_limit_s: f64) -> HilOutput {
+    survey_with_hard_iron(HARD_IRON_RAD, time_limit_s)
+}
+
+/// The survey with a compass of `hard_iron_rad` and the turn first.
+fn survey_with_hard_iron(hard_iron_rad: f64, time_limit_s: f64) -> HilOutput {
     let mut sc = Scenario::load("nav-lawnmower-3d").unwrap();
     sc.disturbance.current_m_s = [0.0, 0.2, 0.0];
     sc.sensors.compass = Some(CompassSpec {
-        hard_iron_rad: HARD_IRON_RAD,
+        hard_iron_rad,
         hard_iron_phase_rad: PHASE_RAD,
         thrust_offset_rad_per_n: THRUST_OFFSET_RAD_PER_N,
         ..CompassSpec::default()
@@ -41,6 +46,43 @@ fn survey_with_calibration(time_limit_s: f64) -> HilOutput {
     o.apply_pulses = false;
     o.record = true;
     run_hil(&sc, &o, None).unwrap()
+}
+
+/// Tracking RMS over the last 80 % of the run after the turn (m).
+fn rms_after(h: &HilOutput, end_s: f64) -> f64 {
+    let log = &h.run.log;
+    let t_last = log.last().map_or(0.0, |x| x.t_s);
+    let from_s = end_s + 0.2 * (t_last - end_s);
+    let errs: Vec<f64> = log
+        .iter()
+        .filter(|x| x.t_s >= from_s)
+        .map(|x| x.pos_err_norm_m)
+        .collect();
+    (errs.iter().map(|e| e * e).sum::<f64>() / errs.len().max(1) as f64).sqrt()
+}
+
+/// A 10 deg hard iron: the estimator's compass bias learned the uncalibrated deviation at
+/// the hold heading; the fit swapped in at the end of the turn must carry it (before, the
+/// heading was reset onto the new readings with the old bias 7 times, 33 good fixes were
+/// refused and the survey ended 24-30 cm).
+#[test]
+#[ignore = "not met: 9.07 cm after the turn (fit 0.33 deg off, 4 resets, 3 fixes refused; 24-30 cm before the calibration carried the bias), 2026-11-28"]
+fn a_10_deg_hard_iron_calibrated_by_the_flown_turn_surveys_within_8_cm() {
+    let h = survey_with_hard_iron(2.0 * HARD_IRON_RAD, 60.0);
+    let end_s = h.report.calibration_end_s.expect("the turn ended");
+    let Some(SwingOutcome::Accepted { cal, .. }) = h.report.compass_swing else {
+        panic!("turn not accepted: {:?}", h.report.compass_swing);
+    };
+    let worst = worst_deviation_error_deg(&cal, 2.0 * HARD_IRON_RAD, PHASE_RAD);
+    let rms = rms_after(&h, end_s);
+    eprintln!(
+        "10 deg hard iron: turn ended at {end_s:.2} s, worst deviation error {worst:.2} deg; survey after it: tracking last-80 % RMS {:.2} cm; {:?}",
+        100.0 * rms,
+        h.report.nav_health
+    );
+    assert!(!h.run.summary.nan_detected && !h.run.summary.diverged);
+    assert!(worst <= 1.0, "fitted deviation {worst} deg off the truth");
+    assert!(rms <= 0.08, "tracking after the turn {rms} m");
 }
 
 #[test]

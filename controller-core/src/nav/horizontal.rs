@@ -174,6 +174,11 @@ impl Horizontal {
         (self.kf.x[BC], self.kf.var(BC))
     }
 
+    /// Move the compass bias estimate by `d_rad`.
+    pub(super) fn shift_compass_bias(&mut self, d_rad: f32) {
+        self.kf.x[BC] = wrap_angle(self.kf.x[BC] + d_rad);
+    }
+
     pub(super) fn gyro_bias_r(&self) -> f32 {
         self.kf.x[BR]
     }
@@ -384,12 +389,22 @@ impl Horizontal {
         true
     }
 
-    /// Heading to the compass fix less the compass bias, its variance to the fix's plus the
-    /// bias's, its correlations cleared.
+    /// After a run of gated compass fixes: the compass's bias, not the gyro-carried heading,
+    /// is taken to have moved (a hard iron seen at a new heading, a thruster's field). The
+    /// bias's variance grows by the innovation's square, then the fix is fused: the
+    /// innovation goes to `b_c` in proportion to that variance, the heading keeps what the
+    /// gyro carried, and the USBL track against the dead reckoning later corrects either.
     pub(super) fn reset_heading(&mut self, yaw_rad: f32, std_rad: f32) {
-        let var = std_rad * std_rad + self.kf.var(BC);
-        self.kf
-            .reset_state(PSI, wrap_angle(yaw_rad - self.kf.x[BC]), var);
+        let nu = wrap_angle(yaw_rad - self.kf.x[PSI] - self.kf.x[BC]);
+        if let Some(v) = self.kf.p.get_mut(BC).and_then(|row| row.get_mut(BC)) {
+            *v += nu * nu;
+        }
+        let h = Self::compass_row();
+        self.corrected(|kf| {
+            kf.update(&h, nu, std_rad * std_rad);
+        });
+        self.kf.x[PSI] = wrap_angle(self.kf.x[PSI]);
+        self.kf.x[BC] = wrap_angle(self.kf.x[BC]);
     }
 
     /// The compass's measurement row: `psi + b_c`.

@@ -661,6 +661,16 @@ impl Estimator {
         (b, crate::math::sqrt(var))
     }
 
+    /// Move the compass bias estimate by `d_rad` (a new compass calibration changed what the
+    /// corrected readings carry; `OnboardNav::set_compass_calibration`). The heading, the
+    /// covariance and the other states stay; the compass's gate streak restarts.
+    pub fn shift_compass_bias(&mut self, d_rad: f32) {
+        if d_rad.is_finite() {
+            self.horizontal.shift_compass_bias(d_rad);
+            self.streaks.heading = 0;
+        }
+    }
+
     /// Standard deviation of the heading (rad).
     pub fn heading_std_rad(&self) -> f32 {
         crate::math::sqrt(self.horizontal.yaw_variance())

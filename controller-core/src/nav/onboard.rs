@@ -13,9 +13,15 @@ use super::{
     DvlFix, Estimator, HeadingFix, ImuSample, NavConfig, PositionFix, Refusal, GRAVITY_M_S2,
 };
 use crate::error::{positive, Error};
+use crate::math::wrap_angle;
 use crate::params::Vehicle;
 use crate::state::NavState;
 use serde::{Deserialize, Serialize};
+
+/// Fixed-point iterations that recover a raw compass reading from a corrected one: the
+/// error shrinks by the deviation's slope (at most 0.53) per iteration, so 8 leave under
+/// 1e-3 of it.
+const RAW_READING_ITERATIONS: usize = 8;
 
 /// Pressure to depth: `depth = (p - p_surface) / (rho g)`, and the depth's accuracy.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -193,8 +199,32 @@ impl OnboardNav {
 
     /// Replace the compass calibration (checked: finite, deviation within 30 degrees); on a
     /// refusal the one in force stays.
+    ///
+    /// The estimator's compass bias `b_c` is what the *corrected* readings carry beyond the
+    /// heading, so it is carried over with the calibration: at the heading the estimate holds,
+    /// the reading the compass gives (`r`, with `old.correct(r) = psi + b_c`) reads
+    /// `new.correct(r)` from now on, and `b_c` moves by the difference. The heading estimate
+    /// and every covariance stay. Without it the next corrected readings differ from the
+    /// prediction by the old deviation at this heading (up to the whole hard iron), fail the
+    /// gate, and the heading is reset onto them with the old bias: wrong by that much. With no
+    /// heading fused yet the bias is still its prior, which no calibration informed, and
+    /// stays.
     pub fn set_compass_calibration(&mut self, cal: &CompassCalibration) -> Result<(), CalRefusal> {
-        self.compass_cal = cal.validate()?;
+        let new = cal.validate()?;
+        if self.estimator.health().heading_fused > 0 {
+            let old = self.compass_cal;
+            let (b_c, _) = self.estimator.compass_bias_rad();
+            let corrected = wrap_angle(self.estimator.state().yaw_rad + b_c);
+            // The raw reading `r` with `r - old.deviation(r) = corrected`: a fixed point of a
+            // contraction (the deviation's slope is under 0.53, its 30 degree amplitude).
+            let mut raw = corrected;
+            for _ in 0..RAW_READING_ITERATIONS {
+                raw = wrap_angle(corrected + old.deviation_rad(raw));
+            }
+            self.estimator
+                .shift_compass_bias(wrap_angle(new.correct(raw) - corrected));
+        }
+        self.compass_cal = new;
         Ok(())
     }
 

@@ -9,6 +9,7 @@
 //! position NEES `e^T P^-1 e` on the plane's axes against the 95 % chi-square bound.
 
 use crate::clock::us;
+use crate::closed_loop::floor::{FloorNoise, FloorRecorder};
 use crate::closed_loop::{to_nav, FixRecord, NavReport, Navigation, TruthNav};
 use crate::scenario::{RunSetup, Scenario};
 use crate::world::plant::PlantState;
@@ -47,6 +48,8 @@ pub struct EstimatorNav {
     ready_at_s: Option<f64>,
     /// The compass calibration applied to each heading fix.
     compass_cal: CompassCalibration,
+    /// What the estimator was given, for the floor's smoother.
+    floor: FloorRecorder,
 }
 
 /// The estimator's process noise for a sensor suite: the simulated IMU's figures, floored by
@@ -81,14 +84,11 @@ impl EstimatorNav {
     /// estimator needs ([`Scenario::resolve`]).
     pub fn for_scenario(sc: &RunSetup, seed: u64) -> Result<Self> {
         let initial = sc.initial();
-        let onboard = OnboardNav::new(
-            *sc.vehicle(),
-            onboard_config(sc),
-            &to_nav(&sc.navigation.told_start(&initial)),
-            0,
-            0,
-        )
-        .map_err(|e| anyhow!("estimator: {e}"))?;
+        let cfg = onboard_config(sc);
+        let told = to_nav(&sc.navigation.told_start(&initial));
+        let onboard = OnboardNav::new(*sc.vehicle(), cfg, &told, 0, 0)
+            .map_err(|e| anyhow!("estimator: {e}"))?;
+        let floor = FloorRecorder::new(*sc.vehicle(), floor_noise(sc), told, sc.plane.axes());
         let mut sensors = SensorSuite::new(&sc.sensors, seed);
         sensors.set_seabed_depth_m(sc.water.seabed_depth_m);
         Ok(Self {
@@ -102,6 +102,7 @@ impl EstimatorNav {
             fixes: Vec::new(),
             ready_at_s: None,
             compass_cal: compass_calibration(sc),
+            floor,
         })
     }
 
@@ -128,9 +129,14 @@ impl EstimatorNav {
         let nav = &mut self.onboard;
         match m {
             Measurement::Imu(s) => {
-                let _ = nav.imu(now_us, &s, thrust_cmd_n);
+                if nav.imu(now_us, &s, thrust_cmd_n).is_ok() {
+                    let st = nav.estimator().state();
+                    let tilt = (st.roll_rad, st.pitch_rad, st.q_rad_s);
+                    self.floor.imu(&s, tilt, thrust_cmd_n);
+                }
             }
             Measurement::Depth(f) => {
+                self.floor.depth(&f);
                 let _ = nav.depth(now_us, &f);
             }
             Measurement::Heading(f) => {
@@ -138,12 +144,15 @@ impl EstimatorNav {
                     yaw_rad: self.compass_cal.correct(f.yaw_rad),
                     ..f
                 };
+                self.floor.heading(&f);
                 let _ = nav.heading(&f);
             }
             Measurement::Dvl(f) => {
+                self.floor.dvl(&f);
                 let _ = nav.dvl(&f);
             }
             Measurement::Position(f, outlier) => {
+                self.floor.position(&f);
                 let r = nav.position(&f);
                 self.fixes.push(FixRecord {
                     t_valid_s: f.t_us as f64 * 1e-6,
@@ -208,8 +217,19 @@ fn quad_inverse(m: &[Vec<f64>], e: &[f64]) -> Option<f64> {
 
 impl Navigation for EstimatorNav {
     fn observe(&mut self, t_s: f64, truth: &PlantState) {
+        let before = self.pending.len();
         self.sensors.sample(t_s, truth, &mut self.pending);
         self.truth = *truth;
+        // The truth at each IMU sample's time, for the floor's score.
+        let imu_now = self
+            .pending
+            .iter()
+            .skip(before)
+            .any(|(_, m)| matches!(m, Measurement::Imu(_)));
+        if imu_now {
+            self.floor
+                .truth(us(t_s), [truth.eta[0], truth.eta[1], truth.eta[2]]);
+        }
     }
 
     fn estimate(&mut self, t_s: f64, thrust_cmd_n: [f64; 3]) -> NavState {
@@ -220,6 +240,9 @@ impl Navigation for EstimatorNav {
             self.deliver(arrival, m, cmd);
         }
         let nav = self.estimator().state();
+        let est = [nav.x_m, nav.y_m, nav.z_m];
+        let err = [0, 1, 2].map(|i| f64::from(est[i]) - self.truth.eta[i]);
+        self.floor.filter_error(t_s, err);
         if self.ready_at_s.is_none() && self.onboard.position_ready().is_ok() {
             self.ready_at_s = Some(t_s);
         }
@@ -248,7 +271,26 @@ impl Navigation for EstimatorNav {
                 .then(|| self.nees_in as f64 / self.nees_n as f64),
             usbl_outliers_injected: self.sensors.usbl_outliers_injected,
             usbl_fixes_rejected: u64::from(self.estimator().health().position_outliers),
+            floor: self.floor.floor(),
         }
+    }
+}
+
+/// The floor's process noise: the IMU's stated gyro figures, the estimator's settings for
+/// what no sensor states ([`crate::closed_loop::floor`]).
+fn floor_noise(sc: &Scenario) -> FloorNoise {
+    let nav = onboard_config(sc).nav;
+    let (ng, wb) = sc.sensors.imu.as_ref().map_or(
+        (
+            f64::from(nav.gyro_noise_rad_s_sqrt_hz),
+            f64::from(nav.gyro_bias_walk_rad_s_sqrt_s),
+        ),
+        |s| (s.gyro_noise_rad_s_sqrt_hz, s.gyro_bias_walk_rad_s_sqrt_s),
+    );
+    FloorNoise {
+        gyro_noise_rad_s_sqrt_hz: ng,
+        gyro_bias_walk_rad_s_sqrt_s: wb,
+        nav,
     }
 }
 
@@ -365,6 +407,7 @@ impl Navigation for VehicleNav {
             nees_in_bounds_fraction: None,
             usbl_outliers_injected: self.sensors.usbl_outliers_injected,
             usbl_fixes_rejected: 0,
+            floor: None,
         }
     }
 }

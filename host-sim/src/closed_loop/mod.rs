@@ -8,11 +8,13 @@
 
 pub mod endpoint;
 pub mod estimator_nav;
+pub mod floor;
 pub mod navigation;
 pub mod report;
 pub mod rules;
 pub mod runner;
 pub mod sim_loop;
+pub mod smoother;
 
 pub use endpoint::{ControllerEndpoint, CoreEndpoint, StepReply};
 pub use navigation::{to_nav, FixRecord, Navigation, TruthNav};

@@ -16,6 +16,9 @@ pub struct NavReport {
     pub usbl_outliers_injected: u64,
     /// USBL fixes the estimator rejected on its innovation gate.
     pub usbl_fixes_rejected: u64,
+    /// The navigation floor: the smoother's RMS on the same measurements and the ratio
+    /// (estimator runs in process only).
+    pub floor: Option<super::floor::NavFloor>,
 }
 
 /// The per-run summary, written as `summary.json`.
