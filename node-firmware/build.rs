@@ -1,5 +1,5 @@
 //! Linker set-up for the MCU build only (as `firmware/build.rs`): cortex-m-rt's `link.x`,
-//! defmt's `defmt.x`, and `memory-node.x` (issue 25), which cuts the workspace's `memory.x`
+//! defmt's `defmt.x`, and `memory-node.x`, which cuts the workspace's `memory.x`
 //! (STM32F405, also QEMU `netduinoplus2`) to the node's budget (32 KiB flash, 8 KiB RAM,
 //! the stack at the top of the 8 KiB) and fails the link when the image outgrows it.
 use std::{env, fs, path::PathBuf};

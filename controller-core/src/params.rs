@@ -76,7 +76,7 @@ pub struct VehicleParams {
 /// Neutral pulse of the thrusters' ESCs, microseconds: a constant of the ESC (its arming and
 /// stop point), not of a vehicle description. The firmware writes it at boot, when disarmed
 /// and on every failsafe, whatever description it holds; a description whose pulse curve
-/// names another neutral is refused (`Vehicle::check_flyable`; issue 22).
+/// names another neutral is refused (`Vehicle::check_flyable`).
 pub const ESC_NEUTRAL_US: f32 = 1500.0;
 /// Shortest pulse the ESCs take (full reverse), microseconds.
 pub const ESC_MIN_US: f32 = 1100.0;
@@ -249,7 +249,7 @@ impl Vehicle {
     }
 }
 
-/// The ranges a description must lie in to be flown (issue 22; docs/safety.md gives each
+/// The ranges a description must lie in to be flown (docs/safety.md gives each
 /// reason). The laws' gains were tuned on the Observer (10.84 kg, Table I); these ranges allow
 /// vehicles of its class, about 5x lighter to 10x heavier, and refuse the values that made
 /// the laws fail in the probes (thrust 1e-3 N: saturated every step, 4.1 m off; drag 1e5: 138

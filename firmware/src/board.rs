@@ -315,7 +315,7 @@ pub fn run(variant: Variant) -> ! {
         ch2.with(gpioa.pa7).erase(),
         ch3.with(gpiob.pb0).erase(),
     ];
-    // Neutral duty first, then the outputs on (issue 22: they were enabled before).
+    // Neutral duty first, then the outputs on.
     if !start_outputs(&mut pwm, config.pwm_period_us()) {
         halt()
     }
@@ -465,7 +465,7 @@ where
     }
 }
 
-/// USART1 as the interrupt-driven [`Tether`] (for the node image, issue 25; the onboard
+/// USART1 as the interrupt-driven [`Tether`] (for the node image; the onboard
 /// image sets it up the same way in [`run`]). Resets the MCU if the port cannot be set up.
 pub fn start_tether(
     usart: USART1,

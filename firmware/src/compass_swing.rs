@@ -1,4 +1,4 @@
-//! The compass calibration turn as a flown manoeuvre (issue 26; ArduPilot's
+//! The compass calibration turn as a flown manoeuvre (ArduPilot's
 //! `MAV_CMD_DO_START_MAG_CAL`): armed in `Hold` with the on-board estimate ready, the vehicle
 //! turns a full circle in place at a yaw rate, holding its depth and, as well as an
 //! underactuated vehicle can, its position (the surge thrust takes the along-heading part of
@@ -21,7 +21,7 @@ use controller_core::state::NavState;
 const OVERTURN_RAD: f32 = 0.35;
 /// Surge force per metre of along-heading position error (N/m), and its limit (N): a few
 /// times the drag of a 0.2 m/s current, small enough that the compass offset that grows with
-/// the thrusters' current (2 deg at 10 N in issue 26) varies by well under a degree as the
+/// the thrusters' current (2 deg at 10 N in the simulated case) varies by well under a degree as the
 /// current's push turns with the heading (the fit would take that variation for deviation;
 /// measured with a surge of up to 6 N: 1.36 deg of fit error).
 const SURGE_N_PER_M: f32 = 2.0;

@@ -1,4 +1,4 @@
-//! The emulation harness of the paper's layout (issue 25, `docs/deployment.md`, "Emulating
+//! The emulation harness of the paper's layout (`docs/deployment.md`, "Emulating
 //! the topside layout"): how a host program drives the two emulated boards, the topside
 //! (`topside-emu`, this crate) and the node (`node-emu`, crate `node-firmware`), each a QEMU
 //! `netduinoplus2`.

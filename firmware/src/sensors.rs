@@ -29,7 +29,7 @@ pub trait Sensors {
     }
     /// True on a board with sensors of its own: the tether's `Imu` and `Pressure` are then
     /// refused (`OwnSensors`), so that the surface cannot feed the estimator on a real
-    /// vehicle (issue 22).
+    /// vehicle.
     fn own_sensors(&self) -> bool {
         true
     }

@@ -1,4 +1,4 @@
-//! The board's start-up order and its loop, as code the host can test (issue 22): the ESC
+//! The board's start-up order and its loop, as code the host can test: the ESC
 //! outputs get the ESC's neutral duty before any of them is enabled, and the watchdog is fed
 //! only by a loop pass that came back. `board.rs` drives the STM32F4's TIM3 channels and IWDG
 //! through these two traits; `tests/tests/board_startup.rs` (rov-tests) drives recording fakes.

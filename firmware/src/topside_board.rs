@@ -1,4 +1,4 @@
-//! The topside image's board (issue 25): the onboard image's STM32F405 board in the surface
+//! The topside image's board: the onboard image's STM32F405 board in the surface
 //! box, running the same [`App`] with its thrusters and sensors at the far end of the node
 //! link ([`crate::topside_link`]).
 //!

@@ -1,4 +1,4 @@
-//! The emulated topside board (issue 25, `docs/deployment.md`, "Emulating the topside
+//! The emulated topside board (`docs/deployment.md`, "Emulating the topside
 //! layout"): the topside image on QEMU `netduinoplus2`, as [`crate::board::Variant::Qemu`]
 //! is the onboard image there. The same [`App`] over the node link as the surface board
 //! ([`crate::topside_board`]); what differs is the board:

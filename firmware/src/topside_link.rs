@@ -1,4 +1,4 @@
-//! The topside role (issue 25): the same [`App`](crate::App) on the surface MCU, its
+//! The topside role: the same [`App`](crate::App) on the surface MCU, its
 //! thrusters and its sensors at the far end of the node link.
 //!
 //! - [`LinkThruster`]: an `embedded_hal::pwm::SetDutyCycle` whose duty goes into the next

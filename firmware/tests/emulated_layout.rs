@@ -1,4 +1,4 @@
-//! The emulated boards of the paper's layout (issue 25): boots the `node-emu` image
+//! The emulated boards of the paper's layout: boots the `node-emu` image
 //! (crate `node-firmware`) and the `topside-emu` image (this crate, `topside-board`) each
 //! in `qemu-system-arm -M netduinoplus2`, and drives them through their harness UART
 //! (`firmware::harness`): the node samples the host's IMU at the host's time, sends its

@@ -1,4 +1,4 @@
-//! Link-time proof that the node link cannot panic (issue 25): the receiver of both ends
+//! Link-time proof that the node link cannot panic: the receiver of both ends
 //! (`LinkDecoder::push`: COBS, CRC, version, postcard), the node's check and application of a
 //! downlink (`Node::on_frame`: the ranges, the session, the replay check, the arm logic, the
 //! outputs) and the topside's check of an uplink (`TopsideLink::on_frame`: the data checks,

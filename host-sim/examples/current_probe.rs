@@ -56,7 +56,10 @@ fn print_sweep() -> Result<()> {
             if met { "" } else { "MISS" }
         );
     }
-    println!("{ok} of {} cells within issue 14's bounds", cells.len());
+    println!(
+        "{ok} of {} cells within the current sweep's bounds",
+        cells.len()
+    );
     Ok(())
 }
 

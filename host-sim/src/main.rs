@@ -49,7 +49,7 @@ enum Command {
     /// histogram (the same bytes as one run of the whole campaign).
     Merge(commands::merge::MergeArgs),
     /// Currents from every direction: the built-in paths in 0.1-0.3 m/s from 12 directions,
-    /// the RMS tracking error as heat maps (issue 14's measurement).
+    /// the RMS tracking error as heat maps (the measurement).
     CurrentSweep(commands::current_sweep::CurrentSweepArgs),
     /// Hardware in the loop: the firmware (QEMU or a board) closes the loop, lock-step.
     Hil(commands::hil::HilArgs),
@@ -59,7 +59,7 @@ enum Command {
     Topside(host_sim::topside::TopsideArgs),
     /// Draw the figures of a run from a recorded dive (.tlog)
     Replay(commands::replay::ReplayArgs),
-    /// The topside layout against the onboard one (issue 25): tracking, latency, delay
+    /// The topside layout against the onboard one: tracking, latency, delay
     /// margin, a cut and byte corruption of the node link
     Deployment(commands::deployment::DeploymentArgs),
 }

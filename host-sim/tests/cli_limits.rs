@@ -1,4 +1,4 @@
-//! The command line's limits (issue 23): inputs a script can give are refused before any work
+//! The command line's limits: inputs a script can give are refused before any work
 //! starts, with exit code 2 and a reason, and nothing is written outside the output folder.
 //! These run the built binary.
 

@@ -1,4 +1,4 @@
-//! The current sweep (issue 14's measurement) computes real runs and draws them: a cell is a
+//! The current sweep (the measurement) computes real runs and draws them: a cell is a
 //! closed-loop run in the given current, and the files are written.
 
 use host_sim::commands::current_sweep::{cell, write, RMS_BOUND_M};

@@ -1,4 +1,4 @@
-//! Issue 14: tracking and station keeping in currents, and a known measurement delay. Every
+//! Tracking and station keeping in currents, and a known measurement delay. Every
 //! figure is the plant's **true** position against the reference, from closed-loop runs on
 //! the 6-DOF plant with the tracking law (current observer on, nothing told about the
 //! current).
@@ -19,7 +19,7 @@ fn fly(name: &str, current_m_s: Option<[f64; 3]>) -> RunOutput {
     run(&sc.resolve().unwrap(), &opts).unwrap()
 }
 
-/// Issue 14's sweep: line, circle and lawnmower, 0.1-0.3 m/s from every 30 degrees.
+/// The sweep: line, circle and lawnmower, 0.1-0.3 m/s from every 30 degrees.
 #[test]
 fn every_current_direction_up_to_0_3_m_s_is_tracked_within_5_cm_rms() {
     let cells = sweep().unwrap();

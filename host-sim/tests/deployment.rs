@@ -1,4 +1,4 @@
-//! Issue 25's numbers for the topside layout, measured with the firmware library's topside
+//! The numbers for the topside layout, measured with the firmware library's topside
 //! App and node in process over the byte-level tether model (`host-sim deployment` prints
 //! the same figures; docs/deployment.md keeps them with their date).
 //!
@@ -55,7 +55,7 @@ fn sensor_to_thruster_latency_p99_is_within_10_ms_at_115200_and_1_mbd() {
     );
 }
 
-/// Issue 25's "told the delay, within 5 cm up to at least 100 ms", as it is judged here:
+/// The "told the delay, within 5 cm up to at least 100 ms", as it is judged here:
 /// within 5 cm of the zero-latency told run (`deployment::delay_met`). The absolute 5 cm is
 /// not reached at any latency (6.8 cm at 0 ms: the estimate's own error), as
 /// README's table says.
@@ -412,7 +412,7 @@ fn the_emulated_layout_refuses_link_settings_its_images_do_not_run() {
     );
 }
 
-/// Issue 25's bound read as absolute: told the delay, the true-position RMS itself within
+/// The bound read as absolute: told the delay, the true-position RMS itself within
 /// 5 cm up to 100 ms one-way. Not met: the estimate's own error at 0 ms is above it.
 #[test]
 #[ignore = "not met: told, 115,200 Bd, nav-circle-3d: 6.8 / 6.2 / 6.5 cm at 0 / 50 / 100 ms one-way (2026-11-26, node link v2); 5 cm is not reached at 0 ms either"]

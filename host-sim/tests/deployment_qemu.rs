@@ -1,4 +1,4 @@
-//! Issue 25, item 4: `host-sim hil` of a scenario with `[deployment] control = "topside"`
+//! `host-sim hil` of a scenario with `[deployment] control = "topside"`
 //! flies the two emulated images (`topside-emu`, `node-emu`, each in QEMU `netduinoplus2`,
 //! stepped through their harness UARTs) in host-sim's closed loop, with the tether model
 //! between them, and they fly as the firmware library's two roles do in process.
@@ -112,7 +112,7 @@ fn hil_flies_the_emulated_topside_layout_as_the_in_process_one() {
         f64_of(&emu_l, "node_imu_hz"),
         wall.as_secs_f64()
     );
-    // Issue 25's tracking bound, emulated against in process.
+    // The tracking bound, emulated against in process.
     assert!(
         rms_emu.is_finite() && (rms_emu - rms_ip).abs() <= 0.1 * rms_ip + 0.01,
         "emulated {rms_emu} m vs in process {rms_ip} m"
@@ -122,7 +122,7 @@ fn hil_flies_the_emulated_topside_layout_as_the_in_process_one() {
     // The node applied a downlink per uplink (50 Hz), as in process.
     let applied = emu_l["downlinks_applied"].as_u64().unwrap();
     assert!(applied as f64 >= 0.95 * 50.0 * DURATION_S, "{emu_l}");
-    // The sensor-to-thruster latency on the node's own timeline: issue 25's p99 <= 10 ms.
+    // The sensor-to-thruster latency on the node's own timeline: the p99 <= 10 ms.
     let p99 = emu_l["latency_p50_p99_max_ms"][1].as_f64().unwrap();
     assert!(p99 <= 10.0, "{emu_l}");
     assert!(emu["diverged"] == false, "{emu}");
@@ -130,7 +130,7 @@ fn hil_flies_the_emulated_topside_layout_as_the_in_process_one() {
 
 /// The node link cut at 1 s, emulated: the node is neutral 100 ms after its last good frame
 /// (its downlink's time to live) and latched at 1 s, the ground station told within 250 ms
-/// of the cut (issue 25's bounds), and the timings are the node's own (the harness runs the
+/// of the cut (the bounds), and the timings are the node's own (the harness runs the
 /// node at its failsafes' times, not only at its IMU times).
 #[test]
 fn a_cut_node_link_goes_neutral_and_latches_on_the_emulated_node() {

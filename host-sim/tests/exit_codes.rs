@@ -1,4 +1,4 @@
-//! Exit codes and verdicts (issue 23): `run` exits 1 when the run diverged, went non-finite,
+//! Exit codes and verdicts: `run` exits 1 when the run diverged, went non-finite,
 //! lost control or missed its scenario's `[expect]` targets, 0 otherwise; the verdict
 //! compares with the scenario's own targets. These run the built binary.
 

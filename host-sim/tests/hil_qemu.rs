@@ -189,7 +189,7 @@ fn hil_corrupted_bytes_do_not_lose_control() {
     );
 }
 
-/// The estimator on the emulated Cortex-M4F (issue 12): `nav-circle-3d` (IMU, depth,
+/// The estimator on the emulated Cortex-M4F: `nav-circle-3d` (IMU, depth,
 /// compass, DVL and 1 Hz USBL) with the sensor readings and fixes sent over the tether and
 /// the firmware estimating, against the same scenario with the estimator in software (the
 /// same sensor draws). 60 s of the 300 s scenario where `ROV_LONG` is set (CI), 20 s

@@ -77,7 +77,7 @@ fn in_process_firmware_link_loss_goes_neutral_then_disarms() {
     }
 }
 
-/// The estimator in the firmware library (issue 12): the whole `nav-circle-3d` run with the
+/// The estimator in the firmware library: the whole `nav-circle-3d` run with the
 /// sensor readings and fixes over the tether and the firmware estimating matches the
 /// software run with the estimator in process (the same core code, the same draws; a depth
 /// travels as a pressure and back).

@@ -1,4 +1,4 @@
-//! Divergence judged on the true state (issue 23): a vehicle that cannot hold its depth is
+//! Divergence judged on the true state: a vehicle that cannot hold its depth is
 //! named so, not "completed"; a run that ends where it should is not judged lost.
 
 use host_sim::closed_loop::runner::{nominal_plant_params, run, RunOptions};

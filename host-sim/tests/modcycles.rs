@@ -1,4 +1,4 @@
-//! `scripts/modcycles.py` fails when it finds what it looks for (issue 23): a circle of
+//! `scripts/modcycles.py` fails when it finds what it looks for: a circle of
 //! modules prints a `CYCLE` line and exits 1; the workspace has none. Skipped without python3.
 
 use std::path::{Path, PathBuf};
@@ -50,7 +50,10 @@ fn no_file_level_circle_but_the_known_ones() {
     };
     let out = String::from_utf8_lossy(&o.stdout);
     for line in out.lines().filter(|l| l.contains("CYCLE")) {
-        assert!(KNOWN_FILE_CIRCLES.contains(&line), "a new circle: {line}\n{out}");
+        assert!(
+            KNOWN_FILE_CIRCLES.contains(&line),
+            "a new circle: {line}\n{out}"
+        );
     }
 }
 

@@ -1,4 +1,4 @@
-//! Issue 26 (b): the estimator learns the compass's constant bias. The operator's case: the
+//! The estimator learns the compass's constant bias. The operator's case: the
 //! lawnmower survey with the full sensor suite in a 0.2 m/s beam current (across the legs),
 //! the compass off by 1, 3, 6 and 10 degrees; and the circle with USBL only, 5 degrees off.
 //! Every tracking figure is the TRUE position against the reference, RMS over the last 80 %.

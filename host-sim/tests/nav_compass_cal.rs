@@ -1,4 +1,4 @@
-//! Issue 26 (f): the compass swing. The vehicle turns a full circle in place; the simulated
+//! The compass swing. The vehicle turns a full circle in place; the simulated
 //! compass (5 deg hard-iron deviation, a thrust-dependent offset, its noise) and gyro (its
 //! drawn bias) feed `CompassSwing`; the fitted deviation must be within 1 deg of the truth at
 //! every heading. Then the survey is flown with that calibration applied to the compass.

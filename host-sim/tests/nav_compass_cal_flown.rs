@@ -1,4 +1,4 @@
-//! Issue 26: the compass calibration turn FLOWN in closed loop by the firmware (its library in
+//! The compass calibration turn FLOWN in closed loop by the firmware (its library in
 //! process behind the same frames as the board, `host-sim hil --in-process`): the survey in a
 //! 0.2 m/s beam current with the full sensor suite, a compass with a 5 deg hard-iron
 //! deviation and a thrust-dependent 2 deg (at 10 N of summed thrust). The scenario's

@@ -1,4 +1,4 @@
-//! Issue 26 on the emulated MCU: the estimator on the firmware's `qemu` image against the
+//! On the emulated MCU: the estimator on the firmware's `qemu` image against the
 //! software run, within 10 % + 1 cm: the survey with a 6 degree compass bias in a 0.2 m/s
 //! beam current (`scenarios/nav-survey-compass-bias-3d.toml`), the USBL-only circle with a
 //! 5 degree bias, and the circle told a start 5 m and 30 degrees off. Skipped, with a

@@ -1,4 +1,4 @@
-//! Issue 26's sensor errors on the emulated MCU: the estimator on the firmware's `qemu` image
+//! The sensor errors on the emulated MCU: the estimator on the firmware's `qemu` image
 //! against the software run of the same draws, within 10 % + 1 cm (true position, tracking
 //! RMS over the last 80 % and estimation RMS): 20 % near USBL outliers (1-2 m off), the
 //! compass calibration turn flown by the board (against the firmware library in process: a
@@ -11,7 +11,7 @@
 //! The emulation runs at about 1-2 s of wall time per simulated second (lock-step, on the
 //! host's clock; 2 shared cores), so CI runs shortened versions (about 4 minutes in all, in
 //! parallel) and the whole-length runs are `#[ignore]`d with their figures
-//! (`docs/navigation.md`, "Issue 26's errors on the emulated MCU"). The shortened runs too
+//! (`docs/navigation.md`, "The errors on the emulated MCU"). The shortened runs too
 //! take minutes of QEMU: they run where `ROV_LONG` is set (CI; `long_emulated`).
 
 mod long_emulated;

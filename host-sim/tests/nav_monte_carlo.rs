@@ -1,4 +1,4 @@
-//! Issue 26 (e): Monte Carlo over the sensors' real errors and the start. 200 runs of the
+//! Monte Carlo over the sensors' real errors and the start. 200 runs of the
 //! lawnmower survey (full suite), each with its own sensor noise and its own draw of: the
 //! compass bias (uniform +-5 deg), the DVL scale factor (+-1 %) and mounting yaw (+-2 deg),
 //! and the launch point the estimator is told (5 m off in a random direction, heading

@@ -1,4 +1,4 @@
-//! Issue 26 (c): outliers cannot take over. A fix the gate refuses is never a reason to
+//! Outliers cannot take over. A fix the gate refuses is never a reason to
 //! jump to it; only a cluster of refused fixes that agree with each other (and are the
 //! majority of the fixes since the first of them) moves the estimate. Every tracking figure is
 //! the TRUE position against the reference, RMS over the last 80 %.

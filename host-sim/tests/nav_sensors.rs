@@ -1,4 +1,4 @@
-//! Issue 26 (a): the sensors' real errors are simulated as specified, and implausible ones
+//! The sensors' real errors are simulated as specified, and implausible ones
 //! are refused with the key named.
 
 use host_sim::scenario::Scenario;

@@ -1,4 +1,4 @@
-//! Issue 26 (d): an unknown start. The estimator is told a launch point 5 m off and a
+//! An unknown start. The estimator is told a launch point 5 m off and a
 //! heading 30 degrees off, with the uncertainty of that (5 m, 0.6 rad); the compass and the
 //! USBL fixes must bring it in. The estimate is not ready for position modes until its
 //! uncertainty is below the core's threshold. Figures on the TRUE position.

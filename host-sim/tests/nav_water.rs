@@ -1,4 +1,4 @@
-//! Issue 26 (e): the water the vehicle is in. The seabed and the surface bound the plant (a
+//! The water the vehicle is in. The seabed and the surface bound the plant (a
 //! run that meets either says so), the DVL loses bottom lock above its range, and the
 //! current changes in time and with depth. Figures on the TRUE position.
 

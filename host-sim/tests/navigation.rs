@@ -1,4 +1,4 @@
-//! The loop closed on the estimator (issue 11): the built-in `nav-*` scenarios against the
+//! The loop closed on the estimator: the built-in `nav-*` scenarios against the
 //! issue's numbers. Every tracking figure is the **true** position against the reference;
 //! the estimation figure is the estimate against the truth.
 

@@ -1,4 +1,4 @@
-//! The USBL outlier counter counts what the estimator received (issue 23): an outlier drawn
+//! The USBL outlier counter counts what the estimator received: an outlier drawn
 //! in the run's last latency window never arrives and is not counted as injected.
 
 use host_sim::closed_loop::runner::{run, RunOptions};

@@ -1,4 +1,4 @@
-//! `host-sim topside --sim` driven by a ground station we did not write: pymavlink (issue 13).
+//! `host-sim topside --sim` driven by a ground station we did not write: pymavlink.
 //!
 //! The client (`tests/clients/pymavlink_session.py`) connects, checks the vehicle type and the
 //! telemetry streams, sets MANUAL, arms, flies forward on `MANUAL_CONTROL`, stops the stream
@@ -265,7 +265,7 @@ fn client_session(name: &str, script: &str, port: u16, extra: &[&str], args: &[&
 }
 
 /// Two ground stations on two connections, one flooding `MANUAL_CONTROL`: neither the tether
-/// loop nor the other station is starved (issue 13, bad input).
+/// loop nor the other station is starved (bad input).
 #[test]
 fn a_manual_control_flood_starves_neither_the_tether_nor_a_second_ground_station() {
     if !pymavlink_or_skip() {
@@ -323,7 +323,7 @@ fn manual_control_follows_ardusub_conventions() {
     assert!(manual_thrust(i16::MAX, i16::MIN, i16::MIN).is_valid());
 }
 
-/// Missions (issue 13): pymavlink uploads a 3-waypoint mission through the standard protocol,
+/// Missions: pymavlink uploads a 3-waypoint mission through the standard protocol,
 /// downloads it back, has bad ones refused (too many items, a NaN or unreachable depth, a
 /// global frame) with the mission in use unchanged, flies it in AUTO on the vehicle (each
 /// `MISSION_ITEM_REACHED`, the end within 0.3 m of the last waypoint), and clears it.
@@ -345,7 +345,7 @@ fn pymavlink_uploads_a_mission_and_flies_it_in_auto() {
     );
 }
 
-/// Global frames (issue 13, item 4): refused before `SET_GPS_GLOBAL_ORIGIN`, then a mission in
+/// Global frames: refused before `SET_GPS_GLOBAL_ORIGIN`, then a mission in
 /// `MAV_FRAME_GLOBAL_RELATIVE_ALT_INT` (positions from pymavlink's own geodesy) flown in AUTO
 /// to its last waypoint, `GLOBAL_POSITION_INT` on the map's terms.
 #[test]
@@ -483,7 +483,7 @@ impl RawStation {
     }
 }
 
-/// Issue 22, item 5: an empty UDP datagram, garbage bytes and a truncated frame from a ground
+/// An empty UDP datagram, garbage bytes and a truncated frame from a ground
 /// station are logged and dropped; the topside lives on and answers the next request.
 #[test]
 fn an_empty_datagram_and_garbage_do_not_end_the_topside() {
@@ -505,7 +505,7 @@ fn an_empty_datagram_and_garbage_do_not_end_the_topside() {
     assert!(alive, "the topside answers after the empty datagram");
 }
 
-/// Issue 22, item 4 and the MAVLink probes: station B's sticks do not override A's (B is
+/// The MAVLink probes: station B's sticks do not override A's (B is
 /// told why), B's commands are refused until it takes control with CHANGE_OPERATOR_CONTROL;
 /// ARM_DISARM with NaN does not disarm, DO_SET_MODE with NaN or -5 does not give STABILIZE,
 /// a GUIDED target 50 m above the surface is refused; anyone may disarm.
@@ -526,7 +526,7 @@ fn one_commander_at_a_time_and_bad_commands_change_nothing() {
     assert!(out.contains("PASS: disarmed"), "the session ran to its end");
 }
 
-/// Issue 22, item 4: interleaved uploads from two stations: the second refused, the mission
+/// Interleaved uploads from two stations: the second refused, the mission
 /// is the first station's; an upload that stops is abandoned; a new mission in AUTO refused.
 #[test]
 fn a_mission_upload_is_one_stations_transaction_and_auto_keeps_its_mission() {
@@ -586,7 +586,7 @@ fn the_escs_neutral_is_not_a_parameter_a_ground_station_can_move() {
     assert!(!params.exists(), "nothing saved");
 }
 
-/// Issue 22, item 5: a TCP ground station that disconnects does not end the topside, and
+/// A TCP ground station that disconnects does not end the topside, and
 /// the listener accepts it again: the reconnected station is answered.
 #[test]
 fn a_tcp_ground_station_may_disconnect_and_come_back() {
@@ -667,7 +667,7 @@ fn a_tcp_ground_station_may_disconnect_and_come_back() {
     assert!(served, "the reconnected station is served");
 }
 
-/// Issue 22, item 5: each start writes new, time-stamped logs; the first start's files are
+/// Each start writes new, time-stamped logs; the first start's files are
 /// still there, byte for byte, after the second.
 #[test]
 fn two_starts_write_two_sets_of_logs_and_the_first_is_intact() {
@@ -763,7 +763,7 @@ fn read_truth(path: &std::path::Path) -> Vec<Row> {
         .collect()
 }
 
-/// `host-sim topside --sim nav-circle-3d` flown by pymavlink (issue 24): the simulated
+/// `host-sim topside --sim nav-circle-3d` flown by pymavlink: the simulated
 /// vehicle navigates on its own estimator, fed with the simulated sensors through the tether
 /// (the one closed loop, as `hil` runs it), and the ground station sees that estimate. The
 /// client (`clients/pymavlink_estimator.py`) uploads a mission, arms, flies it in AUTO and

@@ -1,4 +1,4 @@
-//! Issue 26: the compass calibration turn started from a ground station we did not write
+//! The compass calibration turn started from a ground station we did not write
 //! (pymavlink, `clients/pymavlink_compass_cal.py`) with ArduPilot's
 //! `MAV_CMD_DO_START_MAG_CAL`, on `host-sim topside --sim` (the firmware library in process,
 //! its estimator on the simulated sensors). The simulated compass has a 5 deg hard-iron

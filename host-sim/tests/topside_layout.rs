@@ -1,5 +1,5 @@
 //! `host-sim topside` with a scenario of the topside layout (`[deployment] control =
-//! "topside"`, issue 25): the simulated vehicle is the topside MCU's App with its node behind
+//! "topside"`): the simulated vehicle is the topside MCU's App with its node behind
 //! the node link (`TopsideLayout` in the scenario's closed loop), flown from a MAVLink ground
 //! station (the `mavlink` crate) as any vehicle; the same flight of the onboard layout is
 //! the comparison. With `--emulated` the two images (`topside-emu`, `node-emu`) fly in QEMU
@@ -279,7 +279,7 @@ fn fly(scenario: &Path, dir: &Path) -> Flight {
     }
 }
 
-/// Issue 25 item 4: `host-sim topside --sim` of a topside-layout scenario is flown from a
+/// `host-sim topside --sim` of a topside-layout scenario is flown from a
 /// ground station like any vehicle: the position modes wait for the topside's estimate, the
 /// vehicle is armed, goes to a GUIDED target and holds it. Its true position over the last
 /// 20 s is held against the target, and against the same flight of the onboard layout.

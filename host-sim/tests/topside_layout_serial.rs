@@ -1,4 +1,4 @@
-//! `host-sim topside --serial DEV` with the topside layout (issue 25 item 4): the PC cannot
+//! `host-sim topside --serial DEV` with the topside layout: the PC cannot
 //! tell a topside MCU from an onboard vehicle, both speak the same tether protocol. Behind a
 //! pseudo-terminal runs the topside layout's topside board as the firmware library: the same
 //! `App` as every image, its thrusters and sensors the node link (`topside_link`), the

@@ -1,6 +1,6 @@
 //! The 3-D tracking law (hand-position XY law + depth by heave) on the nominal 6-DOF plant
 //! with thruster limits, on the built-in scenarios' references (circle-3d, lawnmower-3d,
-//! helix-3d). Issue 3 bound: RMS position error <= 2 cm over the last 80 % of the run.
+//! helix-3d). Bound: RMS position error <= 2 cm over the last 80 % of the run.
 
 mod tracking_common;
 
@@ -72,7 +72,7 @@ fn tracking_3d_helix() {
 #[test]
 fn tracking_3d_fast_line_from_offset_and_fast_circle() {
     for (v, line_final, line_rms, circle_rms) in
-        // The 0.5 m/s line's RMS bound went from 12 to 13 mm with issue 14's current handling
+        // The 0.5 m/s line's RMS bound went from 12 to 13 mm with the current handling
         // (11.8 -> 12.1 mm: the start transient reads briefly as a current; the issue allows
         // still water 1 mm worse).
         [(0.5f32, 0.004, 0.013, 1e-4), (1.0, 0.035, 0.03, 3e-4)]

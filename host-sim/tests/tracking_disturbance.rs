@@ -151,7 +151,7 @@ fn tracking_xz_paper_current_and_buoyancy() {
 #[test]
 fn tracking_xy_paper_current() {
     // Measured: RMS 0.046 m, final 0.0013 m (off); RMS 0.032 m, final 0.0053 m (on) before
-    // issue 14's current handling; RMS 0.017 m, final 0.0056 m (on) after it. The reference
+    // the current handling; RMS 0.017 m, final 0.0056 m (on) after it. The reference
     // ends in a hold, where a weather-vane swing dies out slowly (docs/tracking.md): the
     // final bound was 10 mm while the swing did not die out (8.6 mm), and is 6 mm again.
     let (off, on) = both(

@@ -1,6 +1,6 @@
 //! The paper's reference (`x_r = y_r = z_r = h_r t^5 / (t^5 + (t_f - t)^5)`, `h_r = 10 m`,
 //! `t_f = 100 s`) with the tracking laws on the nominal 6-DOF plant with thruster limits.
-//! Issue 3 bounds: final position error <= 1 cm, max <= 5 cm after the first 10 s.
+//! Bounds: final position error <= 1 cm, max <= 5 cm after the first 10 s.
 
 mod tracking_common;
 

@@ -1,4 +1,4 @@
-//! The estimator on the MCU (issue 11's budget: one predict, the updates due in a step and
+//! The estimator on the MCU (the budget: one predict, the updates due in a step and
 //! the control step <= 30,000 instructions).
 //!
 //! The estimator cruises a 5 m circle at 0.25 m/s with consistent synthetic measurements (so

@@ -1,4 +1,4 @@
-//! The board's whole loop iteration with the on-board estimator (issue 12, item 5): the
+//! The board's whole loop iteration with the on-board estimator: the
 //! firmware library's [`App::tick`] in fixed-rate mode (50 Hz control, 10 Hz telemetry) with
 //! [`BusSensors`], the real ICM-42688-P and MS5837-30BA drivers on SPI and I2C buses in RAM
 //! (the bus transfers themselves take no time here; on the board the SPI burst is ~20 us at

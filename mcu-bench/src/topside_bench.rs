@@ -1,4 +1,4 @@
-//! The topside image's loop pass (issue 25, `loop.topside_3d`): the surface board's loop
+//! The topside image's loop pass (`loop.topside_3d`): the surface board's loop
 //! (`topside_board.rs`, `harness::topside_pass`) with the same App as `loop.onboard_3d`, its
 //! sensors and thrusters the node link (`LinkSensors`, `LinkThruster`, `TopsideLink`).
 //!

@@ -1,4 +1,4 @@
-//! The node image's board (issue 25): the [`Node`] role on an emulated STM32F405 (QEMU
+//! The node image's board: the [`Node`] role on an emulated STM32F405 (QEMU
 //! `netduinoplus2`), linked into the node budget (`memory-node.x`: 32 KiB of flash, 8 KiB of
 //! RAM, an STM32G0 / F0-class part; a larger image fails to link).
 //!

@@ -1,4 +1,4 @@
-//! The emulated node (issue 25, `docs/deployment.md`, "Emulating the topside layout"): the
+//! The emulated node (`docs/deployment.md`, "Emulating the topside layout"): the
 //! [`Node`] role on QEMU `netduinoplus2` with its sensors and its clock supplied by the host
 //! (the plant), as [`crate::board`] is the node on the real part.
 //!

@@ -1,4 +1,4 @@
-//! The vehicle's thin node in the paper's layout (issue 25, `docs/deployment.md`): the
+//! The vehicle's thin node in the paper's layout (`docs/deployment.md`): the
 //! boards and images of the [`firmware::node`] role. The role, its link and its traits are
 //! the firmware crate's (shared with the topside, tested there); here are only
 //!

@@ -1,4 +1,4 @@
-//! The board's start-up order and watchdog (issue 22, item 6), on the host with recording
+//! The board's start-up order and watchdog, on the host with recording
 //! fakes: `firmware::start_outputs` (what `board.rs` calls on TIM3's three channels) writes the
 //! ESC's neutral duty before it enables any output, and `firmware::loop_pass` (the board's
 //! loop body) feeds the watchdog only after a pass that came back, so a stuck pass lets the

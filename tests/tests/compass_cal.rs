@@ -1,4 +1,4 @@
-//! Issue 26: the compass calibration (`COMPASS_DEV_SIN` / `COMPASS_DEV_COS` at the ground
+//! The compass calibration (`COMPASS_DEV_SIN` / `COMPASS_DEV_COS` at the ground
 //! station) reaches the vehicle as `SetCompassCal`; the on-board estimator takes the
 //! deviation off every heading; a calibration out of range, not finite, or sent while armed
 //! is refused with the reason and the one in force stays.

@@ -1,4 +1,4 @@
-//! Issue 26: the compass calibration turn (`StartCompassCal`, the ground station's
+//! The compass calibration turn (`StartCompassCal`, the ground station's
 //! `MAV_CMD_DO_START_MAG_CAL`) is flown only armed in `Hold` with the on-board estimator:
 //! refused disarmed (`NotArmed`), in the other modes (`NotInHold`: `Idle`, `DepthHold`;
 //! AUTO and `Track` likewise), with a rate or limit out of range (`OutOfRange`), each

@@ -112,7 +112,7 @@ fn command() -> impl Strategy<Value = Command> {
     ]
 }
 
-/// The on-board estimator's messages (issue 12), with any values, NaN and infinities too.
+/// The on-board estimator's messages, with any values, NaN and infinities too.
 fn nav_commands() -> impl Strategy<Value = Command> {
     let any_f = || any::<f32>();
     prop_oneof![
@@ -127,7 +127,7 @@ fn nav_commands() -> impl Strategy<Value = Command> {
         }),
         prop_oneof![
             Just(Command::StopNav),
-            // The compass calibration (issue 26): `COMPASS_DEV_*` and the flown turn.
+            // The compass calibration: `COMPASS_DEV_*` and the flown turn.
             (any_f(), any_f()).prop_map(|(sin_rad, cos_rad)| {
                 Command::SetCompassCal(CompassCalibration { sin_rad, cos_rad })
             }),
@@ -475,7 +475,7 @@ fn largest_messages_fit() {
     }
 }
 
-// ---- Issue 22: a million inputs of each kind ------------------------------------------
+// ---- A million inputs of each kind -------------------------------------------------
 
 /// xorshift64*: fast, seeded, reproducible (the inputs are the same on every run).
 struct Rng(u64);
@@ -647,7 +647,7 @@ fn inputs_per_kind() -> usize {
         .unwrap_or(1_000_000)
 }
 
-/// Issue 22 item 7: at least 1 M inputs of each kind: bursts, multi-byte damage,
+/// At least 1 M inputs of each kind: bursts, multi-byte damage,
 /// truncation, glued frames (the decoder the App uses), replays and valid frames with absurd
 /// values (through the App). Asserted: 0 corrupted frames accepted, 0 replays accepted, 0
 /// pulses outside the ESC's 1100-1900 us, 0 panics (a panic fails the test).
@@ -785,7 +785,7 @@ fn a_million_inputs_of_each_kind() {
     let st = a.link_stats();
     let total_s = t0.elapsed().as_secs_f64();
     println!(
-        "issue 22 fuzz: {n} inputs of each kind; corrupted accepted (burst, multi-byte, \
+        "fuzz: {n} inputs of each kind; corrupted accepted (burst, multi-byte, \
          truncated, glued) {corrupted_accepted:?}, intact frames after them recovered \
          {intact_recovered} of {}; {replays} replays, refused as replays {}; {absurd_n} valid \
          frames with absurd values ({thrusting} with thrust), {pulses_checked} pulses checked, \

@@ -1,4 +1,4 @@
-//! Issue 26 (d) on the firmware: the modes that need a position (`Track`, `Hold`, AUTO and
+//! On the firmware: the modes that need a position (`Track`, `Hold`, AUTO and
 //! what the ground station's GUIDED and POSHOLD map to) are refused with the reason until the
 //! on-board estimate is ready (`OnboardNav::position_ready`), like ArduSub's "EKF not ready".
 

@@ -1,4 +1,4 @@
-//! The firmware with its estimator on board (issue 12): sensor readings and fixes over the
+//! The firmware with its estimator on board: sensor readings and fixes over the
 //! tether, refusals with a reason that leave the estimate unchanged, the sensor failsafe.
 
 // Test code: a failed expectation should stop the test.

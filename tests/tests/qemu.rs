@@ -237,8 +237,8 @@ fn emulated_board_boots_and_answers_in_lockstep() {
     t_us += 40_000;
     link.heartbeat(t_us);
     link.nav(t_us);
-    // Still in MANUAL with the push 60 ms old: the pilot centres the sticks first (issue 22:
-    // no arming in a stick mode with a fresh stick off centre).
+    // Still in MANUAL with the push 60 ms old: the pilot centres the sticks first
+    // (no arming in a stick mode with a fresh stick off centre).
     link.send(&Command::ManualThrust(ManualThrust::default()));
     link.expect_ack(&Command::Arm);
     link.expect_ack(&Command::SetReference {

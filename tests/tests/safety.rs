@@ -222,7 +222,7 @@ fn heartbeat_loss_neutral_then_disarm_then_explicit_rearm() {
         assert_eq!(pulses_us(&mut a), [1500.0; 3]);
     }
     t.send(&mut a, &nav(c.get_us()));
-    // Issue 22: the arming in a stick mode is refused while the stick is off centre.
+    // The arming in a stick mode is refused while the stick is off centre.
     let (s, r) = t.send(&mut a, &Command::Arm);
     assert_eq!(nacked(&r, s), Some(NackReason::SticksNotCentred));
     t.send(&mut a, &Command::ManualThrust(ManualThrust::default()));
@@ -492,7 +492,7 @@ fn lockstep_runs_on_host_time() {
         },
     });
     let (s, r) = t.send(&mut a, &far);
-    // Issue 22: the stamp is refused first (an hour ahead of the host's clock).
+    // The stamp is refused first (an hour ahead of the host's clock).
     assert_eq!(nacked(&r, s), Some(NackReason::ClockAhead));
     assert_eq!(a.now_us(), t_us);
     let (s, r) = t.send(&mut a, &nav(t_us + 20_000));
@@ -555,7 +555,7 @@ fn timing_enum_is_reported() {
     assert_eq!(Config::lockstep(Board::Host).timing, Timing::LockStep);
 }
 
-/// STABILIZE / ALT_HOLD (issue 13): refused without a fresh nav; the pilot's thrust with the
+/// STABILIZE / ALT_HOLD: refused without a fresh nav; the pilot's thrust with the
 /// heading and depth held; neutral with `MANUAL_STALE` when the sticks stop, `NAV_STALE`
 /// when the navigation does.
 #[test]
@@ -612,7 +612,7 @@ fn pilot_assisted_modes_need_nav_and_sticks() {
     assert_eq!(pulses_us(&mut a), [1500.0; 3]);
 }
 
-/// Missions (issue 13): uploaded item by item, replaced only when complete, bad items refused
+/// Missions: uploaded item by item, replaced only when complete, bad items refused
 /// with the mission in use unchanged, AUTO refused without one, flown and counted when given.
 #[test]
 fn missions_are_uploaded_whole_refused_with_a_reason_and_flown_in_auto() {
@@ -667,7 +667,7 @@ fn missions_are_uploaded_whole_refused_with_a_reason_and_flown_in_auto() {
         Some(NackReason::Unsupported),
         "not while flying it"
     );
-    // Nor a new mission (issue 22: it was acknowledged and the old one flown on).
+    // Nor a new mission (it was acknowledged and the old one flown on).
     let (s, r) = t.send(&mut a, &wp(0, [1.0, 1.0, 1.0]));
     assert_eq!(
         nacked(&r, s),
@@ -774,7 +774,7 @@ fn vehicle_description_and_failsafe_timeouts_over_the_tether() {
     assert_eq!(a.autopilot().controller().vehicle().params().mass_kg, 14.0);
 }
 
-// ---- Issue 22: the probes, each a test ------------------------------------------------
+// ---- The safety probes, each a test ---------------------------------------------------
 
 /// Keep the link and the navigation fresh for `steps` control periods of 20 ms.
 fn fly(a: &mut TestApp, c: &FakeClock, t: &mut Topside, steps: u32) {
@@ -785,7 +785,7 @@ fn fly(a: &mut TestApp, c: &FakeClock, t: &mut Topside, steps: u32) {
     }
 }
 
-/// Issue 22, "arming obeys a stale stick": a full stick sent while disarmed does not act
+/// The probe "arming obeys a stale stick": a full stick sent while disarmed does not act
 /// after the arming. While it is fresh, the arming is refused (ArduSub's throttle check);
 /// once stale, the arming is taken and the thrusters wait for input sent after it.
 #[test]
@@ -827,7 +827,7 @@ fn arming_does_not_obey_a_stick_sent_while_disarmed() {
     assert!(pulses_us(&mut a)[0] > 1500.0);
 }
 
-/// Issue 22, "re-arming resumes an old reference": tracking a line, disarm, 60 s later arm.
+/// The probe "re-arming resumes an old reference": tracking a line, disarm, 60 s later arm.
 /// The reference was dropped at the disarm: the arming in the tracking mode is refused
 /// `NoReference` (outputs stay neutral); sent again, the line starts at the arming.
 #[test]
@@ -870,7 +870,7 @@ fn rearming_does_not_resume_an_old_reference() {
     assert!(e.x_m.abs() < 0.05, "first error {e:?}");
 }
 
-/// Issue 22, "AUTO armed 120 s after it was set jumps 10 m along the path": the path starts
+/// The probe "AUTO armed 120 s after it was set jumps 10 m along the path": the path starts
 /// at the arming, where the vehicle is.
 #[test]
 fn auto_armed_late_starts_its_path_at_the_arming() {
@@ -903,7 +903,7 @@ fn auto_armed_late_starts_its_path_at_the_arming() {
     );
 }
 
-/// Issue 22, "a replayed frame is obeyed": after `Disarm`, the same `Arm` and `ManualThrust`
+/// The probe "a replayed frame is obeyed": after `Disarm`, the same `Arm` and `ManualThrust`
 /// bytes sent again are refused `Replayed` and counted; the vehicle stays disarmed.
 #[test]
 fn a_replayed_frame_is_refused_and_counted() {
@@ -978,7 +978,7 @@ fn a_session_is_needed_and_a_restarted_topside_is_welcome_at_once() {
     assert!(a.autopilot().armed());
 }
 
-/// Issue 22, "one Nav stamped an hour ahead locks out 10 s": refused `ClockAhead`, and the
+/// The probe "one Nav stamped an hour ahead locks out 10 s": refused `ClockAhead`, and the
 /// next good one is taken (fixed-rate, the vehicle's own clock).
 #[test]
 fn a_nav_stamped_an_hour_ahead_is_refused_and_locks_nothing_out() {
@@ -1005,7 +1005,7 @@ fn a_nav_stamped_an_hour_ahead_is_refused_and_locks_nothing_out() {
     assert_eq!(nacked(&r, s), Some(NackReason::ClockAhead));
 }
 
-/// Issue 22, "one Heartbeat an hour ahead disables the link failsafe in lock-step": refused
+/// The probe "one Heartbeat an hour ahead disables the link failsafe in lock-step": refused
 /// `ClockAhead`; 5 s without heartbeats then disarm as specified.
 #[test]
 fn a_heartbeat_an_hour_ahead_does_not_disable_the_link_failsafe() {
@@ -1043,7 +1043,7 @@ fn a_heartbeat_an_hour_ahead_does_not_disable_the_link_failsafe() {
     assert_eq!(disarmed_at, Some(1_000_000));
 }
 
-/// Issue 22: the tether's `Imu` and `Pressure` only on a board without sensors of its own;
+/// The tether's `Imu` and `Pressure` only on a board without sensors of its own;
 /// an `Imu` an hour ahead (emulated board, lock-step) is refused and does not move the
 /// estimator's clock.
 #[test]
@@ -1116,7 +1116,7 @@ fn tether_sensor_readings_only_without_own_sensors_and_never_an_hour_ahead() {
     assert_eq!(nacked(&r, s), None, "the next good sample: {r:?}");
 }
 
-/// Issue 22: `SetFailsafe` only while disarmed (timeouts are not relaxed mid-dive).
+/// `SetFailsafe` only while disarmed (timeouts are not relaxed mid-dive).
 #[test]
 fn failsafe_timeouts_are_not_changed_while_armed() {
     let (mut a, c, mut t) = fixed();
@@ -1134,7 +1134,7 @@ fn failsafe_timeouts_are_not_changed_while_armed() {
     assert!(acked(&r, s), "{r:?}");
 }
 
-/// Issue 22, "a vehicle description moves neutral" and "unsafe descriptions are accepted":
+/// The probe "a vehicle description moves neutral" and "unsafe descriptions are accepted":
 /// refused with a reason, nothing changes; the disarmed and link-lost outputs stay at the
 /// ESC's 1500 us whatever the description.
 #[test]
@@ -1184,7 +1184,7 @@ fn descriptions_cannot_move_neutral_or_describe_an_unflyable_vehicle() {
     assert_eq!(pulses_us(&mut a), [1500.0; 3]);
 }
 
-/// Issue 22, "targets without bounds": references, targets and gains out of the vehicle's
+/// The probe "targets without bounds": references, targets and gains out of the vehicle's
 /// range are refused (a GUIDED target 50 m above the surface, a hold at 1e30 / 1e6 m up,
 /// gains of 1e30); missions were bounded already.
 #[test]

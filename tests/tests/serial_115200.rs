@@ -1,4 +1,4 @@
-//! The tether never stalls the loop (issue 12, item 6): the firmware's `App` on a serial port
+//! The tether never stalls the loop: the firmware's `App` on a serial port
 //! model that takes one byte every 86.8 us (115,200 Bd, 8N1), in fixed-rate mode (50 Hz
 //! control, 10 Hz telemetry, a `Status` for every heartbeat). The loop runs every 50 us of
 //! simulated time. Checked: the application never writes to the port when it is not ready

@@ -191,7 +191,7 @@ fn arm_track_lose_link_recover() {
     }
     assert!(!s.app.autopilot().armed());
     assert_eq!(pulses_us(&mut s.app), [1500.0; 3]);
-    // Issue 22: the disarm forgot the reference (a re-arming resumes nothing); the surface
+    // The disarm forgot the reference (a re-arming resumes nothing); the surface
     // sends what it wants now, the end point of the path.
     s.command(&Command::SetReference {
         reference: Reference::Hold {

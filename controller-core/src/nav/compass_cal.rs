@@ -1,4 +1,4 @@
-//! Compass calibration by a swing (issue 26): the vehicle turns a full circle in place, as
+//! Compass calibration by a swing: the vehicle turns a full circle in place, as
 //! operators swing a ship's compass, and the heading-dependent deviation is fitted.
 //!
 //! A magnetometer next to steel and magnets (hard iron) reads `psi + c + a sin(psi) +
@@ -206,7 +206,7 @@ impl CompassSwing {
 /// Solve the symmetric positive definite 4x4 system `m x = v` (normal equations) by
 /// Gaussian elimination without pivoting, which is stable for a positive definite matrix
 /// (its pivots are the Schur complements, all positive); `None` when singular or not finite.
-/// No pivot search: the code is smaller on the MCU (the firmware flies the turn, issue 26).
+/// No pivot search: the code is smaller on the MCU (the firmware flies the turn).
 fn solve(mut m: [[f32; K]; K], mut v: [f32; K]) -> Option<[f32; K]> {
     for col in 0..K {
         let pivot_row = *m.get(col)?;

@@ -20,7 +20,7 @@
 //! fix measures `[N, E]` at its time of validity (see the module docs of [`super`]); a
 //! compass measures `psi + b_c`.
 //!
-//! **Compass bias** `b_c` (issue 26): a magnetometer next to thrusters, batteries and a frame
+//! **Compass bias** `b_c`: a magnetometer next to thrusters, batteries and a frame
 //! reads a few degrees off. Taken as the heading, that error rotates the DVL's dead reckoning
 //! and the filter drifts along the wrong course while refusing the USBL fixes that say so.
 //! With `b_c` a state (a slow random walk, like PX4 EKF2's magnetometer bias states), the
@@ -45,7 +45,7 @@ const CN: usize = 4;
 const CE: usize = 5;
 const PSI: usize = 6;
 const BR: usize = 7;
-/// Compass bias: the compass reads `psi + b_c` (issue 26).
+/// Compass bias: the compass reads `psi + b_c`.
 const BC: usize = 8;
 /// States.
 const NX: usize = 9;
@@ -55,7 +55,7 @@ pub const HISTORY_STEP_US: u64 = 20_000;
 /// Entries in the position history: 128 x 20 ms = 2.56 s, the oldest fix accepted.
 pub const HISTORY_LEN: usize = 128;
 
-/// Refused USBL fixes kept for the cluster test (issue 26).
+/// Refused USBL fixes kept for the cluster test.
 pub const CLUSTER_LEN: usize = 8;
 /// Refused fixes that must agree with each other before the position is moved to them.
 pub const CLUSTER_MIN: usize = 5;
@@ -67,7 +67,7 @@ const CLUSTER_CHI2: f32 = 9.21;
 
 /// Gate of a USBL fix's 2-D innovation: chi-square at 99 % (the other sensors' gates are at
 /// 99.9 %). Multipath outliers 1-2 m off a fix of 0.3 m passed the 99.9 % gate (radius
-/// 3.7 sigma, 1.1 m) one time in ten and pulled the estimate (issue 26: 20 % near outliers
+/// 3.7 sigma, 1.1 m) one time in ten and pulled the estimate (20 % near outliers
 /// cost 2 cm of tracking against 1.3 cm for the same fixes simply missing); at 99 %
 /// (3.0 sigma, 0.9 m) none passes, at the price of one good fix in a hundred refused, which
 /// the cluster rule never mistakes for a new cluster (they scatter). A Huber down-weighting

@@ -27,7 +27,7 @@
 //!   USBL and no DVL the velocity still comes from the thrust the vehicle is making, and the
 //!   current is what the position fixes say the model misses. The heading and the yaw-gyro
 //!   bias are propagated with the gyro and updated by the compass, whose own constant bias
-//!   `b_c` is a state (issue 26), fixed by the USBL track against the dead reckoning
+//!   `b_c` is a state, fixed by the USBL track against the dead reckoning
 //!   (`horizontal.rs`).
 //!
 //! A USBL fix arrives `latency` after the acoustic ping it measures. It is compared with the
@@ -159,7 +159,7 @@ pub enum Refusal {
 }
 
 /// Largest horizontal position standard deviation (m, each axis) at which the estimate is
-/// ready for the modes that need a position (issue 26). A launch point known to half a metre
+/// ready for the modes that need a position. A launch point known to half a metre
 /// is ready at once; one known to a few metres becomes ready after the first USBL fixes.
 pub const POSITION_READY_STD_M: f32 = 1.0;
 /// Largest heading standard deviation (rad, 10 degrees) at which the estimate is ready.
@@ -281,7 +281,7 @@ pub struct NavConfig {
     /// Time constant of the tilt filter's pull toward the accelerometer (s).
     pub tilt_time_constant_s: f32,
     /// Uncertainty of the compass's constant bias at start (rad): how far off the
-    /// magnetometer may read next to the thrusters (issue 26).
+    /// magnetometer may read next to the thrusters.
     pub initial_compass_bias_std_rad: f32,
     /// Random walk of the compass bias (rad/sqrt(s)): the part that changes with the
     /// thrusters' currents and the heading.

@@ -1,4 +1,4 @@
-//! The estimator as the vehicle runs it (issue 12): [`OnboardNav`] takes the IMU at the
+//! The estimator as the vehicle runs it: [`OnboardNav`] takes the IMU at the
 //! control rate and the pressure sensor's readings from the MCU's buses (on the emulated board,
 //! from the host), converts the pressure to depth with the fluid's density and the surface
 //! pressure, fuses the fixes that come down the tether (USBL, DVL, compass), and says when a
@@ -109,7 +109,7 @@ pub struct OnboardNav {
     last_imu_rx_us: u64,
     last_pressure_rx_us: u64,
     /// The compass's deviation (`COMPASS_DEV_*`), taken off every heading before it is
-    /// fused (issue 26).
+    /// fused.
     compass_cal: CompassCalibration,
 }
 

@@ -1,4 +1,4 @@
-//! Prediction of a late navigation state through the model (issue 14): a measurement that is
+//! Prediction of a late navigation state through the model: a measurement that is
 //! `delay_s` old describes where the vehicle was; the laws need where it is.
 //!
 //! The horizontal state is integrated forward over the delay with the planar XY model

@@ -32,8 +32,8 @@ pub const SPEED_FLOOR_M_S: f32 = 1.0e-6;
 /// course can turn fast while the water-relative speed is low (a lawnmower turn whose course
 /// passes the current's direction), and `g(beta) = 0` then has its root far from 0 (the
 /// sideslip of a steady turn, `tan beta ~ m11 chi_dot / Y_v`, does not shrink with the speed);
-/// a clamp at 0.8 rad there steered a heading the sway dynamics could not follow (issue 14,
-/// docs/tracking.md).
+/// a clamp at 0.8 rad there steered a heading the sway dynamics could not follow
+/// (docs/tracking.md).
 pub const SIDESLIP_MAX_RAD: f32 = 1.5;
 
 /// Course of the horizontal reference velocity, with speed and rates.

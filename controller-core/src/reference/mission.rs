@@ -1,4 +1,4 @@
-//! A mission: waypoints made into a path the vehicle can fly (issue 13).
+//! A mission: waypoints made into a path the vehicle can fly.
 //!
 //! From the point where the mission starts, straight legs run to each waypoint in turn; at
 //! every waypoint between two legs the corner is cut by a horizontal circular arc of radius

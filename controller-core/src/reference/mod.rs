@@ -175,7 +175,7 @@ pub enum Reference {
     },
 }
 
-/// Where a reference may take the vehicle (issue 22): depth between the surface and
+/// Where a reference may take the vehicle: depth between the surface and
 /// `max_depth_m`, each horizontal coordinate within `max_range_m` of the origin, speeds up to
 /// `max_speed_m_s`.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -1,4 +1,4 @@
-//! The topside image on QEMU `netduinoplus2` (issue 25, `docs/deployment.md`, "Emulating the
+//! The topside image on QEMU `netduinoplus2` (`docs/deployment.md`, "Emulating the
 //! topside layout"): the App at the surface, the tether on USART1, the node link on USART2,
 //! the host's clock on USART3 (`firmware::harness`). defmt over semihosting; panics and
 //! HardFaults exit QEMU with a failure code.

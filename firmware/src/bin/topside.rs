@@ -1,4 +1,4 @@
-//! Topside image (issue 25, docs/deployment.md): the STM32F405 board in the surface box runs
+//! Topside image (docs/deployment.md): the STM32F405 board in the surface box runs
 //! the App; its thrusters and sensors are the node link on USART2. defmt over RTT, panic-probe.
 //!
 //! `cargo build -p firmware --release --target thumbv7em-none-eabihf --bin topside`;

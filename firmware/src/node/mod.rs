@@ -1,4 +1,4 @@
-//! The node role (issue 25): the vehicle's thin image in the paper's layout, where the
+//! The node role: the vehicle's thin image in the paper's layout, where the
 //! control loop runs at the surface. The node reads its IMU at its own rate (at least
 //! 400 Hz) and integrates the increments (delta angle, delta velocity), reads the pressure
 //! sensor, sends both up the node link once a link period, and applies the pulse widths the

@@ -1,4 +1,4 @@
-//! The node link (issue 25): the wire between the topside MCU, which runs the control loop
+//! The node link: the wire between the topside MCU, which runs the control loop
 //! at the surface (the paper's layout: the Observer's 150 m cable "enables communication
 //! between the vehicle sensors and the surface equipment"), and the vehicle's thin node,
 //! which reads the IMU and the pressure sensor and drives the three ESCs.
@@ -70,7 +70,7 @@ pub const MAX_LINK_FRAME_LEN: usize = if MAX_UPLINK_FRAME_LEN > MAX_DOWNLINK_FRA
     MAX_DOWNLINK_FRAME_LEN
 };
 
-/// Envelope: version (1 byte), session (the tether's, issue 22: a `u32` varint, at most 5;
+/// Envelope: version (1 byte), session (the tether's: a `u32` varint, at most 5;
 /// the node link sends 0, one byte, and carries its own session in its messages), sequence
 /// (`u16` varint, at most 3). The bounds count the envelope's session at its largest.
 const ENVELOPE_MAX: usize = 1 + 3 + 5;

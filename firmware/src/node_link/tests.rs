@@ -55,7 +55,7 @@ impl<T: serde::de::DeserializeOwned + core::fmt::Debug> DeserializeOwnedDebug fo
 fn largest_messages_fit_their_frame_lengths() {
     let down = frame_of(u16::MAX, &largest_downlink());
     let up = frame_of(u16::MAX, &largest_uplink());
-    // The computed bounds allow the envelope's session (issue 22) its 5 varint bytes; the
+    // The computed bounds allow the envelope's session its 5 varint bytes; the
     // node link sends 0 there (one byte): the frames are within the bound by that slack.
     assert!(down.len() <= MAX_DOWNLINK_FRAME_LEN, "{}", down.len());
     assert!(up.len() <= MAX_UPLINK_FRAME_LEN, "{}", up.len());

@@ -304,7 +304,7 @@ fn compass_calibration(sc: &Scenario) -> CompassCalibration {
         })
 }
 
-/// The start uncertainties of `[navigation]` (issue 26), where given, in place of the
+/// The start uncertainties of `[navigation]`, where given, in place of the
 /// defaults.
 fn start_config(sc: &Scenario, mut cfg: NavConfig) -> NavConfig {
     if let Some(v) = sc.navigation.start_position_std_m {

@@ -57,7 +57,7 @@ fn run_all(out_dir: &Path, outputs: Outputs) -> Result<bool> {
             let mut s = s.into_scenario();
             s.controller = ControllerKind::Tracking;
             s.name = format!("{name}-tracking");
-            // The file's targets are the paper law's; issue 3's for the tracking law on the
+            // The file's targets are the paper law's; the for the tracking law on the
             // paper's scenarios with the limits: final <= 1 cm, max <= 5 cm after 10 s.
             s.expect = Some(ExpectSpec {
                 final_m: Some(0.01),

@@ -1,4 +1,4 @@
-//! Currents from every direction (issue 14): the built-in paths flown in a constant current
+//! Currents from every direction: the built-in paths flown in a constant current
 //! of each speed and each direction relative to the path's first course, the tracking error
 //! (the plant's **true** position against the reference) summarized per run and drawn as a
 //! heat map per path. A measurement, not a fix: it shows where the tracking law holds in a
@@ -24,7 +24,7 @@ pub const SPEEDS_M_S: [f64; 3] = [0.1, 0.2, 0.3];
 pub const DIRECTIONS_DEG: [f64; 12] = [
     0.0, 30.0, 60.0, 90.0, 120.0, 150.0, 180.0, 210.0, 240.0, 270.0, 300.0, 330.0,
 ];
-/// Issue 14's bound on the RMS over the last 80 % (m).
+/// The bound on the RMS over the last 80 % (m).
 pub const RMS_BOUND_M: f64 = 0.05;
 
 /// One run of the sweep.

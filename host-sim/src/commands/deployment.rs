@@ -1,5 +1,5 @@
 //! `host-sim deployment`: the measurements of the topside layout against the onboard one
-//! (issue 25), with the firmware library's two roles in process over the byte-level tether
+//!, with the firmware library's two roles in process over the byte-level tether
 //! model ([`crate::tether::topside_layout`], [`crate::world::tether_wire`]).
 //!
 //! - tracking: the navigation scenarios flown both ways (true position, RMS over the last
@@ -40,7 +40,7 @@ pub const SWEEP_LATENCIES_S: [f64; 11] = [
     0.0, 0.025, 0.05, 0.075, 0.1, 0.125, 0.15, 0.2, 0.3, 0.4, 0.5,
 ];
 
-/// The bounds of issue 25.
+/// The bounds the topside layout is held to (docs/deployment.md).
 pub mod bound {
     /// Topside tracking within this share of the onboard RMS...
     pub const TRACKING_REL: f64 = 0.10;

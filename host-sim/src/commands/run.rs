@@ -90,7 +90,7 @@ pub fn print_table(rows: &[&RunOutput]) {
 }
 
 /// A recorded software run of `sc`, its outputs written to `dir`: the core in process, or
-/// with `[deployment] control = "topside"` the topside layout (issue 25; `layout.json`
+/// with `[deployment] control = "topside"` the topside layout (`layout.json`
 /// beside the run's outputs holds the node link's figures).
 /// Only the files of `outputs` besides `summary.json` are written; with neither the
 /// time series nor the figures, no per-tick log is kept.

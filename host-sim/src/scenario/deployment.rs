@@ -1,4 +1,4 @@
-//! `[deployment]` of a scenario (issue 25): where the control loop runs, and the node
+//! `[deployment]` of a scenario: where the control loop runs, and the node
 //! link's tether for the topside layout ([`crate::tether::topside_layout`]). A module of its own,
 //! below both the scenario and the layout, so neither depends on the other through it.
 

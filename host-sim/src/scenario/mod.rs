@@ -339,7 +339,7 @@ pub struct Scenario {
     /// The sensors fitted (used by `navigation.source = "estimator"`).
     #[serde(default)]
     pub sensors: SensorsSpec,
-    /// The seabed and a current that changes in time and with depth (issue 26).
+    /// The seabed and a current that changes in time and with depth.
     #[serde(default)]
     pub water: crate::world::plant::water::WaterSpec,
     /// The vehicle file (`vehicles/observer.toml`'s format); the Observer when absent. A
@@ -349,11 +349,11 @@ pub struct Scenario {
     /// What the runs must reach (`[expect]`); absent: figures without judgement.
     #[serde(default)]
     pub expect: Option<ExpectSpec>,
-    /// Where the control loop runs and the node link's tether (`[deployment]`, issue 25).
+    /// Where the control loop runs and the node link's tether (`[deployment]`).
     #[serde(default)]
     pub deployment: crate::scenario::deployment::DeploymentSpec,
     /// `[calibration]`: first fly the compass calibration turn in `Hold`, then the scenario
-    /// (issue 26). Flown by the firmware (`hil`); a software `run` refuses it.
+    ///. Flown by the firmware (`hil`); a software `run` refuses it.
     #[serde(default)]
     pub calibration: Option<CalibrationSpec>,
     /// The vehicle's parameters: the file's, read by [`Scenario::load`], or the Observer.

@@ -111,7 +111,7 @@ pub struct HilOptions {
     pub telemetry_rows: bool,
     /// With the estimator on board and a mode that needs a position (`Track`, `Hold`,
     /// AUTO): the longest simulated time to wait, armed and neutral, for the vehicle's
-    /// estimate to be ready (issue 26: an unknown start) before the run fails (s).
+    /// estimate to be ready (an unknown start) before the run fails (s).
     pub nav_ready_limit_s: f64,
     /// In process: the DVL's fixes reach the firmware as the DVL's serial reports on its
     /// DVL port (true), or as `DvlFix` commands over the tether (false).

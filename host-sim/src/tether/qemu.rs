@@ -255,7 +255,7 @@ fn build_image(root: &Path, package: &str, bin: &str, features: &[&str]) -> Resu
     Ok(dir.join(FIRMWARE_TARGET).join("release").join(bin))
 }
 
-/// The two emulated images of the topside layout (issue 25): `topside-emu` (crate
+/// The two emulated images of the topside layout: `topside-emu` (crate
 /// `firmware`, feature `topside-board`) and `node-emu` (crate `node-firmware`).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct LayoutElfs {

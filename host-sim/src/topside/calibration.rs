@@ -1,4 +1,4 @@
-//! The compass calibration turn from the ground station (issue 26): ArduPilot's
+//! The compass calibration turn from the ground station: ArduPilot's
 //! `MAV_CMD_DO_START_MAG_CAL` (42424) in a `COMMAND_LONG` becomes the firmware's
 //! `StartCompassCal` (a full circle in place at [`YAW_RATE_RAD_S`], refused as not a full
 //! turn after [`TIME_LIMIT_S`]; the command's own parameters, ArduPilot's magnetometer mask,

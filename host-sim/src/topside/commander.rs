@@ -1,4 +1,4 @@
-//! One commander at a time (issue 22, item 4). Every ground station sees everything the
+//! One commander at a time. Every ground station sees everything the
 //! vehicle says (telemetry, parameters, missions, status texts); one of them commands:
 //!
 //! - **Who commands**: the station that holds control. Control is taken by the first

@@ -1,5 +1,5 @@
 //! The topside's log files: each start writes new ones with time-stamped names and never
-//! truncates an existing file (issue 22, item 5). `--tlog out/dive.tlog` becomes
+//! truncates an existing file. `--tlog out/dive.tlog` becomes
 //! `out/dive-20261126-101500.tlog` (UTC) and the tether log beside it
 //! `out/dive-20261126-101500.tether`; a second start within the same second adds `-2`,
 //! `-3`, ... Both files are created with `create_new`, so an existing one is never opened.

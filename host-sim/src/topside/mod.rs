@@ -9,7 +9,7 @@
 //! `--speedup K` faster. With `[navigation] source = "estimator"` the simulated sensors go to
 //! the vehicle's own estimator, and the ground stations see its estimate; the true state
 //! beside it goes to a `.truth.csv` next to the logs. A scenario of the topside layout
-//! (`[deployment] control = "topside"`, issue 25) is flown in that layout: the topside MCU's
+//! (`[deployment] control = "topside"`) is flown in that layout: the topside MCU's
 //! App and its node behind the node link (`tether::topside_layout::TopsideLayout`), the
 //! commands going to the topside App (`vehicle`). Or `--serial DEV`: a real vehicle, or the
 //! topside board of the topside layout (the same tether protocol). The modes run on the

@@ -10,7 +10,7 @@
 //! `VEH_*` the vehicle ([`VehicleParams`], a vehicle file's keys; `VEH_PWM_*` its pulse curve),
 //! `MIS_SPEED` the speed along a mission's path (kept here, sent with the next mission),
 //! `COMPASS_DEV_SIN` / `COMPASS_DEV_COS` the compass's heading-dependent deviation in
-//! **degrees** (issue 26: it reads `psi + sin_deg sin(psi) + cos_deg cos(psi)`; sent as
+//! **degrees** (it reads `psi + sin_deg sin(psi) + cos_deg cos(psi)`; sent as
 //! `SetCompassCal` in radians, refused beyond 30 degrees of amplitude and while armed). The
 //! constant part of a compass's error has no parameter: the estimator learns it.
 //! `CTRL_PASSKEY` is the passkey another ground station gives in `CHANGE_OPERATOR_CONTROL` to
@@ -362,7 +362,7 @@ pub const PARAMS: &[Param] = params![
     "CTRL_PASSKEY" => control_passkey,
 ];
 
-/// Parameters shown but not settable, with the reason (issue 22): the ESCs' neutral pulse is
+/// Parameters shown but not settable, with the reason: the ESCs' neutral pulse is
 /// the ESC's constant, not part of a description a ground station may move.
 pub const READ_ONLY: &[(&str, &str)] = &[(
     "VEH_PWM_NEUTRAL",

@@ -74,7 +74,7 @@ pub(super) fn send_heartbeat(gcs: &mut Gcs, v: &SimVehicle, guided: bool) -> Res
     if v.tel.faults & fault::PWM_ERROR != 0 {
         healthy &= !MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS;
     }
-    // The topside layout (issue 25): the IMU, the pressure sensor and the ESCs are on the
+    // The topside layout: the IMU, the pressure sensor and the ESCs are on the
     // node, behind the node link; lost, none of them reaches the topside.
     if v.tel.faults & link_fault::NODE_LINK_LOST != 0 {
         healthy &= !(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO

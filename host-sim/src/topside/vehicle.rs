@@ -5,7 +5,7 @@
 //! controller of the scenario's layout as its endpoint (`[deployment] control`):
 //! - `onboard`: the firmware at the far end of the tether ([`TetherEndpoint`], the same as
 //!   `hil`; the library in process or the image in QEMU);
-//! - `topside` (the paper's layout, issue 25): [`TopsideLayout`], the topside MCU's `App`
+//! - `topside` (the paper's layout): [`TopsideLayout`], the topside MCU's `App`
 //!   with its node on the vehicle behind the node link; the topside's commands go to the
 //!   topside App over its PC tether, as they would to the topside board.
 //!

@@ -44,7 +44,7 @@ pub struct NavigationSpec {
     /// `"truth"` (default) or `"estimator"`.
     pub source: NavSource,
     /// What the estimator is told of the launch point is off the truth by `[north, east]`
-    /// (m) (issue 26: an unknown start).
+    /// (m) (an unknown start).
     pub start_error_m: [f64; 2],
     /// What the estimator is told of the start heading is off the truth by this (rad).
     pub start_heading_error_rad: f64,
@@ -166,7 +166,7 @@ pub struct CompassSpec {
     /// Fixed offset (rad).
     pub bias_rad: f64,
     /// Amplitude of the hard-iron deviation, a one-cycle sine in heading (rad):
-    /// `hard_iron_rad sin(psi + hard_iron_phase_rad)` (issue 26).
+    /// `hard_iron_rad sin(psi + hard_iron_phase_rad)`.
     pub hard_iron_rad: f64,
     /// Phase of the hard-iron deviation (rad).
     pub hard_iron_phase_rad: f64,
@@ -230,7 +230,7 @@ pub struct DvlSpec {
     pub noise_m_s: f64,
     /// Intervals without bottom lock `[[t0, t1], ...]` (s).
     pub dropouts_s: Vec<[f64; 2]>,
-    /// Scale-factor error: the DVL reads `(1 + scale_error)` times the true speed (issue 26).
+    /// Scale-factor error: the DVL reads `(1 + scale_error)` times the true speed.
     pub scale_error: f64,
     /// Mounting yaw: the DVL's axes are turned by this angle from the body's (rad), so it
     /// reports the body velocity rotated by `-mounting_yaw_rad`.
@@ -282,13 +282,13 @@ pub struct UsblSpec {
     /// Intervals without fixes `[[t0, t1], ...]` (s).
     pub dropouts_s: Vec<[f64; 2]>,
     /// Constant offset of every fix `[north, east]` (m): a transceiver's position or
-    /// alignment error (issue 26).
+    /// alignment error.
     pub bias_m: [f64; 2],
     /// Latency jitter: each fix arrives `latency_s + U(0, latency_jitter_s)` after its ping
     /// (s); the fix still carries its ping time.
     pub latency_jitter_s: f64,
     /// A persistent step `[north, east]` (m) added to every fix pinged at or after
-    /// `step_at_s`: the transceiver moved, or was re-surveyed (issue 26).
+    /// `step_at_s`: the transceiver moved, or was re-surveyed.
     pub step_m: [f64; 2],
     /// Time of the step (s).
     pub step_at_s: f64,

@@ -1,5 +1,5 @@
 //! A byte-level model of the tether's serial pair between the topside MCU and the vehicle's
-//! node (issue 25): bytes leave one at a time at the wire's rate (8N1: 10 bits a byte, so
+//! node: bytes leave one at a time at the wire's rate (8N1: 10 bits a byte, so
 //! 86.8 us a byte at 115,200 Bd), reach the far end after an added one-way latency with
 //! jitter, may be corrupted at a given rate (a seeded RNG, so a run repeats), and stop at a
 //! cut. The two directions are independent ([`Duplex`]: full duplex, as an RS-422 pair).

@@ -1,5 +1,5 @@
 //! Running the built `host-sim` binary from a test, as a script would (the exit-code and
-//! limit tests of issue 23).
+//! limit tests).
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

@@ -1,4 +1,4 @@
-//! What the issue-26 navigation tests share: the comparison of an emulated run with its
+//! What the navigation tests share: the comparison of an emulated run with its
 //! software twin (`nav_hil.rs`, `nav_hil_errors.rs`) and the Monte Carlo campaign's draw of a
 //! run (`nav_monte_carlo.rs`, and its twins on the emulated board in `nav_hil_errors.rs`);
 //! the error of a fitted compass deviation (`nav_compass_cal_flown.rs`, `nav_hil_errors.rs`).
@@ -12,7 +12,7 @@ use host_sim::scenario::Scenario;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-/// `|hil - sw| <= 10 % of sw + 1 cm` (issue 26's bound for the emulated MCU).
+/// `|hil - sw| <= 10 % of sw + 1 cm` (the bound for the emulated MCU).
 pub fn within_10_percent_plus_1_cm(what: &str, hil_m: f64, sw_m: f64) {
     let bound_m = 0.1 * sw_m + 0.01;
     assert!(
@@ -27,7 +27,7 @@ pub fn rms_from(log: &[Sample], t0_s: f64, f: impl Fn(&Sample) -> f64) -> f64 {
     (v.iter().map(|e| e * e).sum::<f64>() / v.len().max(1) as f64).sqrt()
 }
 
-/// Run `k` of issue 26's Monte Carlo campaign on `base`: its own noise seed and its own draw
+/// Run `k` of the Monte Carlo campaign on `base`: its own noise seed and its own draw
 /// of the compass bias (uniform +-5 deg), the DVL scale factor (+-1 %) and mounting yaw
 /// (+-2 deg), and the launch point the estimator is told (5 m off in a random direction,
 /// heading +-5 deg off, with 5 m / 0.2 rad of uncertainty). Run `k` draws from its own

@@ -1,4 +1,4 @@
-//! The emulated node (issue 25, `docs/deployment.md`, "Emulating the topside layout"): the
+//! The emulated node (`docs/deployment.md`, "Emulating the topside layout"): the
 //! node link on USART1, the host's sensors and clock on USART2 (`firmware::harness`), on QEMU
 //! `netduinoplus2`, in the node's budget (32 KiB flash, 8 KiB RAM: `memory-node.x`).
 //! defmt over semihosting; panics and HardFaults exit QEMU with a failure code.

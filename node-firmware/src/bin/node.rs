@@ -1,4 +1,4 @@
-//! The node image (issue 25, docs/deployment.md): the vehicle's thin electronics in the
+//! The node image (docs/deployment.md): the vehicle's thin electronics in the
 //! paper's layout, where the control loop runs at the surface. IMU and pressure up, pulse
 //! widths down the node link; nothing of the controller core. Built for QEMU
 //! `netduinoplus2` into the node budget (32 KiB flash, 8 KiB RAM: `memory-node.x`).

@@ -1,4 +1,4 @@
-//! Laws that really track (issue 3), in the vertical plane, the horizontal plane and 3-D.
+//! Laws that really track, in the vertical plane, the horizontal plane and 3-D.
 //!
 //! - [`step_xz`]: a cascade on the transformed point `x1 = x + alpha sin(theta)` of
 //!   `MODEL_NOTES` section 3, whose acceleration is set by the pitch (`u1_dot = F_q / a_uq`,
@@ -38,8 +38,8 @@ use crate::state::{BodyForces, NavState, TrackingErrors};
 
 pub use depth::depth;
 pub use gains::TrackingGains;
-pub use state::TrackingState;
 use state::clean_dt;
+pub use state::TrackingState;
 
 /// XZ tracking step: x by pitch (cascade on the transformed point), depth by heave, yaw held
 /// at 0. Errors: `x`, `z` of the origin and the pitch error against the steady pitch of the

@@ -1,4 +1,4 @@
-//! The paper's layout in the closed loop (issue 25): the control loop on a topside MCU, a
+//! The paper's layout in the closed loop: the control loop on a topside MCU, a
 //! thin node on the vehicle, the node link between them over the byte-level tether model
 //! ([`crate::world::tether_wire`]).
 //!

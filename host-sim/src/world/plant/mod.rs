@@ -33,7 +33,7 @@ pub trait Plant: Send {
     fn state(&self) -> PlantState;
     /// The thrust the thrusters really deliver now (after lag and limits).
     fn thrust_n(&self) -> [f64; 3];
-    /// Set the ocean current `[cx, cy, cz]` (inertial, m/s) from now on (issue 26: a current
+    /// Set the ocean current `[cx, cy, cz]` (inertial, m/s) from now on (a current
     /// that changes in time and with depth).
     fn set_current(&mut self, current_m_s: [f64; 3]);
     /// The water's bounds: the surface `z = 0` when `surface`, and the seabed's depth (m,

@@ -1,4 +1,4 @@
-//! The water around the vehicle beyond a constant current (issue 26): a current that changes
+//! The water around the vehicle beyond a constant current: a current that changes
 //! in time and with depth, and the seabed. The `[water]` table of a scenario:
 //!
 //! ```toml
