@@ -22,6 +22,7 @@ pub mod closed_loop;
 pub mod commands;
 pub mod output;
 pub mod scenario;
+pub mod served;
 pub mod tether;
 pub mod topside;
 pub mod world;
