@@ -4,6 +4,10 @@
 //! surface program that cannot tell it from a real vehicle.
 //!
 //! - [`bridge`]: the App's one serial port shared by the surface's frames and the vehicle's
-//!   own inputs (the simulated navigation computer, the on-board instruments).
+//!   own inputs (the simulated navigation computer, the on-board instruments);
+//! - [`vehicle`]: the App as a board runs it, as the closed loop's controller end;
+//! - [`server`]: the paced loop, the TCP port, the truth log.
 
 pub mod bridge;
+pub mod server;
+pub mod vehicle;
