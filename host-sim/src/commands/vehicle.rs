@@ -55,7 +55,7 @@ fn listen_addr(s: &str) -> Result<SocketAddr> {
 
 /// Serve until `--duration` (or forever).
 pub fn main(a: VehicleArgs) -> Result<std::process::ExitCode> {
-    let sc = Scenario::load_setup(&a.scenario)?;
+    let sc = Scenario::load_setup(&a.scenario).map_err(refused)?;
     let listen = listen_addr(&a.listen).map_err(refused)?;
     let o = ServeOptions {
         listen,

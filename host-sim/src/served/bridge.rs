@@ -11,16 +11,17 @@
 //! a surface frame in a session that is not the one in force reaches the App in that
 //! session (refused `NoSession`); a surface number not above the last one taken reaches it
 //! with number 0 (refused `Replayed`); a frame that does not decode passes unchanged (the
-//! App counts and answers it). Answers to the vehicle's own inputs are not sent to the
-//! surface. The bridge opens a session of its own at boot (before a surface opens one) and
-//! a new one under the surface's before its own numbers would wrap; the surface keeps the
-//! session number it was given.
+//! App counts it; a refusal of it, under a number the bridge did not give, is not sent back:
+//! the surface's own time-out handles it). Answers to the vehicle's own inputs are not sent
+//! to the surface. The bridge opens a session of its own at boot (before a surface opens
+//! one) and a new one under the surface's before the numbers would wrap; the surface keeps
+//! the session number it was given.
 
 use anyhow::{anyhow, Result};
 use firmware::protocol::{
     decode_frame, encode, Command, Decoded, NackReason, Reply, MAX_FRAME_LEN,
 };
-use std::collections::{HashMap, HashSet, VecDeque};
+use std::collections::{BTreeMap, VecDeque};
 
 /// The bridge opens a new App session when its numbers reach this (the App takes only
 /// rising ones).
@@ -70,16 +71,15 @@ pub struct TetherBridge {
     /// The session in force on the App (0: none yet), and the surface's number for it.
     app_session: u32,
     surface_session: u32,
-    /// The App's number of the next frame the bridge sends.
+    /// The App's number of the next frame the bridge sends: rising through the sessions,
+    /// back to 1 only when the bridge opens a session for that.
     next_seq: u16,
     /// The last surface number taken in the surface's session.
     surface_last: Option<u16>,
     /// App numbers of the surface's frames -> the surface's numbers.
-    to_surface: HashMap<u16, u16>,
+    to_surface: BTreeMap<u16, u16>,
     /// Surface numbers sent with number 0 (a replay), in order.
     replays: VecDeque<u16>,
-    /// App numbers of the vehicle's own inputs (their answers stay here).
-    own: HashSet<u16>,
     /// The nonce of a session the bridge asked for.
     opening: Option<u32>,
     /// Vehicle inputs waiting for the bridge's session to open.
@@ -119,12 +119,11 @@ impl TetherBridge {
     /// One good frame of the surface, renumbered for the App.
     fn surface_frame(&mut self, seq: u16, session: u32, msg: &Command) -> Result<Vec<u8>> {
         if let Command::OpenSession { .. } = msg {
-            // The App opens a new session numbered from this frame's.
+            // The App numbers the new session from this frame's number on.
             self.surface_last = Some(seq);
             self.opening = None;
-            self.next_seq = 2;
-            self.remember(1, seq);
-            return frame(0, 1, msg);
+            let n = self.take_seq();
+            return frame(session, n, msg);
         }
         let in_force = session != 0 && session == self.surface_session;
         if in_force && self.surface_last.is_some_and(|l| seq <= l) {
@@ -141,50 +140,59 @@ impl TetherBridge {
             session
         };
         let n = self.take_seq();
-        self.remember(n, seq);
-        frame(app_session, n, msg)
-    }
-
-    fn remember(&mut self, app_seq: u16, surface_seq: u16) {
-        if self.to_surface.len() >= MAX_PENDING {
-            self.to_surface.clear();
+        self.to_surface.insert(n, seq);
+        // Answers come within the pass: the oldest entries are of unanswered frames.
+        while self.to_surface.len() > MAX_PENDING {
+            self.to_surface.pop_first();
         }
-        self.to_surface.insert(app_seq, surface_seq);
+        frame(app_session, n, msg)
     }
 
     fn take_seq(&mut self) -> u16 {
         let n = self.next_seq.max(1);
-        self.next_seq = n.wrapping_add(1);
+        self.next_seq = n.saturating_add(1);
         n
     }
 
-    /// A vehicle input for the App; opens the bridge's own session first when none is in
-    /// force or its numbers are near their end. While a session the bridge asked for is being
-    /// opened, inputs are held and sent once it is open.
-    pub fn own_input(&mut self, cmd: &Command) -> Result<Vec<u8>> {
+    /// The vehicle's inputs for the App. Opens the bridge's own session first when none is
+    /// in force or the numbers are near their end; until its answer has been read
+    /// ([`from_app`](Self::from_app)) the inputs are held, and [`held`](Self::held) sends
+    /// them.
+    pub fn own_inputs(&mut self, cmds: &[Command]) -> Result<Vec<u8>> {
         let mut out = Vec::new();
         let renew = self.next_seq >= RENEW_AT;
-        if (self.app_session == 0 || renew) && self.opening.is_none() {
+        let none = self.app_session == 0 && !cmds.is_empty();
+        if (renew || none) && self.opening.is_none() {
             let nonce: u32 = rand::random();
             self.opening = Some(nonce);
-            self.next_seq = 2;
-            out.push(0);
-            out.extend(frame(0, 1, &Command::OpenSession { nonce })?);
-        }
-        if self.opening.is_some() {
-            if self.held.len() < MAX_HELD {
-                self.held.push(*cmd);
+            if renew {
+                self.next_seq = 1;
+                self.to_surface.clear();
+                self.replays.clear();
             }
+            let n = self.take_seq();
+            out.push(0);
+            out.extend(frame(0, n, &Command::OpenSession { nonce })?);
+        }
+        self.held.extend_from_slice(cmds);
+        if self.held.len() > MAX_HELD {
+            let extra = self.held.len() - MAX_HELD;
+            self.held.drain(..extra);
+        }
+        out.extend(self.held()?);
+        Ok(out)
+    }
+
+    /// The inputs held while the bridge's session opened, once it is open.
+    pub fn held(&mut self) -> Result<Vec<u8>> {
+        let mut out = Vec::new();
+        if self.opening.is_some() || self.app_session == 0 {
             return Ok(out);
         }
-        for c in std::mem::take(&mut self.held).iter().chain([cmd]) {
+        for c in std::mem::take(&mut self.held) {
             let n = self.take_seq();
-            if self.own.len() >= MAX_PENDING {
-                self.own.clear();
-            }
-            self.own.insert(n);
             out.push(0);
-            out.extend(frame(self.app_session, n, c)?);
+            out.extend(frame(self.app_session, n, &c)?);
         }
         Ok(out)
     }
@@ -213,13 +221,16 @@ impl TetherBridge {
         Ok(out)
     }
 
+    /// The surface's number of an answer to the App's number `s` (0: a replay); `None` for
+    /// an answer to the vehicle's own input.
+    fn surface_seq(&mut self, s: u16) -> Option<u16> {
+        if s == 0 {
+            return self.replays.pop_front();
+        }
+        self.to_surface.remove(&s)
+    }
+
     fn app_reply(&mut self, msg: Reply) -> Answer {
-        let back = |b: &mut Self, s: u16| -> Option<u16> {
-            if s == 0 {
-                return b.replays.pop_front();
-            }
-            b.to_surface.remove(&s)
-        };
         match msg {
             Reply::Session { nonce, session } => {
                 if self.opening == Some(nonce) {
@@ -232,27 +243,24 @@ impl TetherBridge {
                 self.surface_session = session;
                 Answer::Pass
             }
-            Reply::Ack { seq } | Reply::Nack { seq, .. } if self.own.remove(&seq) => {
-                if let Reply::Nack { reason, .. } = msg {
+            Reply::Ack { seq } => match self.surface_seq(seq) {
+                Some(s) => Answer::Renumbered(Reply::Ack { seq: s }),
+                None => Answer::Drop,
+            },
+            Reply::Nack { seq, reason } => match self.surface_seq(seq) {
+                Some(s) => Answer::Renumbered(Reply::Nack { seq: s, reason }),
+                None => {
                     self.own_refused += 1;
                     self.own_refused_why = Some(reason);
+                    Answer::Drop
                 }
-                Answer::Drop
-            }
-            Reply::Ack { seq } => match back(self, seq) {
-                Some(s) => Answer::Renumbered(Reply::Ack { seq: s }),
-                None => Answer::Pass,
             },
-            Reply::Nack { seq, reason } => match back(self, seq) {
-                Some(s) => Answer::Renumbered(Reply::Nack { seq: s, reason }),
-                None => Answer::Pass,
-            },
-            Reply::Status(mut st) => match back(self, st.heartbeat_seq) {
+            Reply::Status(mut st) => match self.surface_seq(st.heartbeat_seq) {
                 Some(s) => {
                     st.heartbeat_seq = s;
                     Answer::Renumbered(Reply::Status(st))
                 }
-                None => Answer::Pass,
+                None => Answer::Drop,
             },
             _ => Answer::Pass,
         }
@@ -308,13 +316,14 @@ mod tests {
         surface: &[u8],
         own: &[Command],
     ) -> Vec<(u16, Reply)> {
-        let mut rx = Vec::new();
-        for c in own {
-            rx.extend(b.own_input(c).unwrap());
-        }
-        rx.extend(b.from_surface(surface).unwrap());
-        let tx = app.pass(&rx);
-        replies(&b.from_app(&tx).unwrap())
+        // The vehicle's inputs, then (their session open) the held ones, then the surface's.
+        let tx = app.pass(&b.own_inputs(own).unwrap());
+        let mut r = replies(&b.from_app(&tx).unwrap());
+        let tx = app.pass(&b.held().unwrap());
+        r.extend(replies(&b.from_app(&tx).unwrap()));
+        let tx = app.pass(&b.from_surface(surface).unwrap());
+        r.extend(replies(&b.from_app(&tx).unwrap()));
+        r
     }
 
     fn nav(t_us: u64) -> Command {
@@ -413,6 +422,37 @@ mod tests {
                 .any(|(_, m)| matches!(m, Reply::Status(st) if st.heartbeat_seq == hb)),
             "{r:?}"
         );
+        assert_eq!((b.own_refused, b.own_refused_why), (0, None));
+    }
+
+    /// A new surface (a new session) after the first: its numbers start again, the
+    /// vehicle's inputs never stopped; its commands are answered under its numbers.
+    #[test]
+    fn a_second_surface_after_the_first() {
+        let mut app = InProcessFirmware::with_config(Config::fixed_rate(Board::Host)).unwrap();
+        let mut b = TetherBridge::new();
+        let mut t = 0;
+        let mut next_nav = || {
+            t += 20_000;
+            nav(t)
+        };
+        for nonce in [1, 2] {
+            let mut s = Surface { session: 0, seq: 0 };
+            let (_, open) = s.frame(&Command::OpenSession { nonce });
+            let r = exchange(&mut app, &mut b, &open, &[next_nav()]);
+            let Some(&(_, Reply::Session { session, .. })) =
+                r.iter().find(|(_, m)| matches!(m, Reply::Session { .. }))
+            else {
+                panic!("no session: {r:?}");
+            };
+            s.session = session;
+            for _ in 0..50 {
+                let (k, f) = s.frame(&Command::SetMode(firmware::protocol::Mode::Idle));
+                let r = exchange(&mut app, &mut b, &f, &[next_nav(), next_nav()]);
+                let answers: Vec<Reply> = r.iter().map(|(_, m)| *m).collect();
+                assert_eq!(answers, vec![Reply::Ack { seq: k }], "surface {nonce}");
+            }
+        }
         assert_eq!((b.own_refused, b.own_refused_why), (0, None));
     }
 }

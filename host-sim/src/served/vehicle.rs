@@ -159,19 +159,32 @@ impl ServedVehicle {
         &self.bridge
     }
 
-    /// One pass of the App's main loop at the clock's time: the vehicle's inputs, the
-    /// surface's bytes, every frame read; its output to the surface.
+    /// The App's main loop at the clock's time: the vehicle's inputs first (the control
+    /// step, due now, runs on them), then the surface's bytes; every frame read; what it
+    /// wrote to the surface.
     fn pass(&mut self) -> Result<()> {
-        let mut rx = Vec::new();
-        for cmd in std::mem::take(&mut self.own) {
-            rx.extend(self.bridge.own_input(&cmd)?);
+        let own = std::mem::take(&mut self.own);
+        let bytes = self.bridge.own_inputs(&own)?;
+        self.run(&bytes)?;
+        // Inputs held while the bridge's session opened (its answer has been read now).
+        let bytes = self.bridge.held()?;
+        if !bytes.is_empty() {
+            self.run(&bytes)?;
         }
         let from_surface = std::mem::take(&mut self.surface_in);
-        rx.extend(self.bridge.from_surface(&from_surface)?);
+        let bytes = self.bridge.from_surface(&from_surface)?;
+        if !bytes.is_empty() {
+            self.run(&bytes)?;
+        }
+        Ok(())
+    }
+
+    /// `rx` to the App's serial port, passes until every byte is read (a board reads a
+    /// bounded number a pass; the simulated time stands still meanwhile), its output through
+    /// the bridge to the surface.
+    fn run(&mut self, rx: &[u8]) -> Result<()> {
         self.app.parts_mut().1.rx.extend(rx);
         self.app.tick();
-        // A board reads a bounded number of bytes a pass; the rest waits for the next
-        // passes, at the same time here (the simulated time stands still meanwhile).
         while !self.app.parts_mut().1.rx.is_empty() {
             self.app.tick();
         }
