@@ -60,23 +60,25 @@ fn vehicle(scenario: &str, out: &Path, extra: &[&str]) -> (Child, u16) {
     (child, port)
 }
 
-/// The truth log's columns by name, and its rows.
+/// The truth log's columns by name, and its complete rows.
 fn read_csv(path: &Path) -> (HashMap<String, usize>, Vec<Vec<f64>>) {
     let text = std::fs::read_to_string(path).unwrap();
     let mut lines = text.lines();
-    let cols = lines
+    let cols: HashMap<String, usize> = lines
         .next()
         .unwrap()
         .split(',')
         .enumerate()
         .map(|(i, c)| (c.to_string(), i))
         .collect();
+    // A killed process may leave its last line unfinished.
     let rows = lines
         .map(|l| {
             l.split(',')
                 .map(|v| v.parse().unwrap_or(f64::NAN))
-                .collect()
+                .collect::<Vec<f64>>()
         })
+        .filter(|r| r.len() == cols.len())
         .collect();
     (cols, rows)
 }

@@ -28,6 +28,9 @@ use std::time::{Duration, Instant};
 pub const TRUTH_HEADER: &str = "t_s,wall_s,x_m,y_m,z_m,roll_rad,pitch_rad,yaw_rad,\
 nav_x_m,nav_y_m,nav_z_m,nav_yaw_rad,armed,mode,surface";
 
+/// The lag is noted on stderr at most this often while the machine cannot keep up.
+const LAG_NOTE_EVERY: Duration = Duration::from_secs(10);
+
 /// Bytes for a surface that does not read, at most: past this it is disconnected.
 const MAX_UNSENT: usize = 1 << 20;
 
@@ -109,6 +112,7 @@ pub fn serve(sc: &RunSetup, o: &ServeOptions, listener: &TcpListener) -> Result<
     let (mut anchor_wall, mut anchor_t) = (wall0, 0.0);
     let rows_per_flush = (1.0 / period_s).round().max(1.0) as u64;
     let mut ticks = 0u64;
+    let mut next_lag_note = wall0;
     loop {
         if o.duration_s
             .is_some_and(|d| run.t_s() >= d - 0.5 * period_s)
@@ -151,6 +155,17 @@ pub fn serve(sc: &RunSetup, o: &ServeOptions, listener: &TcpListener) -> Result<
                     rep.late_ticks += 1;
                     rep.slip_s += lag.as_secs_f64();
                     (anchor_wall, anchor_t) = (now, run.t_s());
+                    if now >= next_lag_note {
+                        next_lag_note = now + LAG_NOTE_EVERY;
+                        eprintln!(
+                            "vehicle: behind the wall clock at {:.1} s: {} late ticks, largest \
+                             lag {:.1} ms, slip {:.1} ms",
+                            run.t_s(),
+                            rep.late_ticks,
+                            rep.max_lag_s * 1e3,
+                            rep.slip_s * 1e3
+                        );
+                    }
                 }
             }
         }
