@@ -461,6 +461,7 @@ where
     /// Feed the on-board estimator from the MCU's own sensors (when it runs). A missing or
     /// refused reading changes nothing; the estimator's timeouts raise `SENSOR_LOST`.
     fn read_sensors(&mut self, now: u64) {
+        self.read_dvl(now);
         if self.autopilot.onboard_nav().is_none() {
             return;
         }
@@ -473,6 +474,14 @@ where
                 pressure_pa,
             };
             let _ = self.autopilot.handle_nav(now, 0, &cmd);
+        }
+    }
+
+    /// Drain the DVL's port (if the sensors have one) and feed an admitted velocity to the
+    /// on-board estimator as a tether `DvlFix` would be (refused without one).
+    fn read_dvl(&mut self, now: u64) {
+        if let Some(fix) = self.sensors.dvl(now) {
+            let _ = self.autopilot.handle_nav(now, 0, &Command::DvlFix(fix));
         }
     }
 
@@ -622,6 +631,7 @@ where
             Command::ManualThrust(_) | Command::Imu(_) | Command::Pressure { .. } => {}
             Command::Nav(_) | Command::Step { .. } => {
                 if lockstep {
+                    self.read_dvl(now);
                     self.control(now);
                     self.send_telemetry(now);
                 }

@@ -2,8 +2,12 @@
 //! just before each control step (fixed-rate mode) while the on-board estimator runs;
 //! [`NoSensors`] for the emulated board and the host (the readings come over the tether), and
 //! [`BusSensors`], the ICM-42688-P and the MS5837-30BA drivers (`sensor-drivers`) on any
-//! `embedded-hal` SPI device and I2C bus (the STM32F4 board's wiring is in `board.rs`).
+//! `embedded-hal` SPI device and I2C bus (the STM32F4 board's wiring is in `board.rs`);
+//! [`dvl`]: a DVL on a UART added to any of them.
 
+pub mod dvl;
+
+use controller_core::nav::DvlFix;
 pub use controller_core::nav::ImuSample;
 use embedded_hal::i2c::I2c;
 use embedded_hal::spi::SpiDevice;
@@ -18,6 +22,11 @@ pub trait Sensors {
     fn imu(&mut self, now_us: u64) -> Option<ImuSample>;
     /// A new absolute pressure (Pa) when one is ready (the sensor's own rate), else `None`.
     fn pressure_pa(&mut self, now_us: u64) -> Option<f32>;
+    /// A new DVL velocity admitted since the last call (its own time of validity), else
+    /// `None`; none on a board without a DVL port ([`dvl::WithDvl`] adds one).
+    fn dvl(&mut self, _now_us: u64) -> Option<DvlFix> {
+        None
+    }
     /// True on a board with sensors of its own: the tether's `Imu` and `Pressure` are then
     /// refused (`OwnSensors`), so that the surface cannot feed the estimator on a real
     /// vehicle (issue 22).

@@ -117,8 +117,17 @@ fn a_known_delay_the_law_cannot_fly_is_refused_with_the_reason() {
 #[test]
 fn a_buoyancy_the_vertical_thruster_cannot_hold_is_refused() {
     let dir = scratch("buoyancy");
-    // Heavy: the vertical thruster's reverse thrust (15 N) holds it up.
-    for (b, ok) in [(-18.0, false), (-14.0, true), (21.0, false), (18.0, true)] {
+    // The vehicle's own check of a vehicle (the firmware's SetVehicle): half the smaller
+    // vertical thrust (15 N reverse) to spare for control, 7.5 N either way. 15 N heavy sank
+    // and 18 N light sat 20 cm above its line when they were flown.
+    for (b, ok) in [
+        (-18.0, false),
+        (-15.0, false),
+        (-7.5, true),
+        (21.0, false),
+        (18.0, false),
+        (7.5, true),
+    ] {
         let f = scenario_file(
             &dir,
             "b.toml",
@@ -131,7 +140,8 @@ fn a_buoyancy_the_vertical_thruster_cannot_hold_is_refused() {
         } else {
             assert_eq!(o.status.code(), Some(2), "{b} N: {}", stderr(&o));
             assert!(
-                stderr(&o).contains("cannot hold the depth"),
+                stderr(&o).contains("cannot hold the depth")
+                    && stderr(&o).contains("more than half the vertical thrust"),
                 "{}",
                 stderr(&o)
             );

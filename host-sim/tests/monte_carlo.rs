@@ -2,7 +2,8 @@
 
 use controller_core::params::VehicleParams;
 use host_sim::commands::monte_carlo::{
-    merge_shards, perturb_params, random_current, run_batch, shard_range, write_batch, McConfig,
+    merge_shards, perturb_params, random_current, run_batch, shard_range, summarize, write_batch,
+    McConfig, McRun,
 };
 use host_sim::scenario::{Plane, Scenario};
 use rand::SeedableRng;
@@ -15,7 +16,7 @@ controller = "paper"
 duration_s = 4.0
 [reference]
 kind = "paper"
-t_f_s = 20.0
+t_f_s = 40.0
 [initial]
 x_m = 0.2
 [disturbance]
@@ -150,4 +151,45 @@ fn four_shards_merged_equal_one_run_byte_for_byte() {
     twice.push(dirs[0].clone());
     let e = merge_shards(&twice).unwrap_err().to_string();
     assert!(e.contains("two shards"), "{e}");
+}
+
+/// Every statistic of a campaign's `summary.json` is a number: a diverged or non-finite run
+/// is counted apart with the rule that judged it, never as an infinite figure (`null` in
+/// JSON); a figure no run has (the estimation RMS of runs shorter than 10 s) is over 0 runs.
+#[test]
+fn every_statistic_is_a_number_and_a_diverged_run_is_counted_apart_by_its_rule() {
+    let sc = Scenario::from_toml(SHORT, "short").unwrap();
+    let (s, r) = run_batch(&sc.resolve().unwrap(), &cfg(7), (0, 1)).unwrap();
+    let json = serde_json::to_string(&s).unwrap();
+    assert!(!json.contains("null"), "{json}");
+    assert_eq!(s.rms_position_error_m.runs, 8);
+    assert_eq!(s.rms_estimation_error_m.runs, 0, "{json}");
+
+    // Two runs judged lost, one non-finite: the statistics are over the other five.
+    let mut runs = r.runs.clone();
+    let lost = |r: &mut McRun, rule: &str, figure: f64| {
+        r.diverged = rule != "non_finite";
+        r.nan_detected = rule == "non_finite";
+        r.rms_position_error_m = f64::INFINITY;
+        r.rule = Some(rule.into());
+        r.rule_figure = Some(figure);
+    };
+    lost(&mut runs[1], "runaway", 2.2);
+    lost(&mut runs[4], "runaway", 3.1);
+    lost(&mut runs[6], "non_finite", 1.5);
+    let s = summarize(&r.campaign, &runs);
+    let json = serde_json::to_string(&s).unwrap();
+    assert!(!json.contains("null"), "{json}");
+    assert_eq!((s.diverged_runs, s.nan_runs), (2, 1));
+    assert_eq!(s.diverged_by_rule.get("runaway"), Some(&2), "{json}");
+    assert_eq!(s.diverged_by_rule.get("non_finite"), Some(&1), "{json}");
+    assert_eq!(s.rms_position_error_m.runs, 5);
+    let kept: Vec<f64> = runs
+        .iter()
+        .filter(|r| r.rule.is_none())
+        .map(|r| r.rms_position_error_m)
+        .collect();
+    let max = kept.iter().copied().fold(0.0, f64::max);
+    assert_eq!(s.rms_position_error_m.max, max);
+    assert!(s.rms_position_error_m.max.is_finite());
 }

@@ -4,6 +4,14 @@
 //!   first- and second-order temperature compensation, depth from pressure.
 //! - [`icm42688`]: TDK ICM-42688-P 6-axis IMU on SPI: identity, reset, low-noise mode,
 //!   full scale and output data rate, a burst read in SI units.
+//! - [`a50`]: Water Linked DVL A50 serial protocol: velocity (`wrz`) and dead-reckoning
+//!   (`wrp`) reports, their CRC-8, the validity / figure-of-merit gate.
+//! - [`pd6`]: the PD6 ASCII speed-log format (Teledyne RDI, Nortek, Water Linked): bottom
+//!   track in instrument, ship and earth frames, distance and range to the bottom.
+//! - [`usbl`]: NMEA 0183 from a USBL or underwater GPS: GGA (through the `nmea` crate) and
+//!   Kongsberg's `$PSIMSSB`, checksums required; the dive's local frame.
+//! - [`line`]: lines from a byte stream into a fixed buffer.
+//! - [`fields`]: the comma-separated field reader the instrument parsers share.
 //!
 //! `no_std`, no allocation, no panics; every failure is an error value (a bus error, a wrong
 //! chip, a bad PROM CRC, a reading outside what the sensor can produce) so that the firmware
@@ -13,5 +21,10 @@
 //! `docs/drivers.md`.
 #![cfg_attr(not(test), no_std)]
 
+pub mod a50;
+pub mod fields;
 pub mod icm42688;
+pub mod line;
 pub mod ms5837;
+pub mod pd6;
+pub mod usbl;

@@ -49,6 +49,11 @@ pub trait ControllerEndpoint {
     fn reference_start_s(&self) -> f64 {
         0.0
     }
+    /// The USBL fixes the endpoint's own estimator refused on its gate, when it has one
+    /// that counts them (the summary's `navigation.usbl_fixes_rejected`).
+    fn usbl_fixes_rejected(&self) -> Option<u64> {
+        None
+    }
     /// Before the step: measurements for the endpoint's own estimator.
     fn forward(&mut self, measurements: &[Measurement]) -> Result<()> {
         if measurements.is_empty() {
@@ -137,5 +142,8 @@ impl<T: ControllerEndpoint + ?Sized> ControllerEndpoint for &mut T {
     }
     fn reference_start_s(&self) -> f64 {
         (**self).reference_start_s()
+    }
+    fn usbl_fixes_rejected(&self) -> Option<u64> {
+        (**self).usbl_fixes_rejected()
     }
 }

@@ -4,19 +4,20 @@
 //! - [`sim_loop`]: the loop itself; [`navigation`]: the navigation stages' trait and the
 //!   truth path; [`estimator_nav`]: the vehicle's estimator on simulated sensors;
 //!   [`endpoint`]: the controller end (the core in process); [`report`]: the summary, targets
-//!   and verdicts; [`runner`]: a software run.
+//!   and verdicts; [`rules`]: the rules that judge a run; [`runner`]: a software run.
 
 pub mod endpoint;
 pub mod estimator_nav;
 pub mod navigation;
 pub mod report;
+pub mod rules;
 pub mod runner;
 pub mod sim_loop;
 
 pub use endpoint::{ControllerEndpoint, CoreEndpoint, StepReply};
 pub use navigation::{to_nav, FixRecord, Navigation, TruthNav};
 pub use report::{
-    figures, judge, ratio, verdict, verdict_word, NavReport, RunOutput, Summary, TargetCheck,
-    Targets,
+    figures, judge, ratio, verdict, verdict_word, NavReport, Rule, Summary, TargetCheck, Targets,
 };
+pub use rules::{still_growing, MAX_TURNS_OFF_PATH, RUNAWAY_M};
 pub use sim_loop::*;

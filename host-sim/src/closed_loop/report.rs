@@ -1,8 +1,6 @@
-//! What a run reports: the summary (`summary.json`), its targets (`[expect]`) and verdicts,
-//! and the run's output (summary, per-tick log, USBL fixes).
+//! What a run reports: the summary (`summary.json`), its targets (`[expect]`), the rules
+//! that judged it and its verdict.
 
-use super::navigation::FixRecord;
-use super::sim_loop::Sample;
 use crate::scenario::ExpectSpec;
 use serde::Serialize;
 
@@ -72,12 +70,16 @@ pub struct Summary {
     /// 3-D only, 0 otherwise).
     pub max_turns_off_path: f64,
     /// The run diverged: a state or force beyond the physical (the run stopped), or, judged
-    /// at the end, control lost (`lost_control`).
+    /// at the end of a run that misses its tracking figures, control lost (`lost_control`).
     pub diverged: bool,
-    /// Control lost, judged on the true state: depth (the depth error at the end larger than
-    /// all of the first half and over 1 m), heading (over 2 turns more than the path), or
-    /// position (the same growth rule on the position error).
+    /// Control lost, judged on the true state of a run that misses its tracking figures
+    /// ([`meets_tracking_figures`]): depth (the depth error at the end larger than all of the
+    /// first half and over 1 m), heading (over 2 turns more than the path), or position (the
+    /// same growth rule on the position error, or over 1 m off after the settle time).
     pub lost_control: Option<String>,
+    /// The rule that decided the verdict and the figure that fired it: the divergence or
+    /// loss of control, else the first `[expect]` target missed; none when nothing fired.
+    pub rule: Option<Rule>,
     /// A NaN or infinity appeared.
     pub nan_detected: bool,
     /// Why the run stopped.
@@ -100,9 +102,135 @@ pub struct Summary {
     pub boundary_contact: Option<String>,
 }
 
+/// A rule that fired: its name (the rules of `docs/scenarios.md`), the figure it judged
+/// and the threshold the figure crossed, in the unit given, and the judgement in words.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Rule {
+    /// The rule: `non_finite`, `position_beyond`, `velocity_beyond`, `rate_beyond`,
+    /// `thrust_beyond` (the run stopped), `depth_growing`, `heading_turns`,
+    /// `position_growing`, `runaway` (control lost, judged at the end), or the `[expect]`
+    /// target missed (`expect.<key>`, e.g. `expect.rms_last80_m`).
+    pub name: String,
+    /// The figure the rule judged.
+    pub figure: f64,
+    /// The threshold it crossed.
+    pub threshold: f64,
+    /// The unit of both: `m`, `m/s`, `rad/s`, `N`, `turns`, `s`, or `-`.
+    pub unit: &'static str,
+    /// The judgement in words.
+    pub text: String,
+}
+
+impl Rule {
+    /// The rule and its figure, short, for a table: `runaway 2.21 > 1 m`.
+    pub fn short(&self) -> String {
+        let num = |v: f64| {
+            if v == 0.0 || (1e-3..1e5).contains(&v.abs()) {
+                format!("{}", (v * 1e3).round() / 1e3)
+            } else {
+                format!("{v:.2e}")
+            }
+        };
+        let op = match self.figure.partial_cmp(&self.threshold) {
+            Some(std::cmp::Ordering::Less) => "<",
+            Some(std::cmp::Ordering::Equal) => "=",
+            _ => ">",
+        };
+        let unit = if self.unit == "-" { "" } else { self.unit };
+        format!(
+            "{} {} {op} {} {unit}",
+            self.name,
+            num(self.figure),
+            num(self.threshold)
+        )
+        .trim_end()
+        .to_string()
+    }
+}
+
+/// Whether the run meets its tracking figures: the position bounds of its `[expect]`
+/// (`final_m`, `max_m`, `rms_m`, `rms_last80_m`, `tail_rms_m`) when it declares any, else
+/// the project's tracking figure (the last-20 % RMS under [`TRACKING_M`]). A run that meets
+/// them is never judged to have lost control: the rules of loss apply only to the others.
+pub fn meets_tracking_figures(expect: Option<&ExpectSpec>, s: &Summary) -> bool {
+    let bounds: Vec<(&str, f64)> = expect
+        .map(|e| {
+            e.bounds()
+                .into_iter()
+                .filter(|(k, _)| *k != "estimation_rms_m")
+                .collect()
+        })
+        .unwrap_or_default();
+    if bounds.is_empty() {
+        return s.rms_position_error_tail_m < TRACKING_M;
+    }
+    bounds.iter().all(|(k, b)| bound_figure(k, s) <= *b)
+}
+
+/// The tracking figure of the project: a run tracks when its errors are under 10 cm (m).
+pub const TRACKING_M: f64 = 0.1;
+
+/// The figure of the summary an `[expect]` bound is compared with.
+fn bound_figure(key: &str, s: &Summary) -> f64 {
+    match key {
+        "final_m" => s.final_position_error_m,
+        "max_m" => s.max_position_error_after_settle_m,
+        "rms_m" => s.rms_position_error_m,
+        "rms_last80_m" => s.rms_position_error_last80_m,
+        "tail_rms_m" => s.rms_position_error_tail_m,
+        _ => s.rms_estimation_error_m,
+    }
+}
+
+/// The first target of `t` missed, as a rule: its key, figure and bound.
+fn first_missed(expect: &ExpectSpec, s: &Summary, t: &Targets) -> Option<Rule> {
+    let missed = t.checks.iter().find(|c| !c.met)?;
+    let key = missed.key;
+    let (figure, threshold, unit) = match key {
+        "diverges" | "tracks" | "no_divergence" => (
+            f64::from(u8::from(s.diverged || s.nan_detected)),
+            f64::from(u8::from(expect.diverges)),
+            "-",
+        ),
+        "outliers_rejected" => (
+            s.navigation.usbl_fixes_rejected as f64,
+            s.navigation.usbl_outliers_injected as f64,
+            "-",
+        ),
+        k => (
+            bound_figure(k, s),
+            expect
+                .bounds()
+                .into_iter()
+                .find(|(b, _)| *b == k)
+                .map_or(f64::NAN, |(_, v)| v),
+            "m",
+        ),
+    };
+    let (figure, threshold) = if key == "tracks" {
+        (
+            s.final_position_error_m.max(s.rms_position_error_tail_m),
+            TRACKING_M,
+        )
+    } else {
+        (figure, threshold)
+    };
+    Some(Rule {
+        name: format!("expect.{key}"),
+        figure,
+        threshold,
+        unit: if key == "tracks" { "m" } else { unit },
+        text: format!("{}: {}", missed.target, missed.measured),
+    })
+}
+
 /// One target of `[expect]` against the run.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct TargetCheck {
+    /// The `[expect]` key (`no_divergence` for the check every run without `diverges` or
+    /// `tracks` gets).
+    #[serde(skip)]
+    pub key: &'static str,
     /// What was expected, e.g. `RMS last 80 % <= 2.0 cm`.
     pub target: String,
     /// What the run did (the figure, or a word).
@@ -120,26 +248,20 @@ pub struct Targets {
     pub checks: Vec<TargetCheck>,
 }
 
-/// The result of one run.
-#[derive(Debug, Clone, Default)]
-pub struct RunOutput {
-    /// Summary figures.
-    pub summary: Summary,
-    /// Per-tick log (empty unless `record`).
-    pub log: Vec<Sample>,
-    /// The USBL fixes of an estimator run (empty unless `record`).
-    pub usbl_fixes: Vec<FixRecord>,
-}
-
-/// The verdict in a word for a table: against the targets `meets` / `MISSES`; without
-/// targets `-`, or `DIVERGED` / `NaN` / the control lost.
-pub fn verdict_word(s: &Summary) -> &'static str {
-    match &s.targets {
+/// The verdict for a table: against the targets `meets` / `MISSES`; without targets `-`,
+/// or `DIVERGED` / `NaN`; then the rule that fired and its figure, if one did
+/// (`DIVERGED runaway 5.84 > 1 m`).
+pub fn verdict_word(s: &Summary) -> String {
+    let word = match &s.targets {
         Some(t) if t.met => "meets",
         Some(_) => "MISSES",
         None if s.nan_detected => "NaN",
         None if s.diverged => "DIVERGED",
         None => "-",
+    };
+    match &s.rule {
+        Some(r) => format!("{word} {}", r.short()),
+        None => word.to_string(),
     }
 }
 
@@ -204,6 +326,7 @@ pub fn judge(expect: &ExpectSpec, s: &Summary) -> Targets {
     let lost = s.diverged || s.nan_detected;
     if expect.diverges {
         checks.push(TargetCheck {
+            key: "diverges",
             target: "diverges".into(),
             measured: if lost {
                 figures(s)
@@ -217,6 +340,7 @@ pub fn judge(expect: &ExpectSpec, s: &Summary) -> Targets {
         let worst = s.final_position_error_m.max(s.rms_position_error_tail_m);
         let tracked = !lost && worst < 0.1;
         checks.push(TargetCheck {
+            key: "tracks",
             target: if tracks {
                 "tracks (final and last-20 % RMS < 10 cm)".into()
             } else {
@@ -228,20 +352,14 @@ pub fn judge(expect: &ExpectSpec, s: &Summary) -> Targets {
     }
     if !expect.diverges && lost && expect.tracks.is_none() {
         checks.push(TargetCheck {
+            key: "no_divergence",
             target: "no divergence".into(),
             measured: figures(s),
             met: false,
         });
     }
     for (key, bound) in expect.bounds() {
-        let v = match key {
-            "final_m" => s.final_position_error_m,
-            "max_m" => s.max_position_error_after_settle_m,
-            "rms_m" => s.rms_position_error_m,
-            "rms_last80_m" => s.rms_position_error_last80_m,
-            "tail_rms_m" => s.rms_position_error_tail_m,
-            _ => s.rms_estimation_error_m,
-        };
+        let v = bound_figure(key, s);
         let name = match key {
             "final_m" => "final".to_string(),
             "max_m" => format!("max after {} s", expect.settle_s),
@@ -251,6 +369,7 @@ pub fn judge(expect: &ExpectSpec, s: &Summary) -> Targets {
             _ => "estimation RMS".into(),
         };
         checks.push(TargetCheck {
+            key,
             target: format!("{name} <= {}", len(bound)),
             measured: len(v),
             // A NaN (no estimate, an empty window) does not meet a bound.
@@ -260,6 +379,7 @@ pub fn judge(expect: &ExpectSpec, s: &Summary) -> Targets {
     if expect.outliers_rejected {
         let n = &s.navigation;
         checks.push(TargetCheck {
+            key: "outliers_rejected",
             target: "every outlier received rejected".into(),
             measured: format!(
                 "{} of {} rejected",
@@ -272,6 +392,12 @@ pub fn judge(expect: &ExpectSpec, s: &Summary) -> Targets {
         met: checks.iter().all(|c| c.met),
         checks,
     }
+}
+
+/// The rule of `s`'s verdict when no divergence or loss fired: the first of its targets
+/// missed, if any.
+pub fn missed_rule(expect: &ExpectSpec, s: &Summary) -> Option<Rule> {
+    s.targets.as_ref().and_then(|t| first_missed(expect, s, t))
 }
 
 /// The one-line verdict of a summary: against its targets when it has them (`meets its

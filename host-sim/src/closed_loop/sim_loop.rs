@@ -21,15 +21,19 @@
 //! The run stops early when the state or the requested forces stop being finite
 //! (`nan_detected`) or when it leaves the physical (`diverged`: |position| > 10 km,
 //! |velocity| > 100 m/s, |rate| > 100 rad/s, or a thrust command above 10 kN). A run that
-//! completes is judged at its end on the true state for control lost (`lost_control`, then
-//! `diverged`): the depth or position error still growing past 1 m, or the vehicle turning
-//! over 2 turns more than its path; no fixed distance. Then the run is judged against its
-//! scenario's `[expect]` ([`judge`]). An endpoint that fails (the firmware refused a command,
+//! completes and misses its tracking figures is judged at its end on the true state for
+//! control lost (`lost_control`, then `diverged`): the depth or position error still growing
+//! past 1 m, the vehicle turning over 2 turns more than its path, or over 1 m off after the
+//! settle time ([`crate::closed_loop::rules`]). Then the run is judged against its
+//! scenario's `[expect]` ([`judge`]); the rule that decided is the summary's `rule`. An
+//! endpoint that fails (the firmware refused a command,
 //! the link was lost) ends the run with an error.
 
 use super::endpoint::ControllerEndpoint;
+use super::navigation::FixRecord;
 use super::navigation::Navigation;
-use super::report::{judge, len, ratio, verdict, RunOutput, Summary};
+use super::report::{judge, meets_tracking_figures, missed_rule, ratio, verdict, Rule, Summary};
+use super::rules::{divergence, lost_control, DiagonalNees, EndFigures, Turns};
 use crate::scenario::{ExpectSpec, Plane, RunSetup, Scenario, MAX_CONTROL_TICKS};
 use crate::world::frames::body_to_inertial;
 use crate::world::plant::six_dof_factory;
@@ -43,6 +47,17 @@ use controller_core::reference::{RefSample, Reference};
 use controller_core::state::{BodyForces, TrackingErrors};
 use serde::Serialize;
 use std::time::Instant;
+
+/// The result of one run.
+#[derive(Debug, Clone, Default)]
+pub struct RunOutput {
+    /// Summary figures.
+    pub summary: Summary,
+    /// Per-tick log (empty unless `record`).
+    pub log: Vec<Sample>,
+    /// The USBL fixes of an estimator run (empty unless `record`).
+    pub usbl_fixes: Vec<FixRecord>,
+}
 
 /// What a run may change from the scenario (Monte Carlo and HIL use these).
 #[derive(Debug, Clone, Copy, Default)]
@@ -126,13 +141,6 @@ pub fn nominal_plant_params(sc: &Scenario) -> VehicleParams {
     p
 }
 
-/// The control lost, judged at the end of a run that completed: `first_half` is the largest
-/// error of the first half, `tail_min` the smallest of the last 20 %. The error still
-/// growing: the whole end larger than anything of the first half, and over 1 m.
-pub(super) fn still_growing(first_half: f64, tail_min: f64) -> bool {
-    tail_min > 1.0 && tail_min > first_half
-}
-
 /// Sums of squares over the windows the summary reports.
 #[derive(Debug, Default)]
 struct Rms {
@@ -152,72 +160,6 @@ impl Rms {
         } else {
             f64::NAN
         }
-    }
-}
-
-/// Why a run left the physical, if it did (the run stops: the figures after would mean
-/// nothing). A vehicle that drifts off is judged at the end ([`still_growing`]), not here.
-fn divergence(truth: &PlantState, cmd: &[f64; 3]) -> Option<&'static str> {
-    let max_abs = |v: &[f64]| v.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-    if max_abs(&truth.eta[..3]) > 1.0e4 {
-        Some("|position| > 10 km")
-    } else if max_abs(&truth.nu[..3]) > 100.0 {
-        Some("|velocity| > 100 m/s")
-    } else if max_abs(&truth.nu[3..]) > 100.0 {
-        Some("|angular rate| > 100 rad/s")
-    } else if max_abs(cmd) > 1.0e4 {
-        Some("thrust command > 10 kN")
-    } else {
-        None
-    }
-}
-
-/// Turns of the vehicle beyond the path's: over this the heading control is lost.
-pub const MAX_TURNS_OFF_PATH: f64 = 2.0;
-
-/// The vehicle's yaw and the path's direction, unwrapped, for the turns one made more than
-/// the other.
-#[derive(Debug, Default)]
-struct Turns {
-    yaw: Option<(f64, f64)>,
-    path: Option<(f64, f64)>,
-    offset: Option<f64>,
-    off: f64,
-}
-
-impl Turns {
-    /// Unwrap `(last, total)` by the new angle `a`.
-    fn unwrap(acc: &mut Option<(f64, f64)>, a: f64) -> f64 {
-        let (last, total) = acc.unwrap_or((a, a));
-        let mut d = (a - last) % std::f64::consts::TAU;
-        if d > std::f64::consts::PI {
-            d -= std::f64::consts::TAU;
-        } else if d < -std::f64::consts::PI {
-            d += std::f64::consts::TAU;
-        }
-        *acc = Some((a, total + d));
-        total + d
-    }
-
-    /// One tick: the vehicle's yaw, the path's direction when it moves (it keeps the last
-    /// one while the reference holds a point).
-    fn update(&mut self, yaw_rad: f64, path_rad: Option<f64>) {
-        let y = Self::unwrap(&mut self.yaw, yaw_rad);
-        if let Some(p) = path_rad {
-            if self.path.is_none() {
-                // The path starts moving: count from here.
-                self.offset = None;
-            }
-            Self::unwrap(&mut self.path, p);
-        }
-        let p = self.path.map_or(0.0, |(_, total)| total);
-        let diff = y - p;
-        let offset = *self.offset.get_or_insert(diff);
-        self.off = (diff - offset).abs() / std::f64::consts::TAU;
-    }
-
-    fn off_path_turns(&self) -> f64 {
-        self.off
     }
 }
 
@@ -241,6 +183,9 @@ struct Metrics {
     heading_judged: bool,
     depth_judged: bool,
     turns: Turns,
+    /// The NEES of an endpoint's own estimate (the firmware's), from the standard deviations
+    /// it reports.
+    endpoint_nees: DiagonalNees,
 }
 
 /// The closed loop of one run, stepped one control period at a time: the plant, the
@@ -351,6 +296,7 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
             heading_judged: sc.plane != Plane::Xz,
             depth_judged: sc.plane != Plane::Xy,
             turns: Turns::default(),
+            endpoint_nees: DiagonalNees::default(),
         };
         Ok(Self {
             nav,
@@ -433,6 +379,7 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
         let r: RefSample = self.reference.sample(t_ref as f32);
         self.endpoint.forward(&self.nav.for_vehicle(t))?;
         let out = self.endpoint.step(t, &nav_state, &r)?;
+        let endpoint_std = out.estimate.map(|(_, std)| std);
         let (nav_state, nav_std) = match out.estimate {
             Some((e, std)) => (e, Some(std)),
             None => (nav_state, self.nav.position_std_m()),
@@ -454,6 +401,9 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
         }
         let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
         let pen = norm(pe);
+        if let Some(std) = endpoint_std {
+            self.m.endpoint_nees.add(ee, std, axes);
+        }
         let angle_err = f64::from(match self.plane {
             Plane::Xz => out.errors.pitch_rad,
             _ => out.errors.yaw_rad,
@@ -493,6 +443,13 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
         if !truth.is_finite() || !out.requested.is_finite() || !pen.is_finite() {
             s.nan_detected = true;
             s.stop_reason = format!("non-finite state or force at t = {t:.3} s");
+            s.rule = Some(Rule {
+                name: "non_finite".into(),
+                figure: t,
+                threshold: 0.0,
+                unit: "s",
+                text: s.stop_reason.clone(),
+            });
             self.done = true;
             return Ok(false);
         }
@@ -539,9 +496,10 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
             s.max_turns_off_path = s.max_turns_off_path.max(m.turns.off_path_turns());
         }
 
-        if let Some(why) = divergence(&truth, &cmd) {
+        if let Some(rule) = divergence(&truth, &cmd, t) {
             s.diverged = true;
-            s.stop_reason = format!("diverged at t = {t:.3} s: {why}");
+            s.stop_reason = rule.text.clone();
+            s.rule = Some(rule);
             self.done = true;
             return Ok(false);
         }
@@ -597,6 +555,14 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
         s.rms_position_error_last80_m = m.last80.value();
         s.rms_estimation_error_m = m.est.value();
         s.navigation = nav.report();
+        // An estimator in the endpoint (the firmware's, on the vehicle or the topside): its
+        // figures, as the host's estimator stage gives its own.
+        if s.navigation.nees_in_bounds_fraction.is_none() {
+            s.navigation.nees_in_bounds_fraction = m.endpoint_nees.fraction();
+        }
+        if let Some(n) = endpoint.usbl_fixes_rejected() {
+            s.navigation.usbl_fixes_rejected = n;
+        }
         // An outlier counts when the estimator received it: the stage draws each fix at its
         // ping and delivers it `latency_s` later, so one drawn in the last latency window of
         // the run never arrives. The fix records are kept on delivery.
@@ -617,33 +583,24 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
                 s.rms_position_error_last80_m = f64::INFINITY;
             }
         }
-        if !s.diverged && !s.nan_detected {
-            s.lost_control = if m.depth_judged
-                && still_growing(m.first_half_depth_max, m.tail_depth_min)
-            {
-                let z = last.state.eta[2] - last.ref_pos_m[2];
-                Some(format!(
-                    "lost depth control: {:.1} m {} its reference depth at the end, and still going",
-                    z.abs(),
-                    if z > 0.0 { "below" } else { "above" }
-                ))
-            } else if s.max_turns_off_path > MAX_TURNS_OFF_PATH {
-                Some(format!(
-                    "lost heading control: turned {:.1} turns more than the path",
-                    s.max_turns_off_path
-                ))
-            } else if still_growing(m.first_half_max, m.tail_min) {
-                Some(format!(
-                    "lost position control: the error grows ({} at the end, at most {} in the first half)",
-                    len(last.pos_err_norm_m),
-                    len(m.first_half_max)
-                ))
-            } else {
-                None
+        if !s.diverged && !s.nan_detected && !meets_tracking_figures(expect.as_ref(), &s) {
+            let end = EndFigures {
+                depth_judged: m.depth_judged,
+                first_half_max_m: m.first_half_max,
+                first_half_depth_max_m: m.first_half_depth_max,
+                tail_min_m: m.tail_min,
+                tail_depth_min_m: m.tail_depth_min,
+                settle_s: m.settle_s,
+                depth_off_end_m: last.state.eta[2] - last.ref_pos_m[2],
             };
-            s.diverged = s.lost_control.is_some();
+            s.rule = lost_control(&s, &end);
+            s.lost_control = s.rule.as_ref().map(|r| r.text.clone());
+            s.diverged = s.rule.is_some();
         }
         s.targets = expect.map(|e| judge(&e, &s));
+        if s.rule.is_none() {
+            s.rule = expect.and_then(|e| missed_rule(&e, &s));
+        }
         s.verdict = verdict(&s);
         let fs = last.state;
         s.final_state = fs.eta.iter().chain(fs.nu.iter()).copied().collect();

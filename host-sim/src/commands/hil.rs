@@ -26,6 +26,7 @@ use std::time::Duration;
 /// (semihosting, defmt frames) goes.
 pub fn run_hil(sc: &RunSetup, opts: &HilOptions, qemu_log: Option<&Path>) -> Result<HilOutput> {
     let mut qemu_guard = None;
+    let mut dvl_wire = None;
     let (port, target_name, hello_wait, hello_required): (Box<dyn Port>, _, _, _) =
         match &opts.target {
             HilTarget::Qemu { elf } => {
@@ -38,17 +39,24 @@ pub fn run_hil(sc: &RunSetup, opts: &HilOptions, qemu_log: Option<&Path>) -> Res
                     true,
                 )
             }
-            HilTarget::InProcess => (
-                Box::new(InProcessFirmware::new()?),
-                "in-process firmware library".to_string(),
-                Duration::from_secs(1),
-                true,
-            ),
+            HilTarget::InProcess => {
+                let fw = InProcessFirmware::new()?;
+                dvl_wire = opts.dvl_on_uart.then(|| fw.dvl_wire());
+                (
+                    Box::new(fw),
+                    "in-process firmware library".to_string(),
+                    Duration::from_secs(1),
+                    true,
+                )
+            }
             HilTarget::Board(ep) => (open(ep)?, format!("{ep:?}"), Duration::from_secs(2), false),
         };
     let link = Link::new(port, None);
     let mut endpoint =
         TetherEndpoint::connect(link, sc, opts, target_name, hello_wait, hello_required)?;
+    if let Some(wire) = dvl_wire {
+        endpoint.set_dvl_wire(wire);
+    }
     let mut nav = crate::closed_loop::estimator_nav::navigation_for_vehicle(sc);
     let run_opts = RunOptions {
         record: opts.record,

@@ -103,14 +103,25 @@ pub struct McRun {
     /// Share of ticks with the position NEES inside its 95 % bound (NaN on the truth path).
     #[serde(with = "json_f64")]
     pub nees_in_bounds_fraction: f64,
+    /// The rule that judged the run diverged, non-finite or out of control
+    /// (`docs/scenarios.md`), none for a run that completed in control.
+    #[serde(default)]
+    pub rule: Option<String>,
+    /// The figure that fired `rule`, in the rule's unit.
+    #[serde(default)]
+    pub rule_figure: Option<f64>,
 }
 
 /// An estimation error RMS above this (or not finite) counts as a diverged filter (m).
 pub const FILTER_DIVERGED_M: f64 = 1.0;
 
-/// Percentiles of a batch figure.
+/// Percentiles of a batch figure over the runs that completed in control (a diverged,
+/// non-finite or lost run is counted apart, in `diverged_runs` / `nan_runs`, never as a
+/// figure): every value is a number; with no such run, `runs` is 0 and the values are 0.
 #[derive(Debug, Clone, Copy, Serialize, PartialEq)]
 pub struct Percentiles {
+    /// Runs the figure is over (those that completed in control, with a finite figure).
+    pub runs: usize,
     /// Median.
     pub p50: f64,
     /// 95th percentile.
@@ -218,8 +229,10 @@ pub struct McSummary {
     pub current_magnitude_m_s: f64,
     /// Runs that produced a NaN.
     pub nan_runs: usize,
-    /// Runs that diverged.
+    /// Runs that diverged (stopped beyond the physical, or control lost at the end).
     pub diverged_runs: usize,
+    /// The diverged and non-finite runs by the rule that judged them (`docs/scenarios.md`).
+    pub diverged_by_rule: std::collections::BTreeMap<String, usize>,
     /// Runs whose navigation error RMS is over [`FILTER_DIVERGED_M`] or not finite.
     pub diverged_filters: usize,
     /// RMS navigation (estimation) error of each run after its first 10 s.
@@ -281,26 +294,17 @@ pub fn random_current(plane: Plane, mag: f64, rng: &mut ChaCha8Rng) -> [f64; 3] 
 }
 
 fn percentiles(values: &[f64]) -> Percentiles {
-    let mut v: Vec<f64> = values
-        .iter()
-        .map(|x| if x.is_nan() { f64::INFINITY } else { *x })
-        .collect();
+    let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
     v.sort_by(f64::total_cmp);
-    if v.is_empty() {
-        return Percentiles {
-            p50: f64::NAN,
-            p95: f64::NAN,
-            max: f64::NAN,
-        };
-    }
     let at = |q: f64| {
-        let i = ((q * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1;
-        v[i]
+        let i = ((q * v.len() as f64).ceil() as usize).clamp(1, v.len().max(1)) - 1;
+        v.get(i).copied().unwrap_or(0.0)
     };
     Percentiles {
+        runs: v.len(),
         p50: at(0.5),
         p95: at(0.95),
-        max: v[v.len() - 1],
+        max: at(1.0),
     }
 }
 
@@ -362,6 +366,8 @@ pub fn run_batch(
             .with_context(|| format!("monte-carlo run {i}"))?;
             pb.inc(1);
             let s = out.summary;
+            let lost = s.diverged || s.nan_detected;
+            let rule = s.rule.filter(|_| lost);
             Ok(McRun {
                 index: i,
                 current_m_s: current,
@@ -374,6 +380,8 @@ pub fn run_batch(
                 nan_detected: s.nan_detected,
                 rms_estimation_error_m: s.rms_estimation_error_m,
                 nees_in_bounds_fraction: s.navigation.nees_in_bounds_fraction.unwrap_or(f64::NAN),
+                rule_figure: rule.as_ref().map(|r| r.figure),
+                rule: rule.map(|r| r.name),
             })
         })
         .collect();
@@ -397,19 +405,20 @@ pub fn run_batch(
 
 /// The summary of a set of runs of a campaign.
 pub fn summarize(campaign: &Campaign, runs: &[McRun]) -> McSummary {
-    // A run that diverged or produced a NaN counts as an infinite error in the percentiles
-    // (its partial-run figures would flatter it); runs.csv keeps the raw numbers.
+    // A run that diverged or produced a NaN is counted apart (`diverged_runs`, `nan_runs`,
+    // `diverged_by_rule`), not in the percentiles: its partial-run figures would flatter it
+    // and an infinite one is no number; runs.csv keeps the raw numbers.
     let col = |f: fn(&McRun) -> f64| {
         runs.iter()
-            .map(|r| {
-                if r.diverged || r.nan_detected {
-                    f64::INFINITY
-                } else {
-                    f(r)
-                }
-            })
+            .filter(|r| !r.diverged && !r.nan_detected)
+            .map(f)
             .collect::<Vec<f64>>()
     };
+    let mut by_rule = std::collections::BTreeMap::new();
+    for r in runs.iter().filter(|r| r.diverged || r.nan_detected) {
+        let rule = r.rule.clone().unwrap_or_else(|| "unnamed".into());
+        *by_rule.entry(rule).or_insert(0) += 1;
+    }
     let max_thrust = runs
         .iter()
         .map(|r| r.max_abs_thruster_force_n)
@@ -426,6 +435,7 @@ pub fn summarize(campaign: &Campaign, runs: &[McRun]) -> McSummary {
         current_magnitude_m_s: campaign.current_magnitude_m_s,
         nan_runs: runs.iter().filter(|r| r.nan_detected).count(),
         diverged_runs: runs.iter().filter(|r| r.diverged).count(),
+        diverged_by_rule: by_rule,
         diverged_filters: runs
             .iter()
             .filter(|r| {
@@ -522,11 +532,11 @@ pub fn write_batch(dir: &Path, summary: &McSummary, shard: &ShardRuns) -> Result
     )?;
     let runs = &shard.runs;
     let mut csv = String::from(
-        "index,cx_m_s,cy_m_s,cz_m_s,rms_position_error_m,rms_position_error_last80_m,final_position_error_m,max_abs_thruster_force_n,saturated_fraction,diverged,nan_detected,rms_estimation_error_m,nees_in_bounds_fraction\n",
+        "index,cx_m_s,cy_m_s,cz_m_s,rms_position_error_m,rms_position_error_last80_m,final_position_error_m,max_abs_thruster_force_n,saturated_fraction,diverged,nan_detected,rms_estimation_error_m,nees_in_bounds_fraction,rule,rule_figure\n",
     );
     for r in runs {
         csv.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             r.index,
             r.current_m_s[0],
             r.current_m_s[1],
@@ -539,7 +549,9 @@ pub fn write_batch(dir: &Path, summary: &McSummary, shard: &ShardRuns) -> Result
             r.diverged,
             r.nan_detected,
             r.rms_estimation_error_m,
-            r.nees_in_bounds_fraction
+            r.nees_in_bounds_fraction,
+            r.rule.as_deref().unwrap_or(""),
+            r.rule_figure.map_or(String::new(), |v| v.to_string())
         ));
     }
     std::fs::write(dir.join("runs.csv"), csv)?;

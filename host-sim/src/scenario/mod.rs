@@ -20,7 +20,7 @@ pub use crate::world::sensors::{NavSource, NavigationSpec, SensorsSpec};
 use anyhow::{anyhow, bail, Context, Result};
 use controller_core::controller::ControlMode;
 use controller_core::params::{Vehicle, VehicleParams};
-use controller_core::reference::Reference;
+use controller_core::reference::{Bounds, Reference};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -572,6 +572,7 @@ impl Scenario {
             fin(&format!("initial.{k}"), v)?;
         }
         let reference = self.reference.validate()?;
+        self.check_reference_bounds(&reference)?;
         let d = &self.disturbance;
         vec3("disturbance.current_m_s", d.current_m_s)?;
         fin("disturbance.buoyancy_offset_n", d.buoyancy_offset_n)?;
@@ -623,32 +624,44 @@ impl Scenario {
         Ok((mode, reference))
     }
 
-    /// With thruster limits, the vertical thruster must hold the net buoyancy (the vehicle's
-    /// own plus the scenario's offset): a heavy vehicle needs its reverse thrust upward, a
-    /// light one its forward thrust downward. Beyond that the vehicle cannot keep its depth.
+    /// With thruster limits, the vehicle's net buoyancy (its own plus the scenario's offset)
+    /// as the vehicle itself would take it: the vehicle description with that buoyancy through
+    /// the firmware's own check of a new vehicle ([`crate::scenario::vehicle::check`]: the
+    /// core's validation and `Vehicle::check_flyable`, which keeps half the smaller vertical
+    /// thrust to spare for control). A vehicle it refuses is refused here, with its reason.
     fn check_buoyancy_holdable(&self) -> Result<()> {
         if !self.thrusters.saturate || self.plane == Plane::Xy {
             return Ok(());
         }
-        let p = &self.vehicle_params;
+        let mut p = self.vehicle_params;
         let net_n = f64::from(p.buoyancy_offset_n) + self.disturbance.buoyancy_offset_n;
-        let (limit_n, which) = if net_n < 0.0 {
-            (
-                f64::from(p.thrust_max_reverse_n),
-                "heavy; its reverse thrust",
+        p.buoyancy_offset_n = net_n as f32;
+        crate::scenario::vehicle::check(&p).map_err(|e| {
+            anyhow!(
+                "disturbance.buoyancy_offset_n: the net buoyancy is {net_n:.1} N ({}): the \
+                 vertical thruster cannot hold the depth with room to control it; the vehicle \
+                 refuses such a vehicle: {e}",
+                if net_n < 0.0 { "heavy" } else { "light" }
             )
-        } else {
-            (
-                f64::from(p.thrust_max_forward_n),
-                "light; its forward thrust",
-            )
-        };
-        if net_n.abs() > limit_n {
-            bail!(
-                "disturbance.buoyancy_offset_n: the net buoyancy is {net_n:.1} N ({which} holds {limit_n:.1} N): the vertical thruster cannot hold the depth"
-            );
-        }
+        })?;
         Ok(())
+    }
+
+    /// The reference as the vehicle takes it (`SetReference`): within the vehicle's own
+    /// bounds ([`Bounds::VEHICLE`], checked by the core's `Reference::check_bounds`), or
+    /// refused with the vehicle's reason and its bounds.
+    fn check_reference_bounds(&self, reference: &Reference) -> Result<()> {
+        let b = Bounds::VEHICLE;
+        reference.check_bounds(&b).map_err(|e| {
+            anyhow!(
+                "reference (kind = {:?}) refused by the vehicle: {e} (its bounds: |x| and |y| \
+                 within {} m of the origin, depth 0-{} m, speeds up to {} m/s)",
+                self.reference.kind(),
+                b.max_range_m,
+                b.max_depth_m,
+                b.max_speed_m_s
+            )
+        })
     }
 
     /// Magnitude of the scenario's current.

@@ -35,8 +35,8 @@ use crate::closed_loop::{ratio, ControllerEndpoint, StepReply};
 use crate::scenario::RunSetup;
 use crate::tether::link::{Endpoint, HostLinkStats, Link, Noise, NoiseSpec};
 pub use crate::tether::report::{HilOutput, HilReport, TelemetryRow};
-use crate::world::sensors::Measurement;
 use crate::world::sensors::NavSource;
+use crate::world::sensors::{DvlWire, Measurement};
 use anyhow::{anyhow, bail, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::nav::onboard::OnboardConfig;
@@ -113,6 +113,9 @@ pub struct HilOptions {
     /// AUTO): the longest simulated time to wait, armed and neutral, for the vehicle's
     /// estimate to be ready (issue 26: an unknown start) before the run fails (s).
     pub nav_ready_limit_s: f64,
+    /// In process: the DVL's fixes reach the firmware as the DVL's serial reports on its
+    /// DVL port (true), or as `DvlFix` commands over the tether (false).
+    pub dvl_on_uart: bool,
 }
 
 impl HilOptions {
@@ -133,6 +136,7 @@ impl HilOptions {
             fly_scenario: true,
             telemetry_rows: true,
             nav_ready_limit_s: DEFAULT_NAV_READY_LIMIT_S,
+            dvl_on_uart: true,
         }
     }
 }
@@ -181,6 +185,9 @@ pub struct TetherEndpoint {
     calibrating: bool,
     /// When the reference the firmware flies began ([`ControllerEndpoint::reference_start_s`]).
     reference_start_s: f64,
+    /// The firmware's DVL port, when it has one: the DVL's fixes go there as the DVL's
+    /// serial reports instead of as `DvlFix` commands.
+    dvl_wire: Option<DvlWire>,
 }
 
 impl TetherEndpoint {
@@ -254,7 +261,13 @@ impl TetherEndpoint {
                 .map(|c| (c.yaw_rate_rad_s as f32, c.time_limit_s as f32)),
             calibrating: false,
             reference_start_s: 0.0,
+            dvl_wire: None,
         })
+    }
+
+    /// Send the DVL's fixes on `wire` (the firmware's DVL port) as the DVL's serial reports.
+    pub fn set_dvl_wire(&mut self, wire: DvlWire) {
+        self.dvl_wire = Some(wire);
     }
 
     /// The link to the firmware (for commands between the steps: the topside's ground
@@ -642,7 +655,13 @@ impl ControllerEndpoint for TetherEndpoint {
                     pressure_pa: cfg.pressure.pressure_pa(d.depth_m),
                 },
                 Measurement::Heading(h) => Command::Compass(h),
-                Measurement::Dvl(d) => Command::DvlFix(d),
+                Measurement::Dvl(d) => match self.dvl_wire.as_mut() {
+                    Some(wire) => {
+                        wire.send_wrz(&d);
+                        continue;
+                    }
+                    None => Command::DvlFix(d),
+                },
                 Measurement::Position(p, _) => Command::UsblFix(p),
             };
             let seq = self.link.send(&cmd)?;

@@ -9,11 +9,13 @@
 //! same framing, state machine, failsafes and PWM quantization as the firmware image, at the
 //! speed of a software run.
 
+use crate::world::sensors::DvlWire;
 use anyhow::{anyhow, Result};
 use controller_core::controller::{Controller, Gains};
 use controller_core::params::Vehicle;
 use firmware::protocol::Board;
-use firmware::{App, Config, Monotonic};
+use firmware::sensors::dvl::{a50::VelocityGate, DvlPort, WithDvl};
+use firmware::{App, Config, Monotonic, NoSensors};
 use std::collections::VecDeque;
 use std::convert::Infallible;
 use std::time::Instant;
@@ -103,12 +105,14 @@ impl Monotonic for SimClock {
     }
 }
 
-/// The App as the boards build it, with simulated peripherals.
-pub type SimApp = App<SimPwm, SimSerial, SimClock>;
+/// The App as the boards build it, with simulated peripherals: the sensor readings come
+/// over the tether, the DVL on its own UART ([`DvlWire`]).
+pub type SimApp = App<SimPwm, SimSerial, SimClock, WithDvl<NoSensors, DvlWire>>;
 
 /// The firmware library in process, as a byte port.
 pub struct InProcessFirmware {
     app: SimApp,
+    dvl_wire: DvlWire,
 }
 
 impl InProcessFirmware {
@@ -122,16 +126,28 @@ impl InProcessFirmware {
     pub fn with_config(config: Config) -> Result<Self> {
         let controller = Controller::new(Vehicle::observer(), Gains::default())
             .map_err(|e| anyhow!("controller: {e}"))?;
-        let mut app = App::new(
+        let dvl_wire = DvlWire::default();
+        // The in-memory line takes no time per byte.
+        let sensors = WithDvl {
+            inner: NoSensors,
+            dvl: DvlPort::new(dvl_wire.clone(), VelocityGate::default(), 0),
+        };
+        let mut app = App::with_sensors(
             [SimPwm::default(), SimPwm::default(), SimPwm::default()],
             SimSerial::default(),
             SimClock(Instant::now()),
             controller,
             config,
+            sensors,
         )
         .map_err(|e| anyhow!("firmware config: {e}"))?;
         app.hello();
-        Ok(Self { app })
+        Ok(Self { app, dvl_wire })
+    }
+
+    /// The line into the App's DVL port (a clone: what is sent on it, the App reads).
+    pub fn dvl_wire(&self) -> DvlWire {
+        self.dvl_wire.clone()
     }
 
     /// One pass of the App's main loop (a fixed-rate App steps when its period is due on

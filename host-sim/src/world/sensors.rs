@@ -495,3 +495,74 @@ pub enum Measurement {
     /// USBL (with `true` when this fix is an injected outlier).
     Position(controller_core::nav::PositionFix, bool),
 }
+
+/// The simulated DVL's serial line into the firmware's DVL port: what the DVL sends (Water
+/// Linked A50 `wrz` reports, `docs/instruments.md`) waits here until the firmware's
+/// `DvlPort` reads it. Shared by the sender (the tether endpoint, which has the
+/// measurements) and the in-process App (its UART); clones are the same line.
+#[derive(Debug, Clone, Default)]
+pub struct DvlWire {
+    bytes: std::sync::Arc<std::sync::Mutex<std::collections::VecDeque<u8>>>,
+    /// Time of validity of the previous report (us), for its "time since last" field.
+    last_tov_us: Option<u64>,
+}
+
+/// The simulated DVL's clock: Unix time in microseconds at simulated time 0.
+pub const DVL_EPOCH_US: u64 = 1_767_225_600_000_000;
+
+/// Altitude the simulated DVL reports (m): a [`DvlFix`](controller_core::nav::DvlFix)
+/// does not carry one and the estimator does not use it.
+pub const DVL_REPORTED_ALTITUDE_M: f32 = 10.0;
+
+impl DvlWire {
+    fn queue(&self) -> std::sync::MutexGuard<'_, std::collections::VecDeque<u8>> {
+        // A panic elsewhere while holding the lock leaves whole bytes behind: still usable.
+        self.bytes.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Send `fix` as the A50 sends a velocity report with bottom lock: `wrz` with the
+    /// velocity to 1 mm/s, the standard deviation as the figure of merit and the diagonal
+    /// of the covariance, time of validity = time of transmission (the simulated DVL has no
+    /// processing latency; its fix is delivered in the step it is made), and its CRC-8.
+    pub fn send_wrz(&mut self, fix: &controller_core::nav::DvlFix) {
+        let tov = DVL_EPOCH_US + fix.t_us;
+        let since_ms = self
+            .last_tov_us
+            .map_or(0.0, |prev| tov.saturating_sub(prev) as f64 * 1e-3);
+        self.last_tov_us = Some(tov);
+        let var = f64::from(fix.std_m_s).powi(2);
+        let body = format!(
+            "wrz,{:.3},{:.3},0.000,y,{:.2},{:.3},{var:.3e};0;0;0;{var:.3e};0;0;0;{var:.3e},{tov},{tov},{since_ms:.2},0",
+            fix.velocity_m_s[0], fix.velocity_m_s[1], DVL_REPORTED_ALTITUDE_M, fix.std_m_s,
+        );
+        let crc = firmware::sensors::dvl::a50::CRC8.checksum(body.as_bytes());
+        let line = format!("{body}*{crc:02x}\r\n");
+        self.queue().extend(line.as_bytes());
+    }
+
+    /// Bytes waiting to be read.
+    pub fn pending(&self) -> usize {
+        self.queue().len()
+    }
+}
+
+impl embedded_io::ErrorType for DvlWire {
+    type Error = std::convert::Infallible;
+}
+
+impl embedded_io::Read for DvlWire {
+    fn read(&mut self, buf: &mut [u8]) -> Result<usize, Self::Error> {
+        let mut q = self.queue();
+        let n = buf.len().min(q.len());
+        for (b, x) in buf.iter_mut().zip(q.drain(..n)) {
+            *b = x;
+        }
+        Ok(n)
+    }
+}
+
+impl embedded_io::ReadReady for DvlWire {
+    fn read_ready(&mut self) -> Result<bool, Self::Error> {
+        Ok(!self.queue().is_empty())
+    }
+}

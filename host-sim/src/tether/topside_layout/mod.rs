@@ -57,6 +57,7 @@ use anyhow::{anyhow, bail, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::controller::{Controller, Gains};
 use controller_core::nav::onboard::OnboardConfig;
+use controller_core::nav::Refusal;
 use controller_core::reference::{RefSample, Reference};
 use controller_core::state::NavState;
 pub use emulated::{EmulatedRoles, BOARD_TIMEOUT, TOPSIDE_GRID_US};
@@ -135,6 +136,9 @@ pub struct TopsideLayout {
     next_heartbeat_us: u64,
     /// PC commands and when they are due at the topside (us).
     pending_pc: Vec<(u64, Command)>,
+    /// Sequence numbers of the USBL fixes sent and not yet answered (their refusals on the
+    /// estimator's gate are the summary's `usbl_fixes_rejected`).
+    usbl_seqs: BTreeSet<u16>,
     /// The one-way latency of the tether (us): the vehicle's compass and DVL readings reach
     /// the surface that much later.
     vehicle_fix_delay_us: u64,
@@ -330,6 +334,7 @@ impl TopsideLayout {
             fly_scenario: true,
             next_heartbeat_us: 0,
             pending_pc: Vec::new(),
+            usbl_seqs: BTreeSet::new(),
             vehicle_fix_delay_us: us(d.tether_latency_s),
             mode: Mode::from(sc.mode()),
             reference: *sc.reference(),
@@ -396,7 +401,14 @@ impl TopsideLayout {
                         self.on_ground_telemetry(&t);
                     }
                     Reply::Status(st) => self.latest_status = Some(st),
-                    Reply::Nack { reason, .. } => {
+                    Reply::Ack { seq } => {
+                        self.usbl_seqs.remove(&seq);
+                    }
+                    Reply::Nack { seq, reason } => {
+                        let usbl = self.usbl_seqs.remove(&seq);
+                        if usbl && reason == NackReason::NavRefused(Refusal::Outlier) {
+                            self.report.usbl_fixes_rejected += 1;
+                        }
                         self.report.nacks += 1;
                         *self
                             .report
@@ -492,7 +504,11 @@ impl TopsideLayout {
             .partition(|(t, _)| *t <= t_us);
         self.pending_pc = later;
         for (_, cmd) in due {
-            let _ = self.pc_send(&cmd);
+            if let Ok(seq) = self.pc_send(&cmd) {
+                if matches!(cmd, Command::UsblFix(_)) {
+                    self.usbl_seqs.insert(seq);
+                }
+            }
         }
         let tether_in = std::mem::take(&mut self.pc_out);
         // The node's pass, then the topside's (the board's loop).
@@ -730,6 +746,11 @@ impl TopsideLayout {
 }
 
 impl ControllerEndpoint for TopsideLayout {
+    /// The USBL fixes the topside's estimator refused on its gate (its `Nack`s).
+    fn usbl_fixes_rejected(&self) -> Option<u64> {
+        Some(self.report.usbl_fixes_rejected)
+    }
+
     /// At virtual time 0: the topside's first downlink (disarmed: the node's arm transition
     /// needs it), then the PC's set-up as `hil` sends it to the onboard App.
     fn start(&mut self, nav0: &NavState) -> Result<()> {

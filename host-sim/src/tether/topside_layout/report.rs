@@ -94,4 +94,7 @@ pub struct LayoutReport {
     pub nacks: u64,
     /// The refusals by reason (e.g. a fix the estimator found too old).
     pub nack_reasons: std::collections::BTreeMap<String, u64>,
+    /// USBL fixes the topside's estimator refused on its innovation gate (the summary's
+    /// `navigation.usbl_fixes_rejected`).
+    pub usbl_fixes_rejected: u64,
 }

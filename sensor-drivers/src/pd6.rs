@@ -1,0 +1,267 @@
+//! PD6: the ASCII speed-log format of Teledyne RD Instruments DVLs, also sent by Nortek DVLs
+//! and by Water Linked's (serial protocol number 2).
+//!
+//! One ensemble is a group of lines, each `:` + two letters + comma-separated fields + CR LF;
+//! fields are padded with spaces to fixed widths. PD6 has **no checksum**: a corrupted digit
+//! is a different valid number, so only the syntax, the status letters and the ranges below
+//! can refuse a line. Velocities are integers in mm/s; -32768 means "no value".
+//!
+//! - `:BI,±XXXXX,±YYYYY,±ZZZZZ,±EEEEE,S`: bottom-track velocity in the instrument (Water
+//!   Linked: vehicle) frame, x, y, z and error velocity, status `A` good / `V` bad.
+//! - `:BS,±TTTTT,±LLLLL,±NNNNN,S`: bottom-track velocity in the ship frame: transverse
+//!   (+ port to starboard), longitudinal (+ aft to forward), normal (+ away from the bottom).
+//! - `:BE,±EEEEE,±NNNNN,±UUUUU,S`: bottom-track velocity in the earth frame: east, north, up.
+//! - `:BD,±EEEEEEEE.EE,±NNNNNNNN.NN,±UUUUUUUU.UU,DDDD.DD,TTT.TT`: distance made good east,
+//!   north, up (m), range to the bottom (m), time since the last good velocity (s).
+//! - `:TS,YYMMDDHHmmsshh,SS.S,+TT.T,DDDD.D,CCCC.C,BBB`: time stamp (hundredths of a second),
+//!   salinity (ppt), temperature (degC), transducer depth (m), speed of sound (m/s), built-in
+//!   test result.
+//!
+//! Other groups (`:SA` attitude, `:WI` / `:WS` / `:WE` / `:WD` water-mass) are recognised and
+//! returned as [`Line::Other`]. [`Ensemble`] collects one ensemble's bottom-track lines
+//! and completes it at `:BD`, the last bottom-track line of an ensemble.
+
+use crate::fields::{trim_line_end, FieldError, Fields};
+
+/// The value PD6 sends for a velocity it does not have.
+pub const MISSING_MM_S: i32 = -32768;
+
+/// Why a PD6 line was refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Pd6Error {
+    /// The line does not start with `:` and two upper-case letters.
+    NoStart,
+    /// A field is missing, malformed or extra.
+    Field(FieldError),
+    /// A velocity outside +-32767 mm/s (and not -32768), or a distance or time outside the
+    /// field's width.
+    OutOfRange,
+}
+
+impl From<FieldError> for Pd6Error {
+    fn from(e: FieldError) -> Self {
+        Pd6Error::Field(e)
+    }
+}
+
+/// One velocity group (`:BI`, `:BS` or `:BE`): three components in m/s, `None` where PD6 sent
+/// -32768, and the status letter.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VelocityGroup {
+    /// The three components (m/s), in the group's own order (see the module documentation).
+    pub velocity_m_s: [Option<f32>; 3],
+    /// Error velocity (m/s), sent by `:BI` only.
+    pub error_m_s: Option<f32>,
+    /// `true` for status `A` (good), `false` for `V` (bad).
+    pub good: bool,
+}
+
+impl VelocityGroup {
+    /// The three components when the status is good and none is missing.
+    pub fn usable(&self) -> Option<[f32; 3]> {
+        match (self.good, self.velocity_m_s) {
+            (true, [Some(a), Some(b), Some(c)]) => Some([a, b, c]),
+            _ => None,
+        }
+    }
+}
+
+/// `:BD`: bottom-track distance made good and range to the bottom.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BottomDistance {
+    /// Distance made good east, north, up (m).
+    pub distance_m: [f64; 3],
+    /// Range to the bottom (m).
+    pub range_to_bottom_m: f32,
+    /// Time since the last good velocity estimate (s).
+    pub since_good_s: f32,
+}
+
+/// `:TS`: the ensemble's time stamp and water properties.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TimingScaling {
+    /// Year (two digits), month, day, hour, minute, second, hundredths.
+    pub stamp: [u8; 7],
+    /// Salinity (ppt).
+    pub salinity_ppt: f32,
+    /// Water temperature (degC).
+    pub temperature_c: f32,
+    /// Transducer depth (m).
+    pub depth_m: f32,
+    /// Speed of sound (m/s).
+    pub speed_of_sound_m_s: f32,
+    /// Built-in test result (0: no fault).
+    pub bit: u16,
+}
+
+/// One parsed PD6 line.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Line {
+    /// `:BI`, instrument frame x, y, z.
+    BottomInstrument(VelocityGroup),
+    /// `:BS`, ship frame transverse, longitudinal, normal.
+    BottomShip(VelocityGroup),
+    /// `:BE`, earth frame east, north, up.
+    BottomEarth(VelocityGroup),
+    /// `:BD`.
+    BottomDistance(BottomDistance),
+    /// `:TS`.
+    TimingScaling(TimingScaling),
+    /// Any other two-letter group (`SA`, `WI`, `WS`, `WE`, `WD`, ...), fields not read.
+    Other([u8; 2]),
+}
+
+/// Parses one PD6 line (it may end in CR / LF).
+pub fn parse(line: &[u8]) -> Result<Line, Pd6Error> {
+    let line = trim_line_end(line);
+    let (id, body) = match line {
+        [b':', a, b, b',', body @ ..] if a.is_ascii_uppercase() && b.is_ascii_uppercase() => {
+            ([*a, *b], body)
+        }
+        _ => return Err(Pd6Error::NoStart),
+    };
+    match &id {
+        b"BI" => velocity_group(body, true).map(Line::BottomInstrument),
+        b"BS" => velocity_group(body, false).map(Line::BottomShip),
+        b"BE" => velocity_group(body, false).map(Line::BottomEarth),
+        b"BD" => bottom_distance(body).map(Line::BottomDistance),
+        b"TS" => timing_scaling(body).map(Line::TimingScaling),
+        _ => Ok(Line::Other(id)),
+    }
+}
+
+/// A velocity in mm/s to m/s; `None` for -32768.
+fn velocity(f: &mut Fields<'_>) -> Result<Option<f32>, Pd6Error> {
+    let mm_s: i32 = f.next_int()?;
+    match mm_s {
+        MISSING_MM_S => Ok(None),
+        -32767..=32767 => Ok(Some(mm_s as f32 / 1000.0)),
+        _ => Err(Pd6Error::OutOfRange),
+    }
+}
+
+fn velocity_group(body: &[u8], with_error: bool) -> Result<VelocityGroup, Pd6Error> {
+    let mut f = Fields::new(body, b',');
+    let velocity_m_s = [velocity(&mut f)?, velocity(&mut f)?, velocity(&mut f)?];
+    let error_m_s = if with_error { velocity(&mut f)? } else { None };
+    let good = f.next_flag(b'A', b'V')?;
+    f.end()?;
+    Ok(VelocityGroup {
+        velocity_m_s,
+        error_m_s,
+        good,
+    })
+}
+
+fn bottom_distance(body: &[u8]) -> Result<BottomDistance, Pd6Error> {
+    let mut f = Fields::new(body, b',');
+    let distance_m = [f.next_f64()?, f.next_f64()?, f.next_f64()?];
+    let range_to_bottom_m = f.next_f32()?;
+    let since_good_s = f.next_f32()?;
+    f.end()?;
+    // Field widths: 8 integer digits for distances, DDDD.DD, TTT.TT.
+    let ok = distance_m.iter().all(|d| d.abs() < 1e8)
+        && (0.0..10_000.0).contains(&range_to_bottom_m)
+        && (0.0..1_000.0).contains(&since_good_s);
+    if !ok {
+        return Err(Pd6Error::OutOfRange);
+    }
+    Ok(BottomDistance {
+        distance_m,
+        range_to_bottom_m,
+        since_good_s,
+    })
+}
+
+fn timing_scaling(body: &[u8]) -> Result<TimingScaling, Pd6Error> {
+    let mut f = Fields::new(body, b',');
+    let stamp_idx = f.index();
+    let stamp_text = f.next_str()?.as_bytes();
+    let mut stamp = [0_u8; 7];
+    if stamp_text.len() != 14 {
+        return Err(FieldError::Malformed(stamp_idx).into());
+    }
+    for (slot, pair) in stamp.iter_mut().zip(stamp_text.chunks_exact(2)) {
+        *slot = match pair {
+            [a, b] if a.is_ascii_digit() && b.is_ascii_digit() => (a - b'0') * 10 + (b - b'0'),
+            _ => return Err(FieldError::Malformed(stamp_idx).into()),
+        };
+    }
+    let salinity_ppt = f.next_f32()?;
+    let temperature_c = f.next_f32()?;
+    let depth_m = f.next_f32()?;
+    let speed_of_sound_m_s = f.next_f32()?;
+    let bit = f.next_int::<u16>()?;
+    f.end()?;
+    let [_, month, day, hour, minute, second, _] = stamp;
+    let ok = (1..=12).contains(&month)
+        && (1..=31).contains(&day)
+        && hour < 24
+        && minute < 60
+        && second < 60
+        && (0.0..=1e4).contains(&depth_m)
+        && (0.0..=2500.0).contains(&speed_of_sound_m_s);
+    if !ok {
+        return Err(Pd6Error::OutOfRange);
+    }
+    Ok(TimingScaling {
+        stamp,
+        salinity_ppt,
+        temperature_c,
+        depth_m,
+        speed_of_sound_m_s,
+        bit,
+    })
+}
+
+/// One ensemble's bottom-track lines.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct BottomTrack {
+    /// `:BI`, if it came.
+    pub instrument: Option<VelocityGroup>,
+    /// `:BS`, if it came.
+    pub ship: Option<VelocityGroup>,
+    /// `:BE`, if it came.
+    pub earth: Option<VelocityGroup>,
+    /// `:BD` (always present: it completes the ensemble).
+    pub distance: Option<BottomDistance>,
+    /// `:TS`, if it came.
+    pub timing: Option<TimingScaling>,
+}
+
+impl BottomTrack {
+    /// The instrument-frame velocity (m/s) when `:BI` came, is good and complete.
+    pub fn instrument_velocity_m_s(&self) -> Option<[f32; 3]> {
+        self.instrument.as_ref().and_then(VelocityGroup::usable)
+    }
+}
+
+/// Collects the lines of one ensemble; `:BD` completes it.
+#[derive(Debug, Clone, Default)]
+pub struct Ensemble {
+    current: BottomTrack,
+}
+
+impl Ensemble {
+    /// A collector with nothing collected.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Takes one parsed line; returns the ensemble when `line` is its `:BD`. A refused line
+    /// is not passed here, so an ensemble may lack a group (its field is then `None`).
+    pub fn push(&mut self, line: Line) -> Option<BottomTrack> {
+        match line {
+            Line::BottomInstrument(g) => self.current.instrument = Some(g),
+            Line::BottomShip(g) => self.current.ship = Some(g),
+            Line::BottomEarth(g) => self.current.earth = Some(g),
+            Line::TimingScaling(t) => self.current.timing = Some(t),
+            Line::BottomDistance(d) => {
+                self.current.distance = Some(d);
+                return Some(core::mem::take(&mut self.current));
+            }
+            Line::Other(_) => {}
+        }
+        None
+    }
+}
