@@ -20,7 +20,7 @@ use crate::world::sensors::{Measurement, NavSource};
 use anyhow::{anyhow, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::controller::{Controller, Gains};
-use controller_core::nav::ImuSample;
+use controller_core::nav::{DvlFix, ImuSample};
 use controller_core::reference::RefSample;
 use controller_core::state::NavState;
 use firmware::protocol::{fault, Board, Command, NavSample};
@@ -45,11 +45,13 @@ struct Feed {
     imu: VecDeque<ImuSample>,
     current_imu: Option<ImuSample>,
     pressure: VecDeque<(u64, f32)>,
+    dvl: VecDeque<DvlFix>,
 }
 
-/// The vehicle's own IMU and pressure sensor, fed from the plant: the surface's `Imu` and
-/// `Pressure` are refused (`OwnSensors`), as by a real vehicle. Read only while the
-/// on-board estimator runs (the App's rule).
+/// The vehicle's own IMU, pressure sensor and DVL (on its UART), fed from the plant: the
+/// surface's `Imu` and `Pressure` are refused (`OwnSensors`), as by a real vehicle. Read
+/// before each control step (the IMU and pressure only while the on-board estimator runs:
+/// the App's rule).
 #[derive(Debug, Clone, Default)]
 pub struct PlantBus(Rc<RefCell<Feed>>);
 
@@ -67,6 +69,16 @@ impl Sensors for PlantBus {
         let mut latest = None;
         while f.pressure.front().is_some_and(|&(t, _)| t <= now_us) {
             latest = f.pressure.pop_front().map(|(_, p)| p);
+        }
+        latest
+    }
+
+    /// The latest DVL velocity of its time or before (the older ones are superseded).
+    fn dvl(&mut self, now_us: u64) -> Option<DvlFix> {
+        let mut f = self.0.borrow_mut();
+        let mut latest = None;
+        while f.dvl.front().is_some_and(|d| d.t_us <= now_us) {
+            latest = f.dvl.pop_front();
         }
         latest
     }
@@ -240,8 +252,8 @@ impl ControllerEndpoint for ServedVehicle {
         })
     }
 
-    /// IMU and depth to the vehicle's own sensors (available from their time stamps); the
-    /// compass, DVL and USBL fixes as the vehicle's inputs of the next tick.
+    /// IMU, depth and DVL to the vehicle's own sensors (available from their time stamps);
+    /// the compass and USBL fixes as the vehicle's inputs of the next tick.
     fn forward(&mut self, measurements: &[Measurement]) -> Result<()> {
         let mut f = self.feed.0.borrow_mut();
         for m in measurements {
@@ -251,7 +263,7 @@ impl ControllerEndpoint for ServedVehicle {
                     .pressure
                     .push_back((d.t_us, self.onboard.pressure.pressure_pa(d.depth_m))),
                 Measurement::Heading(h) => self.own.push(Command::Compass(h)),
-                Measurement::Dvl(d) => self.own.push(Command::DvlFix(d)),
+                Measurement::Dvl(d) => f.dvl.push_back(d),
                 Measurement::Position(p, _) => self.own.push(Command::UsblFix(p)),
             }
         }
