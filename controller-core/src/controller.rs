@@ -8,6 +8,7 @@
 
 use crate::alloc::{allocate, Allocation, PwmMap, ThrusterLimits};
 use crate::error::Error;
+use crate::law::gain_bounds;
 use crate::law::paper_xy::{self, PaperXyGains};
 use crate::law::paper_xz::{self, PaperXzGains};
 use crate::law::pilot::{self, PilotHold, Sticks};
@@ -47,13 +48,14 @@ pub struct Gains {
     pub tracking: TrackingGains,
 }
 
-/// Largest value of any gain accepted (issue 22): 100x the largest default (10). A gain `k`
-/// with `k dt` far above 1 at the 50 Hz step is outside the laws' discrete-time range (the
-/// probes took 1e30).
+/// Largest value of any gain accepted: 100x the largest default (10). The gains of the
+/// linear loops are held to the narrower ranges of [`gain_bounds`], derived from the laws'
+/// discrete-time stability at the control period.
 pub const MAX_GAIN: f32 = 1.0e3;
 
 impl Gains {
-    /// Validate every set, and every gain at most [`MAX_GAIN`].
+    /// Validate every set, every gain at most [`MAX_GAIN`], and the gains of the linear loops
+    /// within the ranges of [`gain_bounds`] (the refusal names the range).
     pub fn validate(&self) -> Result<(), Error> {
         self.paper_xz.validate()?;
         self.paper_xy.validate()?;
@@ -107,7 +109,8 @@ impl Gains {
                 return Err(Error::OutOfRange(name));
             }
         }
-        Ok(())
+        gain_bounds::check_tracking(t)?;
+        gain_bounds::check_paper(a, b)
     }
 }
 

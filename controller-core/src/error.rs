@@ -6,7 +6,7 @@ use core::fmt;
 ///
 /// Every constructor that takes numbers from outside validates them once and returns this;
 /// the control step itself has no error path.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
 pub enum Error {
@@ -21,7 +21,23 @@ pub enum Error {
     /// The parameters describe a vehicle the model cannot represent
     /// (for example a singular mass matrix).
     NonPhysical(&'static str),
+    /// A gain outside the range its law stays stable with at the control period, given the
+    /// law's other gains ([`crate::law::gain_bounds`]).
+    GainRange {
+        /// The gain.
+        name: &'static str,
+        /// The value refused.
+        value: f32,
+        /// Smallest value accepted.
+        min: f32,
+        /// Largest value accepted.
+        max: f32,
+    },
 }
+
+// The range's numbers are finite constants and the value is checked finite before any range
+// is: equality is reflexive for every error made.
+impl Eq for Error {}
 
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -31,6 +47,17 @@ impl fmt::Display for Error {
             Error::Negative(name) => write!(f, "{name} must be >= 0"),
             Error::OutOfRange(name) => write!(f, "{name} is out of range"),
             Error::NonPhysical(name) => write!(f, "non-physical parameters: {name}"),
+            Error::GainRange {
+                name,
+                value,
+                min,
+                max,
+            } => write!(
+                f,
+                "{name} = {value:?} is outside {min:.3}..={max:.3}, the range its law stays \
+                 stable in at a 20 ms control period with its other gains (docs/safety.md, \
+                 Gain bounds)"
+            ),
         }
     }
 }

@@ -13,13 +13,22 @@
 //!   step at once and is answered by a `Telemetry` that carries the thruster commands. The
 //!   failsafes then run in simulated time, deterministically.
 
+mod pwm;
+mod session;
+mod telemetry;
+
+use pwm::set_duties;
+pub use pwm::{duty_for_pulse, pulse_for_duty};
+use session::Stamp;
+use telemetry::serial_ok;
+
 use crate::autopilot::{Autopilot, Failsafe, StepOutput};
 use crate::protocol::{
-    encode, fault, Board, Command, Decoded, DropReason, FrameDecoder, LinkStats, NackReason, Reply,
-    Status, Telemetry, MAX_FRAME_LEN,
+    fault, Board, Command, Decoded, DropReason, FrameDecoder, LinkStats, NackReason, Reply,
+    MAX_FRAME_LEN,
 };
 use crate::sensors::{NoSensors, Sensors};
-use controller_core::alloc::{PwmMap, ESC_MAX_US, ESC_MIN_US, ESC_NEUTRAL_US};
+use controller_core::alloc::ESC_NEUTRAL_US;
 use controller_core::controller::Controller;
 use embedded_hal::pwm::SetDutyCycle;
 use embedded_io::{Read, ReadReady, Write, WriteReady};
@@ -34,7 +43,7 @@ pub const TX_QUEUE_LEN: usize = 4;
 /// Fixed-rate mode: how far a surface time stamp (`Nav`, `Imu`, `Pressure`) may run ahead
 /// of the previous one of its kind beyond the time that passed on the vehicle's clock
 /// (0.5 s: the tether's jitter and the clocks' drift are milliseconds). One frame stamped
-/// far ahead is refused `ClockAhead` and moves nothing (issue 22).
+/// far ahead is refused `ClockAhead` and moves nothing.
 pub const STAMP_AHEAD_TOLERANCE_US: u64 = 500_000;
 
 /// Lock-step mode: the largest step of the host's clock one frame may make (1 s; the
@@ -43,37 +52,6 @@ pub const STAMP_AHEAD_TOLERANCE_US: u64 = 500_000;
 /// stamped frame after boot sets the time base (the host's time starts where it starts; the
 /// vehicle is disarmed then).
 pub const LOCKSTEP_MAX_STEP_US: u64 = 1_000_000;
-
-/// Session numbers are 14 bits (1..=16383).
-const SESSION_MASK: u32 = 0x3FFF;
-
-/// The latest accepted surface time stamp of one kind and the vehicle's time it came at.
-#[derive(Debug, Clone, Copy, Default)]
-struct Stamp {
-    /// `(stamp, vehicle time)`; `None` before the first of the session.
-    last: Option<(u64, u64)>,
-}
-
-impl Stamp {
-    /// The surface clock now, as projected from the latest stamp by the vehicle's clock.
-    fn projected(&self, now_us: u64) -> Option<u64> {
-        self.last
-            .map(|(t, rx)| t.saturating_add(now_us.saturating_sub(rx)))
-    }
-
-    /// True when `t_us` is not too far ahead of the projection (the first stamp of a session
-    /// sets it).
-    fn ok(&self, t_us: u64, now_us: u64) -> bool {
-        self.projected(now_us)
-            .is_none_or(|p| t_us <= p.saturating_add(STAMP_AHEAD_TOLERANCE_US))
-    }
-
-    /// Take `t_us` (accepted) at `now_us`.
-    fn take(&mut self, t_us: u64, now_us: u64) {
-        let p = self.projected(now_us).unwrap_or(t_us);
-        self.last = Some((t_us.max(p), now_us));
-    }
-}
 
 /// A monotonic clock.
 pub trait Monotonic {
@@ -166,36 +144,6 @@ impl core::fmt::Display for ConfigError {
 }
 
 impl core::error::Error for ConfigError {}
-
-/// Duty for a pulse width: `pulse_us / period_us * max_duty`, rounded, with the pulse clamped
-/// to the map's `[min_us, max_us]` and then to the ESC's range first (NaN -> the ESC's
-/// neutral, [`ESC_NEUTRAL_US`]): no pulse outside 1100-1900 us ever reaches an output.
-pub fn duty_for_pulse(pulse_us: f32, map: &PwmMap, period_us: u32, max_duty: u16) -> u16 {
-    use controller_core::math::clamp;
-    // `math::clamp`, not `f32::clamp`: the bounds come from the PWM map at run time, and
-    // `f32::clamp` panics when `min > max`; the firmware has no panic path.
-    let p = if pulse_us.is_nan() {
-        ESC_NEUTRAL_US
-    } else {
-        clamp(
-            clamp(pulse_us, map.min_us, map.max_us),
-            ESC_MIN_US,
-            ESC_MAX_US,
-        )
-    };
-    // `as` saturates (a negative pulse is 0 us).
-    let p = u64::from((p + 0.5) as u32);
-    let period = u64::from(period_us.max(1));
-    let max = u64::from(max_duty);
-    ((p * max + period / 2) / period).min(max) as u16
-}
-
-/// Pulse width a duty gives, microseconds (what the ESC sees), rounded.
-pub fn pulse_for_duty(duty: u16, period_us: u32, max_duty: u16) -> u16 {
-    let m = u64::from(max_duty.max(1));
-    let p = (u64::from(duty) * u64::from(period_us) + m / 2) / m;
-    p.min(u64::from(u16::MAX)) as u16
-}
 
 /// The application.
 pub struct App<P, S, C, N = NoSensors> {
@@ -440,7 +388,7 @@ where
     }
 
     /// Run the control step now (fixed-rate timing), the sensors read first, and restart the
-    /// period from now. The topside layout (issue 25, `topside_link.rs`) steps when the
+    /// period from now. The topside layout (`topside_link.rs`) steps when the
     /// node's uplink arrives; the period stays the fallback when the node is silent. Nothing
     /// in lock-step, where the host's `Nav` runs the step.
     pub fn step_now(&mut self) {
@@ -515,55 +463,6 @@ where
                 };
                 self.nack(seq, reason);
             }
-        }
-    }
-
-    /// The session's gate (issue 22): `OpenSession` opens a new one at any time; any other
-    /// frame must carry the session in force and a sequence number above the last one
-    /// taken in it (the surface opens a new session before its numbers wrap), or it is
-    /// refused and counted, and changes nothing.
-    fn on_frame(&mut self, seq: u16, session: u32, cmd: &Command) {
-        if let Command::OpenSession { nonce } = *cmd {
-            return self.open_session(seq, nonce);
-        }
-        if session == 0 || session != self.session {
-            self.link.no_session = self.link.no_session.wrapping_add(1);
-            return self.nack(seq, NackReason::NoSession);
-        }
-        if seq <= self.last_seq {
-            self.link.replayed = self.link.replayed.wrapping_add(1);
-            return self.nack(seq, NackReason::Replayed);
-        }
-        self.last_seq = seq;
-        self.on_command(seq, cmd);
-    }
-
-    /// Open a session: a number never 0 and not the previous one's, mixed from the surface's
-    /// nonce and a count of the sessions (so a recording of an earlier session does not
-    /// match a later one); the `OpenSession`'s own number starts the sequence.
-    fn open_session(&mut self, seq: u16, nonce: u32) {
-        self.sessions_opened = self.sessions_opened.wrapping_add(1);
-        // 14 bits: a two-byte varint in every envelope (a full u32 is five, and each byte
-        // costs every frame's decoding).
-        let mut id = (nonce ^ self.sessions_opened.wrapping_mul(0x9E37_79B9)) & SESSION_MASK;
-        if id == 0 || id == self.session {
-            id = (id.wrapping_add(0x2F1B) & SESSION_MASK) | 1;
-        }
-        self.session = id;
-        self.last_seq = seq;
-        self.stamps = [Stamp::default(); 3];
-        self.autopilot.new_session();
-        self.send(&Reply::Session { nonce, session: id });
-    }
-
-    /// The surface stamp of a command and which [`Stamp`] slot checks it in fixed-rate mode.
-    fn stamp_of(cmd: &Command) -> Option<(u64, Option<usize>)> {
-        match cmd {
-            Command::Heartbeat { t_us } | Command::Step { t_us } => Some((*t_us, None)),
-            Command::Nav(n) => Some((n.t_us, Some(0))),
-            Command::Imu(s) => Some((s.t_us, Some(1))),
-            Command::Pressure { t_us, .. } => Some((*t_us, Some(2))),
-            _ => None,
         }
     }
 
@@ -659,149 +558,4 @@ where
         self.loop_ticks = dt;
         self.loop_ticks_max = self.loop_ticks_max.max(dt);
     }
-
-    fn write_pwm(&mut self, pulse_us: [f32; 3]) {
-        let map = *self.autopilot.controller().pwm_map();
-        let period = self.config.pwm_period_us();
-        let (duty, ok) = set_duties(&mut self.pwm, &map, period, pulse_us);
-        if !ok {
-            self.io_faults |= fault::PWM_ERROR;
-        }
-        self.duty = duty;
-    }
-
-    /// Telemetry as it would be sent now.
-    pub fn telemetry(&mut self, now: u64) -> Telemetry {
-        let period = self.config.pwm_period_us();
-        let mut pulse_us = [0; 3];
-        for ((p, &d), o) in pulse_us.iter_mut().zip(&self.duty).zip(&self.pwm) {
-            *p = pulse_for_duty(d, period, o.max_duty_cycle());
-        }
-        let (nav_seq, _) = self.autopilot.latest_nav().unwrap_or((0, 0));
-        Telemetry {
-            t_us: now,
-            mode: self.autopilot.mode(),
-            armed: self.autopilot.armed(),
-            nav_seq,
-            errors: self.last.errors,
-            requested: self.last.requested,
-            achieved: self.last.allocation.achieved,
-            thrust_n: self.last.allocation.thrust_n,
-            pulse_us,
-            faults: self.faults(),
-            loop_ticks: self.loop_ticks,
-            nav: self.autopilot.nav_state(),
-            mission_reached: self.autopilot.mission_reached(now),
-            nav_pos_std_m: self
-                .autopilot
-                .onboard_nav()
-                .map_or([0.0; 3], |o| o.position_std_m()),
-        }
-    }
-
-    /// Fault flags now: the latest step's, the I/O ones and the overrun flag.
-    fn faults(&self) -> u16 {
-        let overrun = if self.overruns > 0 { fault::OVERRUN } else { 0 };
-        self.last.faults | self.io_faults | overrun | self.sensors.faults()
-    }
-
-    /// The answer to the heartbeat `heartbeat_seq`: link counters and health.
-    pub fn status(&self, now: u64, heartbeat_seq: u16) -> Status {
-        let (_, nav_t_us) = self.autopilot.latest_nav().unwrap_or((0, 0));
-        Status {
-            t_us: now,
-            heartbeat_seq,
-            nav_t_us,
-            link: self.link_stats(),
-            steps: self.autopilot.steps,
-            loop_ticks_max: self.loop_ticks_max,
-            overruns: self.overruns,
-            control_late_max_us: self.control_late_max_us,
-            faults: self.faults(),
-            nav_health: self
-                .autopilot
-                .onboard_nav()
-                .map_or(Default::default(), |o| o.estimator().health()),
-            compass_cal: self.autopilot.compass_calibration(),
-            compass_swing: self.autopilot.swing_outcome(),
-        }
-    }
-
-    fn send_telemetry(&mut self, now: u64) {
-        let t = self.telemetry(now);
-        self.send(&Reply::Telemetry(t));
-    }
-
-    fn nack(&mut self, seq: u16, reason: NackReason) {
-        self.link.nacks = self.link.nacks.wrapping_add(1);
-        self.send(&Reply::Nack { seq, reason });
-    }
-
-    /// Queue a reply (with its sequence number, given now) and hand the port what it takes.
-    /// A reply that finds the queue full is dropped whole and counted (`tx_dropped`).
-    fn send(&mut self, reply: &Reply) {
-        let seq = self.tx_seq;
-        self.tx_seq = seq.wrapping_add(1);
-        if self.tx_queue.push_back((seq, *reply)).is_err() {
-            self.link.tx_dropped = self.link.tx_dropped.wrapping_add(1);
-        }
-        self.flush_tx();
-    }
-
-    /// Write while the port is ready: the rest of the frame being sent, then the next reply,
-    /// encoded when its turn comes. Never waits. An encoding error (never: every reply fits,
-    /// tested) raises [`fault::SERIAL_ERROR`] and drops that reply.
-    fn flush_tx(&mut self) {
-        loop {
-            if self.tx_sent >= self.tx_len {
-                let Some((seq, reply)) = self.tx_queue.pop_front() else {
-                    return;
-                };
-                // Replies carry session 0 (one varint byte): the surface does not need the
-                // vehicle's session on its answers, and every byte costs the loop time.
-                let encoded = encode(0, seq, &reply, &mut self.tx_buf).map(<[u8]>::len);
-                let Some(len) = serial_ok(&mut self.io_faults, encoded) else {
-                    continue;
-                };
-                (self.tx_sent, self.tx_len) = (0, len);
-                self.link.tx_frames = self.link.tx_frames.wrapping_add(1);
-            }
-            if serial_ok(&mut self.io_faults, self.serial.write_ready()) != Some(true) {
-                return;
-            }
-            let rest = self
-                .tx_buf
-                .get(self.tx_sent..self.tx_len)
-                .unwrap_or_default();
-            match self.serial.write(rest) {
-                Ok(n) if n > 0 => self.tx_sent += n.min(rest.len()),
-                _ => {
-                    self.io_faults |= fault::SERIAL_ERROR;
-                    return;
-                }
-            }
-        }
-    }
-}
-
-/// `r`'s value, or `None` with [`fault::SERIAL_ERROR`] raised in `faults`.
-fn serial_ok<T, E>(faults: &mut u16, r: Result<T, E>) -> Option<T> {
-    r.map_err(|_| *faults |= fault::SERIAL_ERROR).ok()
-}
-
-/// Write the duty cycles for `pulse_us` (ESC pulse widths, microseconds) to the three
-/// outputs; returns the duties and whether every output took its duty.
-fn set_duties<P: SetDutyCycle>(
-    pwm: &mut [P; 3],
-    map: &PwmMap,
-    period_us: u32,
-    pulse_us: [f32; 3],
-) -> ([u16; 3], bool) {
-    let mut duty = [0; 3];
-    let mut ok = true;
-    for ((d, o), p) in duty.iter_mut().zip(pwm).zip(pulse_us) {
-        *d = duty_for_pulse(p, map, period_us, o.max_duty_cycle());
-        ok &= o.set_duty_cycle(*d).is_ok();
-    }
-    (duty, ok)
 }

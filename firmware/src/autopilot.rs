@@ -21,20 +21,30 @@
 //! the truth), or the on-board estimator ([`OnboardNav`], started by `StartNav`) fed by the
 //! vehicle's IMU and pressure sensor and by the fixes that come down the tether.
 
+mod arming;
+mod mission;
+mod onboard;
+mod output;
+mod swing;
+
+pub use arming::STICK_CENTRED;
+pub use mission::{
+    MAX_MISSION_DEPTH_M, MAX_MISSION_RANGE_M, MAX_MISSION_SPEED_M_S, MISSION_TURN_RADIUS_M,
+};
+
 use crate::compass_swing::{SwingFlight, SwingOutcome};
 pub use crate::protocol::Failsafe;
 use crate::protocol::{fault, Command, ManualThrust, Mode, NackReason, NavSample};
-use controller_core::alloc::{allocate, Allocation, ESC_NEUTRAL_US};
-use controller_core::controller::{ControlMode, ControlOutput, Controller};
+use controller_core::alloc::Allocation;
+use controller_core::controller::{ControlMode, Controller};
 use controller_core::law::pilot::Sticks;
 use controller_core::nav::compass_cal::CompassCalibration;
 use controller_core::nav::onboard::OnboardNav;
-use controller_core::nav::Refusal;
 use controller_core::params::VehicleParams;
-use controller_core::reference::mission::{MissionPath, MAX_WAYPOINTS};
+use controller_core::reference::mission::MissionPath;
 use controller_core::reference::{Bounds, Reference};
 use controller_core::state::{BodyForces, NavState, TrackingErrors};
-use heapless::Vec;
+use mission::Mission;
 
 /// Largest magnitudes accepted in a `NavState` (anything beyond is a broken estimator).
 pub mod nav_limits {
@@ -124,40 +134,24 @@ pub struct Autopilot {
     upload: Mission,
     auto: Option<(MissionPath, u64)>,
     /// Time of the latest arming or change of mode: no reference's `t = 0` is earlier, so
-    /// nothing set before it is resumed part-way (issue 22).
+    /// nothing set before it is resumed part-way.
     engaged_us: u64,
     /// A new surface session began: the next `Nav` is not ordered after the previous
     /// session's (a restarted topside's clock starts again).
     nav_order_reset: bool,
     /// The compass's deviation (`COMPASS_DEV_*`, `SetCompassCal`), handed to every
-    /// on-board estimator started (issue 26).
+    /// on-board estimator started.
     compass_cal: CompassCalibration,
-    /// A compass calibration turn in flight (in `Hold`; issue 26).
+    /// A compass calibration turn in flight (in `Hold`).
     swing: Option<SwingFlight>,
     /// How the latest calibration turn ended, or that one is flying.
     swing_outcome: SwingOutcome,
+    /// The pilot's sticks were seen at centre since the latest arming, change of mode or
+    /// restart: until then they count as centred.
+    sticks_seen_centred: bool,
     /// Control steps run.
     pub steps: u32,
 }
-
-/// Waypoints in the local NED frame and the speed to fly them.
-#[derive(Debug, Clone, Default)]
-struct Mission {
-    waypoints: Vec<[f32; 3], MAX_WAYPOINTS>,
-    speed_m_s: f32,
-}
-
-/// Deepest waypoint accepted (m): the Observer's 150 m tether, with room for its catenary.
-pub const MAX_MISSION_DEPTH_M: f32 = 100.0;
-/// Farthest waypoint accepted from the origin, horizontally, each axis (m).
-pub const MAX_MISSION_RANGE_M: f32 = 1_000.0;
-/// Fastest mission speed accepted (m/s).
-pub const MAX_MISSION_SPEED_M_S: f32 = 1.0;
-/// Radius of the turns that join a mission's legs (m).
-pub const MISSION_TURN_RADIUS_M: f32 = 1.5;
-/// Largest stick deflection that counts as centred when arming in a stick mode (fraction of
-/// full scale): ArduSub refuses to arm with the throttle off neutral (`AP_Arming_Sub`).
-pub const STICK_CENTRED: f32 = 0.05;
 
 impl Autopilot {
     /// Boots disarmed, `Idle`, no reference.
@@ -185,6 +179,7 @@ impl Autopilot {
             compass_cal: CompassCalibration::NONE,
             swing: None,
             swing_outcome: SwingOutcome::None,
+            sticks_seen_centred: false,
             steps: 0,
         }
     }
@@ -247,153 +242,10 @@ impl Autopilot {
         }
     }
 
-    /// Apply `f` to the on-board estimator (refused without one), recording `seq`.
-    fn feed(
-        &mut self,
-        seq: u16,
-        f: impl FnOnce(&mut OnboardNav, [f32; 3]) -> Result<(), Refusal>,
-    ) -> Result<(), NackReason> {
-        let thrust = self.thrust_cmd_n;
-        let o = self.onboard.as_mut().ok_or(NackReason::NavSource)?;
-        f(o, thrust).map_err(NackReason::NavRefused)?;
-        self.onboard_seq = seq;
-        Ok(())
-    }
-
-    /// [`Self::feed`], then, during a calibration turn, the raw value to it: a gyro rate
-    /// about `z` at `Some(t_us)`, or (`None`) a compass reading.
-    #[inline(never)]
-    fn feed_swing(
-        &mut self,
-        seq: u16,
-        raw: f32,
-        imu_t_us: Option<u64>,
-        f: impl FnOnce(&mut OnboardNav, [f32; 3]) -> Result<(), Refusal>,
-    ) -> Result<(), NackReason> {
-        self.feed(seq, f)?;
-        if let Some(flight) = self.swing.as_mut() {
-            match imu_t_us {
-                Some(t_us) => flight.imu(raw, t_us),
-                None => flight.reading(raw),
-            }
-        }
-        Ok(())
-    }
-
     /// A new surface session began (the App's handshake): its `Nav` time stamps start a
     /// new order.
     pub fn new_session(&mut self) {
         self.nav_order_reset = true;
-    }
-
-    /// Disarm now (neutral from the next step). What was commanded before is forgotten: the
-    /// pilot's input, the tracking reference, the hold point and AUTO's path (a re-arming
-    /// starts clean; issue 22).
-    pub fn disarm(&mut self) {
-        self.armed = false;
-        self.controller.reset();
-        self.manual = None;
-        self.reference = None;
-        self.hold = None;
-        self.auto = None;
-        self.abort_swing();
-    }
-
-    /// Stop a calibration turn in flight (the calibration in force stays).
-    fn abort_swing(&mut self) {
-        if self.swing.take().is_some() {
-            self.swing_outcome = SwingOutcome::Aborted;
-        }
-    }
-
-    /// How the latest compass calibration turn ended, or that one is flying.
-    pub fn swing_outcome(&self) -> SwingOutcome {
-        self.swing_outcome
-    }
-
-    /// Start the compass calibration turn (`StartCompassCal`, the ground station's
-    /// `MAV_CMD_DO_START_MAG_CAL`). Only armed (`NotArmed`), in `Hold` (`NotInHold`: not in
-    /// AUTO, `Track` or the pilot modes), with the on-board estimator (`NavSource`), fresh
-    /// (`NavStale`) and ready (`NavNotReady`), and a rate and limit in range (`OutOfRange`).
-    /// A turn already flying starts again. On `Err` nothing changed.
-    #[inline(never)]
-    fn start_swing(
-        &mut self,
-        now_us: u64,
-        yaw_rate_rad_s: f32,
-        time_limit_s: f32,
-    ) -> Result<(), NackReason> {
-        if !self.armed {
-            return Err(NackReason::NotArmed);
-        }
-        if self.mode != Mode::Hold {
-            return Err(NackReason::NotInHold);
-        }
-        let o = self.onboard.as_ref().ok_or(NackReason::NavSource)?;
-        if !self.nav_fresh(now_us) {
-            return Err(NackReason::NavStale);
-        }
-        o.position_ready().map_err(NackReason::NavNotReady)?;
-        let nav = self.nav_state();
-        let flight =
-            SwingFlight::new(&nav, yaw_rate_rad_s, time_limit_s).ok_or(NackReason::OutOfRange)?;
-        self.swing = Some(flight);
-        self.swing_outcome = SwingOutcome::Turning { turned_rad: 0.0 };
-        Ok(())
-    }
-
-    /// One control step of the calibration turn: its sticks, or, when it is over, the fit
-    /// applied (accepted: the calibration in force, as `SetCompassCal` would set it; refused:
-    /// the old one stays) and `Hold` again at the point where the turn started.
-    #[inline(never)]
-    fn swing_step(&mut self, now_us: u64, nav: &NavState, dt_s: f32) -> Option<[f32; 2]> {
-        let flight = self.swing.as_mut()?;
-        let (forces, done) = flight.step(&self.controller.vehicle().xy, nav, dt_s);
-        let Some(fit) = done else {
-            self.swing_outcome = SwingOutcome::Turning {
-                turned_rad: flight.turned_rad(),
-            };
-            return Some(forces);
-        };
-        let hold_m = flight.hold_m();
-        self.swing = None;
-        let applied = fit.and_then(|(cal, residual_rad)| {
-            if let Some(o) = self.onboard.as_mut() {
-                o.set_compass_calibration(&cal)?;
-            }
-            self.compass_cal = cal;
-            Ok(SwingOutcome::Accepted { cal, residual_rad })
-        });
-        self.swing_outcome = applied.unwrap_or_else(SwingOutcome::Refused);
-        self.controller.reset();
-        self.hold = Some((Reference::Hold { pos_m: hold_m }, now_us));
-        None
-    }
-
-    /// Arm (from disarmed): a clean start in the current mode. A stick mode refuses while
-    /// the latest pilot input is fresh and off centre, then forgets it (thrust waits for
-    /// input sent after the arming); a tracking mode needs a reference sent since the last
-    /// disarm; HOLD holds where the vehicle is and AUTO flies its mission from here, both from
-    /// now. Out of line (the mission path's temporaries).
-    #[inline(never)]
-    fn arm(&mut self, now_us: u64) -> Result<(), NackReason> {
-        let stick_mode = matches!(self.mode, Mode::Manual | Mode::Stabilize | Mode::DepthHold);
-        if let Some((t, m)) = self.manual {
-            let fresh = now_us.saturating_sub(t) < self.failsafe.manual_stale_us;
-            let centred = [m.surge, m.yaw, m.heave]
-                .iter()
-                .all(|v| v.abs() <= STICK_CENTRED);
-            if stick_mode && fresh && !centred {
-                return Err(NackReason::SticksNotCentred);
-            }
-        }
-        self.enter_mode(now_us, self.mode)?;
-        self.manual = None;
-        self.engaged_us = now_us;
-        self.controller.reset();
-        self.armed = true;
-        self.sticky = 0;
-        Ok(())
     }
 
     /// Apply one command received at `now_us` with sequence number `seq`. On `Err` nothing
@@ -517,74 +369,10 @@ impl Autopilot {
                         NackReason::NonFinite
                     });
                 }
-                self.manual = Some((now_us, *m));
+                self.take_sticks(now_us, m);
                 Ok(())
             }
         }
-    }
-
-    /// Apply one of the on-board estimator's commands (`StartNav`, `Imu`, `Pressure`,
-    /// `UsblFix`, `DvlFix`, `Compass`); on `Err` nothing changed. Kept out of [`handle`]
-    /// (`Self::handle`) because the link-time no-panic proof does not hold through the
-    /// estimator: the `heapless` history ring it keeps leaves indexing paths the compiler
-    /// cannot remove. Its inputs are fuzzed instead (`tests/tests/fuzz.rs`). Out of line, so
-    /// that the temporaries of a new estimator (`StartNav`) are not in every command's frame.
-    #[inline(never)]
-    pub fn handle_nav(&mut self, now_us: u64, seq: u16, cmd: &Command) -> Result<(), NackReason> {
-        match cmd {
-            Command::StartNav {
-                t_us,
-                initial,
-                config,
-            } => {
-                check_nav(initial)?;
-                let vehicle = *self.controller.vehicle();
-                let mut o = OnboardNav::new(vehicle, *config, initial, *t_us, now_us)?;
-                // Checked when it was set.
-                o.set_compass_calibration(&self.compass_cal)
-                    .map_err(NackReason::CompassCal)?;
-                self.onboard = Some(o);
-                self.onboard_seq = seq;
-                Ok(())
-            }
-            Command::Imu(s) => {
-                let [_, _, raw_r] = s.gyro_rad_s;
-                self.feed_swing(seq, raw_r, Some(s.t_us), |o, thrust| {
-                    o.imu(now_us, s, thrust)
-                })
-            }
-            Command::Pressure { t_us, pressure_pa } => {
-                self.feed(seq, |o, _| o.pressure(now_us, *t_us, *pressure_pa))
-            }
-            Command::UsblFix(f) => self.feed(seq, |o, _| o.position(f)),
-            Command::DvlFix(f) => self.feed(seq, |o, _| o.dvl(f)),
-            // The raw reading to a turn (the estimator takes the calibration off its copy).
-            Command::Compass(f) => self.feed_swing(seq, f.yaw_rad, None, |o, _| o.heading(f)),
-            Command::SetCompassCal(cal) => self.set_compass_calibration(cal),
-            _ => self.handle(now_us, seq, cmd),
-        }
-    }
-
-    /// A new compass calibration (`COMPASS_DEV_*`): only disarmed (a new deviation turns
-    /// the heading the laws fly on), checked (finite, within 30 degrees); used by the
-    /// running on-board estimator at once and by every one started later. On a refusal the
-    /// calibration in force stays.
-    pub fn set_compass_calibration(&mut self, cal: &CompassCalibration) -> Result<(), NackReason> {
-        if self.armed {
-            return Err(NackReason::Armed);
-        }
-        let cal = cal.validate().map_err(NackReason::CompassCal)?;
-        if let Some(o) = self.onboard.as_mut() {
-            o.set_compass_calibration(&cal)
-                .map_err(NackReason::CompassCal)?;
-        }
-        self.compass_cal = cal;
-        Ok(())
-    }
-
-    /// The compass calibration in force.
-    pub fn compass_calibration(&self) -> CompassCalibration {
-        self.compass_cal
     }
 
     /// A new vehicle description: only disarmed and without the on-board estimator (which
@@ -602,125 +390,6 @@ impl Autopilot {
         vehicle.check_flyable()?;
         self.controller.set_vehicle(vehicle);
         Ok(())
-    }
-
-    /// Take waypoint `index` of a mission of `count`; the mission in use changes only when
-    /// the last one arrives, and a refused item leaves it as it was.
-    fn mission_item(
-        &mut self,
-        index: u16,
-        count: u16,
-        pos_m: [f32; 3],
-        speed_m_s: f32,
-    ) -> Result<(), NackReason> {
-        // AUTO flies the mission it entered with; a new one while it flies would be
-        // acknowledged and not flown (issue 22): refused, as `MissionClear` is.
-        if self.mode == Mode::Auto {
-            return Err(NackReason::Unsupported);
-        }
-        let [x, y, z] = pos_m;
-        if !(x.is_finite() && y.is_finite() && z.is_finite() && speed_m_s.is_finite()) {
-            return Err(NackReason::NonFinite);
-        }
-        let far = x.abs() > MAX_MISSION_RANGE_M || y.abs() > MAX_MISSION_RANGE_M;
-        let too_many = usize::from(count) > MAX_WAYPOINTS || count == 0 || index >= count;
-        let speed_ok = speed_m_s > 0.0 && speed_m_s <= MAX_MISSION_SPEED_M_S;
-        if far || too_many || !(0.0..=MAX_MISSION_DEPTH_M).contains(&z) || !speed_ok {
-            return Err(NackReason::OutOfRange);
-        }
-        if index == 0 {
-            self.upload = Mission::default();
-        }
-        if usize::from(index) != self.upload.waypoints.len() {
-            return Err(NackReason::OutOfRange);
-        }
-        self.upload
-            .waypoints
-            .push(pos_m)
-            .map_err(|_| NackReason::OutOfRange)?;
-        self.upload.speed_m_s = speed_m_s;
-        if index + 1 == count {
-            self.mission = core::mem::take(&mut self.upload);
-        }
-        Ok(())
-    }
-
-    /// Waypoints of the mission AUTO flies that the reference has passed (0 outside AUTO).
-    pub fn mission_reached(&self, now_us: u64) -> u16 {
-        match (&self.auto, self.mode) {
-            (Some((path, start)), Mode::Auto) => {
-                u16::try_from(path.reached(seconds_since(now_us, *start))).unwrap_or(u16::MAX)
-            }
-            _ => 0,
-        }
-    }
-
-    /// Waypoints in the mission in use.
-    pub fn mission_len(&self) -> usize {
-        self.mission.waypoints.len()
-    }
-
-    /// Out of line, so that the temporaries of a new mission path (AUTO) are not in every
-    /// command's frame (docs/hil-and-mcu-cost.md: where the stack went).
-    #[inline(never)]
-    fn set_mode(&mut self, now_us: u64, mode: Mode) -> Result<(), NackReason> {
-        let changed = mode != self.mode;
-        self.enter_mode(now_us, mode)?;
-        self.abort_swing();
-        if changed {
-            self.controller.reset();
-            self.engaged_us = now_us;
-        }
-        self.mode = mode;
-        if matches!(mode, Mode::Manual | Mode::Stabilize | Mode::DepthHold) {
-            // A manual command from before the mode change must not start the thrusters.
-            self.manual = None;
-        }
-        Ok(())
-    }
-
-    /// Check that `mode` can be flown now and set up what it flies from `now_us` (HOLD's
-    /// point, AUTO's path); on `Err` nothing changed.
-    fn enter_mode(&mut self, now_us: u64, mode: Mode) -> Result<(), NackReason> {
-        let needs_nav = !matches!(mode, Mode::Idle | Mode::Manual | Mode::Track { .. });
-        if needs_nav && !self.nav_fresh(now_us) {
-            return Err(NackReason::NavStale);
-        }
-        // A position mode waits for the on-board estimate to be ready (issue 26).
-        if let (Mode::Auto | Mode::Hold | Mode::Track { .. }, Some(o)) = (mode, &self.onboard) {
-            o.position_ready().map_err(NackReason::NavNotReady)?;
-        }
-        let s = self.nav_state();
-        let here_m = [s.x_m, s.y_m, s.z_m];
-        match mode {
-            Mode::Auto => {
-                if self.mission.waypoints.is_empty() {
-                    return Err(NackReason::NoReference);
-                }
-                let m = &self.mission;
-                let path =
-                    MissionPath::new(here_m, &m.waypoints, m.speed_m_s, MISSION_TURN_RADIUS_M)?;
-                self.auto = Some((path, now_us));
-            }
-            Mode::Track { plane, law } => {
-                law.in_plane(plane).ok_or(NackReason::Unsupported)?;
-                if self.reference.is_none() {
-                    return Err(NackReason::NoReference);
-                }
-            }
-            Mode::Hold => self.hold = Some((Reference::Hold { pos_m: here_m }, now_us)),
-            Mode::Idle | Mode::Manual | Mode::Stabilize | Mode::DepthHold => {}
-        }
-        Ok(())
-    }
-
-    /// Neutral output with the given faults.
-    pub fn neutral(&self, faults: u16) -> StepOutput {
-        StepOutput {
-            pulse_us: [ESC_NEUTRAL_US; 3],
-            faults,
-            ..StepOutput::default()
-        }
     }
 
     /// Compute the thruster commands at `now_us`, applying every failsafe. No panic path,
@@ -771,7 +440,9 @@ impl Autopilot {
             (Mode::Idle, ..) => return self.neutral(faults),
             (Mode::Manual | Mode::Stabilize | Mode::DepthHold, ..) => {
                 let m = match self.manual {
-                    Some((t, m)) if now_us.saturating_sub(t) < fs.manual_stale_us => m,
+                    Some((t, m)) if now_us.saturating_sub(t) < fs.manual_stale_us => {
+                        self.sticks_may_act(m)
+                    }
                     _ => return self.neutral(faults | fault::MANUAL_STALE),
                 };
                 if self.mode == Mode::Manual {
@@ -826,115 +497,9 @@ impl Autopilot {
         }
         self.law_output(&law, faults)
     }
-
-    fn law_output(&self, law: &ControlOutput, faults: u16) -> StepOutput {
-        let sat = if law.allocation.saturated {
-            fault::SATURATED
-        } else {
-            0
-        };
-        StepOutput {
-            requested: law.requested,
-            allocation: law.allocation,
-            pulse_us: law.pulse_us,
-            errors: law.errors,
-            faults: faults | sat,
-            law_ran: true,
-        }
-    }
-
-    /// Forces asked for outside the controller's laws (the pilot's `Manual` thrust, the
-    /// calibration turn): allocated and mapped to pulses, in one place for both.
-    #[inline(never)]
-    fn forces_output(
-        &self,
-        requested: BodyForces,
-        errors: TrackingErrors,
-        faults: u16,
-    ) -> StepOutput {
-        let allocation = allocate(&requested, self.controller.limits());
-        let out = ControlOutput {
-            requested,
-            allocation,
-            pulse_us: allocation
-                .thrust_n
-                .map(|f| self.controller.pwm_map().pulse_us(f)),
-            errors,
-        };
-        self.law_output(&out, faults)
-    }
-
-    fn manual_output(&self, m: &ManualThrust, faults: u16) -> StepOutput {
-        let lim = self.controller.limits();
-        // The largest force each way (the thrusters are asymmetric, so it depends on the sign).
-        let one_way = |x: f32| {
-            if x >= 0.0 {
-                lim.max_forward_n
-            } else {
-                lim.max_reverse_n
-            }
-        };
-        let requested = BodyForces {
-            surge_n: m.surge * 2.0 * one_way(m.surge),
-            yaw_n_m: m.yaw * lim.lever_arm_m * (lim.max_forward_n + lim.max_reverse_n),
-            heave_n: m.heave * one_way(m.heave),
-        };
-        StepOutput {
-            law_ran: false,
-            ..self.forces_output(requested, TrackingErrors::default(), faults)
-        }
-    }
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Sets one field of a state.
-    type Setter = fn(&mut NavState, f32);
-
-    /// Every field of a state, each with its limit and its setter.
-    fn fields() -> [(f32, Setter); 12] {
-        use nav_limits::*;
-        [
-            (POSITION_M, |s, v| s.x_m = v),
-            (POSITION_M, |s, v| s.y_m = v),
-            (POSITION_M, |s, v| s.z_m = v),
-            (ANGLE_RAD, |s, v| s.roll_rad = v),
-            (ANGLE_RAD, |s, v| s.pitch_rad = v),
-            (ANGLE_RAD, |s, v| s.yaw_rad = v),
-            (SPEED_M_S, |s, v| s.u_m_s = v),
-            (SPEED_M_S, |s, v| s.v_m_s = v),
-            (SPEED_M_S, |s, v| s.w_m_s = v),
-            (RATE_RAD_S, |s, v| s.p_rad_s = v),
-            (RATE_RAD_S, |s, v| s.q_rad_s = v),
-            (RATE_RAD_S, |s, v| s.r_rad_s = v),
-        ]
-    }
-
-    #[test]
-    fn check_nav_names_the_first_reason_for_every_field() {
-        assert_eq!(check_nav(&NavState::default()), Ok(()));
-        for (k, (lim, set)) in fields().into_iter().enumerate() {
-            for (v, want) in [
-                (lim, Ok(())),
-                (-lim, Ok(())),
-                (lim * 1.001, Err(NackReason::OutOfRange)),
-                (-lim * 1.001, Err(NackReason::OutOfRange)),
-                (f32::NAN, Err(NackReason::NonFinite)),
-                (f32::INFINITY, Err(NackReason::NonFinite)),
-                (f32::NEG_INFINITY, Err(NackReason::NonFinite)),
-            ] {
-                let mut s = NavState::default();
-                set(&mut s, v);
-                assert_eq!(check_nav(&s), want, "field {k} = {v}");
-            }
-            // A non-finite field wins over an out-of-range one elsewhere.
-            let mut s = NavState::default();
-            set(&mut s, f32::NAN);
-            let (lim2, set2) = fields()[(k + 1) % 12];
-            set2(&mut s, lim2 * 2.0);
-            assert_eq!(check_nav(&s), Err(NackReason::NonFinite), "field {k}");
-        }
-    }
-}
+mod tests;
+#[cfg(test)]
+mod tests_sticks;

@@ -15,7 +15,6 @@ use controller_core::math::sin_cos;
 use controller_core::nav::compass_cal::{CalRefusal, CompassCalibration, CompassSwing};
 use controller_core::params::XyCoeffs;
 use controller_core::state::NavState;
-use serde::{Deserialize, Serialize};
 
 /// The turn goes on this far past a full circle, so that the fit (which needs `2 pi` of the
 /// gyro's heading change) sees every heading at least once with some margin (rad, 20 deg).
@@ -29,41 +28,13 @@ const SURGE_N_PER_M: f32 = 2.0;
 const SURGE_MAX_N: f32 = 1.5;
 /// Yaw rate feedback (1/s) on top of the feed-forward of the drag at the target rate.
 const YAW_RATE_GAIN_1_S: f32 = 2.0;
-/// Slowest and fastest yaw rate accepted (rad/s): slower than 0.05 a turn takes over two
-/// minutes; faster than 0.6 the compass (10 Hz) sees too few headings per cycle.
-pub const RATE_MIN_RAD_S: f32 = 0.05;
-/// See [`RATE_MIN_RAD_S`].
-pub const RATE_MAX_RAD_S: f32 = 0.6;
-/// Longest time limit accepted (s).
-pub const TIME_LIMIT_MAX_S: f32 = 600.0;
 
 /// A turn's fit: the calibration and its RMS residual (rad), or why it was refused.
 pub type SwingFit = Result<(CompassCalibration, f32), CalRefusal>;
 
-/// How the latest calibration turn ended (or that one is flying), reported in `Status`.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub enum SwingOutcome {
-    /// None flown since boot.
-    #[default]
-    None,
-    /// Turning now: the heading turned so far (rad).
-    Turning {
-        /// Heading turned (rad, the gyro's).
-        turned_rad: f32,
-    },
-    /// Accepted: the calibration now in force and the fit's RMS residual (rad).
-    Accepted {
-        /// The fitted deviation, in force.
-        cal: CompassCalibration,
-        /// RMS residual of the fit (rad).
-        residual_rad: f32,
-    },
-    /// Refused: why; the calibration in force did not change.
-    Refused(CalRefusal),
-    /// Stopped before its end (disarmed, a mode change, the estimator stopped); the
-    /// calibration in force did not change.
-    Aborted,
-}
+/// How the latest calibration turn ended (or that one is flying), reported in `Status`: a
+/// wire type, defined with the messages.
+pub use protocol::SwingOutcome;
 
 /// A calibration turn in flight.
 #[derive(Debug, Clone, Copy)]
@@ -89,11 +60,10 @@ pub struct SwingFlight {
 
 impl SwingFlight {
     /// A turn from `nav` at `yaw_rate_rad_s` (either sign), ending with a refusal if not
-    /// done within `time_limit_s`. `None` when the rate or the limit is out of range.
+    /// done within `time_limit_s`. `None` when the rate or the limit is out of range
+    /// ([`protocol::limits::compass_turn_in_range`]).
     pub fn new(nav: &NavState, yaw_rate_rad_s: f32, time_limit_s: f32) -> Option<Self> {
-        let rate_ok = (RATE_MIN_RAD_S..=RATE_MAX_RAD_S).contains(&yaw_rate_rad_s.abs());
-        let limit_ok = time_limit_s > 0.0 && time_limit_s <= TIME_LIMIT_MAX_S;
-        (rate_ok && limit_ok).then_some(Self {
+        protocol::limits::compass_turn_in_range(yaw_rate_rad_s, time_limit_s).then_some(Self {
             swing: CompassSwing::new(),
             hold_m: [nav.x_m, nav.y_m, nav.z_m],
             yaw_rate_rad_s,

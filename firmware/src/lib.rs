@@ -5,10 +5,11 @@
 //! (compiled for `target_os = "none"` only), used by the two thin binaries `stm32f4` (the
 //! real board) and `qemu` (the emulated `netduinoplus2`).
 //!
-//! - [`protocol`]: messages, framing (postcard + CRC-32 + COBS) and the streaming decoder;
+//! - [`protocol`]: the `protocol` crate (messages, framing with postcard + CRC-32 + COBS, the
+//!   streaming decoder), re-exported;
 //! - [`autopilot`]: arming, modes, failsafes and the control step, no I/O;
 //! - [`app`]: the loop: serial in, control, PWM out, telemetry;
-//! - the paper's layout (issue 25, `docs/deployment.md`): [`node_link`] (the wire between
+//! - the paper's layout (`docs/deployment.md`): [`node_link`] (the wire between
 //!   the surface and the vehicle), [`node`] (the vehicle's thin role), [`topside_link`] (the
 //!   `App` at the surface, its thrusters and sensors over the node link).
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
@@ -19,7 +20,10 @@ pub mod compass_swing;
 pub mod harness;
 pub mod node;
 pub mod node_link;
-pub mod protocol;
+/// The tether protocol (the `protocol` crate), under the name the firmware's modules use.
+pub mod protocol {
+    pub use ::protocol::*;
+}
 pub mod sensors;
 pub mod startup;
 pub mod topside_link;

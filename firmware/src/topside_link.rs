@@ -29,10 +29,10 @@
 //! | after 250 ms without a valid uplink | the next uplink's sequence is taken whatever it is (a node restarted by its watchdog counts from 0) | |
 
 use crate::node_link::{
-    check_link_period, default_link_period_us, seal, seq_newer, status, wire_time_us, ArmCommand,
-    Downlink, LinkDecoder, LinkFrame, LinkPeriodError, NodeCounters, Uplink, ESC_MAX_US,
-    ESC_MIN_US, ESC_NEUTRAL_US, LINK_BAUD, LINK_PERIOD_US, MAX_DOWNLINK_FRAME_LEN, MAX_TTL_MS,
-    MAX_UPLINK_FRAME_LEN,
+    check_link_period, default_link_period_us, low_16, seal, seq_newer, status, wire_time_us,
+    ArmCommand, Downlink, LinkDecoder, LinkFrame, LinkPeriodError, NodeCounters, Uplink,
+    ESC_MAX_US, ESC_MIN_US, ESC_NEUTRAL_US, LINK_BAUD, LINK_PERIOD_US, MAX_DOWNLINK_FRAME_LEN,
+    MAX_TTL_MS, MAX_UPLINK_FRAME_LEN,
 };
 use crate::protocol::{DropReason, MAX_FRAME_LEN};
 use crate::sensors::Sensors;
@@ -42,14 +42,10 @@ use embedded_hal::pwm::SetDutyCycle;
 use embedded_io::{Read, ReadReady, Write, WriteReady};
 
 /// Fault bits of the topside layout, reported in `Telemetry.faults` / `Status.faults`
-/// through [`Sensors::faults`]. The two top bits: the tether protocol's own bits are 0-8.
+/// through [`Sensors::faults`]: the two top bits, defined with the others in
+/// [`protocol::fault`].
 pub mod fault {
-    /// No valid uplink from the node for 3 link periods: the estimator predicts only; from
-    /// 250 ms neutral is commanded.
-    pub const NODE_LINK_LOST: u16 = 1 << 15;
-    /// The topside is armed but the node is not (latched after a loss of the link, or its
-    /// command outlived its time to live): disarm and arm again.
-    pub const NODE_NOT_ARMED: u16 = 1 << 14;
+    pub use protocol::fault::{NODE_LINK_LOST, NODE_NOT_ARMED};
 }
 
 /// Largest rate accepted from the node, rad/s (the ICM-42688-P's range is 2000 deg/s).
@@ -311,7 +307,8 @@ pub struct TopsideLink<'a, S> {
     tx_buf: [u8; MAX_FRAME_LEN],
     tx_sent: usize,
     tx_len: usize,
-    tx_seq: u16,
+    /// The latest downlink's sequence (`u64`, from 1, never wrapping).
+    tx_seq: u64,
     next_downlink_us: u64,
     last_uplink_us: Option<u64>,
     last_up_seq: Option<u16>,
@@ -501,8 +498,11 @@ where
         } else {
             b.pulses_us()
         };
+        let seq = self.tx_seq.saturating_add(1);
+        self.tx_seq = seq;
         let cmd = Downlink {
             session: self.config.session,
+            seq,
             pulse_us,
             ttl_ms: self.config.ttl_ms.clamp(1, MAX_TTL_MS),
             arm: if armed {
@@ -512,11 +512,9 @@ where
             },
             t_us: now as u32,
         };
-        let seq = self.tx_seq.wrapping_add(1);
-        self.tx_seq = seq;
         self.next_downlink_us = now.saturating_add(u64::from(self.config.link_period_us));
         // A frame still going out is cut short: the node drops it and takes this one.
-        (self.tx_sent, self.tx_len) = match seal(seq, &cmd, &mut self.tx_buf) {
+        (self.tx_sent, self.tx_len) = match seal(low_16(seq), &cmd, &mut self.tx_buf) {
             Ok(f) => (0, f.len()),
             Err(_) => (0, 0),
         };

@@ -216,6 +216,7 @@ fn the_emulated_node_samples_the_hosts_imu_and_applies_the_downlinks() {
             };
             let cmd = Downlink {
                 session,
+                seq: u64::from(seq),
                 pulse_us: [1650, 1650, 1350],
                 ttl_ms: 100,
                 arm,

@@ -348,11 +348,30 @@ fn a_pilot_drives_the_topside_layout_in_manual() {
         Some(MavResult::MAV_RESULT_ACCEPTED),
         "arm"
     );
+    // The sticks seen at centre first: after an arming a stick acts only once the vehicle
+    // has seen the sticks centred.
+    for _ in 0..10 {
+        gcs.send(&MavMessage::MANUAL_CONTROL(MANUAL_CONTROL_DATA {
+            x: 0,
+            y: 0,
+            z: 500,
+            r: 0,
+            buttons: 0,
+            target: 1,
+        }));
+        std::thread::sleep(Duration::from_millis(20));
+    }
     let (mut samples, mut ahead) = (0, 0);
-    let end = Instant::now() + Duration::from_secs(2);
+    let start = Instant::now();
+    let end = start + Duration::from_secs(2);
     while Instant::now() < end {
         gcs.send(&MavMessage::MANUAL_CONTROL(MANUAL_CONTROL_DATA {
-            x: 500,
+            // At rest for 0.2 s first: thrust follows a stick seen at centre.
+            x: if start.elapsed() < Duration::from_millis(200) {
+                0
+            } else {
+                500
+            },
             y: 0,
             z: 500,
             r: 0,

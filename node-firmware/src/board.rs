@@ -324,6 +324,7 @@ mod bench {
                 let k = seq % 200;
                 let cmd = Downlink {
                     session: 0x5EED,
+                    seq: u64::from(seq),
                     pulse_us: [
                         ESC_NEUTRAL_US + k,
                         ESC_NEUTRAL_US - k,

@@ -1,6 +1,6 @@
 //! Shared helpers for the cross-crate tests: fake PWM outputs, serial port and clock that
-//! record every call, a topside link that frames commands and parses replies, and a small
-//! horizontal-plane plant driven by the recorded PWM duties.
+//! record every call, a topside link (the protocol's session client) that frames commands and
+//! parses replies, and a small horizontal-plane plant driven by the recorded PWM duties.
 
 // Test helpers: a broken fixture should stop the test.
 #![allow(clippy::expect_used, clippy::panic)]
@@ -10,9 +10,7 @@ use controller_core::controller::{Controller, Gains};
 use controller_core::model::{rk4_step, xy};
 use controller_core::params::Vehicle;
 use controller_core::state::{BodyForces, NavState, XyState};
-use firmware::protocol::{
-    encode, Command, Decoded, FrameDecoder, NackReason, Reply, MAX_FRAME_LEN,
-};
+use firmware::protocol::{Client, Command, Event, NackReason, Reply};
 use firmware::{App, Config, Monotonic};
 use std::cell::RefCell;
 use std::convert::Infallible;
@@ -119,31 +117,36 @@ pub fn app(config: Config) -> (TestApp, FakeClock) {
     (app, clock)
 }
 
-/// Topside side of the link: frames commands with sequence numbers in its session (opened
-/// on the first [`send`](Self::send) or [`deliver`](Self::deliver), or by
-/// [`open`](Self::open)), parses replies.
+/// Topside side of the link: the protocol's session [`Client`] on the app's fake serial
+/// port. Its session is opened on the first [`send`](Self::send) or
+/// [`deliver`](Self::deliver), or by [`open`](Self::open). The client's clock is not used:
+/// these tests read every answer at once.
 #[derive(Debug, Default)]
 pub struct Topside {
-    /// Next sequence number.
-    pub seq: u16,
-    /// The session the vehicle gave (0: none yet).
-    pub session: u32,
     /// Sessions this topside opened (its nonces).
     pub opened: u32,
-    /// Reply decoder.
-    pub decoder: FrameDecoder<Reply>,
+    /// The session.
+    pub client: Client,
 }
 
 impl Topside {
+    /// The session the vehicle gave (0: none yet).
+    pub fn session(&self) -> u32 {
+        self.client.session()
+    }
+
+    /// The sequence number the next command will carry.
+    pub fn next_seq(&self) -> u16 {
+        self.client.next_seq()
+    }
+
     /// Frame a command in the session; returns (its sequence number, the bytes).
     pub fn frame(&mut self, cmd: &Command) -> (u16, Vec<u8>) {
-        let seq = self.seq;
-        self.seq = self.seq.wrapping_add(1);
-        let mut buf = [0u8; MAX_FRAME_LEN];
-        let f = encode(self.session, seq, cmd, &mut buf)
-            .expect("fits")
-            .to_vec();
-        (seq, f)
+        let sent = self
+            .client
+            .send(cmd, 0)
+            .unwrap_or_else(|e| panic!("{cmd:?} not framed: {e}"));
+        (sent.seq, sent.frame.bytes().to_vec())
     }
 
     /// Open a session with the app (the handshake, through its receive path, no `tick`);
@@ -154,23 +157,20 @@ impl Topside {
     ) -> Vec<Reply> {
         self.opened += 1;
         let nonce = 0x5EED_0000 ^ self.opened;
-        self.seq = 0;
-        let (_, f) = self.frame(&Command::OpenSession { nonce });
-        app.on_bytes(&f);
-        let mut rest = Vec::new();
-        for r in self.replies(app) {
-            match r {
-                Reply::Session { nonce: n, session } if n == nonce => self.session = session,
-                r => rest.push(r),
-            }
-        }
-        assert_ne!(self.session, 0, "no session opened: {rest:?}");
+        let f = self.client.open(nonce, 0).expect("fits");
+        app.on_bytes(f.bytes());
+        let rest: Vec<Reply> = self
+            .replies(app)
+            .into_iter()
+            .filter(|r| !matches!(r, Reply::Session { nonce: n, .. } if *n == nonce))
+            .collect();
+        assert_ne!(self.session(), 0, "no session opened: {rest:?}");
         rest
     }
 
     /// Queue a command to the app and let it read it (one `tick`); returns the replies.
     pub fn send(&mut self, app: &mut TestApp, cmd: &Command) -> (u16, Vec<Reply>) {
-        if self.session == 0 {
+        if self.client.needs_session() {
             self.open(app);
         }
         let (seq, f) = self.frame(cmd);
@@ -182,7 +182,7 @@ impl Topside {
     /// Feed a command byte by byte to the app's receive path, without a `tick` (no control
     /// step runs); returns the replies.
     pub fn deliver(&mut self, app: &mut TestApp, cmd: &Command) -> (u16, Vec<Reply>) {
-        if self.session == 0 {
+        if self.client.needs_session() {
             self.open(app);
         }
         let (seq, f) = self.frame(cmd);
@@ -198,12 +198,13 @@ impl Topside {
         app: &mut App<FakePwm, FakeSerial, FakeClock, N>,
     ) -> Vec<Reply> {
         let bytes = std::mem::take(&mut app.parts_mut().1.tx);
+        let mut rest = bytes.as_slice();
         let mut out = Vec::new();
-        for b in bytes {
-            match self.decoder.push(b) {
-                Some(Decoded::Frame { msg, .. }) => out.push(msg),
-                Some(Decoded::Dropped { reason, .. }) => panic!("reply dropped: {reason:?}"),
-                None => {}
+        while let Some(e) = self.client.receive(&mut rest) {
+            match e {
+                Event::Reply { reply, .. } => out.push(reply),
+                Event::Dropped { reason, .. } => panic!("reply dropped: {reason:?}"),
+                Event::TimedOut { .. } | Event::OpenTimedOut { .. } => {}
             }
         }
         out

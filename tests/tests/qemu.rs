@@ -15,8 +15,8 @@
 )]
 
 use firmware::protocol::{
-    encode, Board, Command, Decoded, FrameDecoder, Law, ManualThrust, Mode, NavSample, Plane,
-    Reply, Status, Telemetry, MAX_FRAME_LEN,
+    Answer, Board, Client, Command, Event, Law, ManualThrust, Mode, NavSample, Plane, Reply,
+    Status, Telemetry,
 };
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
@@ -44,35 +44,29 @@ impl Drop for Qemu {
     }
 }
 
+/// The protocol's session client on the emulated board's serial port (blocking reads).
 struct Link {
     stream: TcpStream,
-    decoder: FrameDecoder<Reply>,
-    seq: u16,
-    /// The firmware's session (protocol version 6), opened on the first send.
-    session: u32,
+    client: Client,
 }
 
 impl Link {
+    /// Send `cmd` in the session, opening it first (on the first send).
     fn send(&mut self, cmd: &Command) -> u16 {
-        if self.session == 0 && !matches!(cmd, Command::OpenSession { .. }) {
-            self.seq = 0;
-            self.send(&Command::OpenSession { nonce: 0x0E_0E0E });
-            loop {
-                if let Reply::Session { session, .. } = self.recv() {
-                    self.session = session;
-                    break;
-                }
+        if self.client.needs_session() {
+            let f = self.client.open(0x0E_0E0E, 0).unwrap();
+            self.stream.write_all(f.bytes()).unwrap();
+            while self.client.session() == 0 {
+                self.recv();
             }
         }
-        let seq = self.seq;
-        self.seq = self.seq.wrapping_add(1);
-        let mut buf = [0u8; MAX_FRAME_LEN];
-        let f = encode(self.session, seq, cmd, &mut buf).unwrap();
-        self.stream.write_all(f).unwrap();
-        seq
+        let sent = self.client.send(cmd, 0).unwrap();
+        self.stream.write_all(sent.frame.bytes()).unwrap();
+        sent.seq
     }
 
-    fn recv(&mut self) -> Reply {
+    /// The next reply, and what it answered in the session.
+    fn recv_answer(&mut self) -> (Reply, Option<Answer>) {
         let deadline = Instant::now() + Duration::from_secs(10);
         let mut b = [0u8; 1];
         loop {
@@ -82,19 +76,28 @@ impl Link {
             );
             match self.stream.read(&mut b) {
                 Ok(0) => panic!("QEMU closed the serial link"),
-                Ok(_) => match self.decoder.push(b[0]) {
-                    Some(Decoded::Frame { msg, .. }) => return msg,
-                    Some(Decoded::Dropped { reason, .. }) => panic!("bad reply frame {reason:?}"),
-                    None => {}
+                Ok(_) => match self.client.receive(&mut &b[..]) {
+                    Some(Event::Reply { reply, answer, .. }) => return (reply, answer),
+                    Some(Event::Dropped { reason, .. }) => panic!("bad reply frame {reason:?}"),
+                    Some(Event::TimedOut { .. } | Event::OpenTimedOut { .. }) | None => {}
                 },
                 Err(e) => panic!("serial read: {e}"),
             }
         }
     }
 
+    fn recv(&mut self) -> Reply {
+        self.recv_answer().0
+    }
+
     fn expect_ack(&mut self, cmd: &Command) {
         let seq = self.send(cmd);
-        assert_eq!(self.recv(), Reply::Ack { seq }, "{cmd:?}");
+        let answer = self.recv_answer().1;
+        let acked = Answer::Command {
+            seq,
+            result: Ok(()),
+        };
+        assert_eq!(answer, Some(acked), "{cmd:?}");
     }
 
     /// Send a heartbeat; the answer is the firmware's `Status`.
@@ -163,9 +166,7 @@ fn emulated_board_boots_and_answers_in_lockstep() {
         .unwrap();
     let mut link = Link {
         stream,
-        decoder: FrameDecoder::new(),
-        seq: 0,
-        session: 0,
+        client: Client::default(),
     };
     let t0 = Instant::now();
     match link.recv() {
@@ -195,6 +196,8 @@ fn emulated_board_boots_and_answers_in_lockstep() {
 
     link.expect_ack(&Command::Arm);
     link.expect_ack(&Command::SetMode(Mode::Manual));
+    // The sticks seen at centre since the change of mode: the push acts.
+    link.send(&Command::ManualThrust(ManualThrust::default()));
     let push = ManualThrust {
         surge: 0.5,
         yaw: 0.2,
@@ -272,6 +275,6 @@ fn emulated_board_boots_and_answers_in_lockstep() {
 
 impl Link {
     fn recv_stats(&mut self) -> (u32, u32) {
-        (self.decoder.frames, self.decoder.dropped.total())
+        (self.client.frames_received(), self.client.dropped().total())
     }
 }

@@ -180,6 +180,7 @@ fn heartbeat_loss_neutral_then_disarm_then_explicit_rearm() {
     arm(&mut a, &c, &mut t);
     let (s, r) = t.send(&mut a, &Command::SetMode(Mode::Manual));
     assert!(acked(&r, s));
+    t.send(&mut a, &Command::ManualThrust(ManualThrust::default()));
     let hb_at = c.get_us();
     let push = ManualThrust {
         surge: 0.5,
@@ -265,6 +266,8 @@ fn disarm_is_immediate() {
     let (mut a, c, mut t) = fixed();
     arm(&mut a, &c, &mut t);
     t.send(&mut a, &Command::SetMode(Mode::Manual));
+    // The sticks seen at centre since the change of mode: the next stick acts.
+    t.send(&mut a, &Command::ManualThrust(ManualThrust::default()));
     t.send(
         &mut a,
         &Command::ManualThrust(ManualThrust {
@@ -457,6 +460,7 @@ fn lockstep_runs_on_host_time() {
     let (s, r) = t.send(&mut a, &Command::Arm);
     assert!(acked(&r, s));
     t.send(&mut a, &Command::SetMode(Mode::Manual));
+    t.send(&mut a, &Command::ManualThrust(ManualThrust::default()));
     let hb_at = t_us;
     for i in 0..60u64 {
         t_us += 20_000;
@@ -800,8 +804,13 @@ fn arming_does_not_obey_a_stick_sent_while_disarmed() {
     let (s, r) = t.send(&mut a, &Command::Arm);
     assert_eq!(nacked(&r, s), Some(NackReason::SticksNotCentred));
     assert!(!a.autopilot().armed());
-    // The stick goes stale (0.6 s, nothing new): the arming is taken, and 20 ms later the
-    // outputs are neutral (no input since the arming).
+    // The stick goes stale (0.6 s, nothing new): still the latest state received, still
+    // refused; centred, the arming is taken, and 20 ms later the outputs are neutral (no
+    // input since the arming).
+    fly(&mut a, &c, &mut t, 30);
+    let (s, r) = t.send(&mut a, &Command::Arm);
+    assert_eq!(nacked(&r, s), Some(NackReason::SticksNotCentred));
+    t.send(&mut a, &Command::ManualThrust(ManualThrust::default()));
     fly(&mut a, &c, &mut t, 30);
     let (s, r) = t.send(&mut a, &Command::Arm);
     assert!(acked(&r, s), "{r:?}");
@@ -906,6 +915,7 @@ fn a_replayed_frame_is_refused_and_counted() {
     a.parts_mut().1.rx.extend(arm_bytes.clone());
     a.tick();
     assert!(acked(&t.replies(&mut a), arm_seq));
+    t.send(&mut a, &Command::ManualThrust(ManualThrust::default()));
     let push = ManualThrust {
         surge: 1.0,
         yaw: 0.0,

@@ -6,6 +6,7 @@
 //! - [`tracking`]: laws that really track, in XZ, XY and 3-D.
 //! - [`pilot`]: pilot-assisted flying: the sticks' forces with heading and depth hold.
 
+pub mod gain_bounds;
 pub mod paper_xy;
 pub mod paper_xz;
 pub mod pilot;

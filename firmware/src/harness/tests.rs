@@ -141,6 +141,7 @@ fn the_largest_harness_messages_fit_and_round_trip() {
 fn downlink(arm: ArmCommand, pulse: u16) -> Downlink {
     Downlink {
         session: SESSION,
+        seq: 0,
         pulse_us: [pulse, pulse, 3000 - pulse],
         ttl_ms: 100,
         arm,
@@ -184,6 +185,10 @@ fn the_node_runs_at_the_hosts_time_and_reports_its_pulses() {
                 downlink(ArmCommand::Disarmed, 1500)
             } else {
                 downlink(ArmCommand::Armed, 1650)
+            };
+            let cmd = Downlink {
+                seq: u64::from(seq),
+                ..cmd
             };
             let f = crate::node_link::encode_frame_for_tests(NODE_LINK_VERSION, seq, &cmd);
             delivered += f.len() as u32;

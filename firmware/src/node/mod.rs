@@ -19,15 +19,15 @@
 //! | another link version | never applied; `version` | |
 //! | a pulse outside 1100-1900 us, a time to live outside 1..=100 ms | never applied; `out_of_range` | |
 //! | another topside's session (crossed wires, two topsides), session 0 | never applied; `foreign` | |
-//! | a sequence number that repeats or goes back (a replay) | never applied; `replayed` | |
+//! | a sequence not above the last applied one of the session (a replay, at any distance: the `u64` sequence never wraps) | never applied; `replayed` | |
 //!
 //! A refused frame changes nothing: not the outputs, the session, the sequence, the arm
 //! state nor the silence timer.
 
 use crate::app::Monotonic;
 use crate::node_link::{
-    seal, seq_newer, status, ArmCommand, Downlink, LinkDecoder, LinkFrame, NodeCounters, Uplink,
-    ESC_MAX_US, ESC_MIN_US, ESC_NEUTRAL_US, MAX_TTL_MS,
+    low_16, seal, seq_after, status, ArmCommand, Downlink, LinkDecoder, LinkFrame, NodeCounters,
+    Uplink, ESC_MAX_US, ESC_MIN_US, ESC_NEUTRAL_US, MAX_TTL_MS,
 };
 use crate::protocol::{DropReason, MAX_FRAME_LEN};
 use crate::sensors::Sensors;
@@ -109,7 +109,7 @@ pub enum Refusal {
     OutOfRange,
     /// Another topside's session, or session 0.
     Foreign,
-    /// The sequence number repeats or goes back.
+    /// The sequence is not above the last applied one (a replay, at any distance).
     Replayed,
 }
 
@@ -134,7 +134,9 @@ pub struct Node<P, S, C, N> {
     tx_seq: u16,
     /// The topside session served (0: none; the next valid frame's is taken).
     session: u32,
-    last_seq: Option<u16>,
+    /// The sequence of the latest downlink applied in the session (`None`: none since the
+    /// boot or the latch).
+    last_seq: Option<u64>,
     armed: bool,
     /// A `Disarmed` command was seen since the boot or the latch: `Armed` may arm.
     armable: bool,
@@ -287,9 +289,10 @@ where
         r.map(|_| ())
     }
 
-    fn check(&self, frame: LinkFrame<Downlink>) -> Result<(u16, Downlink), Refusal> {
-        let (seq, cmd) = match frame {
-            LinkFrame::Frame { seq, msg } => (seq, msg),
+    fn check(&self, frame: LinkFrame<Downlink>) -> Result<(u64, Downlink), Refusal> {
+        // The envelope's sequence (the low 16 bits) is not read: the message's own is.
+        let cmd = match frame {
+            LinkFrame::Frame { msg, .. } => msg,
             LinkFrame::Dropped(DropReason::Version) => return Err(Refusal::Version),
             LinkFrame::Dropped(r) => return Err(Refusal::Corrupt(r)),
         };
@@ -303,13 +306,13 @@ where
         if cmd.session == 0 || (self.session != 0 && cmd.session != self.session) {
             return Err(Refusal::Foreign);
         }
-        if self.last_seq.is_some_and(|last| !seq_newer(seq, last)) {
+        if !seq_after(cmd.seq, self.last_seq) {
             return Err(Refusal::Replayed);
         }
-        Ok((seq, cmd))
+        Ok((cmd.seq, cmd))
     }
 
-    fn apply(&mut self, now: u64, seq: u16, cmd: &Downlink) {
+    fn apply(&mut self, now: u64, seq: u64, cmd: &Downlink) {
         self.counters.accepted = self.counters.accepted.wrapping_add(1);
         self.session = cmd.session;
         self.last_seq = Some(seq);
@@ -439,7 +442,7 @@ where
         };
         let up = Uplink {
             session: self.session,
-            echo_seq: self.last_seq.unwrap_or(0),
+            echo_seq: low_16(self.last_seq.unwrap_or(0)),
             echo_t_us,
             imu_age_us,
             dt_us: self.dt_us,

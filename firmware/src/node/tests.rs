@@ -115,17 +115,24 @@ type TestNode = Node<Pwm, Port, Clock, FakeSensors>;
 struct Bench {
     node: TestNode,
     clock: Rc<Cell<u64>>,
-    seq: u16,
+    seq: u64,
 }
 
 fn cmd(pulse_us: [u16; 3], ttl_ms: u8, arm: ArmCommand) -> Downlink {
     Downlink {
         session: SESSION,
+        seq: 0,
         pulse_us,
         ttl_ms,
         arm,
         t_us: 0,
     }
+}
+
+/// The frame of downlink `d` with sequence `seq` (the envelope's its low 16 bits).
+fn frame(seq: u64, d: Downlink) -> Vec<u8> {
+    let d = Downlink { seq, ..d };
+    encode_frame_for_tests(NODE_LINK_VERSION, low_16(seq), &d)
 }
 
 impl Bench {
@@ -165,9 +172,16 @@ impl Bench {
         self.send_seq(self.seq, d);
     }
 
-    fn send_seq(&mut self, seq: u16, d: Downlink) {
-        let f = encode_frame_for_tests(NODE_LINK_VERSION, seq, &d);
+    fn send_seq(&mut self, seq: u64, d: Downlink) {
+        self.send_raw(&frame(seq, d));
+    }
+
+    /// Send a downlink with the next sequence number and return its bytes (a recording).
+    fn send_recorded(&mut self, d: Downlink) -> Vec<u8> {
+        self.seq = self.seq.wrapping_add(1);
+        let f = frame(self.seq, d);
         self.send_raw(&f);
+        f
     }
 
     /// Neutral, then armed with `pulse_us`.
@@ -272,11 +286,7 @@ fn one_second_without_a_valid_frame_disarms_and_latches() {
         b.send(cmd(PULSES, 100, ArmCommand::Armed));
     }
     let last = b.now();
-    let mut bad = encode_frame_for_tests(
-        NODE_LINK_VERSION,
-        b.seq + 1,
-        &cmd(PULSES, 100, ArmCommand::Armed),
-    );
+    let mut bad = frame(b.seq + 1, cmd(PULSES, 100, ArmCommand::Armed));
     bad[5] ^= 0x10;
     while b.now() + 20_000 < last + 1_000_000 {
         b.run_us(20_000);
@@ -311,13 +321,13 @@ fn refused_frames_change_nothing_and_are_counted() {
     let before = (b.out(), b.node.session(), b.node.counters().accepted);
 
     // Bad CRC.
-    let mut f = encode_frame_for_tests(NODE_LINK_VERSION, b.seq + 1, &good);
+    let mut f = frame(b.seq + 1, good);
     let n = f.len();
     f[n - 3] ^= 0x01;
     b.send_raw(&f);
     // Replays: the same sequence, an older one.
     b.send_seq(b.seq, good);
-    b.send_seq(b.seq.wrapping_sub(5), good);
+    b.send_seq(b.seq.saturating_sub(5), good);
     // Out of the ESC's range, a time to live of 0 or above 100 ms.
     for p in [
         [1099, 1500, 1500],
@@ -341,8 +351,11 @@ fn refused_frames_change_nothing_and_are_counted() {
     // Another link version.
     b.send_raw(&encode_frame_for_tests(
         NODE_LINK_VERSION + 1,
-        b.seq + 1,
-        &good,
+        low_16(b.seq + 1),
+        &Downlink {
+            seq: b.seq + 1,
+            ..good
+        },
     ));
     // A disarm frame that fails a check does not disarm either.
     b.send_seq(b.seq, cmd([1500; 3], 100, ArmCommand::Disarmed));
@@ -413,7 +426,7 @@ fn the_uplink_carries_the_increments_of_its_period_and_echoes_the_downlink() {
     assert_eq!(ups.len(), 5);
     for (i, (seq, up)) in ups.iter().enumerate() {
         assert_eq!(usize::from(*seq), i);
-        assert_eq!(up.echo_seq, echo);
+        assert_eq!(up.echo_seq, low_16(echo));
         assert_eq!(up.session, SESSION);
         assert_eq!(up.pressure_pa, 120_000.0);
         assert_eq!(usize::from(up.pressure_count), i + 1);
@@ -533,4 +546,31 @@ fn duty_is_the_pulse_over_the_period() {
     assert_eq!(duty_for_pulse_us(1500, 20_000, 65_535), 4915); // 4915.1
     assert_eq!(duty_for_pulse_us(1900, 2_500, 1_000), 760);
     assert_eq!(duty_for_pulse_us(u16::MAX, 20_000, 20_000), 20_000);
+}
+
+#[test]
+fn a_downlink_replayed_at_any_distance_is_refused() {
+    let genuine = [1600, 1500, 1500];
+    for distance in [
+        1u32, 1_000, 0x7fff, 0x8000, 0x8001, 0xffff, 0x1_0000, 0x1_8000,
+    ] {
+        let mut b = Bench::new();
+        b.arm(PULSES);
+        let recorded = b.send_recorded(cmd([1900, 1100, 1900], 100, ArmCommand::Armed));
+        for _ in 0..distance {
+            b.send(cmd(genuine, 100, ArmCommand::Armed));
+        }
+        let before = b.node.counters();
+        b.send_raw(&recorded);
+        assert_eq!(b.out(), genuine, "replayed {distance} frames later");
+        assert_eq!(
+            b.node.counters().replayed,
+            before.replayed + 1,
+            "{distance}"
+        );
+        assert_eq!(b.node.counters().accepted, before.accepted, "{distance}");
+        // The genuine topside's next frame is still taken.
+        b.send(cmd([1700, 1500, 1500], 100, ArmCommand::Armed));
+        assert_eq!(b.out(), [1700, 1500, 1500], "{distance}");
+    }
 }

@@ -5,15 +5,24 @@
 //!
 //! Frames are the tether's: postcard + CRC-32 + COBS between zero delimiters, written by the
 //! tether's own [`crate::protocol::encode_with_version`] (one call, in [`seal`]) with the
-//! node link's version [`NODE_LINK_VERSION`]; the envelope's sequence number is the frame's
-//! sequence. The message set is its own and small:
+//! node link's version [`NODE_LINK_VERSION`]. The message set is its own and small:
 //!
-//! - [`Downlink`] (topside -> node, every link period): the topside's session, the three
-//!   pulse widths (us), a time to live and the arm command;
+//! - [`Downlink`] (topside -> node, every link period): the topside's session, the frame's
+//!   sequence, the three pulse widths (us), a time to live and the arm command;
 //! - [`Uplink`] (node -> topside, every link period): the session the node serves, the
-//!   sequence of the latest downlink it applied (the round trip on every frame), the IMU
+//!   low bits of the sequence of the latest downlink it applied, the IMU
 //!   increments integrated over the period (delta angle, delta velocity, their dt), the latest
 //!   pressure, the node's status and counters.
+//!
+//! Sequences: a downlink carries the topside's sequence as a `u64` that counts up from 1 and
+//! never wraps (at 200 frames a second it would take 2.9e9 years), and the node applies only a
+//! frame whose sequence is above the last one it applied ([`seq_after`]), also across its
+//! silence latch for the session it served: a downlink replayed at any distance, one frame or
+//! a billion later, is refused. Its envelope's `u16` sequence carries the low 16 bits, for the
+//! tether's tools; no check reads it. An uplink keeps the envelope's `u16` sequence, checked
+//! by the topside with [`seq_newer`] (a half range ahead): the uplink's size is at its bound
+//! for a 57 Hz link at 115,200 Bd, and a replayed uplink commands no thrust (`docs/safety.md`,
+//! the node link's rows).
 //!
 //! Sizes: every message is tested to encode within [`MAX_DOWNLINK_FRAME_LEN`] /
 //! [`MAX_UPLINK_FRAME_LEN`] bytes (largest field values), and the wire time of both at
@@ -27,10 +36,11 @@ use crate::protocol::{EncodeError, MAX_FRAME_LEN};
 use serde::{Deserialize, Serialize};
 
 /// Version of the node link's messages; a frame of another version is never applied.
-/// Version 2 (2026-11-26): the downlink carries the topside's send time and the uplink
+/// Version 3: both messages carry their sender's `u64` sequence (replays refused at any
+/// distance). Version 2: the downlink carries the topside's send time and the uplink
 /// echoes it with the node's holding time and the age of its newest IMU sample, so the
 /// topside knows the round trip and the sample's time on its own clock at any latency.
-pub const NODE_LINK_VERSION: u8 = 2;
+pub const NODE_LINK_VERSION: u8 = 3;
 
 /// The link's default rate on the wire, 8N1 (10 bits a byte).
 pub const LINK_BAUD: u32 = 115_200;
@@ -64,12 +74,14 @@ pub const MAX_LINK_FRAME_LEN: usize = if MAX_UPLINK_FRAME_LEN > MAX_DOWNLINK_FRA
 /// the node link sends 0, one byte, and carries its own session in its messages), sequence
 /// (`u16` varint, at most 3). The bounds count the envelope's session at its largest.
 const ENVELOPE_MAX: usize = 1 + 3 + 5;
-/// Downlink postcard payload at most: envelope, session (`u32`, 5), three pulses (`u16`, 3
-/// each), time to live (`u8`, 1), arm (1), send time (`u32`, 5).
-const MAX_DOWNLINK_PAYLOAD_LEN: usize = ENVELOPE_MAX + 5 + 3 * 3 + 1 + 1 + 5;
-/// Uplink postcard payload at most: envelope, session (5), echoed sequence (3), echoed time
-/// (`u32`, 5), IMU age (`u32`, 5), dt (`u32`, 5), samples (`u16`, 3), delta angle and
-/// velocity (6 `f32`, 24), pressure (4), pressure count (1), status (1), eight `u16`
+/// Largest postcard varint of a `u64` sequence.
+const SEQ_MAX: usize = 10;
+/// Downlink postcard payload at most: envelope, session (`u32`, 5), sequence (`u64`, 10),
+/// three pulses (`u16`, 3 each), time to live (`u8`, 1), arm (1), send time (`u32`, 5).
+const MAX_DOWNLINK_PAYLOAD_LEN: usize = ENVELOPE_MAX + 5 + SEQ_MAX + 3 * 3 + 1 + 1 + 5;
+/// Uplink postcard payload at most: envelope, session (5), echoed sequence (`u16`, 3),
+/// echoed time (`u32`, 5), IMU age (`u32`, 5), dt (`u32`, 5), samples (`u16`, 3), delta angle
+/// and velocity (6 `f32`, 24), pressure (4), pressure count (1), status (1), eight `u16`
 /// counters (24).
 const MAX_UPLINK_PAYLOAD_LEN: usize = ENVELOPE_MAX + 5 + 3 + 5 + 5 + 5 + 3 + 24 + 4 + 1 + 1 + 8 * 3;
 
@@ -180,6 +192,9 @@ pub struct Downlink {
     /// The topside's session, chosen at its boot, never 0. The node serves one session at
     /// a time; a frame of another is refused (crossed wires, or a second topside).
     pub session: u32,
+    /// The frame's sequence in the session: 1 for the first, one more for each next, never
+    /// wrapping. The node applies only a frame above the last one it applied.
+    pub seq: u64,
     /// Pulse widths of `F1x`, `F2x`, `F3z`, microseconds, [`ESC_MIN_US`]..=[`ESC_MAX_US`].
     pub pulse_us: [u16; 3],
     /// How long the pulses hold, from the frame's arrival, milliseconds: 1..=[`MAX_TTL_MS`].
@@ -216,7 +231,7 @@ pub struct NodeCounters {
     pub accepted: u16,
     /// Frames dropped by the framing: COBS, CRC, too short, too long, not a `Downlink`.
     pub corrupt: u16,
-    /// Frames whose sequence repeats or goes back (a replay).
+    /// Frames whose sequence is not above the last applied one (a replay, at any distance).
     pub replayed: u16,
     /// Frames with a pulse outside the ESC's range or a time to live outside 1..=100 ms.
     pub out_of_range: u16,
@@ -235,7 +250,7 @@ pub struct NodeCounters {
 pub struct Uplink {
     /// The session the node serves (0: none yet).
     pub session: u32,
-    /// Sequence number of the latest downlink applied (the topside's round trip).
+    /// Low 16 bits of the sequence of the latest downlink applied (0: none).
     pub echo_seq: u16,
     /// That downlink's [`Downlink::t_us`] plus the time the node held it, from its arrival
     /// to this uplink's sending (wrapping): the topside's clock now minus this is the round
@@ -262,19 +277,33 @@ pub struct Uplink {
     pub counters: NodeCounters,
 }
 
-/// Encode `msg` as a node-link frame with sequence `seq` into `out`; returns the frame.
-/// The tether's framing (`protocol::encode_with_version`) with [`NODE_LINK_VERSION`].
+/// Encode `msg` as a node-link frame with envelope sequence `seq` into `out`; returns the
+/// frame. The tether's framing (`protocol::encode_with_version`) with [`NODE_LINK_VERSION`].
+/// A downlink's envelope sequence is the low 16 bits of its own ([`low_16`]).
 pub fn seal<'a, M: Serialize>(
     seq: u16,
     msg: &M,
     out: &'a mut [u8; MAX_FRAME_LEN],
 ) -> Result<&'a [u8], EncodeError> {
-    // The envelope's session is the tether's (issue 22); the node link carries its own in
-    // its messages, so the envelope's is 0 (one byte).
+    // The envelope's session is the tether's; the node link carries its own in its
+    // messages, so the envelope's is 0 (one byte).
     crate::protocol::encode_with_version(NODE_LINK_VERSION, 0, seq, msg, out)
 }
 
-/// `true` when `seq` is newer than `last` (wrapping; a half range ahead at most).
+/// The low 16 bits of a sequence (the envelope's, the uplink's echo).
+pub const fn low_16(seq: u64) -> u16 {
+    (seq & 0xFFFF) as u16
+}
+
+/// `true` when a frame of sequence `seq` may be taken after the one of `last` (`None`:
+/// none taken yet): strictly above it, with no wrapping, so a replay is refused however
+/// long after its first sending it comes.
+pub fn seq_after(seq: u64, last: Option<u64>) -> bool {
+    last.is_none_or(|last| seq > last)
+}
+
+/// `true` when the uplink sequence `seq` is newer than `last` (wrapping; a half range ahead
+/// at most).
 pub fn seq_newer(seq: u16, last: u16) -> bool {
     let d = seq.wrapping_sub(last);
     d != 0 && d < 0x8000

@@ -4,6 +4,7 @@ use crate::protocol::{encode_with_version, DropReason};
 fn largest_downlink() -> Downlink {
     Downlink {
         session: u32::MAX,
+        seq: u64::MAX,
         pulse_us: [u16::MAX; 3],
         ttl_ms: u8::MAX,
         arm: ArmCommand::Armed,
@@ -100,6 +101,7 @@ fn frames_round_trip_in_a_stream() {
     let a = largest_downlink();
     let b = Downlink {
         session: 7,
+        seq: 1,
         pulse_us: [1500, 1100, 1900],
         ttl_ms: 60,
         arm: ArmCommand::Disarmed,
@@ -130,6 +132,7 @@ fn frames_round_trip_in_a_stream() {
 fn every_flipped_bit_is_dropped_and_counted() {
     let msg = Downlink {
         session: 0x1234_5678,
+        seq: 1,
         pulse_us: [1600, 1400, 1500],
         ttl_ms: 50,
         arm: ArmCommand::Armed,
@@ -176,6 +179,7 @@ fn another_version_is_dropped_as_version() {
 fn garbage_and_overlong_frames_resynchronize() {
     let msg = Downlink {
         session: 1,
+        seq: 1,
         pulse_us: [1500; 3],
         ttl_ms: 100,
         arm: ArmCommand::Disarmed,
@@ -203,7 +207,30 @@ fn garbage_and_overlong_frames_resynchronize() {
 }
 
 #[test]
-fn sequence_order_wraps() {
+fn a_downlink_sequence_is_taken_only_above_the_last_one_at_any_distance() {
+    assert!(seq_after(0, None));
+    assert!(seq_after(u64::MAX, None));
+    assert!(seq_after(1, Some(0)));
+    assert!(!seq_after(5, Some(5)));
+    for back in [
+        1u64,
+        0x7fff,
+        0x8000,
+        0x8001,
+        0xffff,
+        0x1_0000,
+        1 << 32,
+        (1 << 40) + 3,
+    ] {
+        let last = (1u64 << 48) + 17;
+        assert!(!seq_after(last - back, Some(last)), "{back} back");
+        assert!(seq_after(last + back, Some(last)), "{back} ahead");
+    }
+    assert_eq!(low_16(0x1_2345), 0x2345);
+}
+
+#[test]
+fn uplink_sequence_order_wraps() {
     assert!(seq_newer(1, 0));
     assert!(seq_newer(0, u16::MAX));
     assert!(!seq_newer(5, 5));

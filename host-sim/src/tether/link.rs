@@ -1,11 +1,13 @@
-//! The host's end of the tether: a byte port (TCP or a serial device), the firmware's own
-//! framing ([`firmware::protocol`]: postcard + CRC-32 + COBS), sequence numbers, link
-//! statistics and optional noise injection (for the corrupted-byte tests).
+//! The host's end of the tether: the protocol's session [`Client`] on a byte port (TCP or a
+//! serial device), with blocking waits on the wall clock, link statistics and optional noise
+//! injection (for the corrupted-byte tests). The session itself (handshake, sequence numbers,
+//! answers matched, time-outs) is the client's; this file moves its bytes and tells it the
+//! time.
 
 pub use crate::tether::port::{open, tcp_port, Endpoint, Port, POLL};
 use anyhow::{anyhow, bail, Context, Result};
-use firmware::protocol::{
-    encode, Command, Decoded, DropCounters, FrameDecoder, NackReason, Reply, Status, MAX_FRAME_LEN,
+use protocol::{
+    Answer, Client, ClientConfig, Command, DropCounters, Event, NackReason, Reply, Status,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -78,15 +80,21 @@ pub struct HostLinkStats {
     pub nacks: u64,
 }
 
+/// How long the vehicle may take to answer `OpenSession` (s); [`Link::open_session`] asks
+/// up to [`OPEN_TRIES`] times.
+const OPEN_TIMEOUT: Duration = Duration::from_secs(2);
+/// `OpenSession`s sent before [`Link::open_session`] gives up.
+const OPEN_TRIES: u32 = 3;
+
 /// The host end of the tether.
 pub struct Link {
     port: Box<dyn Port>,
-    dec: FrameDecoder<Reply>,
-    seq: u16,
-    /// The vehicle's session (0: none open yet; protocol version 6).
-    session: u32,
+    client: Client,
+    /// The client's clock starts here.
+    epoch: Instant,
     noise: Option<Noise>,
-    pending: VecDeque<(u16, Reply)>,
+    /// What the client reported and no caller took yet.
+    pending: VecDeque<Event>,
     /// Counters.
     pub stats: HostLinkStats,
     /// The latest `Status` received (the firmware's answer to a heartbeat: its link
@@ -97,11 +105,14 @@ pub struct Link {
 impl Link {
     /// A link over `port`, with optional noise on what the host sends.
     pub fn new(port: Box<dyn Port>, noise: Option<Noise>) -> Self {
+        let config = ClientConfig {
+            open_timeout_us: OPEN_TIMEOUT.as_micros() as u64,
+            ..ClientConfig::DEFAULT
+        };
         Self {
             port,
-            dec: FrameDecoder::new(),
-            seq: 0,
-            session: 0,
+            client: Client::new(config),
+            epoch: Instant::now(),
             noise,
             pending: VecDeque::new(),
             stats: HostLinkStats::default(),
@@ -116,12 +127,17 @@ impl Link {
 
     /// Sequence number the next command will carry.
     pub fn next_seq(&self) -> u16 {
-        self.seq
+        self.client.next_seq()
     }
 
     /// The session in force (0 before the first send).
     pub fn session(&self) -> u32 {
-        self.session
+        self.client.session()
+    }
+
+    /// The client's clock: microseconds since the link was made.
+    fn now_us(&self) -> u64 {
+        self.epoch.elapsed().as_micros() as u64
     }
 
     /// Open a new session with the vehicle (protocol version 6): `OpenSession` with a random
@@ -131,19 +147,29 @@ impl Link {
         let nonce: u32 = rand::random();
         let mut kept = Vec::new();
         let mut got = None;
-        for _ in 0..3 {
-            self.seq = 1;
-            self.session = 0;
-            self.send_with_seq(0, &Command::OpenSession { nonce })?;
-            let deadline = Instant::now() + Duration::from_secs(2);
-            while got.is_none() {
-                let left = deadline.saturating_duration_since(Instant::now());
-                let Some((seq, r)) = self.recv(left)? else {
+        for _ in 0..OPEN_TRIES {
+            let frame = self
+                .client
+                .open(nonce, self.now_us())
+                .map_err(|e| anyhow!("encode: {e}"))?;
+            self.write_frame(frame.bytes())?;
+            // The client's time-out ends the wait; the deadline is a backstop.
+            let deadline = Instant::now() + OPEN_TIMEOUT + POLL;
+            while let Some(e) = self.next_event(deadline)? {
+                match e {
+                    Event::Reply {
+                        answer: Some(Answer::Session { session }),
+                        ..
+                    } => got = Some(session),
+                    Event::Reply {
+                        answer: Some(Answer::SessionRefused(why)),
+                        ..
+                    } => bail!("the vehicle refused to open a session: {why:?}"),
+                    Event::OpenTimedOut { .. } => break,
+                    e => kept.push(e),
+                }
+                if got.is_some() {
                     break;
-                };
-                match r {
-                    Reply::Session { nonce: n, session } if n == nonce => got = Some(session),
-                    r => kept.push((seq, r)),
                 }
             }
             if got.is_some() {
@@ -151,31 +177,34 @@ impl Link {
             }
             self.stats.timeouts += 1;
         }
-        for r in kept.into_iter().rev() {
-            self.pending.push_front(r);
+        for e in kept.into_iter().rev() {
+            self.pending.push_front(e);
         }
-        let session = got.ok_or_else(|| anyhow!("the vehicle did not open a session"))?;
-        self.session = session;
-        Ok(session)
+        got.ok_or_else(|| anyhow!("the vehicle did not open a session"))
     }
 
     /// Send `cmd`; returns its sequence number. Opens a session first when none is open, and
     /// a new one before the sequence numbers would wrap (the vehicle takes only rising ones).
     pub fn send(&mut self, cmd: &Command) -> Result<u16> {
-        if self.session == 0 || self.seq >= u16::MAX - 1 {
-            self.open_session()?;
-        }
-        let seq = self.seq;
-        self.seq = self.seq.wrapping_add(1);
-        self.send_with_seq(seq, cmd)?;
-        Ok(seq)
+        let timeout_us = self.client.config().answer_timeout_us;
+        self.send_within(cmd, timeout_us)
     }
 
-    /// Send `cmd` with a given sequence number in the session in force (the vehicle refuses
-    /// a number not above the last one it took: `Replayed`).
-    pub fn send_with_seq(&mut self, seq: u16, cmd: &Command) -> Result<()> {
-        let mut buf = [0u8; MAX_FRAME_LEN];
-        let frame = encode(self.session, seq, cmd, &mut buf).map_err(|e| anyhow!("encode: {e}"))?;
+    /// [`send`](Self::send), a command answered by `Ack` awaited for `timeout_us`.
+    fn send_within(&mut self, cmd: &Command, timeout_us: u64) -> Result<u16> {
+        if self.client.needs_session() {
+            self.open_session()?;
+        }
+        let sent = self
+            .client
+            .send_within(cmd, self.now_us(), timeout_us)
+            .map_err(|e| anyhow!("{cmd:?}: {e}"))?;
+        self.write_frame(sent.frame.bytes())?;
+        Ok(sent.seq)
+    }
+
+    /// Write one frame, with the noise asked for.
+    fn write_frame(&mut self, frame: &[u8]) -> Result<()> {
         let mut bytes = Vec::with_capacity(frame.len() + 10);
         if let Some(n) = self.noise.as_mut() {
             if n.rng.random::<f64>() < n.spec.tx_garbage_prob {
@@ -212,12 +241,39 @@ impl Link {
         Ok(())
     }
 
-    /// The next good frame, waiting up to `timeout`; `None` on timeout.
-    pub fn recv(&mut self, timeout: Duration) -> Result<Option<(u16, Reply)>> {
-        let deadline = Instant::now() + timeout;
+    /// Received bytes to the client; what it reports is counted and kept.
+    fn feed(&mut self, bytes: &[u8]) {
+        let mut rest = bytes;
+        while let Some(e) = self.client.receive(&mut rest) {
+            match &e {
+                Event::Reply { reply, .. } => {
+                    self.stats.frames_received += 1;
+                    match reply {
+                        Reply::Ack { .. } => self.stats.acks += 1,
+                        Reply::Nack { .. } => self.stats.nacks += 1,
+                        Reply::Status(st) => self.last_status = Some(*st),
+                        _ => {}
+                    }
+                }
+                Event::Dropped { .. } => {
+                    self.stats.frames_dropped += 1;
+                    self.stats.dropped_by_reason = self.client.dropped();
+                }
+                Event::TimedOut { .. } | Event::OpenTimedOut { .. } => {}
+            }
+            self.pending.push_back(e);
+        }
+    }
+
+    /// The next thing the client reports (a reply, a dropped frame, a time-out), reading the
+    /// port until `deadline`; `None` after it.
+    fn next_event(&mut self, deadline: Instant) -> Result<Option<Event>> {
         loop {
-            if let Some(f) = self.pending.pop_front() {
-                return Ok(Some(f));
+            if let Some(e) = self.pending.pop_front() {
+                return Ok(Some(e));
+            }
+            if let Some(e) = self.client.poll(self.now_us()) {
+                return Ok(Some(e));
             }
             let mut buf = [0u8; 512];
             match self.port.read(&mut buf) {
@@ -238,25 +294,7 @@ impl Link {
                             }
                         }
                     }
-                    for &b in &buf[..n] {
-                        match self.dec.push(b) {
-                            Some(Decoded::Frame { seq, msg, .. }) => {
-                                self.stats.frames_received += 1;
-                                match msg {
-                                    Reply::Ack { .. } => self.stats.acks += 1,
-                                    Reply::Nack { .. } => self.stats.nacks += 1,
-                                    Reply::Status(st) => self.last_status = Some(st),
-                                    _ => {}
-                                }
-                                self.pending.push_back((seq, msg));
-                            }
-                            Some(Decoded::Dropped { .. }) => {
-                                self.stats.frames_dropped += 1;
-                                self.stats.dropped_by_reason = self.dec.dropped;
-                            }
-                            None => {}
-                        }
-                    }
+                    self.feed(&buf[..n]);
                 }
                 Err(e)
                     if matches!(
@@ -265,10 +303,21 @@ impl Link {
                     ) => {}
                 Err(e) => return Err(e).context("link read"),
             }
-            if Instant::now() >= deadline {
+            if self.pending.is_empty() && Instant::now() >= deadline {
                 return Ok(None);
             }
         }
+    }
+
+    /// The next good frame, waiting up to `timeout`; `None` on timeout.
+    pub fn recv(&mut self, timeout: Duration) -> Result<Option<(u16, Reply)>> {
+        let deadline = Instant::now() + timeout;
+        while let Some(e) = self.next_event(deadline)? {
+            if let Event::Reply { seq, reply, .. } = e {
+                return Ok(Some((seq, reply)));
+            }
+        }
+        Ok(None)
     }
 
     /// Wait up to `timeout` for a reply that `pick` accepts; other replies are passed to
@@ -295,6 +344,31 @@ impl Link {
         }
     }
 
+    /// Wait for the client's answer to one of the commands `sent` until the latest one times
+    /// out (or `timeout` passed); other replies are passed to `other`.
+    fn await_answer(
+        &mut self,
+        sent: &[u16],
+        timeout: Duration,
+        other: &mut impl FnMut(&Reply),
+    ) -> Result<Option<std::result::Result<(), NackReason>>> {
+        let latest = sent.last().copied();
+        // The client's time-out ends the wait; the deadline is a backstop.
+        let deadline = Instant::now() + timeout + POLL;
+        while let Some(e) = self.next_event(deadline)? {
+            match e {
+                Event::Reply {
+                    answer: Some(Answer::Command { seq, result }),
+                    ..
+                } if sent.contains(&seq) => return Ok(Some(result)),
+                Event::Reply { reply, .. } => other(&reply),
+                Event::TimedOut { seq } if Some(seq) == latest => return Ok(None),
+                _ => {}
+            }
+        }
+        Ok(None)
+    }
+
     /// Send a command that is answered by `Ack`/`Nack` and wait for the answer, resending
     /// up to `tries` times on timeout (each send a new sequence number: the vehicle refuses
     /// a repeated one as a replay; the answer to any of them counts). A `NoSession` refusal
@@ -307,26 +381,20 @@ impl Link {
         tries: u32,
         mut other: impl FnMut(&Reply),
     ) -> Result<std::result::Result<(), NackReason>> {
-        let mut sent = vec![self.send(cmd)?];
+        let timeout_us = timeout.as_micros() as u64;
+        let mut sent = vec![self.send_within(cmd, timeout_us)?];
         let mut reopened = false;
         for attempt in 0..tries.max(1) {
             if attempt > 0 {
                 self.stats.resends += 1;
-                sent.push(self.send(cmd)?);
+                sent.push(self.send_within(cmd, timeout_us)?);
             }
-            let got = self.wait_for(
-                timeout,
-                |r| match r {
-                    Reply::Ack { seq: s } if sent.contains(s) => Some(Ok(())),
-                    Reply::Nack { seq: s, reason } if sent.contains(s) => Some(Err(*reason)),
-                    _ => None,
-                },
-                &mut other,
-            )?;
+            let got = self.await_answer(&sent, timeout, &mut other)?;
             if got == Some(Err(NackReason::NoSession)) && !reopened {
                 reopened = true;
                 self.open_session()?;
-                sent.push(self.send(cmd)?);
+                // The earlier session's numbers mean nothing in the new one.
+                sent = vec![self.send_within(cmd, timeout_us)?];
                 continue;
             }
             if let Some(r) = got {

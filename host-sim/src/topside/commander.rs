@@ -3,11 +3,17 @@
 //!
 //! - **Who commands**: the station that holds control. Control is taken by the first
 //!   commanding message while nobody holds it (arming, a mode, a parameter, a mission, the
-//!   sticks), or explicitly with `CHANGE_OPERATOR_CONTROL` (`control_request` 0, answered by
-//!   `CHANGE_OPERATOR_CONTROL_ACK` `ack` 0; the passkey is not checked), which takes it from
-//!   the holder at once. The holder gives it up with `CHANGE_OPERATOR_CONTROL`
-//!   `control_request` 1, or by being silent (no message at all) for [`COMMANDER_SILENCE`]:
-//!   QGroundControl, MAVProxy and Cockpit send a heartbeat every second.
+//!   sticks), or explicitly with `CHANGE_OPERATOR_CONTROL` (`control_request` 0), answered
+//!   by `CHANGE_OPERATOR_CONTROL_ACK` with MAVLink's codes: `ack` 0 granted; 1 the passkey
+//!   is wrong (or `CTRL_PASSKEY` is 0: no takeover); 3 control changed hands less than
+//!   [`GRANT_HOLD`] ago (one grant at a time: two stations asking at once get one grant,
+//!   and stations swapping control get at most one grant per [`GRANT_HOLD`]). While nobody
+//!   holds control a request is granted without a passkey (the first command would take it
+//!   anyway). The holder is told who asked and whether it was granted. The holder gives
+//!   control up with `CHANGE_OPERATOR_CONTROL` `control_request` 1, or by being silent (no
+//!   message at all) for [`COMMANDER_SILENCE`]: QGroundControl, MAVProxy and Cockpit send a
+//!   heartbeat every second. After any change of commander the topside sends the vehicle
+//!   centred sticks until it has seen the new commander's sticks at centre (`Topside`).
 //!   (`MAV_CMD_REQUEST_OPERATOR_CONTROL` is in MAVLink's development set, not in the
 //!   ArduPilot dialect the ground stations speak to ArduSub, so it cannot be parsed here.)
 //! - **Others**: their commands are answered `COMMAND_ACK` `TEMPORARILY_REJECTED`, their
@@ -30,6 +36,8 @@ use std::time::{Duration, Instant};
 pub const COMMANDER_SILENCE: Duration = Duration::from_secs(3);
 /// A station whose sticks are ignored is told so at most this often.
 pub const MANUAL_NOTE_EVERY: Duration = Duration::from_secs(5);
+/// After control changes hands, no other station takes it for this long.
+pub const GRANT_HOLD: Duration = Duration::from_secs(2);
 
 /// What the arbitration decided for one message.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -51,6 +59,10 @@ pub struct Commander {
     /// Commands refused because their station was not in control.
     pub refused: u64,
     manual_noted: Option<Instant>,
+    /// When control last changed hands to a station.
+    granted_at: Option<Instant>,
+    /// Takeovers refused (wrong passkey, or too soon after the last grant).
+    pub takeovers_refused: u64,
 }
 
 /// True for a message that changes the vehicle's state (and so needs control).
@@ -91,6 +103,9 @@ impl Commander {
             return Ok(());
         }
         self.holder = holder;
+        if holder.is_some() {
+            self.granted_at = Some(Instant::now());
+        }
         let text = match holder {
             Some(s) => format!("Control: {} ({why})", gcs.label(s)),
             None => format!("Control: nobody ({why})"),
@@ -110,29 +125,96 @@ impl Commander {
         Ok(())
     }
 
-    /// Arbitrate `msg` from `station`; `CHANGE_OPERATOR_CONTROL` is answered here
-    /// (`Open` afterwards, nothing more to do).
+    /// A `CHANGE_OPERATOR_CONTROL` take request from `station` with `passkey` (its text up
+    /// to the first NUL), against `wanted` (none: takeovers refused): the MAVLink `ack` code.
+    fn take(
+        &mut self,
+        gcs: &mut Gcs,
+        station: StationId,
+        passkey: &str,
+        wanted: Option<&str>,
+    ) -> Result<u8> {
+        let Some(holder) = self.holder.filter(|&h| h != station) else {
+            let why = if self.holder.is_none() {
+                "took control; nobody held it"
+            } else {
+                "already in control"
+            };
+            self.set(gcs, Some(station), why)?;
+            return Ok(0);
+        };
+        let (from, to) = (gcs.label(station), gcs.label(holder));
+        let warn = MavSeverity::MAV_SEVERITY_WARNING;
+        if wanted.is_none_or(|w| w != passkey) {
+            self.takeovers_refused += 1;
+            let why = if wanted.is_none() {
+                format!("CTRL_PASSKEY is 0 (no takeover): ask {to} to release control")
+            } else {
+                "wrong passkey".to_string()
+            };
+            gcs.text_to(station, warn, &format!("Control not granted: {why}"))?;
+            gcs.text_to(
+                holder,
+                warn,
+                &format!("{from} asked for control: refused ({why})"),
+            )?;
+            eprintln!("topside: {from} asked for control: refused ({why})");
+            return Ok(1);
+        }
+        if self.granted_at.is_some_and(|t| t.elapsed() < GRANT_HOLD) {
+            self.takeovers_refused += 1;
+            let text = format!(
+                "Control not granted: it changed hands less than {} s ago",
+                GRANT_HOLD.as_secs()
+            );
+            gcs.text_to(station, warn, &text)?;
+            return Ok(3);
+        }
+        gcs.text_to(
+            holder,
+            warn,
+            &format!("Control taken by {from} with the passkey: your commands and sticks are refused now"),
+        )?;
+        self.set(
+            gcs,
+            Some(station),
+            &format!("took control from {to} with the passkey"),
+        )?;
+        Ok(0)
+    }
+
+    /// Arbitrate `msg` from `station`; `CHANGE_OPERATOR_CONTROL` is answered here (`Open`
+    /// afterwards, nothing more to do), a takeover checked against `passkey`.
     pub fn judge(
         &mut self,
         gcs: &mut Gcs,
         station: StationId,
         header: MavHeader,
         msg: &MavMessage,
+        passkey: Option<&str>,
     ) -> Result<Verdict> {
         if let MavMessage::CHANGE_OPERATOR_CONTROL(c) = msg {
             gcs.stats.handled += 1;
-            let take = c.control_request == 0;
-            if take {
-                self.set(gcs, Some(station), "took control")?;
-            } else if self.holder == Some(station) {
-                self.set(gcs, None, "released")?;
-            }
+            let ack = if c.control_request == 0 {
+                let given = c
+                    .passkey
+                    .to_str()
+                    .unwrap_or("")
+                    .trim_end_matches('\0')
+                    .to_string();
+                self.take(gcs, station, &given, passkey)?
+            } else {
+                if self.holder == Some(station) {
+                    self.set(gcs, None, "released")?;
+                }
+                0
+            };
             gcs.send_to(
                 station,
                 MavMessage::CHANGE_OPERATOR_CONTROL_ACK(CHANGE_OPERATOR_CONTROL_ACK_DATA {
                     gcs_system_id: u8::try_from(header.system_id).unwrap_or(u8::MAX),
                     control_request: c.control_request,
-                    ack: 0,
+                    ack,
                 }),
             )?;
             return Ok(Verdict::Open);

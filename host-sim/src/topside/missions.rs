@@ -8,9 +8,18 @@
 //! in AUTO (`DENIED`, "leave AUTO first"): the mission flown is the one the operator saw
 //! accepted before AUTO. Requests and acknowledgements go to the station of the exchange
 //! only.
+//!
+//! `mission_type`: only the mission (0) is kept. A FENCE (1) or RALLY (2) upload is refused
+//! with `MAV_MISSION_UNSUPPORTED`, its list is empty and clearing it is accepted (there is
+//! nothing to clear); none of them touches the mission. ALL (255) clears the mission; an
+//! upload or list of ALL is refused (`MAV_MISSION_UNSUPPORTED`, MAVLink allows ALL only in
+//! `MISSION_CLEAR_ALL`). Every answer carries the type it answers. Every item is answered:
+//! one past the count with `MAV_MISSION_INVALID_SEQUENCE`, one whose frame or command this
+//! dialect does not know with `MAV_MISSION_UNSUPPORTED_FRAME` / `MAV_MISSION_UNSUPPORTED`,
+//! one outside an upload with `MAV_MISSION_ERROR`.
 
 use super::geodesy::item_position;
-use super::transport::{Gcs, StationId};
+use super::transport::{Gcs, StationId, UnknownItem};
 use super::vehicle::SimVehicle;
 use anyhow::Result;
 use firmware::protocol::{Command, Mode, Telemetry};
@@ -49,6 +58,12 @@ pub(super) struct Missions {
 /// A station and its MAVLink system and component ids.
 type Peer = (StationId, u8, u8);
 
+/// `MAV_MISSION_TYPE` values.
+const MISSION: u8 = 0;
+const FENCE: u8 = 1;
+const RALLY: u8 = 2;
+const ALL: u8 = 255;
+
 impl Missions {
     fn request(peer: Peer, gcs: &mut Gcs, seq: u16) -> Result<()> {
         gcs.send_to(
@@ -62,14 +77,115 @@ impl Missions {
     }
 
     fn ack(peer: Peer, gcs: &mut Gcs, result: MavMissionResult) -> Result<()> {
-        gcs.send_to(
-            peer.0,
-            MavMessage::MISSION_ACK(MISSION_ACK_DATA {
-                target_system: peer.1,
-                target_component: peer.2,
-                mavtype: result,
-            }),
-        )
+        Self::ack_typed(peer, gcs, result, MISSION)
+    }
+
+    /// A `MISSION_ACK` for `mission_type`.
+    fn ack_typed(
+        peer: Peer,
+        gcs: &mut Gcs,
+        result: MavMissionResult,
+        mission_type: u8,
+    ) -> Result<()> {
+        let ack = MavMessage::MISSION_ACK(MISSION_ACK_DATA {
+            target_system: peer.1,
+            target_component: peer.2,
+            mavtype: result,
+        });
+        gcs.send_typed(peer.0, ack, mission_type)
+    }
+
+    /// A mission message of another `mission_type` than the mission: answered for its type,
+    /// the mission untouched (ALL clears it). (`MISSION_ITEM` and `MISSION_REQUEST` are
+    /// deprecated, still sent.)
+    #[allow(deprecated)]
+    fn other_type(
+        &mut self,
+        gcs: &mut Gcs,
+        v: &mut SimVehicle,
+        sender: Peer,
+        msg: &MavMessage,
+        mission_type: u8,
+    ) -> Result<bool> {
+        use MavMissionResult as R;
+        let warn = MavSeverity::MAV_SEVERITY_WARNING;
+        let kind = match mission_type {
+            FENCE => "FENCE",
+            RALLY => "RALLY",
+            ALL => "ALL",
+            _ => "unknown",
+        };
+        match msg {
+            MavMessage::MISSION_CLEAR_ALL(_) if mission_type == ALL => {
+                self.peer = sender;
+                return self.clear(gcs, v, ALL).map(|_| true);
+            }
+            MavMessage::MISSION_CLEAR_ALL(_) if matches!(mission_type, FENCE | RALLY) => {
+                // Nothing of that type is kept: cleared already.
+                Self::ack_typed(sender, gcs, R::MAV_MISSION_ACCEPTED, mission_type)?;
+            }
+            MavMessage::MISSION_REQUEST_LIST(_) if matches!(mission_type, FENCE | RALLY) => {
+                gcs.send_typed(
+                    sender.0,
+                    MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
+                        count: 0,
+                        target_system: sender.1,
+                        target_component: sender.2,
+                    }),
+                    mission_type,
+                )?;
+            }
+            MavMessage::MISSION_ACK(_) => {}
+            MavMessage::MISSION_COUNT(_)
+            | MavMessage::MISSION_ITEM_INT(_)
+            | MavMessage::MISSION_ITEM(_)
+            | MavMessage::MISSION_CLEAR_ALL(_)
+            | MavMessage::MISSION_REQUEST_LIST(_)
+            | MavMessage::MISSION_REQUEST_INT(_)
+            | MavMessage::MISSION_REQUEST(_) => {
+                let text = format!(
+                    "Mission refused: {kind} (type {mission_type}) is not kept here; the \
+                     mission is untouched"
+                );
+                gcs.text_to(sender.0, warn, &text)?;
+                Self::ack_typed(sender, gcs, R::MAV_MISSION_UNSUPPORTED, mission_type)?;
+            }
+            _ => return Ok(false),
+        }
+        gcs.stats.handled += 1;
+        Ok(true)
+    }
+
+    /// A mission item this dialect cannot parse (an unknown frame or command): the upload
+    /// it belongs to is refused with the reason, anything else answered as an item outside
+    /// an upload; never silence.
+    pub(super) fn unknown_item(
+        &mut self,
+        gcs: &mut Gcs,
+        station: StationId,
+        from: MavHeader,
+        item: UnknownItem,
+    ) -> Result<()> {
+        use MavMissionResult as R;
+        gcs.stats.handled += 1;
+        let sender: Peer = (
+            station,
+            u8::try_from(from.system_id).unwrap_or(u8::MAX),
+            from.component_id,
+        );
+        let (result, what) = if item.frame_known {
+            (R::MAV_MISSION_UNSUPPORTED, "a command")
+        } else {
+            (R::MAV_MISSION_UNSUPPORTED_FRAME, "a frame")
+        };
+        let why = format!("item {}: {what} this vehicle does not know", item.seq);
+        if item.mission_type != MISSION {
+            return Self::ack_typed(sender, gcs, R::MAV_MISSION_UNSUPPORTED, item.mission_type);
+        }
+        match self.uploader() {
+            Some(u) if u == station => self.refuse(gcs, result, &why),
+            _ => Self::deny(gcs, sender, result, &why),
+        }
     }
 
     /// Refuse `peer`'s mission message with `result` and say why (to it); the mission in use
@@ -122,6 +238,7 @@ impl Missions {
         station: StationId,
         from: MavHeader,
         msg: &MavMessage,
+        mission_type: u8,
     ) -> Result<bool> {
         // (MAVLink system ids are 8 bits on the wire.)
         let sender: Peer = (
@@ -129,6 +246,9 @@ impl Missions {
             u8::try_from(from.system_id).unwrap_or(u8::MAX),
             from.component_id,
         );
+        if mission_type != MISSION {
+            return self.other_type(gcs, v, sender, msg, mission_type);
+        }
         let writes = matches!(
             msg,
             MavMessage::MISSION_COUNT(_)
@@ -163,12 +283,12 @@ impl Missions {
                         .map(|_| true);
                 }
                 if c.count == 0 {
-                    return self.clear(gcs, v).map(|_| true);
+                    return self.clear(gcs, v, MISSION).map(|_| true);
                 }
                 self.upload = Some((Vec::new(), c.count, Instant::now(), 1, sender));
                 Self::request(self.peer, gcs, 0)?;
             }
-            MavMessage::MISSION_ITEM_INT(item) => self.item(gcs, v, item)?,
+            MavMessage::MISSION_ITEM_INT(item) => self.item(gcs, v, sender, item)?,
             // The float form, which MAVProxy sends to a vehicle that does not announce
             // MISSION_INT in AUTOPILOT_VERSION: the same item, x and y in metres (local) or
             // degrees (global).
@@ -202,7 +322,7 @@ impl Missions {
                     current: i.current,
                     autocontinue: i.autocontinue,
                 };
-                self.item(gcs, v, &item)?
+                self.item(gcs, v, sender, &item)?
             }
             MavMessage::MISSION_REQUEST_LIST(_) => {
                 gcs.send_to(
@@ -221,7 +341,7 @@ impl Missions {
                 Some(item) => gcs.send_to(station, MavMessage::MISSION_ITEM_INT(item.clone()))?,
                 None => Self::ack(sender, gcs, MavMissionResult::MAV_MISSION_INVALID_SEQUENCE)?,
             },
-            MavMessage::MISSION_CLEAR_ALL(_) => self.clear(gcs, v)?,
+            MavMessage::MISSION_CLEAR_ALL(_) => self.clear(gcs, v, MISSION)?,
             // The end of a download.
             MavMessage::MISSION_ACK(_) => {}
             _ => return Ok(false),
@@ -230,19 +350,29 @@ impl Missions {
         Ok(true)
     }
 
-    fn clear(&mut self, gcs: &mut Gcs, v: &mut SimVehicle) -> Result<()> {
+    fn clear(&mut self, gcs: &mut Gcs, v: &mut SimVehicle, mission_type: u8) -> Result<()> {
         self.upload = None;
         match v.command(&Command::MissionClear)? {
             Ok(()) => {
                 self.items.clear();
-                Self::ack(self.peer, gcs, MavMissionResult::MAV_MISSION_ACCEPTED)
+                Self::ack_typed(
+                    self.peer,
+                    gcs,
+                    MavMissionResult::MAV_MISSION_ACCEPTED,
+                    mission_type,
+                )
             }
             Err(why) => {
                 gcs.text(
                     MavSeverity::MAV_SEVERITY_WARNING,
                     &format!("Mission not cleared: {why:?} (leave AUTO first)"),
                 )?;
-                Self::ack(self.peer, gcs, MavMissionResult::MAV_MISSION_DENIED)
+                Self::ack_typed(
+                    self.peer,
+                    gcs,
+                    MavMissionResult::MAV_MISSION_DENIED,
+                    mission_type,
+                )
             }
         }
     }
@@ -252,12 +382,18 @@ impl Missions {
         &mut self,
         gcs: &mut Gcs,
         v: &mut SimVehicle,
+        sender: Peer,
         item: &MISSION_ITEM_INT_DATA,
     ) -> Result<()> {
         let Some((items, count, at, tries, peer)) = self.upload.as_mut() else {
-            return Ok(());
+            let why = format!("item {} with no upload in progress", item.seq);
+            return Self::deny(gcs, sender, MavMissionResult::MAV_MISSION_ERROR, &why);
         };
         let (count, peer) = (*count, *peer);
+        if item.seq >= count {
+            let why = format!("item {} of a mission of {count}", item.seq);
+            return self.refuse(gcs, MavMissionResult::MAV_MISSION_INVALID_SEQUENCE, &why);
+        }
         if usize::from(item.seq) != items.len() {
             // Out of order (a lost or repeated item): ask for the one expected.
             *at = Instant::now();
@@ -347,7 +483,9 @@ impl Missions {
             self.reached = 0;
             return Ok(());
         }
-        while self.reached < tel.mission_reached {
+        // At most the mission's waypoints, whatever the frame says (bounded work per frame).
+        let reached = tel.mission_reached.min(self.items.len() as u16);
+        while self.reached < reached {
             gcs.send(MavMessage::MISSION_ITEM_REACHED(
                 MISSION_ITEM_REACHED_DATA { seq: self.reached },
             ))?;

@@ -39,8 +39,12 @@
 //! raises or clears and every refusal.
 //!
 //! Several ground stations: all see everything, one commands (`commander`: the first to
-//! command, the one that armed or the one that sent `CHANGE_OPERATOR_CONTROL`; anyone may
-//! disarm). No input from a ground station ends the topside (`transport`). Refused inputs
+//! command, the one that armed, or the one granted `CHANGE_OPERATOR_CONTROL` with the
+//! passkey `CTRL_PASSKEY`; anyone may disarm). No input from a ground station ends the
+//! topside (`transport`). What is refused or held back before it reaches the vehicle
+//! (messages for another system, arming with a stick held, thrust before a centred stick
+//! after an arm, mode change or change of commander) and what is not believed from it is in
+//! `guard`. Refused inputs
 //! are answered (`COMMAND_ACK` / `MISSION_ACK` / `PARAM_VALUE`) with a `STATUSTEXT` reason:
 //! `ARM_DISARM` with param1 other than 1 or 0, `DO_SET_MODE` with param2 not a whole mode
 //! number, GUIDED targets outside the surface..100 m / 1 km box, `VEH_PWM_NEUTRAL`.
@@ -54,7 +58,9 @@
 
 mod calibration;
 mod commander;
+mod frames;
 mod geodesy;
+mod guard;
 mod logs;
 mod missions;
 pub mod params;
@@ -65,6 +71,7 @@ mod vehicle;
 
 pub use commander::{Commander, Verdict, COMMANDER_SILENCE};
 pub use geodesy::{item_position, GlobalOrigin};
+pub use guard::{sticks_centred, STICK_CENTRED};
 pub use logs::{open_logs, utc_stamp};
 pub use missions::MISSION_MAX_ITEMS;
 pub use start::{main, TopsideArgs};
@@ -200,6 +207,15 @@ struct Topside {
     params_file: PathBuf,
     /// The compass calibration turn's outcome last reported (`calibration.rs`).
     mag_cal: Option<firmware::compass_swing::SwingOutcome>,
+    /// The commander's sticks have been seen at centre since the last arm, mode change or
+    /// change of commander: until then the vehicle is sent centred sticks.
+    sticks_seen_centred: bool,
+    /// Saved parameters the vehicle did not take at start, applied when it does.
+    pending: start::Pending,
+    /// The vehicle was last said to be silent.
+    vehicle_silent: bool,
+    /// Telemetry refusals already said.
+    refusals_said: u64,
 }
 
 impl Topside {
@@ -220,8 +236,11 @@ impl Topside {
                 std::thread::sleep(wait);
             }
 
-            for (station, header, msg) in self.gcs.poll()? {
-                self.on_message(station, header, msg)?;
+            for (station, header, msg, mission_type) in self.gcs.poll()? {
+                self.on_message(station, header, msg, mission_type)?;
+            }
+            for (station, header, item) in std::mem::take(&mut self.gcs.unknown_items) {
+                self.on_unknown_item(station, header, item)?;
             }
             let before = self.commander.holder();
             self.commander.tick(&mut self.gcs)?;
@@ -234,13 +253,19 @@ impl Topside {
             let pilot_mode = matches!(v.tel.mode, Mode::Manual | Mode::Stabilize | Mode::DepthHold);
             if pilot_mode && v.tel.armed && fresh && k.is_multiple_of(v.stride) {
                 // Forwarded every period (every stride of the topside layout's finer loop)
-                // while the pilot's stream lives; when it stops,
-                // nothing is forwarded and the firmware's MANUAL_STALE failsafe neutralizes
-                // the thrusters.
-                v.send(&Command::ManualThrust(self.manual))?;
+                // while the pilot's stream lives, centred until the commander's sticks were
+                // seen at centre; when it stops, nothing is forwarded and the firmware's
+                // MANUAL_STALE failsafe neutralizes the thrusters.
+                let sticks = if self.sticks_seen_centred {
+                    self.manual
+                } else {
+                    ManualThrust::default()
+                };
+                v.send(&Command::ManualThrust(sticks))?;
             }
             v.step()?;
             self.poll_mag_cal()?;
+            self.watch_vehicle(k.is_multiple_of(per_second))?;
 
             let faults = self.v.tel.faults & !fault::SATURATED;
             for (bit, name) in FAULT_NAMES {
@@ -270,16 +295,20 @@ impl Topside {
         let s = self.gcs.stats;
         eprintln!(
             "topside: {:.1} s simulated; MAVLink {} sent, {} handled, {} ignored, {} malformed, \
-             {} disconnects; {} commands refused and {} MANUAL_CONTROL ignored from stations \
-             not in control",
+             {} addressed to another system or component, {} disconnects; {} commands refused \
+             and {} MANUAL_CONTROL ignored from stations not in control, {} takeovers \
+             refused; {} vehicle frames refused",
             self.v.t_s,
             s.sent,
             s.handled,
             s.ignored,
             s.malformed,
+            s.not_ours,
             s.disconnects,
             self.commander.refused,
-            self.commander.manual_ignored
+            self.commander.manual_ignored,
+            self.commander.takeovers_refused,
+            self.v.frames_refused
         );
         Ok(())
     }
@@ -292,6 +321,7 @@ impl Topside {
         }
         self.manual = ManualThrust::default();
         self.manual_at = None;
+        self.sticks_seen_centred = false;
         if self.missions.uploader().is_some_and(|u| Some(u) != now) {
             self.missions
                 .abandon(&mut self.gcs, "control changed during the upload")?;
@@ -299,10 +329,23 @@ impl Topside {
         Ok(())
     }
 
-    /// One message from `station`: arbitrated, then handled.
-    fn on_message(&mut self, station: StationId, header: MavHeader, msg: MavMessage) -> Result<()> {
+    /// One message from `station`: ignored if addressed to another system or component,
+    /// else arbitrated, then handled.
+    fn on_message(
+        &mut self,
+        station: StationId,
+        header: MavHeader,
+        msg: MavMessage,
+        mission_type: u8,
+    ) -> Result<()> {
+        if self.addressed_elsewhere(station, &msg) {
+            return Ok(());
+        }
         let before = self.commander.holder();
-        let verdict = self.commander.judge(&mut self.gcs, station, header, &msg)?;
+        let passkey = self.v.settings.passkey();
+        let verdict =
+            self.commander
+                .judge(&mut self.gcs, station, header, &msg, passkey.as_deref())?;
         self.after_control_change(before)?;
         if let Verdict::Refuse(holder) = verdict {
             return self.refuse_station(station, header, holder, &msg);
@@ -310,13 +353,20 @@ impl Topside {
         if matches!(msg, MavMessage::CHANGE_OPERATOR_CONTROL(_)) {
             return Ok(());
         }
-        if matches!(msg, MavMessage::MANUAL_CONTROL(_)) {
+        if let MavMessage::MANUAL_CONTROL(m) = &msg {
             self.manual_at = Some(Instant::now());
+            if sticks_centred(&manual_thrust(m.x, m.z, m.r)) {
+                self.sticks_seen_centred = true;
+            }
         }
-        if !self
-            .missions
-            .handle(&mut self.gcs, &mut self.v, station, header, &msg)?
-        {
+        if !self.missions.handle(
+            &mut self.gcs,
+            &mut self.v,
+            station,
+            header,
+            &msg,
+            mission_type,
+        )? {
             self.handle(station, msg)?;
         }
         Ok(())
@@ -415,6 +465,7 @@ impl Topside {
         match v.command(&Command::SetMode(firmware_mode))? {
             Ok(()) => {
                 self.guided = custom == ardusub_mode::GUIDED;
+                self.sticks_seen_centred = false;
                 self.gcs.ack(station, cmd, MavResult::MAV_RESULT_ACCEPTED)
             }
             Err(why) => self.refuse(station, cmd, &format!("Mode refused: {why:?}")),
@@ -465,8 +516,16 @@ impl Topside {
                             );
                             return self.refuse(station, c.command, &why);
                         };
+                        if cmd == Command::Arm {
+                            if let Some(why) = self.sticks_refuse_arming()? {
+                                return self.refuse(station, c.command, &why);
+                            }
+                        }
                         match self.v.command(&cmd)? {
                             Ok(()) => {
+                                if cmd == Command::Arm {
+                                    self.sticks_seen_centred = false;
+                                }
                                 self.gcs
                                     .ack(station, c.command, MavResult::MAV_RESULT_ACCEPTED)?
                             }
@@ -587,7 +646,12 @@ impl Topside {
         };
         match refusal {
             Some(text) => self.gcs.text_to(station, warn, &text)?,
-            None => params::save(&self.params_file, &self.v.settings)?,
+            None => {
+                // The operator's value wins over a saved one still waiting.
+                let group = params::group(param);
+                self.pending.forget(group);
+                params::save(&self.params_file, &self.pending.merged(&self.v.settings))?
+            }
         }
         // The answer is the value in force (the new one, or the old one on a refusal), to
         // every station: all see what the vehicle holds.

@@ -13,6 +13,14 @@
 //! **degrees** (issue 26: it reads `psi + sin_deg sin(psi) + cos_deg cos(psi)`; sent as
 //! `SetCompassCal` in radians, refused beyond 30 degrees of amplitude and while armed). The
 //! constant part of a compass's error has no parameter: the estimator learns it.
+//! `CTRL_PASSKEY` is the passkey another ground station gives in `CHANGE_OPERATOR_CONTROL` to
+//! take control (`commander`): a whole number from 1 to 999,999, its decimal digits the
+//! passkey; 0 (the default) refuses every takeover (the holder releases control or falls
+//! silent). Kept at the surface; ArduSub has no such parameter.
+//!
+//! At start the saved file is restored only where it differs from what the vehicle holds and
+//! the vehicle takes it now; a group the vehicle refuses now (a new description while its
+//! estimator runs or while armed) waits and is applied when the vehicle takes it (`start`).
 
 use anyhow::{anyhow, bail, Context, Result};
 use controller_core::controller::Gains;
@@ -100,6 +108,8 @@ pub struct Settings {
     pub mission_speed_m_s: f32,
     /// The compass's deviation (degrees).
     pub compass: CompassDeviationDeg,
+    /// The passkey for `CHANGE_OPERATOR_CONTROL` (0: no takeover).
+    pub control_passkey: f32,
 }
 
 /// The compass's heading-dependent deviation as the ground station shows it, in degrees
@@ -144,6 +154,7 @@ impl Settings {
             vehicle,
             mission_speed_m_s: MISSION_SPEED_M_S,
             compass: CompassDeviationDeg::default(),
+            control_passkey: 0.0,
         }
     }
 
@@ -164,6 +175,12 @@ impl Settings {
                 let v = self.mission_speed_m_s;
                 if !(v.is_finite() && (MIN_MISSION_SPEED_M_S..=max).contains(&v)) {
                     bail!("MIS_SPEED must be {MIN_MISSION_SPEED_M_S}-{max} m/s");
+                }
+            }
+            Group::Control => {
+                let k = self.control_passkey;
+                if !(k.is_finite() && k.fract() == 0.0 && (0.0..=MAX_PASSKEY).contains(&k)) {
+                    bail!("CTRL_PASSKEY must be a whole number from 0 to {MAX_PASSKEY}");
                 }
             }
             Group::Compass => {
@@ -208,18 +225,55 @@ pub enum Group {
     Mission,
     /// `SetCompassCal` (refused by the vehicle while armed).
     Compass,
+    /// Kept at the surface: who may take control.
+    Control,
 }
 
 /// The groups in the order a restart restores them: the vehicle first (the others are
 /// checked against it on board), then the timeouts and the gains.
-pub const GROUPS: [Group; 6] = [
+pub const GROUPS: [Group; 7] = [
     Group::Vehicle,
     Group::Compass,
     Group::Failsafe,
     Group::Tracking,
     Group::Paper,
     Group::Mission,
+    Group::Control,
 ];
+
+/// Largest `CTRL_PASSKEY` (six digits: exact in the parameter's 32-bit float).
+pub const MAX_PASSKEY: f32 = 999_999.0;
+
+impl Settings {
+    /// `group`'s values taken from `from`; the others stay.
+    pub fn take_group(&mut self, from: &Settings, group: Group) {
+        match group {
+            Group::Tracking => self.gains.tracking = from.gains.tracking,
+            Group::Paper => {
+                self.gains.paper_xz = from.gains.paper_xz;
+                self.gains.paper_xy = from.gains.paper_xy;
+            }
+            Group::Failsafe => self.failsafe = from.failsafe,
+            Group::Vehicle => self.vehicle = from.vehicle,
+            Group::Mission => self.mission_speed_m_s = from.mission_speed_m_s,
+            Group::Compass => self.compass = from.compass,
+            Group::Control => self.control_passkey = from.control_passkey,
+        }
+    }
+
+    /// True when `other` holds the same values of `group`.
+    pub fn same_group(&self, other: &Settings, group: Group) -> bool {
+        let mut mixed = *self;
+        mixed.take_group(other, group);
+        mixed == *self
+    }
+
+    /// The passkey `CHANGE_OPERATOR_CONTROL` must carry, none while `CTRL_PASSKEY` is 0.
+    pub fn passkey(&self) -> Option<String> {
+        let k = self.control_passkey;
+        (k >= 1.0 && k.is_finite()).then(|| format!("{}", k as u32))
+    }
+}
 
 macro_rules! params {
     ($($name:literal => $($field:ident).+),* $(,)?) => {
@@ -305,6 +359,7 @@ pub const PARAMS: &[Param] = params![
     "MIS_SPEED" => mission_speed_m_s,
     "COMPASS_DEV_SIN" => compass.sin_deg,
     "COMPASS_DEV_COS" => compass.cos_deg,
+    "CTRL_PASSKEY" => control_passkey,
 ];
 
 /// Parameters shown but not settable, with the reason (issue 22): the ESCs' neutral pulse is
@@ -335,6 +390,7 @@ pub fn group(p: &Param) -> Group {
         Some("VEH") => Group::Vehicle,
         Some("MIS") => Group::Mission,
         Some("COMPASS") => Group::Compass,
+        Some("CTRL") => Group::Control,
         _ => Group::Paper,
     }
 }
@@ -416,6 +472,29 @@ mod tests {
             Group::Failsafe
         );
         assert_eq!(group(&PARAMS[find("PXY_C4").unwrap().0]), Group::Paper);
+    }
+
+    #[test]
+    fn the_passkey_is_a_whole_number_and_0_means_no_takeover() {
+        let mut s = Settings::new(VehicleParams::OBSERVER);
+        assert_eq!(s.passkey(), None);
+        s.control_passkey = 4321.0;
+        s.check(Group::Control).unwrap();
+        assert_eq!(s.passkey().as_deref(), Some("4321"));
+        for bad in [0.5, -1.0, 1e6, f32::NAN] {
+            s.control_passkey = bad;
+            assert!(s.check(Group::Control).is_err(), "{bad}");
+        }
+        assert_eq!(
+            group(&PARAMS[find("CTRL_PASSKEY").unwrap().0]),
+            Group::Control
+        );
+        let (a, mut b) = (
+            Settings::new(VehicleParams::OBSERVER),
+            Settings::new(VehicleParams::OBSERVER),
+        );
+        b.vehicle.mass_kg += 1.0;
+        assert!(a.same_group(&b, Group::Tracking) && !a.same_group(&b, Group::Vehicle));
     }
 
     #[test]

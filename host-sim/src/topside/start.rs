@@ -2,9 +2,16 @@
 //! (`--sim`: the scenario's closed loop with the firmware library in process, or with
 //! `--emulated` the firmware image in QEMU; `--serial`: a real vehicle), the ground stations,
 //! the logs and the saved parameters; then `Topside::run` until the end.
+//!
+//! The saved parameters never stop a start: a file that cannot be read or is refused by the
+//! checks is said (log and `STATUSTEXT`) and the vehicle's values stay; a group that differs
+//! from what the vehicle holds is sent, and one the vehicle refuses now (a description while
+//! its estimator runs or while armed) waits ([`Pending`]), tried again every second and
+//! applied when the vehicle takes it, the operator told either way.
 
 use super::commander::Commander;
 use super::missions::Missions;
+use super::params::{Group, Settings};
 use super::transport::Gcs;
 use super::vehicle::SimVehicle;
 use super::{open_logs, params, Topside};
@@ -20,8 +27,76 @@ use crate::tether::topside_layout::{layout_scenario, TopsideLayout};
 use crate::world::sensors::NavSource;
 use anyhow::{anyhow, bail, Result};
 use firmware::protocol::ManualThrust;
+use mavlink::dialects::ardupilotmega::MavSeverity;
 use std::path::{Path, PathBuf};
-use std::time::Duration;
+use std::time::{Duration, Instant};
+
+/// Saved parameters waiting for the vehicle to take them, said again this often.
+const PENDING_REMINDER: Duration = Duration::from_secs(30);
+
+/// Saved parameter groups the vehicle refused at start: the saved values and the groups
+/// still to apply.
+#[derive(Debug, Default)]
+pub(super) struct Pending {
+    saved: Option<Settings>,
+    groups: Vec<Group>,
+    said_at: Option<Instant>,
+}
+
+impl Pending {
+    /// `settings` with the waiting groups' saved values (what the file keeps).
+    pub(super) fn merged(&self, settings: &Settings) -> Settings {
+        let mut s = *settings;
+        if let Some(saved) = &self.saved {
+            for &g in &self.groups {
+                s.take_group(saved, g);
+            }
+        }
+        s
+    }
+
+    /// The operator set a parameter of `group`: its saved values no longer wait.
+    pub(super) fn forget(&mut self, group: Group) {
+        self.groups.retain(|&g| g != group);
+    }
+
+    /// Try the waiting groups again; each the vehicle takes is said, and what still waits
+    /// is said again every [`PENDING_REMINDER`].
+    pub(super) fn retry(&mut self, v: &mut SimVehicle, gcs: &mut Gcs) -> Result<()> {
+        let Some(saved) = self.saved else {
+            return Ok(());
+        };
+        let mut waiting = Vec::new();
+        let mut last_why = None;
+        for g in std::mem::take(&mut self.groups) {
+            match v.apply(saved, g)? {
+                Ok(()) => {
+                    let text = format!("Saved {g:?} parameters applied");
+                    eprintln!("topside: {text}");
+                    gcs.text(MavSeverity::MAV_SEVERITY_INFO, &text)?;
+                }
+                Err(why) => {
+                    waiting.push(g);
+                    last_why = Some(why);
+                }
+            }
+        }
+        self.groups = waiting;
+        if let Some(why) = last_why {
+            if self.said_at.is_none_or(|t| t.elapsed() >= PENDING_REMINDER) {
+                self.said_at = Some(Instant::now());
+                let text = format!(
+                    "Saved {:?} parameters wait: the vehicle refuses them now ({why:?}); \
+                     applied when it takes them",
+                    self.groups
+                );
+                eprintln!("topside: {text}");
+                gcs.text(MavSeverity::MAV_SEVERITY_WARNING, &text)?;
+            }
+        }
+        Ok(())
+    }
+}
 
 /// `host-sim topside` options.
 #[derive(clap::Args, Debug, Clone)]
@@ -245,23 +320,39 @@ fn topside_layout_vehicle(
 /// The saved parameters restored, then the topside's loop.
 fn run_topside(
     a: &TopsideArgs,
-    gcs: Gcs,
+    mut gcs: Gcs,
     mut v: SimVehicle,
     what: String,
     tlog_path: &Path,
     tether_path: &Path,
 ) -> Result<()> {
+    let mut pending = Pending::default();
     if a.params.exists() {
-        let saved = params::load(&a.params, v.settings)?;
-        for group in params::GROUPS {
-            if let Err(why) = v.apply(saved, group)? {
-                bail!(
-                    "the vehicle refused the saved parameters of {}: {why:?}",
-                    a.params.display()
+        match params::load(&a.params, v.settings) {
+            Err(e) => {
+                let text = format!("Saved parameters not used: {e:#}");
+                eprintln!("topside: {text}");
+                gcs.text(MavSeverity::MAV_SEVERITY_WARNING, &text)?;
+            }
+            Ok(saved) => {
+                // Only what differs is sent; what the vehicle refuses now waits.
+                pending.groups = params::GROUPS
+                    .into_iter()
+                    .filter(|&g| !v.settings.same_group(&saved, g))
+                    .collect();
+                pending.saved = Some(saved);
+                pending.retry(&mut v, &mut gcs)?;
+                eprintln!(
+                    "topside: parameters restored from {}{}",
+                    a.params.display(),
+                    if pending.groups.is_empty() {
+                        String::new()
+                    } else {
+                        format!(" except {:?} (waiting for the vehicle)", pending.groups)
+                    }
                 );
             }
         }
-        eprintln!("topside: parameters restored from {}", a.params.display());
     }
     eprintln!(
         "topside: {what}, MAVLink on {}, tlog {}, tether log {}",
@@ -280,6 +371,10 @@ fn run_topside(
         last_faults: 0,
         mag_cal: None,
         params_file: a.params.clone(),
+        sticks_seen_centred: false,
+        pending,
+        vehicle_silent: false,
+        refusals_said: 0,
     };
     t.run(a)
 }

@@ -91,6 +91,10 @@ pub(super) fn send_heartbeat(gcs: &mut Gcs, v: &SimVehicle, guided: bool) -> Res
         onboard_control_sensors_enabled: sensors,
         onboard_control_sensors_health: healthy,
         errors_comm: drops,
+        // Vehicle frames refused as out of range, and MAVLink messages addressed to another
+        // system or component (ignored).
+        errors_count1: v.frames_refused.min(u64::from(u16::MAX)) as u16,
+        errors_count2: gcs.stats.not_ours.min(u64::from(u16::MAX)) as u16,
         battery_remaining: -1,
         ..Default::default()
     }))

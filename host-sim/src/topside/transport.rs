@@ -15,7 +15,11 @@
 //! (at most [`MAX_NOTES`] lines, then only counted), counted as malformed and dropped. Each
 //! datagram is parsed on its own (a cut frame never glues to the next datagram); a TCP
 //! stream keeps an incomplete frame for the next read.
+//!
+//! Frames are taken from the bytes in `frames` (with the mission messages' `mission_type`).
 
+use super::frames::{take_all_frames, MISSION_TYPE_AT};
+pub use super::frames::{take_frames, UnknownItem};
 use super::split_text;
 use anyhow::{anyhow, bail, Context, Result};
 use mavlink::dialects::ardupilotmega::{
@@ -57,7 +61,13 @@ pub struct GcsStats {
     pub sent: u64,
     /// Ground-station connections closed (TCP disconnects, write failures).
     pub disconnects: u64,
+    /// Messages addressed to another system or component (ignored).
+    pub not_ours: u64,
 }
+
+/// A message from a station: its header, the message and its `mission_type` (0 for
+/// messages without one).
+pub type Received = (StationId, MavHeader, MavMessage, u8);
 
 struct TcpPeer {
     stream: TcpStream,
@@ -133,6 +143,8 @@ pub struct Gcs {
     notes: u64,
     /// The origin of the local frame on the globe, once a ground station set it.
     pub origin: Option<super::geodesy::GlobalOrigin>,
+    /// Mission items received that this dialect cannot parse, to be answered.
+    pub unknown_items: Vec<(StationId, MavHeader, UnknownItem)>,
 }
 
 fn unix_us() -> u64 {
@@ -147,60 +159,6 @@ fn resolve(address: &str) -> Result<SocketAddr> {
         .with_context(|| format!("MAVLink address {address:?}"))?
         .next()
         .ok_or_else(|| anyhow!("MAVLink address {address:?}: no such host"))
-}
-
-/// The messages in `bytes` and how many malformed inputs were dropped from it. In a stream
-/// an incomplete frame at the end stays in `bytes` for the next read; in a datagram it is
-/// malformed. A garbage run counts once; a corrupted frame once (parsing resumes after its
-/// first byte).
-pub fn take_frames(bytes: &mut Vec<u8>, stream: bool) -> (Vec<(MavHeader, MavMessage)>, u64) {
-    let mut out = Vec::new();
-    let mut bad = 0;
-    let mut i = 0;
-    while i < bytes.len() {
-        let Some(skip) = bytes[i..].iter().position(|&b| b == 0xFD || b == 0xFE) else {
-            bad += 1;
-            i = bytes.len();
-            break;
-        };
-        if skip > 0 {
-            bad += 1;
-            i += skip;
-        }
-        let rest = &bytes[i..];
-        // MAVLink 2: magic, length, incompatibility flags (bit 0: signed, 13 bytes more),
-        // ... 10 header bytes, payload, 2 CRC; MAVLink 1: 6 header bytes, payload, 2 CRC.
-        let need = match (rest[0], rest.get(1), rest.get(2)) {
-            (0xFD, Some(&len), Some(&flags)) => {
-                Some(12 + usize::from(len) + if flags & 1 != 0 { 13 } else { 0 })
-            }
-            (0xFE, Some(&len), _) => Some(8 + usize::from(len)),
-            _ => None,
-        };
-        match need {
-            Some(need) if rest.len() >= need => {
-                let mut reader = mavlink::MavlinkReader::new(&rest[..need]);
-                match reader.read_any_message::<MavMessage>() {
-                    Ok(m) => {
-                        out.push(m);
-                        i += need;
-                    }
-                    Err(_) => {
-                        bad += 1;
-                        i += 1;
-                    }
-                }
-            }
-            // Incomplete: the rest of the frame comes with the next read of a stream.
-            _ if stream => break,
-            _ => {
-                bad += 1;
-                i += 1;
-            }
-        }
-    }
-    bytes.drain(..i);
-    (out, bad)
 }
 
 impl TcpPeer {
@@ -276,6 +234,7 @@ impl Gcs {
             stats: GcsStats::default(),
             notes: 0,
             origin: None,
+            unknown_items: Vec::new(),
         };
         for address in addresses {
             let (kind, host) = address.split_once(':').ok_or_else(|| {
@@ -351,8 +310,13 @@ impl Gcs {
             .map(|t| t.elapsed())
     }
 
+    /// Our MAVLink system id.
+    pub fn system_id(&self) -> u8 {
+        self.system_id
+    }
+
     /// A line on stderr, the first [`MAX_NOTES`] of them.
-    fn note(&mut self, text: &str) {
+    pub fn note(&mut self, text: &str) {
         self.notes += 1;
         if self.notes <= MAX_NOTES {
             eprintln!("topside: {text}");
@@ -393,6 +357,43 @@ impl Gcs {
     /// requests, refusals of its commands).
     pub fn send_to(&mut self, station: StationId, msg: MavMessage) -> Result<()> {
         self.send_where(msg, Some(station))
+    }
+
+    /// To one station, a mission message with its `mission_type` (`MISSION_ACK`,
+    /// `MISSION_COUNT`, `MISSION_REQUEST_INT`): the extension byte appended to the payload
+    /// and the frame's length and checksum made again (the crate's CRC).
+    pub fn send_typed(
+        &mut self,
+        station: StationId,
+        msg: MavMessage,
+        mission_type: u8,
+    ) -> Result<()> {
+        use mavlink::Message;
+        let id = msg.message_id();
+        let Some(&(_, at)) = MISSION_TYPE_AT.iter().find(|(m, _)| *m == id) else {
+            return self.send_to(station, msg);
+        };
+        if mission_type == 0 {
+            return self.send_to(station, msg);
+        }
+        let frame = self.frame(&msg)?;
+        // MAVLink 2: magic, 9 header bytes (len at 1), payload, 2 CRC.
+        let len = usize::from(*frame.get(1).ok_or_else(|| anyhow!("empty frame"))?);
+        let mut payload = frame.get(10..10 + len).unwrap_or_default().to_vec();
+        payload.resize(at, 0);
+        payload.push(mission_type);
+        let mut out = frame.get(..10).unwrap_or_default().to_vec();
+        if let Some(l) = out.get_mut(1) {
+            *l = payload.len() as u8;
+        }
+        out.extend_from_slice(&payload);
+        let crc =
+            mavlink::calculate_crc(out.get(1..).unwrap_or_default(), MavMessage::extra_crc(id));
+        out.extend_from_slice(&crc.to_le_bytes());
+        let to = |s: StationId| s == station;
+        let sent: u64 = self.conns.iter_mut().map(|c| c.send(&out, to)).sum();
+        self.stats.sent += sent;
+        Ok(())
     }
 
     fn send_where(&mut self, msg: MavMessage, only: Option<StationId>) -> Result<()> {
@@ -445,7 +446,7 @@ impl Gcs {
         station: StationId,
         bytes: &mut Vec<u8>,
         stream: bool,
-        out: &mut Vec<(StationId, MavHeader, MavMessage)>,
+        out: &mut Vec<Received>,
     ) -> Result<()> {
         if let Some(s) = self.stations.get_mut(station) {
             s.1 = Some(Instant::now());
@@ -456,7 +457,7 @@ impl Gcs {
             self.note(&what);
             return Ok(());
         }
-        let (msgs, bad) = take_frames(bytes, stream);
+        let (msgs, items, bad) = take_all_frames(bytes, stream);
         if bad > 0 {
             self.stats.malformed += bad;
             let what = format!(
@@ -465,10 +466,12 @@ impl Gcs {
             );
             self.note(&what);
         }
-        for (header, msg) in msgs {
+        for (header, msg, mission_type) in msgs {
             self.log(header, &msg)?;
-            out.push((station, header, msg));
+            out.push((station, header, msg, mission_type));
         }
+        self.unknown_items
+            .extend(items.into_iter().map(|(h, item)| (station, h, item)));
         Ok(())
     }
 
@@ -477,7 +480,7 @@ impl Gcs {
     /// control period, so that one station flooding (a `MANUAL_CONTROL` storm) neither stalls
     /// the tether loop nor crowds out another. No input is an error: what cannot be read is
     /// noted, counted and dropped; a closed TCP station is dropped and a new one accepted.
-    pub fn poll(&mut self) -> Result<Vec<(StationId, MavHeader, MavMessage)>> {
+    pub fn poll(&mut self) -> Result<Vec<Received>> {
         let mut out = Vec::new();
         let mut conns = std::mem::take(&mut self.conns);
         for conn in &mut conns {

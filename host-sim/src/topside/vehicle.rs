@@ -15,6 +15,15 @@
 //! steps, and logs the true state beside what the vehicle says (`truth.csv`). The topside's
 //! code sees only [`VehicleEnd`]: send a command and get its answer, send the pilot's
 //! sticks, step one control period, read the latest telemetry and status.
+//!
+//! Every telemetry frame is checked before it is believed ([`check_telemetry`]): finite
+//! values in physical ranges, pulse widths an ESC can be sent, at most a mission's waypoints
+//! reached; in a frame out of range no number is believed (the last good ones stay; the armed
+//! flag, the mode and the fault flags, bounded by their types, are still shown) and it is
+//! counted. A
+//! vehicle that says nothing for [`VEHICLE_SILENCE`] is silent: its commands are refused at
+//! once (`Refusal::Silent`) instead of waited for, and a command it leaves unanswered is a
+//! refusal, never the end of the topside.
 
 use crate::clock::us;
 use crate::closed_loop::estimator_nav::navigation_for_vehicle;
@@ -31,7 +40,100 @@ use firmware::protocol::{Command, NackReason, Reply, Status, Telemetry};
 use std::fs::{File, OpenOptions};
 use std::io::{BufWriter, Write};
 use std::path::Path;
-use std::time::Duration;
+use std::time::{Duration, Instant};
+
+/// A vehicle that sends no telemetry for this long (wall clock) is silent.
+pub const VEHICLE_SILENCE: Duration = Duration::from_secs(1);
+
+/// Why the vehicle did not take a command: its `Nack`, or no answer at all. Shown in the
+/// refusals' words (`{:?}`): the reason's name, or that the vehicle is silent.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(super) enum Refusal {
+    /// The vehicle refused it.
+    Nack(NackReason),
+    /// The vehicle is silent (nothing for [`VEHICLE_SILENCE`], or the command unanswered).
+    Silent,
+}
+
+impl std::fmt::Debug for Refusal {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Refusal::Nack(NackReason::SticksNotCentred) => {
+                f.write_str("the vehicle saw a stick off centre (centre the sticks)")
+            }
+            Refusal::Nack(r) => write!(f, "{r:?}"),
+            Refusal::Silent => f.write_str("no answer from the vehicle (silent)"),
+        }
+    }
+}
+
+/// Farthest position believed from the origin, horizontally (m).
+const MAX_POSITION_M: f32 = 10_000.0;
+/// Deepest (and highest) position believed (m).
+const MAX_DEPTH_M: f32 = 1_000.0;
+/// Largest speed believed (m/s) and turn rate (rad/s).
+const MAX_SPEED_M_S: f32 = 20.0;
+const MAX_RATE_RAD_S: f32 = 50.0;
+/// Largest heading believed (rad): the vehicle may report it unwrapped.
+const MAX_YAW_RAD: f32 = 10_000.0;
+/// Largest thruster force believed (N).
+const MAX_THRUST_N: f32 = 1_000.0;
+/// Pulse widths believed (us): what an RC output can send an ESC; 0 is an output off.
+pub const PULSE_RANGE_US: std::ops::RangeInclusive<u16> = 800..=2200;
+
+/// Is `t` believable? Every value the topside forwards or acts on: finite and in range, or
+/// the first field that is not.
+pub fn check_telemetry(t: &Telemetry) -> std::result::Result<(), String> {
+    let n = &t.nav;
+    if !n.is_finite() || !t.requested.is_finite() || !t.achieved.is_finite() {
+        return Err("a navigation value or force is not finite".into());
+    }
+    let e = &t.errors;
+    if ![e.x_m, e.y_m, e.z_m, e.pitch_rad, e.yaw_rad]
+        .iter()
+        .chain(&t.nav_pos_std_m)
+        .all(|v| v.is_finite())
+    {
+        return Err("a tracking error or position spread is not finite".into());
+    }
+    if n.x_m.hypot(n.y_m) > MAX_POSITION_M || n.z_m.abs() > MAX_DEPTH_M {
+        return Err(format!(
+            "position ({}, {}, {}) m out of range",
+            n.x_m, n.y_m, n.z_m
+        ));
+    }
+    let pi2 = 2.0 * std::f32::consts::PI;
+    if n.roll_rad.abs() > pi2 || n.pitch_rad.abs() > pi2 || n.yaw_rad.abs() > MAX_YAW_RAD {
+        return Err("an attitude angle out of range".into());
+    }
+    let speeds = [n.u_m_s, n.v_m_s, n.w_m_s];
+    let rates = [n.p_rad_s, n.q_rad_s, n.r_rad_s];
+    if speeds.iter().any(|v| v.abs() > MAX_SPEED_M_S)
+        || rates.iter().any(|v| v.abs() > MAX_RATE_RAD_S)
+    {
+        return Err("a speed or turn rate out of range".into());
+    }
+    if t.thrust_n
+        .iter()
+        .any(|f| !f.is_finite() || f.abs() > MAX_THRUST_N)
+    {
+        return Err(format!("thrust {:?} N out of range", t.thrust_n));
+    }
+    if t.pulse_us
+        .iter()
+        .any(|&p| p != 0 && !PULSE_RANGE_US.contains(&p))
+    {
+        return Err(format!("pulse widths {:?} us out of range", t.pulse_us));
+    }
+    let most = super::missions::MISSION_MAX_ITEMS;
+    if usize::from(t.mission_reached) > most {
+        return Err(format!(
+            "{} waypoints reached, a mission has at most {most}",
+            t.mission_reached
+        ));
+    }
+    Ok(())
+}
 
 /// What the topside needs of the vehicle behind the tether, whichever it is.
 pub(super) trait VehicleEnd {
@@ -68,6 +170,11 @@ pub(super) struct SimVehicle {
     /// row as often: every period, except for the topside layout, whose loop period (2.5 ms,
     /// the node's IMU period) is finer than its topside's control (the node link's 20 ms).
     pub(super) stride: u64,
+    /// When the vehicle last sent telemetry (wall clock).
+    heard_at: Instant,
+    /// Telemetry frames refused by [`check_telemetry`], and the latest reason.
+    pub(super) frames_refused: u64,
+    pub(super) last_refusal: Option<String>,
 }
 
 /// A real vehicle is sent a heartbeat every this many control periods (10 Hz): its
@@ -335,6 +442,9 @@ impl SimVehicle {
             // What the endpoint sends at the start (the firmware boots with the Observer's).
             settings: Settings::new(sc.vehicle_params),
             stride,
+            heard_at: Instant::now(),
+            frames_refused: 0,
+            last_refusal: None,
         };
         v.step()?;
         Ok(v)
@@ -374,6 +484,9 @@ impl SimVehicle {
             tel: Telemetry::default(),
             settings: Settings::new(vehicle.unwrap_or(VehicleParams::OBSERVER)),
             stride: 1,
+            heard_at: Instant::now(),
+            frames_refused: 0,
+            last_refusal: None,
         };
         if vehicle.is_some() {
             let s = v.settings;
@@ -404,7 +517,7 @@ impl SimVehicle {
         &mut self,
         proposed: Settings,
         group: Group,
-    ) -> Result<std::result::Result<(), NackReason>> {
+    ) -> Result<std::result::Result<(), Refusal>> {
         let cmd = match group {
             Group::Tracking => Command::SetTrackingGains(proposed.gains.tracking),
             Group::Paper => Command::SetPaperGains {
@@ -413,37 +526,42 @@ impl SimVehicle {
             },
             Group::Failsafe => match proposed.failsafe.to_firmware() {
                 Ok(f) => Command::SetFailsafe(f),
-                Err(_) => return Ok(Err(NackReason::OutOfRange)),
+                Err(_) => return Ok(Err(Refusal::Nack(NackReason::OutOfRange))),
             },
             Group::Vehicle => Command::SetVehicle(proposed.vehicle),
             Group::Compass => Command::SetCompassCal(proposed.compass.to_calibration()),
-            Group::Mission => {
-                // Nothing to send now: the next mission carries it.
-                self.settings.mission_speed_m_s = proposed.mission_speed_m_s;
+            Group::Mission | Group::Control => {
+                // Nothing to send now: kept at the surface (the next mission carries the
+                // speed).
+                self.settings.take_group(&proposed, group);
                 return Ok(Ok(()));
             }
         };
         let r = self.command(&cmd)?;
         if r.is_ok() {
-            let s = &mut self.settings;
-            match group {
-                Group::Tracking => s.gains.tracking = proposed.gains.tracking,
-                Group::Paper => {
-                    s.gains.paper_xz = proposed.gains.paper_xz;
-                    s.gains.paper_xy = proposed.gains.paper_xy;
-                }
-                Group::Failsafe => s.failsafe = proposed.failsafe,
-                Group::Vehicle => s.vehicle = proposed.vehicle,
-                Group::Mission => s.mission_speed_m_s = proposed.mission_speed_m_s,
-                Group::Compass => s.compass = proposed.compass,
-            }
+            self.settings.take_group(&proposed, group);
         }
         Ok(r)
     }
 
-    /// A command answered by `Ack` / `Nack`.
-    pub(super) fn command(&mut self, cmd: &Command) -> Result<std::result::Result<(), NackReason>> {
-        self.end.command(cmd)
+    /// How long the vehicle has said nothing (wall clock).
+    pub(super) fn silent_for(&self) -> Duration {
+        self.heard_at.elapsed()
+    }
+
+    /// A command answered by `Ack` / `Nack`; refused at once while the vehicle is silent, and
+    /// a command left unanswered is a refusal (noted), never an error that ends the topside.
+    pub(super) fn command(&mut self, cmd: &Command) -> Result<std::result::Result<(), Refusal>> {
+        if self.silent_for() >= VEHICLE_SILENCE {
+            return Ok(Err(Refusal::Silent));
+        }
+        match self.end.command(cmd) {
+            Ok(r) => Ok(r.map_err(Refusal::Nack)),
+            Err(e) => {
+                eprintln!("topside: {e:#} (refused; the topside goes on)");
+                Ok(Err(Refusal::Silent))
+            }
+        }
     }
 
     /// One control period. Simulated: one step of the closed loop, its truth logged. Real:
@@ -451,11 +569,56 @@ impl SimVehicle {
     pub(super) fn step(&mut self) -> Result<()> {
         let (t_s, tel) = self.end.step(self.periods)?;
         if let Some(t) = tel {
-            self.tel = t;
-            self.state = t.nav;
+            self.heard_at = Instant::now();
+            match check_telemetry(&t) {
+                Ok(()) => {
+                    self.tel = t;
+                    self.state = t.nav;
+                }
+                Err(why) => {
+                    self.frames_refused += 1;
+                    self.last_refusal = Some(why);
+                    // What every frame says in values its type bounds (armed, the mode, the
+                    // fault flags) is still shown; the numbers stay the last good ones.
+                    self.tel.armed = t.armed;
+                    self.tel.mode = t.mode;
+                    self.tel.faults = t.faults;
+                    self.tel.t_us = t.t_us;
+                }
+            }
         }
         self.t_s = t_s;
         self.periods += 1;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn telemetry_out_of_range_is_named_and_a_plain_frame_passes() {
+        let good = Telemetry {
+            pulse_us: [1500; 3],
+            ..Telemetry::default()
+        };
+        assert_eq!(check_telemetry(&good), Ok(()));
+        let mut t = good;
+        t.mission_reached = u16::MAX;
+        assert!(check_telemetry(&t).unwrap_err().contains("65535 waypoints"));
+        let mut t = good;
+        t.nav.x_m = f32::NAN;
+        assert!(check_telemetry(&t).unwrap_err().contains("not finite"));
+        let mut t = good;
+        t.pulse_us = [1500, u16::MAX, 1500];
+        assert!(check_telemetry(&t).unwrap_err().contains("pulse"));
+        let mut t = good;
+        t.nav.z_m = 5_000.0;
+        assert!(check_telemetry(&t).unwrap_err().contains("position"));
+        // An output off (0 us) is a pulse an ESC can be sent.
+        let mut t = good;
+        t.pulse_us = [0; 3];
+        assert_eq!(check_telemetry(&t), Ok(()));
     }
 }

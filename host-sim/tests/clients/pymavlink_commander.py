@@ -21,6 +21,7 @@ from gcs import expect, wait
 
 mav = mavutil.mavlink
 MANUAL, STABILIZE, GUIDED, POSHOLD = 19, 0, 4, 16
+PASSKEY = 5150
 
 
 def connect(port):
@@ -57,6 +58,10 @@ def main():
     expect(ack is not None and ack.result == mav.MAV_RESULT_ACCEPTED, "A: MANUAL accepted")
     ack = command(a, mav.MAV_CMD_COMPONENT_ARM_DISARM, 1)
     expect(ack is not None and ack.result == mav.MAV_RESULT_ACCEPTED, "A arms: A is in control")
+    a.mav.param_set_send(a.target_system, a.target_component, b"CTRL_PASSKEY", PASSKEY,
+                         mav.MAV_PARAM_TYPE_REAL32)
+    p = wait(a, "PARAM_VALUE", 5, lambda p: p.param_id == "CTRL_PASSKEY")
+    expect(p is not None and p.param_value == PASSKEY, "A sets CTRL_PASSKEY")
 
     # ARM_DISARM with param1 = NaN: refused, still armed.
     ack = command(a, mav.MAV_CMD_COMPONENT_ARM_DISARM, math.nan)
@@ -77,10 +82,17 @@ def main():
     stop = threading.Event()
 
     def sticks(m, x):
+        # At rest for 0.3 s first (thrust follows a stick seen at centre), then x.
+        t0 = time.time()
         while not stop.is_set():
-            m.mav.manual_control_send(m.target_system, x, 0, 500, 0, 0)
+            m.mav.manual_control_send(m.target_system, x if time.time() - t0 > 0.3 else 0, 0, 500, 0, 0)
             time.sleep(0.02)
 
+    # A's sticks seen at centre first: after an arming or a change of mode a stick acts
+    # only once the vehicle has seen the sticks centred.
+    for _ in range(15):
+        a.mav.manual_control_send(a.target_system, 0, 0, 500, 0, 0)
+        time.sleep(0.02)
     threads = [threading.Thread(target=sticks, args=(a, 1000)),
                threading.Thread(target=sticks, args=(b, -1000))]
     for t in threads:
@@ -112,8 +124,8 @@ def main():
     expect(ack is not None and ack.result == mav.MAV_RESULT_TEMPORARILY_REJECTED,
            f"B's mode change is TEMPORARILY_REJECTED ({ack.result if ack else None})")
 
-    # B takes control explicitly.
-    b.mav.change_operator_control_send(b.target_system, 0, 0, b"")
+    # B takes control explicitly, with the passkey A set.
+    b.mav.change_operator_control_send(b.target_system, 0, 0, str(PASSKEY).encode())
     c = wait(b, "CHANGE_OPERATOR_CONTROL_ACK", 5)
     expect(c is not None and c.ack == 0, "B takes control (CHANGE_OPERATOR_CONTROL_ACK 0)")
     expect(text(a, "Control:") is not None, "A is told control changed")

@@ -54,6 +54,7 @@ def main():
     hb = wait(m, "HEARTBEAT", 5, lambda h: h.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
     expect(hb is not None and hb.custom_mode == MANUAL, "HEARTBEAT says armed, MANUAL")
 
+    sticks(m, 0.3)  # the sticks at rest first: thrust follows a stick seen at centre
     seen = sticks(m, 4.0, x=600)  # 60 % forward
     pos = seen.get("LOCAL_POSITION_NED", [])
     servo = seen.get("SERVO_OUTPUT_RAW", [])
@@ -82,6 +83,7 @@ def main():
     expect(a is not None and a.result == mav.MAV_RESULT_ACCEPTED, "ALT_HOLD accepted")
     hb = wait(m, "HEARTBEAT", 5, lambda h: h.custom_mode == ALT_HOLD)
     expect(hb is not None, "HEARTBEAT says ALT_HOLD")
+    sticks(m, 0.3)  # at rest after the mode change
     seen = sticks(m, 5.0, x=500)  # 50 % forward, throttle and yaw centred
     pos = seen.get("LOCAL_POSITION_NED", [])
     att = seen.get("ATTITUDE", [])

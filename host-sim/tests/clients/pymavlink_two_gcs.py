@@ -19,6 +19,7 @@ from gcs import expect, wait
 
 mav = mavutil.mavlink
 MANUAL, POSHOLD = 19, 16
+PASSKEY = 2718
 
 
 def connect(port):
@@ -35,18 +36,30 @@ def ack(m, command, timeout=3.0):
 
 def main():
     pilot, observer = connect(int(sys.argv[1])), connect(int(sys.argv[2]))
+    # The passkey another station needs to take control (CHANGE_OPERATOR_CONTROL).
+    pilot.mav.param_set_send(pilot.target_system, pilot.target_component, b"CTRL_PASSKEY", PASSKEY,
+                             mav.MAV_PARAM_TYPE_REAL32)
+    p = wait(pilot, "PARAM_VALUE", 5, lambda p: p.param_id == "CTRL_PASSKEY")
+    expect(p is not None and p.param_value == PASSKEY, "the pilot sets CTRL_PASSKEY")
     pilot.mav.set_mode_send(pilot.target_system, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, MANUAL)
     pilot.mav.command_long_send(pilot.target_system, pilot.target_component,
                                 mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
     a, _ = ack(pilot, mav.MAV_CMD_COMPONENT_ARM_DISARM)
     expect(a is not None and a.result == mav.MAV_RESULT_ACCEPTED, "the pilot arms")
 
+    # The sticks seen at centre first: after an arming a stick acts only once the vehicle
+    # has seen the sticks centred.
+    for _ in range(15):
+        pilot.mav.manual_control_send(pilot.target_system, 0, 0, 500, 0, 0)
+        time.sleep(0.02)
     sent = [0]
     stop = threading.Event()
 
     def flood():
+        # The sticks at rest first (thrust follows a stick seen at centre), then 80 % ahead.
         while not stop.is_set():
-            pilot.mav.manual_control_send(pilot.target_system, 800, 0, 500, 0, 0)
+            x = 0 if sent[0] < 200 else 800
+            pilot.mav.manual_control_send(pilot.target_system, x, 0, 500, 0, 0)
             sent[0] += 1
 
     counts = {}
@@ -72,7 +85,8 @@ def main():
                                        mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, POSHOLD,
                                        0, 0, 0, 0, 0)
         refused, _ = ack(observer, mav.MAV_CMD_DO_SET_MODE)
-        observer.mav.change_operator_control_send(observer.target_system, 0, 0, b"")
+        observer.mav.change_operator_control_send(observer.target_system, 0, 0,
+                                                  str(PASSKEY).encode())
         took = wait(observer, "CHANGE_OPERATOR_CONTROL_ACK", 3)
         observer.mav.command_long_send(observer.target_system, observer.target_component,
                                        mav.MAV_CMD_DO_SET_MODE, 0,

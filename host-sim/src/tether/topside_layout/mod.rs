@@ -63,16 +63,15 @@ use controller_core::state::NavState;
 pub use emulated::{EmulatedRoles, BOARD_TIMEOUT, TOPSIDE_GRID_US};
 use firmware::node::{Node, NodeConfig};
 use firmware::node_link::{status, Downlink, LinkDecoder, LinkFrame, Uplink};
-use firmware::protocol::{
-    encode, fault, Board, Command, Decoded, FrameDecoder, Mode, NackReason, Reply, Status,
-    Telemetry, MAX_FRAME_LEN,
-};
 use firmware::topside_link::{
     fault as link_fault, ImuStamp, LinkSensors, LinkThruster, NodeBridge, TopsideConfig,
     TopsideLink,
 };
 use firmware::{App, Config, Timing};
 pub use ports::{PlantSensors, VClock, WirePort};
+use protocol::{
+    fault, Answer, Board, Client, Command, Event, Mode, NackReason, Reply, Status, Telemetry,
+};
 pub use report::{Latency, LayoutReport};
 pub use roles::{ControlView, InProcessRoles, NodePass, Roles, TopsidePass};
 
@@ -124,9 +123,8 @@ pub struct TopsideLayout {
     // The PC's side of the tether to the topside.
     /// Tether bytes for the topside's next pass.
     pc_out: Vec<u8>,
-    pc_seq: u16,
-    pc_session: u32,
-    pc_decoder: FrameDecoder<Reply>,
+    /// The PC's session with the topside, on the virtual clock.
+    pc: Client,
     latest_telemetry: Option<Telemetry>,
     /// The latest `Status` the PC received (the answer to its heartbeats).
     latest_status: Option<Status>,
@@ -326,9 +324,7 @@ impl TopsideLayout {
             roles,
             wire: Duplex::new(d.wire(), d.tether_seed),
             pc_out: Vec::new(),
-            pc_seq: 0,
-            pc_session: 0,
-            pc_decoder: FrameDecoder::new(),
+            pc: Client::default(),
             latest_telemetry: None,
             latest_status: None,
             fly_scenario: true,
@@ -371,30 +367,31 @@ impl TopsideLayout {
 
     /// Send a command to the topside over the PC's tether.
     fn pc_send(&mut self, cmd: &Command) -> Result<u16> {
-        let seq = self.pc_seq;
-        self.pc_seq = self.pc_seq.wrapping_add(1);
-        let mut buf = [0u8; MAX_FRAME_LEN];
-        let frame = encode(self.pc_session, seq, cmd, &mut buf)
-            .map_err(|e| anyhow!("encode {cmd:?}: {e}"))?;
+        let sent = self
+            .pc
+            .send(cmd, self.t_us)
+            .map_err(|e| anyhow!("{cmd:?}: {e}"))?;
         self.pc_out.push(0);
-        self.pc_out.extend_from_slice(frame);
-        Ok(seq)
+        self.pc_out.extend_from_slice(sent.frame.bytes());
+        Ok(sent.seq)
     }
 
     /// The PC's waiting bytes to the topside at once (no node-link pass in process),
     /// and what it answered.
-    fn pc_exchange(&mut self) -> Result<Vec<(u16, Reply)>> {
+    fn pc_exchange(&mut self) -> Result<Vec<Event>> {
         let bytes = std::mem::take(&mut self.pc_out);
         let tp = self.roles.topside_tether(self.t_us, &bytes)?;
         Ok(self.watch_topside(self.t_us as f64 * 1e-6, tp))
     }
 
-    /// What the topside sent the PC: the session, refusals, telemetry.
-    fn pc_receive(&mut self, bytes: Vec<u8>) -> Vec<(u16, Reply)> {
+    /// What the topside sent the PC: the session, refusals, telemetry (the good frames, as
+    /// the PC's client reports them).
+    fn pc_receive(&mut self, bytes: Vec<u8>) -> Vec<Event> {
         let mut out = Vec::new();
-        for b in bytes {
-            if let Some(Decoded::Frame { seq, msg, .. }) = self.pc_decoder.push(b) {
-                match msg {
+        let mut rest = bytes.as_slice();
+        while let Some(e) = self.pc.receive(&mut rest) {
+            if let Event::Reply { reply, .. } = e {
+                match reply {
                     Reply::Telemetry(t) => {
                         self.report.telemetry_frames += 1;
                         self.latest_telemetry = Some(t);
@@ -418,7 +415,7 @@ impl TopsideLayout {
                     }
                     _ => {}
                 }
-                out.push((seq, msg));
+                out.push(e);
             }
         }
         out
@@ -445,11 +442,15 @@ impl TopsideLayout {
     /// shows it to the ground station); an error only when the topside did not answer.
     pub fn try_command(&mut self, cmd: &Command) -> Result<Result<(), NackReason>> {
         let seq = self.pc_send(cmd)?;
-        for (_, r) in self.pc_exchange()? {
-            match r {
-                Reply::Ack { seq: s } if s == seq => return Ok(Ok(())),
-                Reply::Nack { seq: s, reason } if s == seq => return Ok(Err(reason)),
-                _ => {}
+        for e in self.pc_exchange()? {
+            if let Event::Reply {
+                answer: Some(Answer::Command { seq: s, result }),
+                ..
+            } = e
+            {
+                if s == seq {
+                    return Ok(result);
+                }
             }
         }
         bail!("the topside did not answer {cmd:?}")
@@ -468,17 +469,20 @@ impl TopsideLayout {
 
     /// Open the PC's session with the topside.
     fn open_session(&mut self) -> Result<()> {
-        self.pc_seq = 0;
-        self.pc_session = 0;
         let nonce = 0x2500_0001;
-        self.pc_send(&Command::OpenSession { nonce })?;
-        for (_, r) in self.pc_exchange()? {
-            if let Reply::Session { nonce: n, session } = r {
-                if n == nonce {
-                    self.pc_session = session;
-                    self.pc_seq = 1;
-                    return Ok(());
-                }
+        let frame = self
+            .pc
+            .open(nonce, self.t_us)
+            .map_err(|e| anyhow!("OpenSession: {e}"))?;
+        self.pc_out.push(0);
+        self.pc_out.extend_from_slice(frame.bytes());
+        for e in self.pc_exchange()? {
+            if let Event::Reply {
+                answer: Some(Answer::Session { .. }),
+                ..
+            } = e
+            {
+                return Ok(());
             }
         }
         bail!("the topside did not open a session")
@@ -495,7 +499,7 @@ impl TopsideLayout {
         self.wire.up.read_into(t_s, &mut top_in);
 
         // The PC's bytes to the topside.
-        if self.pc_session != 0 && t_us >= self.next_heartbeat_us {
+        if self.pc.session() != 0 && t_us >= self.next_heartbeat_us {
             self.next_heartbeat_us = t_us + HEARTBEAT_PERIOD_US;
             let _ = self.pc_send(&Command::Heartbeat { t_us });
         }
@@ -591,7 +595,7 @@ impl TopsideLayout {
 
     /// The topside's side: the uplink it accepted (the cause of its step), the downlinks it
     /// wrote (kept: what was sent; then onto the wire), what it told the PC (returned).
-    fn watch_topside(&mut self, t_s: f64, tp: TopsidePass) -> Vec<(u16, Reply)> {
+    fn watch_topside(&mut self, t_s: f64, tp: TopsidePass) -> Vec<Event> {
         let mut last = None;
         for &b in &tp.link_read {
             if let Some(LinkFrame::Frame { seq, .. }) = self.top_rx_dec.push(b) {
@@ -758,8 +762,16 @@ impl ControllerEndpoint for TopsideLayout {
         self.open_session()?;
         // A heartbeat is answered by `Status`, not `Ack`.
         let hb = self.pc_send(&Command::Heartbeat { t_us: 0 })?;
-        for (_, r) in self.pc_exchange()? {
-            if let Reply::Nack { seq, reason } = r {
+        for e in self.pc_exchange()? {
+            if let Event::Reply {
+                answer:
+                    Some(Answer::Command {
+                        seq,
+                        result: Err(reason),
+                    }),
+                ..
+            } = e
+            {
                 if seq == hb {
                     bail!("the topside refused the first heartbeat: {reason:?}");
                 }

@@ -1,14 +1,14 @@
 //! The tether's messages: what the topside sends ([`Command`]) and what the ROV answers
 //! ([`Reply`]), with the types they carry. Serialized by postcard (varints, `f32` as four
-//! little-endian bytes, enums by variant index) inside an [`Envelope`](super::Envelope).
+//! little-endian bytes, enums by variant index) inside an [`Envelope`](crate::Envelope).
 //! `docs/protocol.md` has the table.
 
-use super::decoder::DropCounters;
+use crate::decoder::DropCounters;
 use controller_core::controller::ControlMode;
 use controller_core::law::paper_xy::PaperXyGains;
 use controller_core::law::paper_xz::PaperXzGains;
 use controller_core::law::tracking::TrackingGains;
-use controller_core::nav::compass_cal::CompassCalibration;
+use controller_core::nav::compass_cal::{CalRefusal, CompassCalibration};
 use controller_core::nav::onboard::OnboardConfig;
 use controller_core::nav::{DvlFix, HeadingFix, ImuSample, NavHealth, PositionFix, Refusal};
 use controller_core::params::VehicleParams;
@@ -195,7 +195,7 @@ pub enum Command {
     Compass(HeadingFix),
     /// Waypoint `index` (from 0) of a mission of `count` (at most 32), local NED frame; the
     /// mission in use is replaced when the last one arrives (version 4); refused while AUTO
-    /// flies a mission (`Unsupported`, issue 22).
+    /// flies a mission (`Unsupported`).
     MissionItem {
         /// This waypoint's place in the mission.
         index: u16,
@@ -231,22 +231,68 @@ pub enum Command {
         /// The surface's random number, echoed in the answer.
         nonce: u32,
     },
-    /// Replace the compass calibration (issue 26: the ground station's `COMPASS_DEV_SIN` /
+    /// Replace the compass calibration (the ground station's `COMPASS_DEV_SIN` /
     /// `COMPASS_DEV_COS`, or a calibration turn's result): the deviation the on-board
     /// estimator takes off every heading. Refused while armed (`Armed`) and when not finite
     /// or beyond 30 degrees (`CompassCal`); the calibration in force then stays.
     SetCompassCal(CompassCalibration),
-    /// Fly the compass calibration turn (issue 26; the ground station's
+    /// Fly the compass calibration turn (the ground station's
     /// `MAV_CMD_DO_START_MAG_CAL`): armed in `Hold` with the on-board estimate ready, a full
     /// circle in place at `yaw_rate_rad_s` (0.05-0.6 rad/s, either sign), refused as
     /// `NotFullTurn` if not done within `time_limit_s` (at most 600 s). The outcome is in
-    /// `Status::compass_swing`; an accepted fit is the calibration in force.
+    /// [`Status::compass_swing`]; an accepted fit is the calibration in force.
     StartCompassCal {
         /// Yaw rate of the turn (rad/s).
         yaw_rate_rad_s: f32,
         /// Time limit of the turn (s).
         time_limit_s: f32,
     },
+}
+
+/// What the vehicle sends back for a command it takes; a refused command is answered by
+/// `Nack` whatever it is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Response {
+    /// `Reply::Ack` with the command's sequence number.
+    Ack,
+    /// `Reply::Status` naming the heartbeat (`Status::heartbeat_seq`).
+    Status,
+    /// `Reply::Session` with the command's nonce.
+    Session,
+    /// `Reply::Telemetry` in lock-step (`Telemetry::nav_seq`); nothing at a fixed rate.
+    TelemetryInLockStep,
+    /// Nothing: a high-rate input (the pilot's sticks, a sensor reading).
+    Nothing,
+}
+
+impl Command {
+    /// The navigation inputs: the commands the vehicle's on-board navigation takes (the
+    /// estimator's start, its sensor readings and fixes, the compass calibration).
+    pub const fn is_nav_input(&self) -> bool {
+        matches!(
+            self,
+            Command::StartNav { .. }
+                | Command::Imu(_)
+                | Command::Pressure { .. }
+                | Command::UsblFix(_)
+                | Command::DvlFix(_)
+                | Command::Compass(_)
+                | Command::SetCompassCal(_)
+        )
+    }
+
+    /// What the vehicle answers when it takes this command.
+    pub const fn response(&self) -> Response {
+        match self {
+            Command::Heartbeat { .. } => Response::Status,
+            Command::OpenSession { .. } => Response::Session,
+            Command::Nav(_) | Command::Step { .. } => Response::TelemetryInLockStep,
+            Command::ManualThrust(_) | Command::Imu(_) | Command::Pressure { .. } => {
+                Response::Nothing
+            }
+            _ => Response::Ack,
+        }
+    }
 }
 
 /// Failsafe timeouts, microseconds of the firmware's clock.
@@ -308,7 +354,7 @@ impl Default for Failsafe {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[non_exhaustive]
 pub enum NackReason {
-    /// The frame's protocol version is not [`PROTOCOL_VERSION`](super::PROTOCOL_VERSION).
+    /// The frame's protocol version is not [`PROTOCOL_VERSION`](crate::PROTOCOL_VERSION).
     UnsupportedVersion,
     /// CRC was right but the payload did not decode as a command.
     Malformed,
@@ -350,10 +396,9 @@ pub enum NackReason {
     ClockAhead,
     /// A sensor reading over the tether on a board that reads its own sensors (version 6).
     OwnSensors,
-    /// A mode that needs a position while the on-board estimate is not ready (issue 26;
-    /// version 6).
+    /// A mode that needs a position while the on-board estimate is not ready (version 6).
     NavNotReady(controller_core::nav::NotReady),
-    /// A compass calibration refused (issue 26): the reason; the one in force stays.
+    /// A compass calibration refused: the reason; the one in force stays.
     CompassCal(controller_core::nav::compass_cal::CalRefusal),
     /// A compass calibration turn while disarmed.
     NotArmed,
@@ -395,6 +440,13 @@ pub mod fault {
     /// The on-board IMU or pressure sensor stopped answering (or answers only refused
     /// values): thrust is neutral in the modes that need navigation.
     pub const SENSOR_LOST: u16 = 1 << 8;
+    /// The paper's layout (a topside MCU and a node on the vehicle): no valid uplink from the
+    /// node for 3 link periods; the estimator predicts only, and from 250 ms neutral is
+    /// commanded.
+    pub const NODE_LINK_LOST: u16 = 1 << 15;
+    /// The paper's layout: the topside is armed but the node is not (latched after a loss of
+    /// the link, or its command outlived its time to live): disarm and arm again.
+    pub const NODE_NOT_ARMED: u16 = 1 << 14;
 }
 
 /// Link statistics, as counted by the firmware.
@@ -487,7 +539,33 @@ pub struct Status {
     /// The compass calibration in force (`COMPASS_DEV_*`, radians).
     pub compass_cal: CompassCalibration,
     /// The latest compass calibration turn: flying, accepted or refused with the reason.
-    pub compass_swing: crate::compass_swing::SwingOutcome,
+    pub compass_swing: SwingOutcome,
+}
+
+/// How the latest compass calibration turn ended (or that one is flying), reported in
+/// [`Status`].
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub enum SwingOutcome {
+    /// None flown since boot.
+    #[default]
+    None,
+    /// Turning now: the heading turned so far (rad).
+    Turning {
+        /// Heading turned (rad, the gyro's).
+        turned_rad: f32,
+    },
+    /// Accepted: the calibration now in force and the fit's RMS residual (rad).
+    Accepted {
+        /// The fitted deviation, in force.
+        cal: CompassCalibration,
+        /// RMS residual of the fit (rad).
+        residual_rad: f32,
+    },
+    /// Refused: why; the calibration in force did not change.
+    Refused(CalRefusal),
+    /// Stopped before its end (disarmed, a mode change, the estimator stopped); the
+    /// calibration in force did not change.
+    Aborted,
 }
 
 /// Which board sent a [`Reply::Hello`].
@@ -508,7 +586,7 @@ pub enum Reply {
     /// Sent once at boot: the host waits for it before sending (the emulated USART drops
     /// bytes that arrive before it is enabled).
     Hello {
-        /// [`PROTOCOL_VERSION`](super::PROTOCOL_VERSION) (also in the envelope).
+        /// [`PROTOCOL_VERSION`](crate::PROTOCOL_VERSION) (also in the envelope).
         protocol: u8,
         /// Which board.
         board: Board,

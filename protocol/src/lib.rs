@@ -1,4 +1,8 @@
-//! The tether protocol: [`messages`], [`framing`] and the streaming [`decoder`].
+//! The ROV's tether protocol, shared by the vehicle and the surface: [`messages`],
+//! [`framing`], the streaming [`decoder`], the wire's limits that both ends check
+//! ([`limits`]), and [`Client`], the surface's end of a session (no I/O of its own).
+//!
+//! `no_std`, no allocation; the firmware re-exports it as `firmware::protocol`.
 //!
 //! A frame on the wire is
 //!
@@ -24,10 +28,15 @@
 //!
 //! `docs/protocol.md` has the message table and how the emulated board is driven.
 
+#![cfg_attr(not(any(test, feature = "std")), no_std)]
+
+pub mod client;
 pub mod decoder;
 pub mod framing;
+pub mod limits;
 pub mod messages;
 
+pub use client::{Answer, Client, ClientConfig, Event, Frame, SendError, Sent};
 pub use decoder::{decode_frame, Decoded, DropCounters, DropReason, FrameDecoder};
 pub use framing::{
     encode, encode_with_version, EncodeError, Envelope, Header, CRC, CRC_LEN, MAX_ENCODED_LEN,

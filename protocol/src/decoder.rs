@@ -3,7 +3,7 @@
 //! a bad CRC; an empty frame (two delimiters in a row) is ignored, so a sender may start each
 //! frame with a delimiter to flush garbage. No allocation, no panics.
 
-use super::framing::{
+use crate::framing::{
     Envelope, Header, CRC, CRC_LEN, MAX_ENCODED_LEN, MAX_PAYLOAD_LEN, PROTOCOL_VERSION,
 };
 use serde::de::DeserializeOwned;

@@ -1,0 +1,80 @@
+//! The waypoint mission: its upload item by item and what AUTO has reached of it.
+
+use super::{seconds_since, Autopilot};
+use crate::protocol::{Mode, NackReason};
+use controller_core::reference::mission::MAX_WAYPOINTS;
+use heapless::Vec;
+
+/// Waypoints in the local NED frame and the speed to fly them.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Mission {
+    pub(super) waypoints: Vec<[f32; 3], MAX_WAYPOINTS>,
+    pub(super) speed_m_s: f32,
+}
+
+/// Deepest waypoint accepted (m): the Observer's 150 m tether, with room for its catenary.
+pub const MAX_MISSION_DEPTH_M: f32 = 100.0;
+/// Farthest waypoint accepted from the origin, horizontally, each axis (m).
+pub const MAX_MISSION_RANGE_M: f32 = 1_000.0;
+/// Fastest mission speed accepted (m/s).
+pub const MAX_MISSION_SPEED_M_S: f32 = 1.0;
+/// Radius of the turns that join a mission's legs (m).
+pub const MISSION_TURN_RADIUS_M: f32 = 1.5;
+
+impl Autopilot {
+    /// Take waypoint `index` of a mission of `count`; the mission in use changes only when
+    /// the last one arrives, and a refused item leaves it as it was.
+    pub(super) fn mission_item(
+        &mut self,
+        index: u16,
+        count: u16,
+        pos_m: [f32; 3],
+        speed_m_s: f32,
+    ) -> Result<(), NackReason> {
+        // AUTO flies the mission it entered with; a new one while it flies would be
+        // acknowledged and not flown: refused, as `MissionClear` is.
+        if self.mode == Mode::Auto {
+            return Err(NackReason::Unsupported);
+        }
+        let [x, y, z] = pos_m;
+        if !(x.is_finite() && y.is_finite() && z.is_finite() && speed_m_s.is_finite()) {
+            return Err(NackReason::NonFinite);
+        }
+        let far = x.abs() > MAX_MISSION_RANGE_M || y.abs() > MAX_MISSION_RANGE_M;
+        let too_many = usize::from(count) > MAX_WAYPOINTS || count == 0 || index >= count;
+        let speed_ok = speed_m_s > 0.0 && speed_m_s <= MAX_MISSION_SPEED_M_S;
+        if far || too_many || !(0.0..=MAX_MISSION_DEPTH_M).contains(&z) || !speed_ok {
+            return Err(NackReason::OutOfRange);
+        }
+        if index == 0 {
+            self.upload = Mission::default();
+        }
+        if usize::from(index) != self.upload.waypoints.len() {
+            return Err(NackReason::OutOfRange);
+        }
+        self.upload
+            .waypoints
+            .push(pos_m)
+            .map_err(|_| NackReason::OutOfRange)?;
+        self.upload.speed_m_s = speed_m_s;
+        if index + 1 == count {
+            self.mission = core::mem::take(&mut self.upload);
+        }
+        Ok(())
+    }
+
+    /// Waypoints of the mission AUTO flies that the reference has passed (0 outside AUTO).
+    pub fn mission_reached(&self, now_us: u64) -> u16 {
+        match (&self.auto, self.mode) {
+            (Some((path, start)), Mode::Auto) => {
+                u16::try_from(path.reached(seconds_since(now_us, *start))).unwrap_or(u16::MAX)
+            }
+            _ => 0,
+        }
+    }
+
+    /// Waypoints in the mission in use.
+    pub fn mission_len(&self) -> usize {
+        self.mission.waypoints.len()
+    }
+}
