@@ -14,6 +14,8 @@
 //! - [`tether`]: the port, the framed link, the firmware as an endpoint (in process, in
 //!   QEMU, a board), the tether log.
 //! - [`topside`]: the surface side: MAVLink 2 to ground stations, the tether to the vehicle.
+//! - [`served`]: the simulator serves a vehicle (SITL): the plant, the sensors and the
+//!   firmware library's `App` in real time, its tether on a TCP port (`host-sim vehicle`).
 //! - [`commands`]: one file per command of the command line.
 
 pub mod checks;
@@ -22,6 +24,7 @@ pub mod closed_loop;
 pub mod commands;
 pub mod output;
 pub mod scenario;
+pub mod served;
 pub mod tether;
 pub mod topside;
 pub mod world;

@@ -8,6 +8,7 @@
 //! host-sim monte-carlo <scenario> --runs N [--seed S] [--perturb FRACTION] [--out DIR]
 //! host-sim hil <scenario> [--qemu ELF | --serial DEVICE --baud N | --tcp HOST:PORT]
 //! host-sim link --serial DEVICE [--baud N] | --tcp HOST:PORT | --qemu ELF [--script CMDS]
+//! host-sim vehicle <scenario> --listen tcp:HOST:PORT [--speedup N] [--duration S] [--out DIR]
 //! ```
 //! Each command lives in its own file under `host_sim::commands` (`commands/<name>.rs`, its
 //! arguments as a `clap::Args` struct); a new one is one more variant in [`Command`] and one
@@ -57,6 +58,9 @@ enum Command {
     Link(commands::link::LinkArgs),
     /// The surface side: MAVLink 2 to QGroundControl / MAVProxy / pymavlink, the tether to the vehicle (`--sim SCENARIO`: simulated, with the firmware library in process)
     Topside(host_sim::topside::TopsideArgs),
+    /// Serve a simulated vehicle's tether on a TCP port, in real time (SITL): for `topside
+    /// --tcp HOST:PORT`
+    Vehicle(commands::vehicle::VehicleArgs),
     /// Draw the figures of a run from a recorded dive (.tlog)
     Replay(commands::replay::ReplayArgs),
     /// The topside layout against the onboard one: tracking, latency, delay
@@ -96,6 +100,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
         Some(Command::Hil(a)) => commands::hil::main(a).map(|o| run_code(&o.run)),
         Some(Command::Link(a)) => done(commands::link::main(a)),
         Some(Command::Topside(a)) => done(host_sim::topside::main(a)),
+        Some(Command::Vehicle(a)) => commands::vehicle::main(a),
         Some(Command::Replay(a)) => done(commands::replay::main(a)),
         Some(Command::Deployment(a)) => commands::deployment::main(a).map(|met| {
             if met {

@@ -21,6 +21,7 @@ pub mod merge;
 pub mod monte_carlo;
 pub mod replay;
 pub mod run;
+pub mod vehicle;
 
 /// Exit code of an input refused before any work (see the module's table).
 pub const EXIT_REFUSED: u8 = 2;

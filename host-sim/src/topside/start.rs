@@ -104,12 +104,16 @@ pub struct TopsideArgs {
     /// The simulated vehicle: a built-in scenario or a .toml file (its plant, navigation and
     /// start; the reference is not used: the ground station commands). Its `[deployment]
     /// control` chooses the layout: `"topside"` flies the topside MCU's App and its node.
-    #[arg(long, required_unless_present = "serial", conflicts_with = "serial")]
+    #[arg(long, required_unless_present_any = ["serial", "tcp"], conflicts_with_all = ["serial", "tcp"])]
     pub sim: Option<String>,
     /// A real vehicle on this serial device (`/dev/ttyUSB0`): it runs on its own clock and
     /// navigates itself; the topside sends it heartbeats and the ground stations' commands.
     #[arg(long, value_name = "DEV", conflicts_with_all = ["emulated", "speedup"])]
     pub serial: Option<PathBuf>,
+    /// A vehicle at HOST:PORT (`host-sim vehicle --listen`, a serial-to-TCP bridge): the
+    /// same byte stream as --serial.
+    #[arg(long, value_name = "HOST:PORT", conflicts_with_all = ["serial", "emulated"])]
+    pub tcp: Option<String>,
     /// With --serial: the baud rate.
     #[arg(long, default_value_t = 115_200, requires = "serial")]
     pub baud: u32,
@@ -192,7 +196,17 @@ pub fn main(a: TopsideArgs) -> Result<()> {
     let gcs = Gcs::open(&a.mavlink, a.system_id, tlog)?;
     // The QEMU child lives as long as this guard.
     let mut _qemu = None;
-    let (v, what) = if let Some(device) = &a.serial {
+    let (v, what) = if let Some(addr) = &a.tcp {
+        let port = crate::tether::port::open(&crate::tether::port::Endpoint::Tcp(addr.clone()))?;
+        let port = Box::new(crate::tether::tether_log::LoggedPort::new(
+            port,
+            &tether_path,
+        )?);
+        (
+            SimVehicle::real(port, vehicle_file)?,
+            format!("vehicle at tcp:{addr}"),
+        )
+    } else if let Some(device) = &a.serial {
         let port = crate::tether::port::serial_port(device, a.baud)?;
         let port = Box::new(crate::tether::tether_log::LoggedPort::new(
             port,

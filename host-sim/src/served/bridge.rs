@@ -1,0 +1,458 @@
+//! The vehicle's side of the served tether: the surface's frames pass to the App's serial
+//! port with the App's own session gate in force, and the vehicle's own inputs (the
+//! simulated navigation computer's `Nav`, the on-board instruments' fixes) reach the same
+//! App without a second serial port.
+//!
+//! The App has one serial port and one session in force, so the vehicle-side inputs travel
+//! in the same session as the surface's frames. The bridge gives every frame the App takes
+//! a sequence number of its own (rising, in the App's session) and the App's answers are
+//! given back the surface's numbers: `Ack` and `Nack` (`seq`), `Status` (`heartbeat_seq`).
+//! Everything else passes byte for byte, in both directions. The App decides every frame:
+//! a surface frame in a session that is not the one in force reaches the App in that
+//! session (refused `NoSession`); a surface number not above the last one taken reaches it
+//! with number 0 (refused `Replayed`); a frame that does not decode passes unchanged (the
+//! App counts it; a refusal of it, under a number the bridge did not give, is not sent back:
+//! the surface's own time-out handles it). Answers to the vehicle's own inputs are not sent
+//! to the surface. The bridge opens a session of its own at boot (before a surface opens
+//! one) and a new one under the surface's before the numbers would wrap; the surface keeps
+//! the session number it was given.
+
+use anyhow::{anyhow, Result};
+use firmware::protocol::{
+    decode_frame, encode, Command, Decoded, NackReason, Reply, MAX_FRAME_LEN,
+};
+use std::collections::{BTreeMap, VecDeque};
+
+/// The bridge opens a new App session when its numbers reach this (the App takes only
+/// rising ones).
+const RENEW_AT: u16 = 0xFF00;
+
+/// Answers the bridge waits for at most (older ones are forgotten: a lost answer).
+const MAX_PENDING: usize = 4096;
+
+/// Vehicle inputs held at most while the bridge's session opens.
+const MAX_HELD: usize = 64;
+
+/// A frame being read from a byte stream, split at the delimiters.
+#[derive(Debug, Default)]
+struct Splitter {
+    chunk: Vec<u8>,
+}
+
+impl Splitter {
+    /// The complete chunks in `bytes` (each without its closing delimiter; empty for a lone
+    /// delimiter).
+    fn push(&mut self, bytes: &[u8]) -> Vec<Vec<u8>> {
+        let mut out = Vec::new();
+        for &b in bytes {
+            if b == 0 {
+                out.push(std::mem::take(&mut self.chunk));
+            } else if self.chunk.len() <= 2 * MAX_FRAME_LEN {
+                self.chunk.push(b);
+            }
+        }
+        out
+    }
+}
+
+/// The frame `msg` in `session` with `seq`, its leading delimiter left out (the chunk it
+/// replaces was already closed by one).
+fn frame<M: serde::Serialize>(session: u32, seq: u16, msg: &M) -> Result<Vec<u8>> {
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let f = encode(session, seq, msg, &mut buf).map_err(|e| anyhow!("encode: {e}"))?;
+    Ok(f.get(1..).unwrap_or_default().to_vec())
+}
+
+/// The two directions of the served tether around the App's serial port.
+#[derive(Debug, Default)]
+pub struct TetherBridge {
+    from_surface: Splitter,
+    from_app: Splitter,
+    /// The session in force on the App (0: none yet), and the surface's number for it.
+    app_session: u32,
+    surface_session: u32,
+    /// The App's number of the next frame the bridge sends: rising through the sessions,
+    /// back to 1 only when the bridge opens a session for that.
+    next_seq: u16,
+    /// The last surface number taken in the surface's session.
+    surface_last: Option<u16>,
+    /// App numbers of the surface's frames -> the surface's numbers.
+    to_surface: BTreeMap<u16, u16>,
+    /// Surface numbers sent with number 0 (a replay), in order.
+    replays: VecDeque<u16>,
+    /// The nonce of a session the bridge asked for.
+    opening: Option<u32>,
+    /// Vehicle inputs waiting for the bridge's session to open.
+    held: Vec<Command>,
+    /// Vehicle inputs refused by the App.
+    pub own_refused: u64,
+    /// Why the App refused the latest vehicle input it refused.
+    pub own_refused_why: Option<NackReason>,
+}
+
+impl TetherBridge {
+    /// A bridge with nothing in force yet.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The surface's bytes: what to write to the App's serial port.
+    pub fn from_surface(&mut self, bytes: &[u8]) -> Result<Vec<u8>> {
+        let mut out = Vec::with_capacity(bytes.len() + 8);
+        for chunk in self.from_surface.push(bytes) {
+            let decoded = (!chunk.is_empty())
+                .then(|| decode_frame::<Command>(&chunk))
+                .flatten();
+            match decoded {
+                Some(Decoded::Frame { seq, session, msg }) => {
+                    out.extend(self.surface_frame(seq, session, &msg)?);
+                }
+                _ => {
+                    out.extend_from_slice(&chunk);
+                    out.push(0);
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// One good frame of the surface, renumbered for the App.
+    fn surface_frame(&mut self, seq: u16, session: u32, msg: &Command) -> Result<Vec<u8>> {
+        if let Command::OpenSession { .. } = msg {
+            // The App numbers the new session from this frame's number on.
+            self.surface_last = Some(seq);
+            self.opening = None;
+            let n = self.take_seq();
+            return frame(session, n, msg);
+        }
+        let in_force = session != 0 && session == self.surface_session;
+        if in_force && self.surface_last.is_some_and(|l| seq <= l) {
+            self.replays.push_back(seq);
+            if self.replays.len() > MAX_PENDING {
+                self.replays.pop_front();
+            }
+            return frame(self.app_session, 0, msg);
+        }
+        let app_session = if in_force {
+            self.surface_last = Some(seq);
+            self.app_session
+        } else {
+            session
+        };
+        let n = self.take_seq();
+        self.to_surface.insert(n, seq);
+        // Answers come within the pass: the oldest entries are of unanswered frames.
+        while self.to_surface.len() > MAX_PENDING {
+            self.to_surface.pop_first();
+        }
+        frame(app_session, n, msg)
+    }
+
+    fn take_seq(&mut self) -> u16 {
+        let n = self.next_seq.max(1);
+        self.next_seq = n.saturating_add(1);
+        n
+    }
+
+    /// The vehicle's inputs for the App. Opens the bridge's own session first when none is
+    /// in force or the numbers are near their end; until its answer has been read
+    /// ([`from_app`](Self::from_app)) the inputs are held, and [`held`](Self::held) sends
+    /// them.
+    pub fn own_inputs(&mut self, cmds: &[Command]) -> Result<Vec<u8>> {
+        let mut out = Vec::new();
+        let renew = self.next_seq >= RENEW_AT;
+        let none = self.app_session == 0 && !cmds.is_empty();
+        if (renew || none) && self.opening.is_none() {
+            let nonce: u32 = rand::random();
+            self.opening = Some(nonce);
+            if renew {
+                self.next_seq = 1;
+                self.to_surface.clear();
+                self.replays.clear();
+            }
+            let n = self.take_seq();
+            out.push(0);
+            out.extend(frame(0, n, &Command::OpenSession { nonce })?);
+        }
+        self.held.extend_from_slice(cmds);
+        if self.held.len() > MAX_HELD {
+            let extra = self.held.len() - MAX_HELD;
+            self.held.drain(..extra);
+        }
+        out.extend(self.held()?);
+        Ok(out)
+    }
+
+    /// The inputs held while the bridge's session opened, once it is open.
+    pub fn held(&mut self) -> Result<Vec<u8>> {
+        let mut out = Vec::new();
+        if self.opening.is_some() || self.app_session == 0 {
+            return Ok(out);
+        }
+        for c in std::mem::take(&mut self.held) {
+            let n = self.take_seq();
+            out.push(0);
+            out.extend(frame(self.app_session, n, &c)?);
+        }
+        Ok(out)
+    }
+
+    /// The App's bytes: what to send the surface.
+    pub fn from_app(&mut self, bytes: &[u8]) -> Result<Vec<u8>> {
+        let mut out = Vec::with_capacity(bytes.len());
+        for chunk in self.from_app.push(bytes) {
+            let decoded = (!chunk.is_empty())
+                .then(|| decode_frame::<Reply>(&chunk))
+                .flatten();
+            let Some(Decoded::Frame { seq, session, msg }) = decoded else {
+                out.extend_from_slice(&chunk);
+                out.push(0);
+                continue;
+            };
+            match self.app_reply(msg) {
+                Answer::Pass => {
+                    out.extend_from_slice(&chunk);
+                    out.push(0);
+                }
+                Answer::Drop => {}
+                Answer::Renumbered(r) => out.extend(frame(session, seq, &r)?),
+            }
+        }
+        Ok(out)
+    }
+
+    /// The surface's number of an answer to the App's number `s` (0: a replay); `None` for
+    /// an answer to the vehicle's own input.
+    fn surface_seq(&mut self, s: u16) -> Option<u16> {
+        if s == 0 {
+            return self.replays.pop_front();
+        }
+        self.to_surface.remove(&s)
+    }
+
+    fn app_reply(&mut self, msg: Reply) -> Answer {
+        match msg {
+            Reply::Session { nonce, session } => {
+                if self.opening == Some(nonce) {
+                    // The bridge's own: the surface keeps its number for the session.
+                    self.opening = None;
+                    self.app_session = session;
+                    return Answer::Drop;
+                }
+                self.app_session = session;
+                self.surface_session = session;
+                Answer::Pass
+            }
+            Reply::Ack { seq } => match self.surface_seq(seq) {
+                Some(s) => Answer::Renumbered(Reply::Ack { seq: s }),
+                None => Answer::Drop,
+            },
+            Reply::Nack { seq, reason } => match self.surface_seq(seq) {
+                Some(s) => Answer::Renumbered(Reply::Nack { seq: s, reason }),
+                None => {
+                    self.own_refused += 1;
+                    self.own_refused_why = Some(reason);
+                    Answer::Drop
+                }
+            },
+            Reply::Status(mut st) => match self.surface_seq(st.heartbeat_seq) {
+                Some(s) => {
+                    st.heartbeat_seq = s;
+                    Answer::Renumbered(Reply::Status(st))
+                }
+                None => Answer::Drop,
+            },
+            _ => Answer::Pass,
+        }
+    }
+}
+
+/// What the bridge does with one of the App's frames.
+enum Answer {
+    Pass,
+    Drop,
+    Renumbered(Reply),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tether::in_process::InProcessFirmware;
+    use firmware::protocol::{Board, NavSample};
+    use firmware::Config;
+
+    /// The surface's end: its frames and what it decodes.
+    struct Surface {
+        session: u32,
+        seq: u16,
+    }
+
+    impl Surface {
+        fn frame(&mut self, cmd: &Command) -> (u16, Vec<u8>) {
+            let seq = self.seq;
+            self.seq += 1;
+            let mut buf = [0u8; MAX_FRAME_LEN];
+            let f = encode(self.session, seq, cmd, &mut buf).unwrap().to_vec();
+            (seq, f)
+        }
+    }
+
+    fn replies(bytes: &[u8]) -> Vec<(u16, Reply)> {
+        let mut dec = firmware::protocol::FrameDecoder::<Reply>::new();
+        bytes
+            .iter()
+            .filter_map(|&b| match dec.push(b) {
+                Some(Decoded::Frame { seq, msg, .. }) => Some((seq, msg)),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// The App, the bridge, one exchange: the surface's bytes and the vehicle's inputs in,
+    /// what the surface receives out.
+    fn exchange(
+        app: &mut InProcessFirmware,
+        b: &mut TetherBridge,
+        surface: &[u8],
+        own: &[Command],
+    ) -> Vec<(u16, Reply)> {
+        // The vehicle's inputs, then (their session open) the held ones, then the surface's.
+        let tx = app.pass(&b.own_inputs(own).unwrap());
+        let mut r = replies(&b.from_app(&tx).unwrap());
+        let tx = app.pass(&b.held().unwrap());
+        r.extend(replies(&b.from_app(&tx).unwrap()));
+        let tx = app.pass(&b.from_surface(surface).unwrap());
+        r.extend(replies(&b.from_app(&tx).unwrap()));
+        r
+    }
+
+    fn nav(t_us: u64) -> Command {
+        Command::Nav(NavSample {
+            t_us,
+            state: Default::default(),
+        })
+    }
+
+    #[test]
+    fn the_surface_keeps_its_numbers_and_the_apps_gate() {
+        let mut app = InProcessFirmware::with_config(Config::fixed_rate(Board::Host)).unwrap();
+        let mut b = TetherBridge::new();
+        // The boot's Hello passes; the vehicle's own session opens before any surface.
+        let r = exchange(&mut app, &mut b, &[], &[nav(0)]);
+        assert!(matches!(r.first(), Some((_, Reply::Hello { .. }))), "{r:?}");
+        let r = exchange(&mut app, &mut b, &[], &[nav(1_000)]);
+        assert!(r.is_empty(), "the vehicle's own answers stay inside: {r:?}");
+        // The surface opens its session and is answered with its nonce.
+        let mut s = Surface { session: 0, seq: 0 };
+        let (_, open) = s.frame(&Command::OpenSession { nonce: 77 });
+        let r = exchange(&mut app, &mut b, &open, &[nav(2_000)]);
+        let Some(&(_, Reply::Session { nonce: 77, session })) = r.first() else {
+            panic!("no session: {r:?}");
+        };
+        s.session = session;
+        // Heartbeat and a command, with vehicle inputs between: the surface's numbers back.
+        for k in 0..20u64 {
+            let (hb, f1) = s.frame(&Command::Heartbeat { t_us: k });
+            let (arm, f2) = s.frame(&Command::SetMode(firmware::protocol::Mode::Idle));
+            let bytes = [f1, f2].concat();
+            let t = 10_000 * (k + 1);
+            let r = exchange(&mut app, &mut b, &bytes, &[nav(t), nav(t + 5_000)]);
+            assert!(
+                r.iter()
+                    .any(|(_, m)| matches!(m, Reply::Status(st) if st.heartbeat_seq == hb)),
+                "{r:?}"
+            );
+            assert!(r.contains(&(r[1].0, Reply::Ack { seq: arm })), "{r:?}");
+        }
+        // A replay is refused by the App, under the surface's number.
+        let (old, f) = {
+            let seq = s.seq - 1;
+            let mut buf = [0u8; MAX_FRAME_LEN];
+            let f = encode(s.session, seq, &Command::Disarm, &mut buf)
+                .unwrap()
+                .to_vec();
+            (seq, f)
+        };
+        let r = exchange(&mut app, &mut b, &f, &[]);
+        assert_eq!(
+            r.iter().map(|(_, m)| *m).collect::<Vec<_>>(),
+            vec![Reply::Nack {
+                seq: old,
+                reason: NackReason::Replayed
+            }]
+        );
+        // Another session's frame: refused NoSession.
+        let mut stranger = Surface {
+            session: session ^ 1,
+            seq: 500,
+        };
+        let (n, f) = stranger.frame(&Command::Arm);
+        let r = exchange(&mut app, &mut b, &f, &[]);
+        assert_eq!(
+            r.iter().map(|(_, m)| *m).collect::<Vec<_>>(),
+            vec![Reply::Nack {
+                seq: n,
+                reason: NackReason::NoSession
+            }]
+        );
+        assert_eq!((b.own_refused, b.own_refused_why), (0, None));
+    }
+
+    #[test]
+    fn a_renewed_session_is_not_seen_by_the_surface() {
+        let mut app = InProcessFirmware::with_config(Config::fixed_rate(Board::Host)).unwrap();
+        let mut b = TetherBridge::new();
+        let mut s = Surface { session: 0, seq: 0 };
+        let (_, open) = s.frame(&Command::OpenSession { nonce: 5 });
+        let r = exchange(&mut app, &mut b, &open, &[]);
+        let Some(&(_, Reply::Session { session, .. })) =
+            r.iter().find(|(_, m)| matches!(m, Reply::Session { .. }))
+        else {
+            panic!("no session: {r:?}");
+        };
+        s.session = session;
+        // Far more vehicle inputs than one session's numbers.
+        for k in 0..70_000u64 {
+            exchange(&mut app, &mut b, &[], &[nav(k * 10)]);
+        }
+        let (hb, f) = s.frame(&Command::Heartbeat { t_us: 1 });
+        let r = exchange(&mut app, &mut b, &f, &[]);
+        assert!(
+            r.iter()
+                .any(|(_, m)| matches!(m, Reply::Status(st) if st.heartbeat_seq == hb)),
+            "{r:?}"
+        );
+        assert_eq!((b.own_refused, b.own_refused_why), (0, None));
+    }
+
+    /// A new surface (a new session) after the first: its numbers start again, the
+    /// vehicle's inputs never stopped; its commands are answered under its numbers.
+    #[test]
+    fn a_second_surface_after_the_first() {
+        let mut app = InProcessFirmware::with_config(Config::fixed_rate(Board::Host)).unwrap();
+        let mut b = TetherBridge::new();
+        let mut t = 0;
+        let mut next_nav = || {
+            t += 20_000;
+            nav(t)
+        };
+        for nonce in [1, 2] {
+            let mut s = Surface { session: 0, seq: 0 };
+            let (_, open) = s.frame(&Command::OpenSession { nonce });
+            let r = exchange(&mut app, &mut b, &open, &[next_nav()]);
+            let Some(&(_, Reply::Session { session, .. })) =
+                r.iter().find(|(_, m)| matches!(m, Reply::Session { .. }))
+            else {
+                panic!("no session: {r:?}");
+            };
+            s.session = session;
+            for _ in 0..50 {
+                let (k, f) = s.frame(&Command::SetMode(firmware::protocol::Mode::Idle));
+                let r = exchange(&mut app, &mut b, &f, &[next_nav(), next_nav()]);
+                let answers: Vec<Reply> = r.iter().map(|(_, m)| *m).collect();
+                assert_eq!(answers, vec![Reply::Ack { seq: k }], "surface {nonce}");
+            }
+        }
+        assert_eq!((b.own_refused, b.own_refused_why), (0, None));
+    }
+}
