@@ -12,12 +12,8 @@ pub(super) struct Mission {
     pub(super) speed_m_s: f32,
 }
 
-/// Deepest waypoint accepted (m): the Observer's 150 m tether, with room for its catenary.
-pub const MAX_MISSION_DEPTH_M: f32 = 100.0;
-/// Farthest waypoint accepted from the origin, horizontally, each axis (m).
-pub const MAX_MISSION_RANGE_M: f32 = 1_000.0;
-/// Fastest mission speed accepted (m/s).
-pub const MAX_MISSION_SPEED_M_S: f32 = 1.0;
+/// The mission limits are wire facts the surface checks too: one list, in the protocol crate.
+pub use protocol::limits::{MAX_MISSION_DEPTH_M, MAX_MISSION_RANGE_M, MAX_MISSION_SPEED_M_S};
 /// Radius of the turns that join a mission's legs (m).
 pub const MISSION_TURN_RADIUS_M: f32 = 1.5;
 

@@ -32,7 +32,7 @@ use mavlink::MavHeader;
 use std::time::{Duration, Instant};
 
 /// Most waypoints a mission may have (the vehicle's store).
-pub const MISSION_MAX_ITEMS: usize = controller_core::reference::mission::MAX_WAYPOINTS;
+pub const MISSION_MAX_ITEMS: usize = protocol::limits::MAX_MISSION_ITEMS;
 /// An upload that waits this long for the next item asks again (5 times, then gives up).
 const MISSION_RETRY: Duration = Duration::from_secs(1);
 
@@ -420,7 +420,7 @@ impl Missions {
             let why = format!("item {}: depth is not a number", item.seq);
             return self.refuse(gcs, R::MAV_MISSION_INVALID_PARAM7, &why);
         }
-        let max_depth = firmware::autopilot::MAX_MISSION_DEPTH_M;
+        let max_depth = protocol::limits::MAX_MISSION_DEPTH_M;
         if !(0.0..=max_depth).contains(&depth) {
             let why = format!(
                 "item {}: depth {depth} m is unreachable (0 to {max_depth} m)",

@@ -75,7 +75,7 @@ pub use guard::{sticks_centred, STICK_CENTRED};
 pub use logs::{open_logs, utc_stamp};
 pub use missions::MISSION_MAX_ITEMS;
 pub use start::{main, TopsideArgs};
-pub use transport::{take_frames, GcsStats, StationId, POLL_LIMIT};
+pub use transport::{split_text, take_frames, GcsStats, StationId, POLL_LIMIT};
 
 use anyhow::Result;
 use controller_core::controller::ControlMode;
@@ -109,34 +109,6 @@ pub mod ardusub_mode {
     pub const POSHOLD: u32 = 16;
     /// Sticks straight to the thrusters.
     pub const MANUAL: u32 = 19;
-}
-
-/// `text` in lines of at most `width` characters, broken at spaces where it can be.
-pub fn split_text(text: &str, width: usize) -> Vec<String> {
-    let mut lines = Vec::new();
-    let mut line = String::new();
-    for word in text.split(' ') {
-        let mut word = word.to_string();
-        while word.chars().count() > width {
-            if !line.is_empty() {
-                lines.push(std::mem::take(&mut line));
-            }
-            let head: String = word.chars().take(width).collect();
-            word = word.chars().skip(width).collect();
-            lines.push(head);
-        }
-        let extra = usize::from(!line.is_empty());
-        if line.chars().count() + extra + word.chars().count() > width {
-            lines.push(std::mem::take(&mut line));
-        } else if extra == 1 {
-            line.push(' ');
-        }
-        line.push_str(&word);
-    }
-    if !line.is_empty() || lines.is_empty() {
-        lines.push(line);
-    }
-    lines
 }
 
 /// The ArduSub mode a firmware mode is shown as.
@@ -179,11 +151,11 @@ const FAULT_NAMES: [(u16, &str); 9] = [
     (fault::SERIAL_ERROR, "tether serial error"),
     (fault::OVERRUN, "control loop overrun"),
     (
-        firmware::topside_link::fault::NODE_LINK_LOST,
+        protocol::fault::NODE_LINK_LOST,
         "node link lost: prediction only",
     ),
     (
-        firmware::topside_link::fault::NODE_NOT_ARMED,
+        protocol::fault::NODE_NOT_ARMED,
         "node not armed: disarm and arm again",
     ),
 ];
@@ -689,7 +661,7 @@ pub fn guided_target(
     if ![p.x, p.y, p.z].iter().all(|v| v.is_finite()) {
         return Err("not finite".into());
     }
-    let max_depth = firmware::autopilot::MAX_MISSION_DEPTH_M;
+    let max_depth = protocol::limits::MAX_MISSION_DEPTH_M;
     if !(0.0..=max_depth).contains(&p.z) {
         return Err(format!(
             "depth {} m is outside 0 (the surface) to {max_depth} m",
@@ -697,7 +669,7 @@ pub fn guided_target(
         ));
     }
     let range = p.x.hypot(p.y);
-    let max_range = firmware::autopilot::MAX_MISSION_RANGE_M;
+    let max_range = protocol::limits::MAX_MISSION_RANGE_M;
     if range > max_range {
         return Err(format!(
             "{range:.0} m from the origin, at most {max_range} m"

@@ -171,7 +171,7 @@ impl Settings {
                 crate::scenario::vehicle::check(&self.vehicle)?;
             }
             Group::Mission => {
-                let max = firmware::autopilot::MAX_MISSION_SPEED_M_S;
+                let max = protocol::limits::MAX_MISSION_SPEED_M_S;
                 let v = self.mission_speed_m_s;
                 if !(v.is_finite() && (MIN_MISSION_SPEED_M_S..=max).contains(&v)) {
                     bail!("MIS_SPEED must be {MIN_MISSION_SPEED_M_S}-{max} m/s");

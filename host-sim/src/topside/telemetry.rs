@@ -7,12 +7,12 @@ use super::{custom_mode_of, StationId};
 use crate::topside::params::{Settings, PARAMS};
 use anyhow::Result;
 use firmware::protocol::fault;
-use firmware::topside_link::fault as link_fault;
 use mavlink::dialects::ardupilotmega::{
     MavAutopilot, MavMessage, MavModeFlag, MavParamType, MavState, MavSysStatusSensor, MavType,
     ATTITUDE_DATA, GLOBAL_POSITION_INT_DATA, HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA,
     PARAM_VALUE_DATA, SERVO_OUTPUT_RAW_DATA, SYS_STATUS_DATA, VFR_HUD_DATA,
 };
+use protocol::fault as link_fault;
 
 pub(super) fn param_name(id: &mavlink::types::CharArray<16>) -> String {
     id.iter()

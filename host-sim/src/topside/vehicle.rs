@@ -125,7 +125,7 @@ pub fn check_telemetry(t: &Telemetry) -> std::result::Result<(), String> {
     {
         return Err(format!("pulse widths {:?} us out of range", t.pulse_us));
     }
-    let most = super::missions::MISSION_MAX_ITEMS;
+    let most = protocol::limits::MAX_MISSION_ITEMS;
     if usize::from(t.mission_reached) > most {
         return Err(format!(
             "{} waypoints reached, a mission has at most {most}",
