@@ -2,6 +2,8 @@
 //! firmware as Water Linked A50 `wrz` reports on its DVL port (`firmware::sensors::dvl`),
 //! instead of `DvlFix` commands over the tether; the navigation runs fly the same.
 
+mod long_emulated;
+
 use host_sim::commands::hil::{run_hil, HilOptions, HilOutput, HilTarget};
 use host_sim::scenario::Scenario;
 use std::time::Duration;
@@ -74,6 +76,13 @@ fn nav_circle_3d_with_the_dvl_on_its_uart() {
 
 #[test]
 fn nav_lawnmower_3d_with_the_dvl_on_its_uart() {
+    if !long_emulated::long_test(
+        "instruments",
+        "nav_lawnmower_3d_with_the_dvl_on_its_uart",
+        65,
+    ) {
+        return;
+    }
     same_figures_through_the_wire("nav-lawnmower-3d");
 }
 

@@ -1,4 +1,5 @@
-//! The long emulated-board runs (minutes of QEMU each on 2 cores) run where `ROV_LONG` is set
+//! The long runs (minutes each on 2 cores: the emulated-board runs in QEMU, and the in-process
+//! firmware's longest flights) run where `ROV_LONG` is set
 //! (CI sets it: `.ci/run`); elsewhere each prints a `SKIPPED` line that says how to run it, so
 //! that the README's `cargo test --workspace` stays a few minutes. The quick emulated-board
 //! tests (the firmware's link failsafes, the estimator on the board over a short run, the
@@ -25,8 +26,8 @@ pub fn long_test(binary: &str, name: &str, wall_s: u32) -> bool {
     // Written to the stream itself: the harness captures only `print!` / `eprint!`.
     let _ = writeln!(
         std::io::stderr(),
-        "SKIPPED {name} (long emulated test, ~{wall_s} s on 2 cores; run with ROV_LONG=1 cargo \
-         test -p host-sim --test {binary})"
+        "SKIPPED {name} (long test, ~{wall_s} s on 2 cores; run with ROV_LONG=1 cargo test -p \
+         host-sim --test {binary})"
     );
     false
 }
