@@ -158,6 +158,34 @@ pub(super) fn take_all_frames(
     (out, items, bad)
 }
 
+/// `text` in lines of at most `width` characters, broken at spaces where it can be.
+pub fn split_text(text: &str, width: usize) -> Vec<String> {
+    let mut lines = Vec::new();
+    let mut line = String::new();
+    for word in text.split(' ') {
+        let mut word = word.to_string();
+        while word.chars().count() > width {
+            if !line.is_empty() {
+                lines.push(std::mem::take(&mut line));
+            }
+            let head: String = word.chars().take(width).collect();
+            word = word.chars().skip(width).collect();
+            lines.push(head);
+        }
+        let extra = usize::from(!line.is_empty());
+        if line.chars().count() + extra + word.chars().count() > width {
+            lines.push(std::mem::take(&mut line));
+        } else if extra == 1 {
+            line.push(' ');
+        }
+        line.push_str(&word);
+    }
+    if !line.is_empty() || lines.is_empty() {
+        lines.push(line);
+    }
+    lines
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -70,12 +70,13 @@ mod transport;
 mod vehicle;
 
 pub use commander::{Commander, Verdict, COMMANDER_SILENCE};
+pub use frames::split_text;
 pub use geodesy::{item_position, GlobalOrigin};
 pub use guard::{sticks_centred, STICK_CENTRED};
 pub use logs::{open_logs, utc_stamp};
 pub use missions::MISSION_MAX_ITEMS;
 pub use start::{main, TopsideArgs};
-pub use transport::{split_text, take_frames, GcsStats, StationId, POLL_LIMIT};
+pub use transport::{take_frames, GcsStats, StationId, POLL_LIMIT};
 
 use anyhow::Result;
 use controller_core::controller::ControlMode;

@@ -18,7 +18,7 @@
 //!
 //! Frames are taken from the bytes in `frames` (with the mission messages' `mission_type`).
 
-use super::frames::{take_all_frames, MISSION_TYPE_AT};
+use super::frames::{split_text, take_all_frames, MISSION_TYPE_AT};
 pub use super::frames::{take_frames, UnknownItem};
 use anyhow::{anyhow, bail, Context, Result};
 use mavlink::dialects::ardupilotmega::{
@@ -635,34 +635,6 @@ impl Gcs {
         self.drop_closed();
         Ok(())
     }
-}
-
-/// `text` in lines of at most `width` characters, broken at spaces where it can be.
-pub fn split_text(text: &str, width: usize) -> Vec<String> {
-    let mut lines = Vec::new();
-    let mut line = String::new();
-    for word in text.split(' ') {
-        let mut word = word.to_string();
-        while word.chars().count() > width {
-            if !line.is_empty() {
-                lines.push(std::mem::take(&mut line));
-            }
-            let head: String = word.chars().take(width).collect();
-            word = word.chars().skip(width).collect();
-            lines.push(head);
-        }
-        let extra = usize::from(!line.is_empty());
-        if line.chars().count() + extra + word.chars().count() > width {
-            lines.push(std::mem::take(&mut line));
-        } else if extra == 1 {
-            line.push(' ');
-        }
-        line.push_str(&word);
-    }
-    if !line.is_empty() || lines.is_empty() {
-        lines.push(line);
-    }
-    lines
 }
 
 #[cfg(test)]
