@@ -8,7 +8,7 @@ pub mod deployment;
 mod expect;
 mod reference;
 mod setup;
-pub mod vehicle;
+pub use topside::vehicle_file as vehicle;
 
 pub use built_in::{BuiltIn, BUILT_IN};
 pub use expect::ExpectSpec;

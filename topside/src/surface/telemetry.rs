@@ -2,16 +2,16 @@
 //! the state streams at 10 Hz, parameters on request.
 
 use super::transport::Gcs;
-use super::vehicle::SimVehicle;
+use super::vehicle::Vehicle;
 use super::{custom_mode_of, StationId};
-use crate::topside::params::{Settings, PARAMS};
+use crate::surface::params::{Settings, PARAMS};
 use anyhow::Result;
-use firmware::protocol::fault;
 use mavlink::dialects::ardupilotmega::{
     MavAutopilot, MavMessage, MavModeFlag, MavParamType, MavState, MavSysStatusSensor, MavType,
     ATTITUDE_DATA, GLOBAL_POSITION_INT_DATA, HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA,
     PARAM_VALUE_DATA, SERVO_OUTPUT_RAW_DATA, SYS_STATUS_DATA, VFR_HUD_DATA,
 };
+use protocol::fault;
 use protocol::fault as link_fault;
 
 pub(super) fn param_name(id: &mavlink::types::CharArray<16>) -> String {
@@ -44,7 +44,7 @@ pub(super) fn send_param(
     }
 }
 
-pub(super) fn send_heartbeat(gcs: &mut Gcs, v: &SimVehicle, guided: bool) -> Result<()> {
+pub(super) fn send_heartbeat(gcs: &mut Gcs, v: &Vehicle, guided: bool) -> Result<()> {
     let mut base = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
     if v.tel.armed {
         base |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
@@ -100,9 +100,10 @@ pub(super) fn send_heartbeat(gcs: &mut Gcs, v: &SimVehicle, guided: bool) -> Res
     }))
 }
 
-pub(super) fn send_state(gcs: &mut Gcs, v: &SimVehicle) -> Result<()> {
+pub(super) fn send_state(gcs: &mut Gcs, v: &Vehicle) -> Result<()> {
     let s = &v.state;
-    let time_boot_ms = (v.t_s * 1000.0) as u32;
+    // The vehicle's own clock, as an autopilot stamps its messages.
+    let time_boot_ms = (v.tel.t_us / 1000) as u32;
     let (sp, cp) = s.yaw_rad.sin_cos();
     let vn = cp * s.u_m_s - sp * s.v_m_s;
     let ve = sp * s.u_m_s + cp * s.v_m_s;
@@ -150,7 +151,7 @@ pub(super) fn send_state(gcs: &mut Gcs, v: &SimVehicle) -> Result<()> {
     }
     let [p1, p2, p3] = v.tel.pulse_us;
     gcs.send(MavMessage::SERVO_OUTPUT_RAW(SERVO_OUTPUT_RAW_DATA {
-        time_usec: (v.t_s * 1e6) as u32,
+        time_usec: v.tel.t_us as u32,
         servo1_raw: p1,
         servo2_raw: p2,
         servo3_raw: p3,

@@ -26,7 +26,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use controller_core::controller::Gains;
 use controller_core::nav::compass_cal::{CalRefusal, CompassCalibration, MAX_DEVIATION_RAD};
 use controller_core::params::VehicleParams;
-use firmware::protocol::Failsafe;
+use protocol::Failsafe;
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -168,7 +168,7 @@ impl Settings {
                 self.failsafe.to_firmware()?;
             }
             Group::Vehicle => {
-                crate::scenario::vehicle::check(&self.vehicle)?;
+                crate::vehicle_file::check(&self.vehicle)?;
             }
             Group::Mission => {
                 let max = protocol::limits::MAX_MISSION_SPEED_M_S;

@@ -4,7 +4,7 @@
 //! answers matched, time-outs) is the client's; this file moves its bytes and tells it the
 //! time.
 
-pub use crate::tether::port::{open, tcp_port, Endpoint, Port, POLL};
+pub use crate::port::{open, tcp_port, Endpoint, Port, POLL};
 use anyhow::{anyhow, bail, Context, Result};
 use protocol::{
     Answer, Client, ClientConfig, Command, DropCounters, Event, NackReason, Reply, Status,

@@ -13,9 +13,9 @@ use super::missions::Missions;
 use super::transport::{StationId, UnknownItem};
 use super::{vehicle, Topside, MANUAL_CONTROL_TIMEOUT};
 use anyhow::Result;
-use firmware::protocol::{Command, ManualThrust, Mode};
 use mavlink::dialects::ardupilotmega::{MavMessage, MavMissionResult, MavSeverity};
 use mavlink::MavHeader;
+use protocol::{Command, ManualThrust, Mode};
 
 /// Largest stick deflection that counts as centred (fraction of full scale): the vehicle's.
 pub const STICK_CENTRED: f32 = firmware::autopilot::STICK_CENTRED;

@@ -9,7 +9,7 @@ use controller_core::params::{Vehicle, VehicleParams};
 use std::path::Path;
 
 /// The Observer's vehicle file (the paper's Table I and the documented assumptions).
-pub const OBSERVER_TOML: &str = include_str!("../../../vehicles/observer.toml");
+pub const OBSERVER_TOML: &str = include_str!("../../vehicles/observer.toml");
 
 /// Parse a vehicle file's text, then check it as the firmware will: the core's validation
 /// (finite, physical) and [`Vehicle::check_flyable`] (the laws stay safe on it).

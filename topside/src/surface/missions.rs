@@ -20,15 +20,15 @@
 
 use super::geodesy::item_position;
 use super::transport::{Gcs, StationId, UnknownItem};
-use super::vehicle::SimVehicle;
+use super::vehicle::Vehicle;
 use anyhow::Result;
-use firmware::protocol::{Command, Mode, Telemetry};
 use mavlink::dialects::ardupilotmega::{
     MavCmd, MavFrame, MavMessage, MavMissionResult, MavSeverity, MISSION_ACK_DATA,
     MISSION_COUNT_DATA, MISSION_CURRENT_DATA, MISSION_ITEM_INT_DATA, MISSION_ITEM_REACHED_DATA,
     MISSION_REQUEST_INT_DATA,
 };
 use mavlink::MavHeader;
+use protocol::{Command, Mode, Telemetry};
 use std::time::{Duration, Instant};
 
 /// Most waypoints a mission may have (the vehicle's store).
@@ -102,7 +102,7 @@ impl Missions {
     fn other_type(
         &mut self,
         gcs: &mut Gcs,
-        v: &mut SimVehicle,
+        v: &mut Vehicle,
         sender: Peer,
         msg: &MavMessage,
         mission_type: u8,
@@ -234,7 +234,7 @@ impl Missions {
     pub(super) fn handle(
         &mut self,
         gcs: &mut Gcs,
-        v: &mut SimVehicle,
+        v: &mut Vehicle,
         station: StationId,
         from: MavHeader,
         msg: &MavMessage,
@@ -350,7 +350,7 @@ impl Missions {
         Ok(true)
     }
 
-    fn clear(&mut self, gcs: &mut Gcs, v: &mut SimVehicle, mission_type: u8) -> Result<()> {
+    fn clear(&mut self, gcs: &mut Gcs, v: &mut Vehicle, mission_type: u8) -> Result<()> {
         self.upload = None;
         match v.command(&Command::MissionClear)? {
             Ok(()) => {
@@ -381,7 +381,7 @@ impl Missions {
     fn item(
         &mut self,
         gcs: &mut Gcs,
-        v: &mut SimVehicle,
+        v: &mut Vehicle,
         sender: Peer,
         item: &MISSION_ITEM_INT_DATA,
     ) -> Result<()> {

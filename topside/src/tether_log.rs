@@ -7,9 +7,9 @@
 //! length and the bytes as they were written or read (COBS frames, possibly split between
 //! records). [`read`] gives the records back and [`decode`] the frames in them.
 
-use crate::tether::port::Port;
+use crate::port::Port;
 use anyhow::{bail, Context, Result};
-use firmware::protocol::{Command, Decoded, FrameDecoder, Reply};
+use protocol::{Command, Decoded, FrameDecoder, Reply};
 use std::fs::File;
 use std::io::{BufWriter, Read, Write};
 use std::path::Path;

@@ -1,19 +1,12 @@
-//! `host-sim topside`: the program at the surface. One side speaks the tether to the vehicle,
-//! the other MAVLink 2 to ground stations (QGroundControl, MAVProxy, pymavlink), with
-//! ArduSub's conventions so that existing tools map the vehicle's modes and sticks.
+//! The surface program (`rov-topside`). One side speaks the tether to the vehicle, the other
+//! MAVLink 2 to ground stations (QGroundControl, MAVProxy, pymavlink), with ArduSub's
+//! conventions so that existing tools map the vehicle's modes and sticks.
 //!
-//! The vehicle side is `--sim SCENARIO`: the one closed loop of every run
-//! ([`crate::closed_loop::ClosedLoop`], as `hil` drives it) with the firmware library's `App` in
-//! this process at the end of the tether (the same frames, state machine and failsafes as the
-//! image), or with `--emulated` the firmware image itself in QEMU; in real time or
-//! `--speedup K` faster. With `[navigation] source = "estimator"` the simulated sensors go to
-//! the vehicle's own estimator, and the ground stations see its estimate; the true state
-//! beside it goes to a `.truth.csv` next to the logs. A scenario of the topside layout
-//! (`[deployment] control = "topside"`) is flown in that layout: the topside MCU's
-//! App and its node behind the node link (`tether::topside_layout::TopsideLayout`), the
-//! commands going to the topside App (`vehicle`). Or `--serial DEV`: a real vehicle, or the
-//! topside board of the topside layout (the same tether protocol). The modes run on the
-//! vehicle (or the topside board): the topside translates.
+//! The vehicle is reached through a byte stream only ([`vehicle`]): `--serial DEV[:BAUD]` (a
+//! real vehicle, or the topside board of the paper's layout: the same tether protocol) or
+//! `--tcp HOST:PORT` (a simulated vehicle served by `host-sim vehicle`, or a serial-to-TCP
+//! bridge). The vehicle runs on its own clock and navigates itself; the modes run on the
+//! vehicle: the surface translates.
 //!
 //! | MAVLink in | tether out |
 //! |---|---|
@@ -75,23 +68,23 @@ pub use geodesy::{item_position, GlobalOrigin};
 pub use guard::{sticks_centred, STICK_CENTRED};
 pub use logs::{open_logs, utc_stamp};
 pub use missions::MISSION_MAX_ITEMS;
-pub use start::{main, TopsideArgs};
+pub use start::{main, start_with, SurfaceOptions, TopsideArgs};
 pub use transport::{take_frames, GcsStats, StationId, POLL_LIMIT};
+pub use vehicle::{check_telemetry, Vehicle, VehicleEnd, TETHER_TIMEOUT, VEHICLE_SILENCE};
 
 use anyhow::Result;
 use controller_core::controller::ControlMode;
 use controller_core::reference::Reference;
-use firmware::protocol::{fault, Command, ManualThrust, Mode};
 use mavlink::dialects::ardupilotmega::{
     MavCmd, MavMessage, MavMissionResult, MavResult, MavSeverity, GPS_GLOBAL_ORIGIN_DATA,
 };
 use mavlink::MavHeader;
 use missions::Missions;
 use params::PARAMS;
+use protocol::{fault, Command, ManualThrust, Mode};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 use transport::Gcs;
-use vehicle::SimVehicle;
 
 /// A `MANUAL_CONTROL` older than this (wall clock) is no longer forwarded.
 pub const MANUAL_CONTROL_TIMEOUT: Duration = Duration::from_millis(500);
@@ -165,7 +158,7 @@ const FAULT_NAMES: [(u16, &str); 9] = [
 /// the missions, the pilot's sticks and the mode shown.
 struct Topside {
     gcs: Gcs,
-    v: SimVehicle,
+    v: Vehicle,
     commander: Commander,
     missions: Missions,
     /// The commander's latest sticks, and when they came (wall clock: the pilot's stream is
@@ -192,7 +185,7 @@ struct Topside {
 }
 
 impl Topside {
-    fn run(&mut self, a: &TopsideArgs) -> Result<()> {
+    fn run(&mut self, a: &SurfaceOptions, speedup: f64) -> Result<()> {
         let wall0 = Instant::now();
         let mut k: u64 = 0;
         let per_second = (1.0 / self.v.period_s).round().max(1.0) as u64;
@@ -204,7 +197,7 @@ impl Topside {
                 }
             }
             // Pace: simulated time runs `speedup` times the wall clock.
-            let due = wall0 + Duration::from_secs_f64(self.v.t_s / a.speedup);
+            let due = wall0 + Duration::from_secs_f64(self.v.t_s / speedup);
             if let Some(wait) = due.checked_duration_since(Instant::now()) {
                 std::thread::sleep(wait);
             }
@@ -437,6 +430,9 @@ impl Topside {
         }
         match v.command(&Command::SetMode(firmware_mode))? {
             Ok(()) => {
+                // The vehicle took it: shown (and judged, e.g. a mission upload in AUTO) now,
+                // not at its next telemetry.
+                v.tel.mode = firmware_mode;
                 self.guided = custom == ardusub_mode::GUIDED;
                 self.sticks_seen_centred = false;
                 self.gcs.ack(station, cmd, MavResult::MAV_RESULT_ACCEPTED)
@@ -496,6 +492,8 @@ impl Topside {
                         }
                         match self.v.command(&cmd)? {
                             Ok(()) => {
+                                // Shown now, not at the vehicle's next telemetry.
+                                self.v.tel.armed = cmd == Command::Arm;
                                 if cmd == Command::Arm {
                                     self.sticks_seen_centred = false;
                                 }

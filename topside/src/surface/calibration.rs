@@ -16,8 +16,8 @@ use super::telemetry;
 use super::Topside;
 use anyhow::Result;
 use firmware::compass_swing::SwingOutcome;
-use firmware::protocol::Command;
 use mavlink::dialects::ardupilotmega::{MavCmd, MavResult, MavSeverity};
+use protocol::Command;
 
 /// Yaw rate of a turn started from the ground station (rad/s): a circle in about 25 s.
 pub const YAW_RATE_RAD_S: f32 = 0.25;

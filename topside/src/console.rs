@@ -1,27 +1,23 @@
-//! The host's end of the tether: a byte port (TCP or a serial device), the firmware's own
-//! framing ([`firmware::protocol`]: postcard + CRC-32 + COBS), sequence numbers, link
-//! statistics and optional noise injection (for the corrupted-byte tests).
-//!
-//! Used by `host-sim hil` (lock-step with an emulated or real board) and `host-sim link`
-//! (a topside console: arm, disarm, mode, reference, telemetry to CSV).
+//! `rov-topside console`: a line console on the tether (arm, disarm, modes, references, the
+//! pilot's thrust, navigation by hand for a bench test) with the telemetry to a CSV and a
+//! status line; commands from standard input or a `--script`. [`console`] runs on any
+//! [`Link`], so a test drives it against the emulated board.
 
 use anyhow::{anyhow, bail, Context, Result};
-use firmware::protocol::{Command, NackReason, Reply, Status, Telemetry};
+use protocol::{Command, NackReason, Reply, Status, Telemetry};
 use std::io::Write;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use crate::tether::link::{HostLinkStats, Link};
-use crate::tether::port::{open, Port};
+use crate::link::{HostLinkStats, Link};
+use crate::port::{open, Port, VehicleLink};
 
-// ---- `host-sim link`: a topside console -------------------------------------------------
-
-/// Arguments of `host-sim link`.
+/// Arguments of `rov-topside console`.
 #[derive(Debug, clap::Args)]
-pub struct LinkArgs {
-    /// The firmware to talk to (`--qemu ELF`: a dry run of the console).
+pub struct ConsoleArgs {
+    /// The vehicle to talk to.
     #[command(flatten)]
-    pub firmware: crate::commands::FirmwareArgs,
+    pub vehicle: VehicleLink,
     /// Telemetry CSV (default out/link/telemetry.csv).
     #[arg(long)]
     pub csv: Option<PathBuf>,
@@ -56,7 +52,7 @@ pub enum ConsoleCmd {
 pub const CONSOLE_HELP: &str =
     "commands: arm | disarm | mode idle|manual|hold|track-xz|track-xy|track-3d|paper-xz|paper-xy
           | ref hold X Y Z | ref line X Y Z HEADING SPEED | ref circle CX CY CZ RADIUS SPEED
-          | ref helix CX CY CZ RADIUS SPEED DEPTH_RATE | ref paper H_R T_F | ref scenario NAME
+          | ref helix CX CY CZ RADIUS SPEED DEPTH_RATE | ref paper H_R T_F
           | nav X Y Z YAW [auto] | nav stop | thrust SURGE YAW HEAVE (each -1..1)
           | wait SECONDS | help | quit";
 
@@ -74,7 +70,7 @@ fn nums(w: &[&str], n: usize) -> Result<Vec<f32>> {
 pub fn parse_console(line: &str) -> Result<Option<ConsoleCmd>> {
     use controller_core::controller::ControlMode;
     use controller_core::reference::{PaperPolynomial, Reference};
-    use firmware::protocol::{ManualThrust, Mode};
+    use protocol::{ManualThrust, Mode};
     let w: Vec<&str> = line.split_whitespace().collect();
     let Some((&head, rest)) = w.split_first() else {
         return Ok(None);
@@ -140,10 +136,6 @@ pub fn parse_console(line: &str) -> Result<Option<ConsoleCmd>> {
                         h_r_m: v[0],
                         t_f_s: v[1],
                     })
-                }
-                "scenario" => {
-                    let name = a.first().ok_or_else(|| anyhow!("ref scenario NAME"))?;
-                    crate::scenario::Scenario::load(name)?.reference.to_core()
                 }
                 k => bail!("unknown reference kind {k:?}"),
             };
@@ -292,10 +284,7 @@ pub fn console(
             next_beat = now + period;
             link.send(&Command::Heartbeat { t_us })?;
             if let Some(n) = auto_nav {
-                link.send(&Command::Nav(firmware::protocol::NavSample {
-                    t_us,
-                    state: n,
-                }))?;
+                link.send(&Command::Nav(protocol::NavSample { t_us, state: n }))?;
             }
         }
         // Next command, unless a `wait` is running.
@@ -309,10 +298,7 @@ pub fn console(
                     Ok(Some(ConsoleCmd::Wait(d))) => wait_until = Some(now + d),
                     Ok(Some(ConsoleCmd::NavStop)) => auto_nav = None,
                     Ok(Some(ConsoleCmd::Nav(n, auto))) => {
-                        link.send(&Command::Nav(firmware::protocol::NavSample {
-                            t_us,
-                            state: n,
-                        }))?;
+                        link.send(&Command::Nav(protocol::NavSample { t_us, state: n }))?;
                         auto_nav = auto.then_some(n);
                     }
                     Ok(Some(ConsoleCmd::Send(c))) => {
@@ -385,31 +371,10 @@ pub fn console(
     Ok(rep)
 }
 
-/// `host-sim link`.
-pub fn main(a: LinkArgs) -> Result<()> {
-    let mut _qemu = None;
-    let port: Box<dyn Port> = if let Some(elf) = &a.firmware.qemu {
-        let (q, p) = crate::tether::qemu::start_qemu_link("qemu-system-arm", elf, None, false)?;
-        _qemu = Some(q);
-        p
-    } else if let Some(board) = a.firmware.board() {
-        open(&board)?
-    } else {
-        bail!("give --serial DEVICE, --tcp HOST:PORT or --qemu ELF");
-    };
+/// `rov-topside console`.
+pub fn main(a: ConsoleArgs) -> Result<()> {
+    let port: Box<dyn Port> = open(&a.vehicle.endpoint()?)?;
     let mut link = Link::new(port, None);
-    if a.firmware.qemu.is_some() {
-        // The emulated USART drops bytes sent before it is enabled: wait for the Hello.
-        let hello = link.wait_for(
-            Duration::from_secs(30),
-            |r| matches!(r, Reply::Hello { .. }).then_some(()),
-            |_| {},
-        )?;
-        if hello.is_none() {
-            bail!("no Hello from the emulated firmware within 30 s");
-        }
-        eprintln!("hello from the emulated firmware");
-    }
     let csv_path = a
         .csv
         .unwrap_or_else(|| PathBuf::from("out/link/telemetry.csv"));
