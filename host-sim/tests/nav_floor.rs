@@ -56,6 +56,24 @@ fn measure(label: &str, sc: &Scenario) -> (Summary, NavFloor) {
     (s, f)
 }
 
+/// The issue's rows alone, the measure every change of the filter is judged by:
+/// `cargo test -p host-sim --release --test nav_floor probe -- --nocapture`.
+#[test]
+fn probe_the_issue_rows_filter_floor_ratio_nees() {
+    println!(
+        "| scenario | tracking (last 80 %) | filter RMS | floor (smoother) | ratio | forward f64 | ratio to forward | NEES share | USBL refused |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
+    for name in ["nav-circle-3d", "nav-lawnmower-3d", "nav-current-3d"] {
+        measure(name, &load(name));
+    }
+    for bias in [0.0, 10.0] {
+        let label = format!("survey, 0.2 m/s beam, compass {bias} deg");
+        measure(&label, &survey_bias(bias));
+    }
+    measure("survey, USBL 0.2 Hz", &survey_usbl_slow());
+}
+
 #[test]
 fn every_estimator_run_reports_its_floor_and_the_filter_is_measured_against_it() {
     println!(
