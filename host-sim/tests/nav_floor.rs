@@ -30,23 +30,40 @@ fn survey_usbl_slow() -> Scenario {
     sc
 }
 
+fn header() {
+    println!(
+        "| scenario | tracking (last 80 %) | filter RMS | floor (smoother) | ratio | forward f64 | ratio to forward | filter, last 80 % | floor, last 80 % | ratio, last 80 % | forward, last 80 % | NEES share | USBL refused |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+}
+
 fn measure(label: &str, sc: &Scenario) -> (Summary, NavFloor) {
-    let s = run(&sc.resolve().unwrap(), &RunOptions::default())
-        .unwrap()
-        .summary;
+    measure_seed(label, sc, None)
+}
+
+fn measure_seed(label: &str, sc: &Scenario, seed: Option<u64>) -> (Summary, NavFloor) {
+    let opts = RunOptions {
+        noise_seed: seed,
+        ..RunOptions::default()
+    };
+    let s = run(&sc.resolve().unwrap(), &opts).unwrap().summary;
     let f = s
         .navigation
         .floor
         .clone()
         .expect("an estimator run has a floor");
     println!(
-        "| {label} | {:.2} cm | {:.2} cm | {:.2} cm | **{:.2}** | {:.2} cm | {:.2} | {:.2} | {} |",
+        "| {label} | {:.2} cm | {:.2} cm | {:.2} cm | **{:.2}** | {:.2} cm | {:.2} | {:.2} cm | {:.2} cm | **{:.2}** | {:.2} cm | {:.2} | {} |",
         100.0 * s.rms_position_error_last80_m,
         100.0 * f.filter_rms_m,
         100.0 * f.floor_rms_m,
         f.ratio,
         100.0 * f.forward_rms_m,
         f.ratio_to_forward,
+        100.0 * f.filter_rms_last80_m,
+        100.0 * f.floor_rms_last80_m,
+        f.ratio_last80,
+        100.0 * f.forward_rms_last80_m,
         s.navigation.nees_in_bounds_fraction.unwrap_or(f64::NAN),
         s.navigation.usbl_fixes_rejected,
     );
@@ -56,12 +73,54 @@ fn measure(label: &str, sc: &Scenario) -> (Summary, NavFloor) {
     (s, f)
 }
 
+/// The issue's rows alone, the measure every change of the filter is judged by:
+/// `cargo test -p host-sim --release --test nav_floor probe -- --nocapture`.
+#[test]
+fn probe_the_issue_rows_filter_floor_ratio_nees() {
+    header();
+    for name in ["nav-circle-3d", "nav-lawnmower-3d", "nav-current-3d"] {
+        measure(name, &load(name));
+    }
+    for bias in [0.0, 10.0] {
+        let label = format!("survey, 0.2 m/s beam, compass {bias} deg");
+        measure(&label, &survey_bias(bias));
+    }
+    measure("survey, USBL 0.2 Hz", &survey_usbl_slow());
+}
+
+/// The issue's rows over 8 noise seeds: one run's NEES share is a weak figure (its errors
+/// are correlated over about a minute, so a 250 s run holds a handful of independent
+/// samples); the mean over seeds says whether the filter is over- or under-confident.
+/// `cargo test -p host-sim --release --test nav_floor seeds -- --nocapture`.
+#[test]
+fn probe_over_seeds_ratio_and_nees() {
+    let rows = [
+        ("nav-lawnmower-3d", load("nav-lawnmower-3d")),
+        ("survey, compass 10 deg", survey_bias(10.0)),
+        ("survey, USBL 0.2 Hz", survey_usbl_slow()),
+    ];
+    header();
+    for (label, sc) in rows {
+        let (mut ratio, mut ratio80, mut nees, mut min_nees) = (0.0, 0.0, 0.0, f64::MAX);
+        let seeds = 1..=8u64;
+        let n = seeds.clone().count() as f64;
+        for seed in seeds {
+            let (s, f) = measure_seed(&format!("{label}, seed {seed}"), &sc, Some(seed));
+            let share = s.navigation.nees_in_bounds_fraction.unwrap_or(0.0);
+            ratio += f.ratio / n;
+            ratio80 += f.ratio_last80 / n;
+            nees += share / n;
+            min_nees = min_nees.min(share);
+        }
+        println!(
+            "{label}: over 8 seeds, mean ratio {ratio:.2}, mean ratio last 80 % {ratio80:.2}, mean NEES share {nees:.2} (lowest {min_nees:.2})"
+        );
+    }
+}
+
 #[test]
 fn every_estimator_run_reports_its_floor_and_the_filter_is_measured_against_it() {
-    println!(
-        "| scenario | tracking (last 80 %) | filter RMS | floor (smoother) | ratio | forward f64 | ratio to forward | NEES share | USBL refused |"
-    );
-    println!("|---|---|---|---|---|---|---|---|---|");
+    header();
     let mut rows = Vec::new();
     for name in ["nav-circle-3d", "nav-lawnmower-3d", "nav-current-3d"] {
         rows.push((name.to_string(), measure(name, &load(name))));
@@ -102,8 +161,10 @@ fn every_estimator_run_reports_its_floor_and_the_filter_is_measured_against_it()
 /// of the USBL fixes over the dead reckoning's correlation time (about 70 s here), which a
 /// filter takes from the past only and a smoother from both sides, so in the steady state
 /// the smoother's RMS is about 1/sqrt(2) of the best filter's (1.41x), and more in the first
-/// minute. Measured (2026-11-28): circle 1.46, lawnmower 1.85, current 1.46, compass bias
-/// 0-10 deg 2.20-2.34; the filter is within 1.00-1.08x of the f64 forward pass.
+/// minute. Measured: circle 1.46, lawnmower 1.85, current 1.46, compass bias 0-10 deg
+/// 2.20-2.34 (over the last 80 %, after the launch transient: 1.37, 1.67, 1.36, 2.03-2.12; the
+/// survey's mean over seeds 1-8 is 1.46); the filter is within 1.00-1.08x of the f64 forward
+/// pass.
 #[test]
 #[ignore = "not reachable by a causal filter: 1.46-2.34x the smoother's floor measured, 1.00-1.08x the f64 forward pass"]
 fn the_filter_is_within_1_3x_of_the_smoothers_floor() {
