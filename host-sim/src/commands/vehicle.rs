@@ -37,6 +37,13 @@ pub struct VehicleArgs {
     /// launch point at boot (otherwise the surface starts it with `StartNav`).
     #[arg(long)]
     pub start_nav: bool,
+    /// The simulated USBL at the surface sends its fixes as `$PSIMSSB` NMEA sentences to this
+    /// UDP address (`HOST:PORT`, the surface program's `--usbl udpin:...`), as a real USBL
+    /// does; without it the fixes go into the vehicle's own inputs. The folder of the truth
+    /// log also gets what the operator knows of the dive: `<scenario>.launch` (the surface's
+    /// `--launch`) and `<scenario>.nav-config.json` (its `--nav-config`).
+    #[arg(long, value_name = "HOST:PORT")]
+    pub usbl_to: Option<String>,
     /// The firmware image in QEMU instead of the library (not served yet: refused).
     #[arg(long)]
     pub qemu: bool,
@@ -63,6 +70,7 @@ pub fn main(a: VehicleArgs) -> Result<std::process::ExitCode> {
         duration_s: a.duration,
         out: a.out.clone(),
         start_nav: a.start_nav,
+        usbl_to: a.usbl_to.clone(),
     };
     check(&o).map_err(refused)?;
     if a.qemu {

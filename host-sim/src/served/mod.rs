@@ -6,8 +6,10 @@
 //! - [`bridge`]: the App's one serial port shared by the surface's frames and the vehicle's
 //!   own inputs (the simulated navigation computer, the on-board instruments);
 //! - [`vehicle`]: the App as a board runs it, as the closed loop's controller end;
-//! - [`server`]: the paced loop, the TCP port, the truth log.
+//! - [`server`]: the paced loop, the TCP port, the truth log;
+//! - [`usbl_out`]: the simulated USBL at the surface, its fixes as NMEA over UDP.
 
 pub mod bridge;
 pub mod server;
+pub mod usbl_out;
 pub mod vehicle;

@@ -47,6 +47,9 @@ pub struct ServeOptions {
     pub out: PathBuf,
     /// The vehicle starts its own estimator at the launch point.
     pub start_nav: bool,
+    /// The simulated USBL's NMEA to this UDP address (`HOST:PORT`), for the surface program;
+    /// `None`: its fixes go into the vehicle's inputs.
+    pub usbl_to: Option<String>,
 }
 
 /// What a served run did.
@@ -99,7 +102,14 @@ pub fn serve(sc: &RunSetup, o: &ServeOptions, listener: &TcpListener) -> Result<
         open_ended: true,
         ..RunOptions::default()
     };
-    let endpoint = ServedVehicle::new(sc, o.start_nav)?;
+    let mut endpoint = ServedVehicle::new(sc, o.start_nav)?;
+    if let Some(to) = &o.usbl_to {
+        endpoint.set_usbl_out(super::usbl_out::UsblOut::new(to, o.speedup)?);
+    }
+    // What the operator knows of this dive: the estimator's settings for its instruments.
+    let nav_config = o.out.join(format!("{}.nav-config.json", sc.name));
+    std::fs::write(&nav_config, serde_json::to_string_pretty(&endpoint.onboard_config())?)
+        .with_context(|| format!("write {}", nav_config.display()))?;
     let mut run = ClosedLoop::new(sc, &run_opts, navigation_for_vehicle(sc), endpoint)?;
     let period_s = run.period_s();
     let tick_wall = Duration::from_secs_f64(period_s / o.speedup);
@@ -113,6 +123,7 @@ pub fn serve(sc: &RunSetup, o: &ServeOptions, listener: &TcpListener) -> Result<
     let rows_per_flush = (1.0 / period_s).round().max(1.0) as u64;
     let mut ticks = 0u64;
     let mut next_lag_note = wall0;
+    let mut launch_written = false;
     loop {
         if o.duration_s
             .is_some_and(|d| run.t_s() >= d - 0.5 * period_s)
@@ -129,6 +140,22 @@ pub fn serve(sc: &RunSetup, o: &ServeOptions, listener: &TcpListener) -> Result<
         if !run.step()? {
             rep.stopped = Some(run.stop_reason().to_string());
             break;
+        }
+        if !launch_written {
+            if let Some(l) = run.endpoint().launch {
+                // Where the vehicle was put in the water, as the operator knows it: the
+                // surface's `--launch` (north, east, depth in m, heading in degrees).
+                let path = o.out.join(format!("{}.launch", sc.name));
+                let text = format!(
+                    "{},{},{},{}\n",
+                    l.x_m,
+                    l.y_m,
+                    l.z_m,
+                    l.yaw_rad.to_degrees()
+                );
+                std::fs::write(&path, text).with_context(|| format!("write {}", path.display()))?;
+                launch_written = true;
+            }
         }
         let out = std::mem::take(&mut run.endpoint_mut().surface_out);
         if let Some(s) = surface.as_mut() {

@@ -109,6 +109,11 @@ pub struct ServedVehicle {
     pub surface_in: Vec<u8>,
     /// Bytes for the surface, written by the passes since taken.
     pub surface_out: Vec<u8>,
+    /// The simulated USBL at the surface: its fixes go to the surface program as NMEA
+    /// (otherwise into the vehicle's inputs, as a navigation computer's would).
+    usbl: Option<super::usbl_out::UsblOut>,
+    /// The launch point the vehicle was put in the water at (known once the loop starts).
+    pub launch: Option<NavState>,
 }
 
 impl ServedVehicle {
@@ -158,6 +163,8 @@ impl ServedVehicle {
             own: Vec::new(),
             surface_in: Vec::new(),
             surface_out: Vec::new(),
+            usbl: None,
+            launch: None,
         })
     }
 
@@ -207,10 +214,24 @@ impl ServedVehicle {
     }
 }
 
+impl ServedVehicle {
+    /// The USBL's fixes to the surface program as NMEA over UDP (`usbl_out`).
+    pub fn set_usbl_out(&mut self, out: super::usbl_out::UsblOut) {
+        self.usbl = Some(out);
+    }
+
+    /// The estimator's settings the vehicle's instruments call for (what an operator writes
+    /// into the surface's `--nav-config`).
+    pub fn onboard_config(&self) -> controller_core::nav::onboard::OnboardConfig {
+        self.onboard
+    }
+}
+
 impl ControllerEndpoint for ServedVehicle {
     /// At time 0: the vehicle's own description (as configured on a real vehicle), with
     /// `start_nav` its estimator started at the launch point; the boot's pass.
     fn start(&mut self, nav0: &NavState) -> Result<()> {
+        self.launch = Some(*nav0);
         self.own.push(Command::SetVehicle(self.vehicle));
         if self.start_nav {
             self.own.push(Command::StartNav {
@@ -264,7 +285,17 @@ impl ControllerEndpoint for ServedVehicle {
                     .push_back((d.t_us, self.onboard.pressure.pressure_pa(d.depth_m))),
                 Measurement::Heading(h) => self.own.push(Command::Compass(h)),
                 Measurement::Dvl(d) => f.dvl.push_back(d),
-                Measurement::Position(p, _) => self.own.push(Command::UsblFix(p)),
+                Measurement::Position(p, _) => match self.usbl.as_mut() {
+                    Some(out) => {
+                        // The transponder's depth as the USBL sees it: the latest pressure
+                        // reading's.
+                        let depth_m = f.pressure.back().map_or(0.0, |&(_, pa)| {
+                            self.onboard.pressure.depth_m(pa)
+                        });
+                        out.send(&p, depth_m, self.ticks.saturating_sub(1) * self.period_us);
+                    }
+                    None => self.own.push(Command::UsblFix(p)),
+                },
             }
         }
         Ok(())

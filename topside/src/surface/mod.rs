@@ -56,6 +56,7 @@ mod geodesy;
 mod guard;
 mod logs;
 mod missions;
+pub mod navigation;
 pub mod params;
 mod start;
 mod telemetry;
@@ -182,6 +183,8 @@ struct Topside {
     vehicle_silent: bool,
     /// Telemetry refusals already said.
     refusals_said: u64,
+    /// The vehicle's navigation from the surface: its estimator's start, the USBL's fixes.
+    nav: navigation::SurfaceNav,
 }
 
 impl Topside {
@@ -230,6 +233,10 @@ impl Topside {
                 v.send(&Command::ManualThrust(sticks))?;
             }
             v.step()?;
+            for text in self.nav.tick(&mut self.v)? {
+                eprintln!("topside: {text}");
+                self.gcs.text(MavSeverity::MAV_SEVERITY_INFO, &text)?;
+            }
             self.poll_mag_cal()?;
             self.watch_vehicle(k.is_multiple_of(per_second))?;
 
@@ -276,6 +283,14 @@ impl Topside {
             self.commander.takeovers_refused,
             self.v.frames_refused
         );
+        let u = self.nav.stats;
+        if u.sentences > 0 {
+            eprintln!(
+                "topside: USBL {} sentences, {} fixes relayed, {} bad, {} head-up, {} untimed; \
+                 {} estimator starts",
+                u.sentences, u.relayed, u.bad, u.head_up, u.untimed, self.nav.starts
+            );
+        }
         Ok(())
     }
 
@@ -518,6 +533,23 @@ impl Topside {
                         }
                     },
                     MavCmd::MAV_CMD_DO_START_MAG_CAL => self.start_mag_cal(station)?,
+                    // The vehicle's estimator restarted at the latest USBL fix (param1 = 1).
+                    MavCmd::MAV_CMD_USER_1 if c.param1 == 1.0 => {
+                        match self.nav.start(&mut self.v, true)? {
+                            Some(text) if text.starts_with("Navigation restarted") => {
+                                eprintln!("topside: {text}");
+                                self.gcs.text(MavSeverity::MAV_SEVERITY_INFO, &text)?;
+                                self.gcs
+                                    .ack(station, c.command, MavResult::MAV_RESULT_ACCEPTED)?
+                            }
+                            other => {
+                                let why = other.unwrap_or_else(|| {
+                                    "Navigation restart refused: the vehicle's clock is not known yet".into()
+                                });
+                                self.refuse(station, c.command, &why)?
+                            }
+                        }
+                    }
                     other => {
                         self.gcs
                             .ack(station, other, MavResult::MAV_RESULT_UNSUPPORTED)?;

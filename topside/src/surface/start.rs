@@ -143,6 +143,9 @@ pub struct SurfaceOptions {
     /// here is time-stamped the same way.
     #[arg(long)]
     pub tether_log: Option<PathBuf>,
+    /// The vehicle's navigation from the surface (USBL, the estimator's start).
+    #[command(flatten)]
+    pub nav: super::navigation::NavOptions,
 }
 
 /// Run the surface program until `--duration` (or forever): the vehicle on the link given.
@@ -190,13 +193,15 @@ pub fn start_with(
             "the speed-up must be > 0 (got {speedup})"
         )));
     }
+    let nav = super::navigation::SurfaceNav::open(&o.nav).map_err(refused)?;
     let (tlog, tlog_path, tether_path) = open_logs(&o.tlog, o.tether_log.as_deref())?;
     let gcs = Gcs::open(&o.mavlink, o.system_id, tlog)?;
     let (v, what) = vehicle(&tether_path)?;
-    run_topside(o, speedup, gcs, v, what, &tlog_path, &tether_path)
+    run_topside(o, speedup, gcs, v, what, &tlog_path, &tether_path, nav)
 }
 
 /// The saved parameters restored, then the topside's loop.
+#[allow(clippy::too_many_arguments)]
 fn run_topside(
     a: &SurfaceOptions,
     speedup: f64,
@@ -205,6 +210,7 @@ fn run_topside(
     what: String,
     tlog_path: &Path,
     tether_path: &Path,
+    nav: super::navigation::SurfaceNav,
 ) -> Result<()> {
     let mut pending = Pending::default();
     if a.params.exists() {
@@ -255,6 +261,7 @@ fn run_topside(
         pending,
         vehicle_silent: false,
         refusals_said: 0,
+        nav,
     };
     t.run(a, speedup)
 }

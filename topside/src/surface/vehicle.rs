@@ -333,6 +333,11 @@ impl Vehicle {
         Ok(r)
     }
 
+    /// When the vehicle last sent telemetry (wall clock).
+    pub(super) fn heard_at(&self) -> Instant {
+        self.heard_at
+    }
+
     /// How long the vehicle has said nothing (wall clock).
     pub(super) fn silent_for(&self) -> Duration {
         self.heard_at.elapsed()
