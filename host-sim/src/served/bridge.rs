@@ -16,6 +16,13 @@
 //! to the surface. The bridge opens a session of its own at boot (before a surface opens
 //! one) and a new one under the surface's before the numbers would wrap; the surface keeps
 //! the session number it was given.
+//!
+//! Before a lock-step image (the firmware in QEMU, whose clock is the time stamps it is
+//! given) the bridge also stands in for a board's own clock: a surface `Heartbeat` reaches
+//! it stamped with the vehicle's time ([`TetherBridge::set_vehicle_time`]; a fixed-rate board
+//! ignores the stamp and reads its clock), and the image's `Telemetry`, which answers every
+//! control step there, reaches the surface at a board's telemetry period
+//! ([`TetherBridge::set_telemetry_period`]).
 
 use anyhow::{anyhow, Result};
 use firmware::protocol::{
@@ -88,6 +95,12 @@ pub struct TetherBridge {
     pub own_refused: u64,
     /// Why the App refused the latest vehicle input it refused.
     pub own_refused_why: Option<NackReason>,
+    /// The vehicle's time (us) a surface `Heartbeat` is stamped with (`None`: as sent).
+    vehicle_time_us: Option<u64>,
+    /// `Telemetry` to the surface at most once a this long (us; `None`: all of it), and the
+    /// time stamp of the latest one passed.
+    telemetry_period_us: Option<u64>,
+    last_telemetry_us: Option<u64>,
 }
 
 impl TetherBridge {
@@ -116,8 +129,47 @@ impl TetherBridge {
         Ok(out)
     }
 
+    /// Stamp the surface's heartbeats with the vehicle's time `t_us` (a lock-step image:
+    /// its clock is the time stamps it takes).
+    pub fn set_vehicle_time(&mut self, t_us: u64) {
+        self.vehicle_time_us = Some(t_us);
+    }
+
+    /// Pass the App's `Telemetry` to the surface at most once every `period_us` of its time
+    /// stamps (a lock-step image answers every control step with one).
+    pub fn set_telemetry_period(&mut self, period_us: u64) {
+        self.telemetry_period_us = Some(period_us);
+    }
+
+    /// Whether the bridge's own session is being opened (its answer not read yet).
+    pub fn opening(&self) -> bool {
+        self.opening.is_some()
+    }
+
+    /// One vehicle input framed in the bridge's session, and its number there (its answer,
+    /// as every answer to a vehicle input, is not sent to the surface); `None` while no
+    /// session is in force or one is being opened ([`own_inputs`](Self::own_inputs) holds
+    /// inputs meanwhile).
+    pub fn own_frame(&mut self, cmd: &Command) -> Result<Option<(u16, Vec<u8>)>> {
+        if self.opening.is_some() || self.app_session == 0 {
+            return Ok(None);
+        }
+        let n = self.take_seq();
+        let mut out = vec![0];
+        out.extend(frame(self.app_session, n, cmd)?);
+        Ok(Some((n, out)))
+    }
+
     /// One good frame of the surface, renumbered for the App.
     fn surface_frame(&mut self, seq: u16, session: u32, msg: &Command) -> Result<Vec<u8>> {
+        let restamped;
+        let msg = match (msg, self.vehicle_time_us) {
+            (Command::Heartbeat { .. }, Some(t_us)) => {
+                restamped = Command::Heartbeat { t_us };
+                &restamped
+            }
+            _ => msg,
+        };
         if let Command::OpenSession { .. } = msg {
             // The App numbers the new session from this frame's number on.
             self.surface_last = Some(seq);
@@ -261,6 +313,14 @@ impl TetherBridge {
                     Answer::Renumbered(Reply::Status(st))
                 }
                 None => Answer::Drop,
+            },
+            Reply::Telemetry(t) => match self.telemetry_period_us {
+                Some(p) if self.last_telemetry_us.is_some_and(|l| t.t_us < l + p) => Answer::Drop,
+                Some(_) => {
+                    self.last_telemetry_us = Some(t.t_us);
+                    Answer::Pass
+                }
+                None => Answer::Pass,
             },
             _ => Answer::Pass,
         }

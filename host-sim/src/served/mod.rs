@@ -5,9 +5,16 @@
 //!
 //! - [`bridge`]: the App's one serial port shared by the surface's frames and the vehicle's
 //!   own inputs (the simulated navigation computer, the on-board instruments);
+//! - [`endpoint`]: what the served loop needs of a served vehicle;
 //! - [`vehicle`]: the App as a board runs it, as the closed loop's controller end;
+//! - [`image`]: the firmware's image in QEMU, stepped on the simulated clock;
+//! - [`layout`]: the topside layout (the topside MCU's App, its node behind the node link),
+//!   its PC tether served;
 //! - [`server`]: the paced loop, the TCP port, the truth log.
 
 pub mod bridge;
+pub mod endpoint;
+pub mod image;
+pub mod layout;
 pub mod server;
 pub mod vehicle;

@@ -11,6 +11,7 @@
 //! the surface. The plant gets the thrust of the pulse widths on its three outputs.
 
 use super::bridge::TetherBridge;
+use super::endpoint::{Believed, ServedEndpoint};
 use crate::clock::us;
 use crate::closed_loop::estimator_nav::onboard_config;
 use crate::closed_loop::{ControllerEndpoint, StepReply};
@@ -268,5 +269,32 @@ impl ControllerEndpoint for ServedVehicle {
             }
         }
         Ok(())
+    }
+}
+
+impl ServedEndpoint for ServedVehicle {
+    fn describe(&self) -> String {
+        "firmware library in process".into()
+    }
+
+    fn from_surface(&mut self, bytes: &[u8]) {
+        self.surface_in.extend_from_slice(bytes);
+    }
+
+    fn take_surface_out(&mut self) -> Vec<u8> {
+        std::mem::take(&mut self.surface_out)
+    }
+
+    fn believed(&self) -> Believed {
+        let ap = self.app.autopilot();
+        Believed {
+            nav: ap.nav_state(),
+            armed: ap.armed(),
+            mode: Believed::mode_name(&ap.mode()),
+        }
+    }
+
+    fn own_refused(&self) -> u64 {
+        self.bridge.own_refused
     }
 }

@@ -18,9 +18,26 @@ impl ControllerEndpoint for TopsideLayout {
     }
 
     /// At virtual time 0: the topside's first downlink (disarmed: the node's arm transition
-    /// needs it), then the PC's set-up as `hil` sends it to the onboard App.
+    /// needs it), then the PC's set-up as `hil` sends it to the onboard App (with an external
+    /// PC: only the vehicle's description and, if asked, the estimator's start).
     fn start(&mut self, nav0: &NavState) -> Result<()> {
         self.pass(0)?;
+        if self.external.is_some() {
+            // The PC is outside: the vehicle's description (as configured on a real
+            // vehicle) and, if asked, the estimator's start go in at the next pass.
+            self.pending_pc.push((0, Command::SetVehicle(self.vehicle)));
+            if self.external_start_nav {
+                self.pending_pc.push((
+                    0,
+                    Command::StartNav {
+                        t_us: 0,
+                        initial: *nav0,
+                        config: self.onboard,
+                    },
+                ));
+            }
+            return Ok(());
+        }
         self.open_session()?;
         // A heartbeat is answered by `Status`, not `Ack`.
         let hb = self.pc_send(&Command::Heartbeat { t_us: 0 })?;

@@ -42,6 +42,7 @@
 
 mod emulated;
 mod endpoint;
+mod external;
 mod pc;
 mod ports;
 mod report;
@@ -67,7 +68,7 @@ use firmware::topside_link::{
     ImuStamp, LinkSensors, LinkThruster, NodeBridge, TopsideConfig, TopsideLink,
 };
 use firmware::{App, Config, Timing};
-pub use ports::{PlantSensors, VClock, WirePort};
+pub use ports::{ExternalPc, PlantSensors, VClock, WirePort};
 use protocol::{Board, Client, Command, Mode, Status, Telemetry};
 pub use report::{Latency, LayoutReport};
 pub use roles::{ControlView, InProcessRoles, NodePass, Roles, TopsidePass};
@@ -128,6 +129,10 @@ pub struct TopsideLayout {
     /// `start` flies the scenario (its reference, mode and arm); off for `host-sim
     /// topside`, where the ground stations command.
     fly_scenario: bool,
+    /// The PC outside the simulation (a served surface), in place of the harness's own.
+    external: Option<Box<dyn ExternalPc>>,
+    /// With an external PC: the estimator starts at the launch point at the start.
+    external_start_nav: bool,
     next_heartbeat_us: u64,
     /// PC commands and when they are due at the topside (us).
     pending_pc: Vec<(u64, Command)>,
@@ -315,6 +320,8 @@ impl TopsideLayout {
             latest_telemetry: None,
             latest_status: None,
             fly_scenario: true,
+            external: None,
+            external_start_nav: false,
             next_heartbeat_us: 0,
             pending_pc: Vec::new(),
             usbl_seqs: BTreeSet::new(),

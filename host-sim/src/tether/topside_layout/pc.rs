@@ -24,7 +24,7 @@ impl TopsideLayout {
     pub(super) fn pc_exchange(&mut self) -> Result<Vec<Event>> {
         let bytes = std::mem::take(&mut self.pc_out);
         let tp = self.roles.topside_tether(self.t_us, &bytes)?;
-        Ok(self.watch_topside(self.t_us as f64 * 1e-6, tp))
+        self.watch_topside(self.t_us as f64 * 1e-6, tp)
     }
 
     /// What the topside sent the PC: the session, refusals, telemetry (the good frames, as

@@ -29,7 +29,7 @@ impl TopsideLayout {
         self.wire.up.read_into(t_s, &mut top_in);
 
         // The PC's bytes to the topside.
-        if self.pc.session() != 0 && t_us >= self.next_heartbeat_us {
+        if self.external.is_none() && self.pc.session() != 0 && t_us >= self.next_heartbeat_us {
             self.next_heartbeat_us = t_us + HEARTBEAT_PERIOD_US;
             let _ = self.pc_send(&Command::Heartbeat { t_us });
         }
@@ -37,18 +37,26 @@ impl TopsideLayout {
             .into_iter()
             .partition(|(t, _)| *t <= t_us);
         self.pending_pc = later;
-        for (_, cmd) in due {
-            if let Ok(seq) = self.pc_send(&cmd) {
-                if matches!(cmd, Command::UsblFix(_)) {
-                    self.usbl_seqs.insert(seq);
-                }
+        let tether_in = match self.external.as_mut() {
+            Some(pc) => {
+                let inputs: Vec<Command> = due.into_iter().map(|(_, c)| c).collect();
+                pc.to_topside(t_us, &inputs)?
             }
-        }
-        let tether_in = std::mem::take(&mut self.pc_out);
+            None => {
+                for (_, cmd) in due {
+                    if let Ok(seq) = self.pc_send(&cmd) {
+                        if matches!(cmd, Command::UsblFix(_)) {
+                            self.usbl_seqs.insert(seq);
+                        }
+                    }
+                }
+                std::mem::take(&mut self.pc_out)
+            }
+        };
         // The node's pass, then the topside's (the board's loop).
         let (np, tp) = self.roles.pass(t_us, &node_in, &tether_in, &top_in)?;
         self.watch_node(t_us, np);
-        self.watch_topside(t_s, tp);
+        self.watch_topside(t_s, tp)?;
         Ok(())
     }
 
@@ -125,7 +133,7 @@ impl TopsideLayout {
 
     /// The topside's side: the uplink it accepted (the cause of its step), the downlinks it
     /// wrote (kept: what was sent; then onto the wire), what it told the PC (returned).
-    pub(super) fn watch_topside(&mut self, t_s: f64, tp: TopsidePass) -> Vec<Event> {
+    pub(super) fn watch_topside(&mut self, t_s: f64, tp: TopsidePass) -> Result<Vec<Event>> {
         let mut last = None;
         for &b in &tp.link_read {
             if let Some(LinkFrame::Frame { seq, .. }) = self.top_rx_dec.push(b) {
@@ -143,7 +151,10 @@ impl TopsideLayout {
                 self.on_arrival(arrives_s);
             }
         }
-        self.pc_receive(tp.tether_written)
+        if let Some(pc) = self.external.as_mut() {
+            pc.from_topside(&tp.tether_written)?;
+        }
+        Ok(self.pc_receive(tp.tether_written))
     }
 
     /// A write's last byte arrives at `arrives_s`: the emulated roles run a pass then.
