@@ -7,9 +7,7 @@
 //! node link is cut mid-dive and the topside's `Status` shows the node's fault.
 
 use host_sim::tether::qemu::{image_or_skip, layout_images_or_skip};
-use protocol::{
-    fault, Answer, Client, Command, Event, Mode, NackReason, NavHealth, Reply, Status, Telemetry,
-};
+use protocol::{fault, Answer, Client, Command, Event, Mode, NackReason, Reply, Status, Telemetry};
 use std::collections::HashMap;
 use std::io::{BufRead, BufReader, ErrorKind, Read, Write};
 use std::net::TcpStream;
@@ -351,7 +349,7 @@ fn the_topside_layout_served_in_process() {
         .map(|st| st.t_us as f64 * 1e-6);
     eprintln!("node link lost in the topside's Status at {lost:?} s");
     assert!(lost.is_some_and(|t| t <= 40.5), "{lost:?}");
-    let health: NavHealth = s.status.last().unwrap().nav_health;
+    let health = s.status.last().unwrap().nav_health;
     eprintln!("estimator: {health:?}");
     drop(s);
     ends(v, Duration::from_secs(60));
