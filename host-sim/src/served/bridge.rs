@@ -89,6 +89,8 @@ pub struct TetherBridge {
     replays: VecDeque<u16>,
     /// The nonce of a session the bridge asked for.
     opening: Option<u32>,
+    /// A surface's `OpenSession` not answered yet: the App's number, the surface's.
+    surface_opening: Option<(u16, u16)>,
     /// Vehicle inputs waiting for the bridge's session to open.
     held: Vec<Command>,
     /// Vehicle inputs refused by the App.
@@ -146,6 +148,12 @@ impl TetherBridge {
         self.opening.is_some()
     }
 
+    /// The App's number of a surface's `OpenSession` whose answer has not been read: until
+    /// it is, a vehicle input framed now would go in the session it replaces.
+    pub fn surface_opening(&self) -> Option<u16> {
+        self.surface_opening.map(|(n, _)| n)
+    }
+
     /// One vehicle input framed in the bridge's session, and its number there (its answer,
     /// as every answer to a vehicle input, is not sent to the surface); `None` while no
     /// session is in force or one is being opened ([`own_inputs`](Self::own_inputs) holds
@@ -175,6 +183,7 @@ impl TetherBridge {
             self.surface_last = Some(seq);
             self.opening = None;
             let n = self.take_seq();
+            self.surface_opening = Some((n, seq));
             return frame(session, n, msg);
         }
         let in_force = session != 0 && session == self.surface_session;
@@ -293,12 +302,22 @@ impl TetherBridge {
                 }
                 self.app_session = session;
                 self.surface_session = session;
+                self.surface_opening = None;
                 Answer::Pass
             }
             Reply::Ack { seq } => match self.surface_seq(seq) {
                 Some(s) => Answer::Renumbered(Reply::Ack { seq: s }),
                 None => Answer::Drop,
             },
+            Reply::Nack { seq, reason } if self.surface_opening().is_some_and(|n| n == seq) => {
+                // The surface's session refused, under the surface's number.
+                let surface = self.surface_opening.map_or(0, |(_, s)| s);
+                self.surface_opening = None;
+                Answer::Renumbered(Reply::Nack {
+                    seq: surface,
+                    reason,
+                })
+            }
             Reply::Nack { seq, reason } => match self.surface_seq(seq) {
                 Some(s) => Answer::Renumbered(Reply::Nack { seq: s, reason }),
                 None => {
@@ -513,6 +532,56 @@ mod tests {
                 assert_eq!(answers, vec![Reply::Ack { seq: k }], "surface {nonce}");
             }
         }
+        assert_eq!((b.own_refused, b.own_refused_why), (0, None));
+    }
+
+    /// Before a lock-step App: the surface's heartbeat is stamped with the vehicle's time
+    /// (its `Status` says that time, not the surface's), the step's telemetry reaches the
+    /// surface every 100 ms, and a step framed after the surface's `OpenSession` has been
+    /// answered goes in the new session.
+    #[test]
+    fn a_lock_step_app_behind_the_bridge() {
+        let mut app = InProcessFirmware::with_config(Config::lockstep(Board::Host)).unwrap();
+        let mut b = TetherBridge::new();
+        b.set_telemetry_period(100_000);
+        let mut s = Surface { session: 0, seq: 0 };
+        let (_, open) = s.frame(&Command::OpenSession { nonce: 9 });
+        let r = exchange(&mut app, &mut b, &open, &[]);
+        assert!(b.surface_opening().is_none(), "{r:?}");
+        let Some(&(_, Reply::Session { session, .. })) =
+            r.iter().find(|(_, m)| matches!(m, Reply::Session { .. }))
+        else {
+            panic!("no session: {r:?}");
+        };
+        s.session = session;
+        let mut telemetry = 0;
+        for k in 0..50u64 {
+            let t_us = k * 20_000;
+            b.set_vehicle_time(t_us);
+            // The surface's clock is far ahead of the vehicle's.
+            let (hb, f) = s.frame(&Command::Heartbeat {
+                t_us: 3_600_000_000,
+            });
+            let rx = b.from_surface(&f).unwrap();
+            let tx = app.pass(&rx);
+            let mut r = replies(&b.from_app(&tx).unwrap());
+            let (_, step) = b.own_frame(&nav(t_us)).unwrap().unwrap();
+            let tx = app.pass(&step);
+            r.extend(replies(&b.from_app(&tx).unwrap()));
+            assert!(
+                r.iter().any(|(_, m)| matches!(
+                    m,
+                    Reply::Status(st) if st.heartbeat_seq == hb && st.t_us == t_us
+                )),
+                "{r:?}"
+            );
+            telemetry += r
+                .iter()
+                .filter(|(_, m)| matches!(m, Reply::Telemetry(_)))
+                .count();
+        }
+        // 50 steps of 20 ms: one telemetry frame per 100 ms.
+        assert_eq!(telemetry, 10);
         assert_eq!((b.own_refused, b.own_refused_why), (0, None));
     }
 }

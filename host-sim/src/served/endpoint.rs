@@ -32,7 +32,7 @@ pub trait ServedEndpoint: ControllerEndpoint {
     /// What the vehicle is ("firmware library in process", ...), for the first line.
     fn describe(&self) -> String;
     /// Bytes from the surface, taken at the next tick.
-    fn from_surface(&mut self, bytes: &[u8]);
+    fn surface_sent(&mut self, bytes: &[u8]);
     /// The bytes for the surface the vehicle wrote since the last call.
     fn take_surface_out(&mut self) -> Vec<u8>;
     /// What the vehicle believes now.

@@ -196,6 +196,14 @@ impl ServedImage {
         let from_surface = std::mem::take(&mut self.surface_in);
         let bytes = self.bridge.from_surface(&from_surface)?;
         self.write(&bytes)?;
+        if let Some(open) = self.bridge.surface_opening() {
+            // The surface opens a session: the step goes in it, once it is in force.
+            self.read_until(STEP_WAIT, "session", |r| match *r {
+                Reply::Session { .. } => true,
+                Reply::Nack { seq, .. } => seq == open,
+                _ => false,
+            })?;
+        }
         let (seq, bytes) = self
             .bridge
             .own_frame(&step)?
@@ -293,7 +301,7 @@ impl ServedEndpoint for ServedImage {
         "firmware image in QEMU netduinoplus2, lock-step on the simulated clock".into()
     }
 
-    fn from_surface(&mut self, bytes: &[u8]) {
+    fn surface_sent(&mut self, bytes: &[u8]) {
         self.surface_in.extend_from_slice(bytes);
     }
 

@@ -50,7 +50,7 @@ impl ExternalPc for SharedPc {
         Ok(out)
     }
 
-    fn from_topside(&mut self, bytes: &[u8]) -> Result<()> {
+    fn topside_wrote(&mut self, bytes: &[u8]) -> Result<()> {
         let mut pc = self.0.borrow_mut();
         let out = pc.bridge.from_app(bytes)?;
         pc.surface_out.extend(out);
@@ -121,7 +121,7 @@ impl ServedEndpoint for ServedLayout {
         self.what.into()
     }
 
-    fn from_surface(&mut self, bytes: &[u8]) {
+    fn surface_sent(&mut self, bytes: &[u8]) {
         self.pc.borrow_mut().surface_in.extend_from_slice(bytes);
     }
 

@@ -1,7 +1,8 @@
 //! The simulator serves a vehicle (`host-sim vehicle`), as ArduPilot's SITL does: the plant,
-//! the sensors and the firmware library's `App` run here in (scaled) real time, and the
-//! vehicle's tether (the bytes its tether UART carries) is served on a TCP port, for a
-//! surface program that cannot tell it from a real vehicle.
+//! the sensors and the firmware (the library's `App` in process, the image in QEMU, or the
+//! topside layout's two MCUs) run here in (scaled) real time, and the vehicle's tether (the
+//! bytes its tether UART carries; in the topside layout the topside MCU's PC tether) is
+//! served on a TCP port, for a surface program that cannot tell it from a real vehicle.
 //!
 //! - [`bridge`]: the App's one serial port shared by the surface's frames and the vehicle's
 //!   own inputs (the simulated navigation computer, the on-board instruments);

@@ -136,7 +136,7 @@ pub fn serve<E: ServedEndpoint>(
         if let Some(s) = surface.as_mut() {
             let mut bytes = Vec::new();
             let open = read_surface(s, &mut bytes);
-            run.endpoint_mut().from_surface(&bytes);
+            run.endpoint_mut().surface_sent(&bytes);
             if !open {
                 eprintln!("vehicle: surface {} disconnected (tether cut)", s.peer);
                 surface = None;

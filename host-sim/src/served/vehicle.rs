@@ -277,7 +277,7 @@ impl ServedEndpoint for ServedVehicle {
         "firmware library in process".into()
     }
 
-    fn from_surface(&mut self, bytes: &[u8]) {
+    fn surface_sent(&mut self, bytes: &[u8]) {
         self.surface_in.extend_from_slice(bytes);
     }
 

@@ -118,5 +118,5 @@ pub trait ExternalPc {
     /// now) framed, and what the PC sent since the previous pass.
     fn to_topside(&mut self, t_us: u64, inputs: &[Command]) -> Result<Vec<u8>>;
     /// What the topside wrote to its PC tether in a pass.
-    fn from_topside(&mut self, bytes: &[u8]) -> Result<()>;
+    fn topside_wrote(&mut self, bytes: &[u8]) -> Result<()>;
 }

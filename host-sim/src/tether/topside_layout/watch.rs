@@ -152,7 +152,7 @@ impl TopsideLayout {
             }
         }
         if let Some(pc) = self.external.as_mut() {
-            pc.from_topside(&tp.tether_written)?;
+            pc.topside_wrote(&tp.tether_written)?;
         }
         Ok(self.pc_receive(tp.tether_written))
     }
