@@ -88,16 +88,9 @@ pub fn main(a: VehicleArgs) -> Result<std::process::ExitCode> {
             elf.display()
         )));
     }
-    let (listener, local) = bind(o.listen)?;
-    std::fs::create_dir_all(&o.out)?;
-    match (layout, a.qemu) {
-        (false, None) => run(
-            &sc,
-            &o,
-            &listener,
-            local,
-            ServedVehicle::new(&sc, o.start_nav)?,
-        ),
+    // What is served, decided (and the images found or built) before the port is taken.
+    let served = match (layout, a.qemu) {
+        (false, None) => Served::Library,
         (false, Some(elf)) => {
             let elf = match elf {
                 Some(elf) => elf,
@@ -114,31 +107,50 @@ pub fn main(a: VehicleArgs) -> Result<std::process::ExitCode> {
             if !elf.is_file() {
                 return Err(refused(anyhow!("--qemu {}: no such file", elf.display())));
             }
+            Served::Image(elf)
+        }
+        (true, None) => Served::Layout(LayoutTarget::InProcess),
+        (true, Some(_)) => match qemu_layout_images(&workspace_root())? {
+            LayoutImages::Ready(elfs) => Served::Layout(LayoutTarget::Emulated {
+                elfs,
+                qemu: a.qemu_bin.clone(),
+            }),
+            LayoutImages::Unavailable(why) => {
+                return Err(refused(anyhow!(
+                    "--qemu: the emulated boards cannot run here: {why} (serve the layout in \
+                     process: leave out --qemu)"
+                )))
+            }
+        },
+    };
+    let (listener, local) = bind(o.listen)?;
+    std::fs::create_dir_all(&o.out)?;
+    match served {
+        Served::Library => {
+            let vehicle = ServedVehicle::new(&sc, o.start_nav)?;
+            run(&sc, &o, &listener, local, vehicle)
+        }
+        Served::Image(elf) => {
             let log = o.out.join(format!("{}.qemu-stdout.bin", sc.name));
             let image = ServedImage::start(&sc, &elf, &a.qemu_bin, Some(&log), o.start_nav)?;
             run(&sc, &o, &listener, local, image)
         }
-        (true, qemu) => {
+        Served::Layout(target) => {
             let sc = layout_scenario(&sc).resolve()?;
-            let target = match qemu {
-                None => LayoutTarget::InProcess,
-                Some(_) => match qemu_layout_images(&workspace_root())? {
-                    LayoutImages::Ready(elfs) => LayoutTarget::Emulated {
-                        elfs,
-                        qemu: a.qemu_bin.clone(),
-                    },
-                    LayoutImages::Unavailable(why) => {
-                        return Err(refused(anyhow!(
-                            "--qemu: the emulated boards cannot run here: {why} (serve the \
-                             layout in process: leave out --qemu)"
-                        )))
-                    }
-                },
-            };
-            let served = ServedLayout::new(&sc, &target, o.start_nav)?;
-            run(&sc, &o, &listener, local, served)
+            let layout = ServedLayout::new(&sc, &target, o.start_nav)?;
+            run(&sc, &o, &listener, local, layout)
         }
     }
+}
+
+/// What `host-sim vehicle` serves.
+enum Served {
+    /// The firmware library's `App` in process.
+    Library,
+    /// The `qemu` image in QEMU.
+    Image(PathBuf),
+    /// The topside layout's two MCUs.
+    Layout(LayoutTarget),
 }
 
 /// Serve `endpoint` on `listener` (bound to `local`); the summary on stdout.
