@@ -91,7 +91,8 @@ fn refused_before_start_and_a_busy_port() {
     let out = d.to_string_lossy().to_string();
     for (args, why) in [
         (vec!["--speedup", "0.5"], "--speedup must be >= 1"),
-        (vec!["--qemu"], "--qemu"),
+        (vec!["--qemu", "/nonexistent.elf"], "no such file"),
+        (vec!["--usbl-to", "127.0.0.1:9", "--qemu"], "--usbl-to"),
         (vec!["--listen", "udp:127.0.0.1:5"], "tcp:HOST:PORT"),
         (vec!["--duration=-1"], "--duration"),
     ] {
@@ -107,7 +108,7 @@ fn refused_before_start_and_a_busy_port() {
         .output()
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
-    // A scenario of the topside layout is not served yet: refused.
+    // A scenario of the topside layout is two images: one ELF is refused.
     let layout = d.join("layout.toml");
     let base = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
@@ -120,14 +121,12 @@ fn refused_before_start_and_a_busy_port() {
     )
     .unwrap();
     let o = host_sim(&["vehicle", &layout.to_string_lossy(), "--out", &out])
+        .args(["--qemu", "some.elf"])
         .output()
         .unwrap();
-    assert_eq!(
-        o.status.code(),
-        Some(2),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("two images"), "{err}");
     // A port in use: could not complete.
     let busy = TcpListener::bind("127.0.0.1:0").unwrap();
     let addr = format!("tcp:{}", busy.local_addr().unwrap());

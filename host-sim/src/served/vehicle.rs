@@ -11,6 +11,7 @@
 //! the surface. The plant gets the thrust of the pulse widths on its three outputs.
 
 use super::bridge::TetherBridge;
+use super::endpoint::{Believed, ServedEndpoint};
 use crate::clock::us;
 use crate::closed_loop::estimator_nav::onboard_config;
 use crate::closed_loop::{ControllerEndpoint, StepReply};
@@ -219,12 +220,6 @@ impl ServedVehicle {
     pub fn set_usbl_out(&mut self, out: super::usbl_out::UsblOut) {
         self.usbl = Some(out);
     }
-
-    /// The estimator's settings the vehicle's instruments call for (what an operator writes
-    /// into the surface's `--nav-config`).
-    pub fn onboard_config(&self) -> controller_core::nav::onboard::OnboardConfig {
-        self.onboard
-    }
 }
 
 impl ControllerEndpoint for ServedVehicle {
@@ -299,5 +294,40 @@ impl ControllerEndpoint for ServedVehicle {
             }
         }
         Ok(())
+    }
+}
+
+impl ServedEndpoint for ServedVehicle {
+    fn describe(&self) -> String {
+        "firmware library in process".into()
+    }
+
+    fn surface_sent(&mut self, bytes: &[u8]) {
+        self.surface_in.extend_from_slice(bytes);
+    }
+
+    fn take_surface_out(&mut self) -> Vec<u8> {
+        std::mem::take(&mut self.surface_out)
+    }
+
+    fn believed(&self) -> Believed {
+        let ap = self.app.autopilot();
+        Believed {
+            nav: ap.nav_state(),
+            armed: ap.armed(),
+            mode: Believed::mode_name(&ap.mode()),
+        }
+    }
+
+    fn own_refused(&self) -> u64 {
+        self.bridge.own_refused
+    }
+
+    fn launch(&self) -> Option<NavState> {
+        self.launch
+    }
+
+    fn onboard_config(&self) -> Option<controller_core::nav::onboard::OnboardConfig> {
+        Some(self.onboard)
     }
 }
