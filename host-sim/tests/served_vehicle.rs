@@ -112,7 +112,7 @@ fn refused_before_start_and_a_busy_port() {
     let layout = d.join("layout.toml");
     let base = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/../scenarios/circle-3d.toml"
+        "/../scenarios/nav-circle-3d.toml"
     ))
     .unwrap();
     std::fs::write(

@@ -176,6 +176,7 @@ pub fn dive(
 ) -> Dive {
     let (mut vehicle_args, mut surface_args) = (Vec::new(), Vec::new());
     let mut speedup = 1.0f64;
+    let mut surface_nav = false;
     let mut it = extra.iter();
     while let Some(&a) = it.next() {
         match a {
@@ -185,13 +186,50 @@ pub fn dive(
                 vehicle_args.extend(["--speedup", k]);
             }
             "--start-nav" => vehicle_args.push(a),
+            // The USBL at the surface: the served vehicle's as NMEA to the surface program,
+            // which starts the vehicle's estimator at the dive's launch point and relays the
+            // fixes.
+            "--surface-nav" => surface_nav = true,
             // The served vehicle's own end (simulated time), not the surface's.
             "--vehicle-duration" => vehicle_args.extend(["--duration", *it.next().unwrap()]),
             _ => surface_args.push(a),
         }
     }
     let out = tlog.parent().unwrap().to_path_buf();
+    let usbl_port = free_udp_port().to_string();
+    let usbl_to = format!("127.0.0.1:{usbl_port}");
+    if surface_nav {
+        vehicle_args.extend(["--usbl-to", usbl_to.as_str()]);
+    }
     let (vehicle, tcp) = serve_vehicle(&scenario, &out, &vehicle_args);
+    let mut nav_args: Vec<String> = Vec::new();
+    if surface_nav {
+        // What the operator knows of the dive, written by the served vehicle at its start.
+        let newest = |ext: &str| {
+            let end = std::time::Instant::now() + std::time::Duration::from_secs(10);
+            loop {
+                let found = std::fs::read_dir(&out)
+                    .unwrap()
+                    .map(|e| e.unwrap().path())
+                    .filter(|p| p.to_string_lossy().ends_with(ext))
+                    .max_by_key(|p| std::fs::metadata(p).and_then(|m| m.modified()).unwrap());
+                if let Some(p) = found {
+                    return p;
+                }
+                assert!(std::time::Instant::now() < end, "no {ext} from the served vehicle");
+                std::thread::sleep(std::time::Duration::from_millis(50));
+            }
+        };
+        let launch = std::fs::read_to_string(newest(".launch")).unwrap();
+        nav_args.extend([
+            "--usbl".into(),
+            format!("udpin:{usbl_to}"),
+            "--launch".into(),
+            launch.trim().to_string(),
+            "--nav-config".into(),
+            newest(".nav-config.json").to_string_lossy().to_string(),
+        ]);
+    }
     let heartbeat_hz = (10.0 * speedup).clamp(10.0, 50.0).round().to_string();
     let topside = Command::new(rov_topside())
         .args(["--tcp", &format!("127.0.0.1:{tcp}")])
@@ -201,6 +239,7 @@ pub fn dive(
         .arg(tlog)
         .arg("--params")
         .arg(params)
+        .args(&nav_args)
         .args(surface_args)
         .process_group(0)
         .spawn()
