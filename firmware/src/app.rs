@@ -410,6 +410,7 @@ where
     /// refused reading changes nothing; the estimator's timeouts raise `SENSOR_LOST`.
     fn read_sensors(&mut self, now: u64) {
         self.read_dvl(now);
+        self.read_health(now);
         if self.autopilot.onboard_nav().is_none() {
             return;
         }
@@ -430,6 +431,14 @@ where
     fn read_dvl(&mut self, now: u64) {
         if let Some(fix) = self.sensors.dvl(now) {
             let _ = self.autopilot.handle_nav(now, 0, &Command::DvlFix(fix));
+        }
+    }
+
+    /// Read the health inputs (if the sensors have them) and run the health checks, which
+    /// may switch to SURFACE or disarm before this step.
+    fn read_health(&mut self, now: u64) {
+        if let Some(s) = self.sensors.health(now) {
+            self.autopilot.health_check(now, &s);
         }
     }
 
@@ -531,6 +540,7 @@ where
             Command::Nav(_) | Command::Step { .. } => {
                 if lockstep {
                     self.read_dvl(now);
+                    self.read_health(now);
                     self.control(now);
                     self.send_telemetry(now);
                 }
