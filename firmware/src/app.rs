@@ -308,6 +308,16 @@ where
         &self.autopilot
     }
 
+    /// Load the vehicle's stored health parameters (a board reads them from its flash at
+    /// boot); checked and refused as a `SetHealth` from the surface is.
+    pub fn set_health_params(
+        &mut self,
+        params: &crate::protocol::HealthParams,
+    ) -> Result<(), NackReason> {
+        let now = self.now_us();
+        self.autopilot.handle(now, 0, &Command::SetHealth(*params))
+    }
+
     /// Duties last written to the three outputs.
     pub fn duties(&self) -> [u16; 3] {
         self.duty

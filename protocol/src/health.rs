@@ -94,6 +94,11 @@ pub struct HealthParams {
     pub batt_amp_offset_v: f32,
     /// `BATT_CAPACITY`: full charge, mAh.
     pub batt_capacity_mah: f32,
+    /// `BATT_EMPTY_VOLT`: the battery's voltage under load when empty (this vehicle's own:
+    /// ArduSub has none), V. The remaining time is the energy left over the power drawn,
+    /// with the mean voltage to come taken halfway between now and empty (0: the charge
+    /// over the current, as ArduPilot gives it).
+    pub batt_empty_volt: f32,
     /// `BATT_LOW_VOLT`: low below this voltage, V (0: off).
     pub batt_low_volt: f32,
     /// `BATT_CRT_VOLT`: critical below this voltage, V (0: off).
@@ -126,13 +131,14 @@ pub struct HealthParams {
 
 impl HealthParams {
     /// The Blue Robotics power-sense module's scales (ArduSub's values for it), an 18 Ah
-    /// battery, voltage and mAh thresholds off, the leak probe on pin 0 with the surface
+    /// battery empty at 12 V (4 lithium-ion cells at 3.0 V), voltage and mAh thresholds off, the leak probe on pin 0 with the surface
     /// action, ArduSub's enclosure limits (105 kPa, 62 C), no depth limit.
     pub const DEFAULT: Self = Self {
         batt_volt_mult: 11.0,
         batt_amp_pervlt: 37.8788,
         batt_amp_offset_v: 0.330,
         batt_capacity_mah: 18_000.0,
+        batt_empty_volt: 12.0,
         batt_low_volt: 0.0,
         batt_crt_volt: 0.0,
         batt_low_mah: 0.0,
@@ -162,6 +168,7 @@ impl HealthParams {
             self.batt_amp_pervlt,
             self.batt_amp_offset_v,
             self.batt_capacity_mah,
+            self.batt_empty_volt,
             self.batt_low_volt,
             self.batt_crt_volt,
             self.batt_low_mah,

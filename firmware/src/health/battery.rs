@@ -63,6 +63,7 @@ pub struct BatteryMonitor {
     last_us: Option<u64>,
     consumed_mah: f32,
     current_filtered_a: Option<f32>,
+    voltage_filtered_v: Option<f32>,
     low_volt: Confirm,
     crt_volt: Confirm,
     level: BatteryLevel,
@@ -87,15 +88,21 @@ impl BatteryMonitor {
         let current_a = finite(s.curr_pin_v)
             .map(|v| (v - p.batt_amp_offset_v) * p.batt_amp_pervlt)
             .map(|a| a.max(0.0));
+        let k = if dt_s > 0.0 {
+            dt_s / (CURRENT_FILTER_TAU_S + dt_s)
+        } else {
+            0.0
+        };
+        let filter = |f: &mut Option<f32>, x: f32| {
+            let f = f.get_or_insert(x);
+            *f += k * (x - *f);
+        };
         if let Some(a) = current_a {
             self.consumed_mah += a * dt_s * (1000.0 / 3600.0);
-            let k = if dt_s > 0.0 {
-                dt_s / (CURRENT_FILTER_TAU_S + dt_s)
-            } else {
-                0.0
-            };
-            let f = self.current_filtered_a.get_or_insert(a);
-            *f += k * (a - *f);
+            filter(&mut self.current_filtered_a, a);
+        }
+        if let Some(v) = voltage_v {
+            filter(&mut self.voltage_filtered_v, v);
         }
         let left_mah = (p.batt_capacity_mah - self.consumed_mah).max(0.0);
         let hold_us = (p.batt_low_timer_s * 1e6) as u64;
@@ -116,6 +123,14 @@ impl BatteryMonitor {
         };
         self.level = self.level.max(level);
         let filtered = self.current_filtered_a.unwrap_or(0.0);
+        // Constant power: the current rises as the voltage falls, so the time is the
+        // charge left times the mean voltage to come (halfway to empty) over the power.
+        let voltage_ratio = match self.voltage_filtered_v {
+            Some(v) if p.batt_empty_volt > 0.0 && v > p.batt_empty_volt => {
+                0.5 * (v + p.batt_empty_volt) / v
+            }
+            _ => 1.0,
+        };
         BatteryState {
             voltage_v: voltage_v.unwrap_or(0.0),
             current_a: current_a.unwrap_or(0.0),
@@ -123,7 +138,7 @@ impl BatteryMonitor {
             consumed_mah: self.consumed_mah,
             remaining_pct: (100.0 * left_mah / p.batt_capacity_mah).clamp(0.0, 100.0),
             time_remaining_s: (filtered > CURRENT_AT_REST_A)
-                .then(|| left_mah / filtered * (3600.0 / 1000.0)),
+                .then(|| voltage_ratio * left_mah / filtered * (3600.0 / 1000.0)),
             level: self.level,
         }
     }
