@@ -444,12 +444,12 @@ where
         }
     }
 
-    /// Read the health inputs (if the sensors have them) and run the health checks, which
-    /// may switch to SURFACE or disarm before this step.
+    /// Read the health inputs and run the health checks, which may switch to SURFACE or
+    /// disarm before this step; on a board without health inputs the depth limit's warning
+    /// is still checked.
     fn read_health(&mut self, now: u64) {
-        if let Some(s) = self.sensors.health(now) {
-            self.autopilot.health_check(now, &s);
-        }
+        let s = self.sensors.health(now).unwrap_or_default();
+        self.autopilot.health_check(now, &s);
     }
 
     /// Close a work segment (see [`Telemetry::loop_ticks`]).

@@ -503,7 +503,7 @@ fn the_remaining_time_on_a_constant_survey_is_within_ten_percent_of_the_truth() 
     let mut t_empty = None;
     while rig.t_s() < 3_600.0 && t_empty.is_none() {
         rig.step();
-        if rig.k % 500 == 0 {
+        if rig.k.is_multiple_of(500) {
             let b = rig.status.unwrap().battery;
             estimates.push((rig.t_s(), b.time_remaining_s));
         }
