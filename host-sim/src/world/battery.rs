@@ -27,7 +27,7 @@
 use crate::checks::{fin, pos};
 use anyhow::{bail, Result};
 use controller_core::alloc::PwmMap;
-use firmware::health::{EnclosureSense, PowerSense};
+use firmware::health::{EnclosureSense, HealthSample, PowerSense};
 use firmware::protocol::HealthParams;
 use serde::{Deserialize, Serialize};
 use std::convert::Infallible;
@@ -231,6 +231,21 @@ impl HealthWire {
     /// Set the inputs.
     pub fn set(&self, p: HealthPins) {
         *self.pins() = p;
+    }
+
+    /// Everything read as the firmware's health inputs read it (the ADC's conversions), for
+    /// a vehicle whose sensors are not a `WithHealth`.
+    pub fn sample(&mut self) -> HealthSample {
+        let (volt_pin_v, curr_pin_v) = self.read_pins();
+        let (enclosure_pa, enclosure_c) = EnclosureSense::read(self);
+        HealthSample {
+            volt_pin_v,
+            curr_pin_v,
+            leak_wet: self.get().leak_wet,
+            enclosure_pa,
+            enclosure_c,
+            depth_m: None,
+        }
     }
 }
 
