@@ -517,4 +517,6 @@ impl Autopilot {
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
+mod tests_health;
+#[cfg(test)]
 mod tests_sticks;

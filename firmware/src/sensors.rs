@@ -29,8 +29,8 @@ pub trait Sensors {
     }
     /// The health inputs read now (the power-sense module's ADC pins, the leak probe, the
     /// enclosure's sensor), or `None` on a board without them
-    /// ([`health::WithHealth`](crate::health::WithHealth) adds them).
-    fn health(&mut self, _now_us: u64) -> Option<crate::health::HealthSample> {
+    /// (`health::WithHealth` adds them).
+    fn health(&mut self, _now_us: u64) -> Option<crate::protocol::HealthSample> {
         None
     }
     /// True on a board with sensors of its own: the tether's `Imu` and `Pressure` are then

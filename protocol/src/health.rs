@@ -222,3 +222,20 @@ pub struct BatteryStatus {
     /// Time left at the mean draw, s (0: unknown, at rest or without current sensing).
     pub time_remaining_s: f32,
 }
+
+/// One reading of the health inputs (the App's `Sensors::health`).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct HealthSample {
+    /// Voltage on the power-sense module's voltage pin, V (None: no ADC).
+    pub volt_pin_v: Option<f32>,
+    /// Voltage on its current pin, V (None: no current sensing).
+    pub curr_pin_v: Option<f32>,
+    /// The leak probe reads wet.
+    pub leak_wet: bool,
+    /// Enclosure pressure, Pa (None: no sensor).
+    pub enclosure_pa: Option<f32>,
+    /// Enclosure temperature, degrees C (None: no sensor).
+    pub enclosure_c: Option<f32>,
+    /// Depth, m (None: unknown).
+    pub depth_m: Option<f32>,
+}

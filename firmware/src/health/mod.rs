@@ -19,7 +19,7 @@ pub use leak::LeakDebounce;
 pub use sensing::{EnclosureSense, NoEnclosure, PowerSense, WithHealth};
 
 use crate::protocol::{fault, NackReason};
-pub use crate::protocol::{BatteryStatus, FailsafeAction, HealthParams, SurfaceEnd};
+pub use crate::protocol::{BatteryStatus, FailsafeAction, HealthParams, HealthSample, SurfaceEnd};
 
 /// Depth at which the SURFACE mode has arrived, m.
 pub const SURFACE_DONE_DEPTH_M: f32 = 0.3;
@@ -32,23 +32,6 @@ pub const LEAK_CONFIRM_US: u64 = 200_000;
 /// Time the enclosure's pressure or temperature must stay over its limit before the warning
 /// (ArduSub: 2 s), microseconds.
 pub const ENCLOSURE_CONFIRM_US: u64 = 2_000_000;
-
-/// One reading of the health inputs.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct HealthSample {
-    /// Voltage on the power-sense module's voltage pin, V (None: no ADC).
-    pub volt_pin_v: Option<f32>,
-    /// Voltage on its current pin, V (None: no current sensing).
-    pub curr_pin_v: Option<f32>,
-    /// The leak probe reads wet.
-    pub leak_wet: bool,
-    /// Enclosure pressure, Pa (None: no sensor).
-    pub enclosure_pa: Option<f32>,
-    /// Enclosure temperature, degrees C (None: no sensor).
-    pub enclosure_c: Option<f32>,
-    /// Depth, m (None: unknown).
-    pub depth_m: Option<f32>,
-}
 
 /// What one health check found.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
