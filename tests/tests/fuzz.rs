@@ -392,6 +392,13 @@ fn largest_messages_fit() {
         overruns: u32::MAX,
         control_late_max_us: u32::MAX,
         faults: u16::MAX,
+        battery: firmware::protocol::BatteryStatus {
+            voltage_v: f32::MAX,
+            current_a: f32::MAX,
+            consumed_mah: f32::MAX,
+            remaining_pct: f32::MAX,
+            time_remaining_s: f32::MAX,
+        },
         link: firmware::protocol::LinkStats {
             rx_frames: u32::MAX,
             tx_frames: u32::MAX,

@@ -98,7 +98,7 @@ fn boots_disarmed_with_neutral_outputs_and_says_hello() {
     assert!(matches!(
         r.as_slice(),
         [Reply::Hello {
-            protocol: 6,
+            protocol: firmware::protocol::PROTOCOL_VERSION,
             board: Board::Host,
             lockstep: false,
             control_period_us: 20_000,

@@ -6,6 +6,7 @@
 mod built_in;
 pub mod deployment;
 mod expect;
+pub mod health;
 mod reference;
 mod setup;
 pub use topside::vehicle_file as vehicle;
@@ -356,6 +357,12 @@ pub struct Scenario {
     ///. Flown by the firmware (`hil`); a software `run` refuses it.
     #[serde(default)]
     pub calibration: Option<CalibrationSpec>,
+    /// `[battery]`: the simulated battery (in-process firmware runs).
+    #[serde(default)]
+    pub battery: crate::world::battery::BatterySpec,
+    /// `[health]`: health events and the vehicle's health parameters.
+    #[serde(default)]
+    pub health: health::HealthSpec,
     /// The vehicle's parameters: the file's, read by [`Scenario::load`], or the Observer.
     #[serde(skip, default = "observer_params")]
     pub vehicle_params: VehicleParams,
@@ -509,6 +516,7 @@ impl Scenario {
         if self.name.trim().is_empty() {
             bail!("name must not be empty");
         }
+        self.health.check(&self.battery)?;
         self.deployment.validate()?;
         self.deployment.check_with(self.navigation.source)?;
         if !self

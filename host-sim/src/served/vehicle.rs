@@ -17,6 +17,7 @@ use crate::closed_loop::estimator_nav::onboard_config;
 use crate::closed_loop::{ControllerEndpoint, StepReply};
 use crate::scenario::RunSetup;
 use crate::tether::in_process::{SimPwm, SimSerial};
+use crate::world::battery::{HealthWire, VehicleElectrics};
 use crate::world::sensors::{Measurement, NavSource};
 use anyhow::{anyhow, Result};
 use controller_core::alloc::PwmMap;
@@ -47,9 +48,12 @@ struct Feed {
     current_imu: Option<ImuSample>,
     pressure: VecDeque<(u64, f32)>,
     dvl: VecDeque<DvlFix>,
+    /// The power-sense module, leak probe and enclosure sensor.
+    health: Option<HealthWire>,
 }
 
-/// The vehicle's own IMU, pressure sensor and DVL (on its UART), fed from the plant: the
+/// The vehicle's own IMU, pressure sensor, DVL (on its UART) and health inputs, fed from the
+/// plant and the simulated battery: the
 /// surface's `Imu` and `Pressure` are refused (`OwnSensors`), as by a real vehicle. Read
 /// before each control step (the IMU and pressure only while the on-board estimator runs:
 /// the App's rule).
@@ -83,6 +87,10 @@ impl Sensors for PlantBus {
         }
         latest
     }
+
+    fn health(&mut self, _now_us: u64) -> Option<firmware::health::HealthSample> {
+        self.0.borrow_mut().health.as_mut().map(HealthWire::sample)
+    }
 }
 
 /// The App of the served vehicle.
@@ -93,6 +101,8 @@ pub struct ServedVehicle {
     app: ServedApp,
     clock: SimTime,
     feed: PlantBus,
+    /// The simulated battery and health events (`[battery]`, `[health]`).
+    electrics: VehicleElectrics,
     bridge: TetherBridge,
     /// The control period (us): the App's, and the loop's.
     period_us: u64,
@@ -139,6 +149,15 @@ impl ServedVehicle {
         .map_err(|e| anyhow!("controller: {e}"))?;
         let clock = SimTime::default();
         let feed = PlantBus::default();
+        let health = sc.health.params(&sc.battery)?;
+        let electrics = VehicleElectrics::new(
+            sc.battery,
+            sc.health.events()?,
+            health,
+            PwmMap::for_vehicle(sc.vehicle()),
+            f64::from(sc.vehicle_params.thrust_max_forward_n),
+        );
+        feed.0.borrow_mut().health = Some(electrics.wire());
         let mut app = App::with_sensors(
             [SimPwm::default(), SimPwm::default(), SimPwm::default()],
             SimSerial::default(),
@@ -148,11 +167,14 @@ impl ServedVehicle {
             feed.clone(),
         )
         .map_err(|e| anyhow!("firmware config: {e}"))?;
+        app.set_health_params(&health)
+            .map_err(|r| anyhow!("the firmware refused the health parameters: {r:?}"))?;
         app.hello();
         Ok(Self {
             app,
             clock,
             feed,
+            electrics,
             bridge: TetherBridge::new(),
             period_us,
             ticks: 0,
@@ -247,6 +269,8 @@ impl ControllerEndpoint for ServedVehicle {
             self.own.push(Command::Nav(NavSample { t_us, state: *nav }));
         }
         self.pass()?;
+        self.electrics
+            .advance(t_us, self.app.last_output().pulse_us);
         let tel = self.app.telemetry(t_us);
         let applied = tel
             .pulse_us

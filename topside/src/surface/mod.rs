@@ -100,6 +100,8 @@ pub mod ardusub_mode {
     pub const AUTO: u32 = 3;
     /// Go to and hold a point.
     pub const GUIDED: u32 = 4;
+    /// Go up to the surface (the battery and leak failsafes).
+    pub const SURFACE: u32 = 9;
     /// Hold the position.
     pub const POSHOLD: u32 = 16;
     /// Sticks straight to the thrusters.
@@ -117,6 +119,7 @@ fn custom_mode_of(mode: Mode, guided: bool) -> u32 {
         Mode::Track { .. } if guided => ardusub_mode::GUIDED,
         Mode::Track { .. } => ardusub_mode::AUTO,
         Mode::Idle => ardusub_mode::MANUAL,
+        Mode::Surface => ardusub_mode::SURFACE,
     }
 }
 
