@@ -25,6 +25,7 @@ mod arming;
 mod health;
 mod mission;
 mod onboard;
+pub use onboard::OWN_READING;
 mod output;
 mod swing;
 

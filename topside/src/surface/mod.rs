@@ -137,7 +137,7 @@ pub fn manual_thrust(x: i16, z: i16, r: i16) -> ManualThrust {
 
 /// Names of the fault flags, for `STATUSTEXT`: the tether protocol's, then the topside
 /// layout's (a topside board reports its node link in the same `faults`).
-const FAULT_NAMES: [(u16, &str); 9] = [
+const FAULT_NAMES: [(u16, &str); 15] = [
     (
         fault::HEARTBEAT_LOST,
         "tether heartbeat lost: thrusters neutral",
@@ -148,6 +148,12 @@ const FAULT_NAMES: [(u16, &str); 9] = [
     (fault::PWM_ERROR, "PWM output error"),
     (fault::SERIAL_ERROR, "tether serial error"),
     (fault::OVERRUN, "control loop overrun"),
+    (fault::SENSOR_LOST, "IMU or pressure sensor lost: thrusters neutral"),
+    (fault::BATTERY_LOW, "battery low"),
+    (fault::BATTERY_CRITICAL, "battery critical"),
+    (fault::LEAK, "leak detected"),
+    (fault::ENCLOSURE, "enclosure pressure or temperature high"),
+    (fault::DEPTH_LIMIT, "at 90 % of the depth limit"),
     (
         protocol::fault::NODE_LINK_LOST,
         "node link lost: prediction only",

@@ -21,8 +21,10 @@
 //! integrated) and a launch point is known: `--launch N,E,D,HEADING_DEG`, or else the first
 //! USBL fix (north, east and depth; the heading from the vehicle, with the start's heading
 //! uncertainty widened to 90 deg). A surface restarted mid-dive finds the estimator running
-//! and leaves it. `MAV_CMD_USER_1` with param1 = 1 from a ground station restarts it at the
-//! latest fix (its depth and heading the vehicle's estimate), with the settings of
+//! and leaves it. `MAV_CMD_USER_1` with param1 = 1 from a ground station restarts it: at the
+//! latest fix when the estimate disagrees with it (beyond three standard deviations), else
+//! at the estimate's own position (its depth and heading the vehicle's estimate), with the
+//! settings of
 //! `--nav-config FILE` (the vehicle's instruments' figures as JSON, `OnboardConfig`) or the
 //! defaults.
 
@@ -237,6 +239,14 @@ fn parse_launch(s: &str) -> Result<NavState> {
     })
 }
 
+/// Does `fix` agree with the vehicle's estimate `nav` (within three standard deviations of the
+/// fix and the start's position uncertainty)?
+fn agrees_with_estimate(fix: &SurfaceFix, nav: &NavState, config: &OnboardConfig) -> bool {
+    let sigma = fix.std_m.hypot(config.nav.initial_position_std_m);
+    let off = (fix.ned_m[0] - nav.x_m).hypot(fix.ned_m[1] - nav.y_m);
+    off.is_finite() && off <= 3.0 * sigma
+}
+
 impl SurfaceNav {
     /// The options checked and the USBL source opened; every refusal says why.
     pub fn open(o: &NavOptions) -> Result<Self> {
@@ -409,6 +419,11 @@ impl SurfaceNav {
         let mut config = self.config;
         let initial = match (restart, self.launch, self.latest_fix) {
             (false, Some(l), _) => l,
+            (true, _, Some(f)) if agrees_with_estimate(&f, &v.state, &config) => {
+                // The estimate agrees with the fixes: the restart keeps its position (a
+                // single fix carries the USBL's 0.3 m) and resets the rest.
+                v.state
+            }
             (_, _, Some(f)) => {
                 let (depth_m, yaw_rad) = if restart {
                     (v.state.z_m, v.state.yaw_rad)
