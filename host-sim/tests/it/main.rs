@@ -4,7 +4,9 @@
 //!
 //! `cargo test -p host-sim --test it MODULE::` runs one module (e.g. `nav_hil::`). Kept
 //! apart, as binaries of their own: `qemu_skip.rs` (it sets process-wide environment
-//! variables), the surface program's tests (`topside_*.rs`, `served_vehicle.rs`).
+//! variables), `hil_link.rs` (a console session on the emulated board in wall-clock time: it
+//! needs the emulator to itself, and failed beside the other emulated runs of this binary),
+//! the surface program's tests (`topside_*.rs`, `served_vehicle.rs`).
 
 // Shared with the surface program's tests (`topside_layout.rs`).
 #[path = "../common/mod.rs"]
@@ -20,7 +22,6 @@ mod currents;
 mod deployment;
 mod deployment_qemu;
 mod exit_codes;
-mod hil_link;
 mod hil_qemu;
 mod in_process;
 mod instruments;
