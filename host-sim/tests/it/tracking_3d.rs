@@ -2,7 +2,7 @@
 //! with thruster limits, on the built-in scenarios' references (circle-3d, lawnmower-3d,
 //! helix-3d). Bound: RMS position error <= 2 cm over the last 80 % of the run.
 
-mod tracking_common;
+use crate::tracking_common;
 
 use controller_core::controller::ControlMode;
 use controller_core::params::VehicleParams;

@@ -9,7 +9,7 @@
 //! `ROV_LONG` is set (CI): the whole `paper-xy-saturated`, the corrupted-bytes pair and the
 //! estimator over 60 s (`long_emulated`).
 
-mod long_emulated;
+use crate::long_emulated;
 
 use firmware::protocol::fault;
 use host_sim::closed_loop::runner::{run, RunOptions};

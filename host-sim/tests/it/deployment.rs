@@ -8,7 +8,7 @@
 //! 100 ms of its last good frame and latched at 1 s, the ground station told within 250 ms,
 //! re-arming explicit; byte corruption at 1e-3 and 1e-2 applies no wrong command.
 
-mod common;
+use crate::common;
 
 use common::{host_sim, scratch};
 use firmware::protocol::Command;

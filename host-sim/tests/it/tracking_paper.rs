@@ -2,7 +2,7 @@
 //! `t_f = 100 s`) with the tracking laws on the nominal 6-DOF plant with thruster limits.
 //! Bounds: final position error <= 1 cm, max <= 5 cm after the first 10 s.
 
-mod tracking_common;
+use crate::tracking_common;
 
 use controller_core::controller::ControlMode;
 use controller_core::params::VehicleParams;

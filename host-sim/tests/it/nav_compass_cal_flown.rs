@@ -5,7 +5,7 @@
 //! `[calibration]` makes the vehicle turn a full circle in `Hold` first; the fit becomes the
 //! calibration in force, then the survey is flown. Figures on the TRUE position.
 
-mod nav_twins;
+use crate::nav_twins;
 
 use controller_core::nav::compass_cal::{CalRefusal, CompassCalibration};
 use firmware::compass_swing::SwingOutcome;

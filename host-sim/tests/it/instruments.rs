@@ -2,7 +2,7 @@
 //! firmware as Water Linked A50 `wrz` reports on its DVL port (`firmware::sensors::dvl`),
 //! instead of `DvlFix` commands over the tether; the navigation runs fly the same.
 
-mod long_emulated;
+use crate::long_emulated;
 
 use host_sim::commands::hil::{run_hil, HilOptions, HilOutput, HilTarget};
 use host_sim::scenario::Scenario;

@@ -9,7 +9,7 @@
 //! which must agree exactly.
 //!
 //! `cargo test` runs 256 inputs per property. The long run (the figure in docs/protocol.md):
-//! `FUZZ_CASES=1000000 cargo test -p rov-tests --release --test fuzz -- --nocapture`.
+//! `FUZZ_CASES=1000000 cargo test -p rov-tests --release --test it fuzz:: -- --nocapture`.
 
 // Test code: a failed expectation should stop the test.
 #![allow(

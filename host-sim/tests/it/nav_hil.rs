@@ -8,8 +8,8 @@
 //! The three emulated runs (whole scenarios, minutes each) run where `ROV_LONG` is set (CI);
 //! the two in-process tests everywhere.
 
-mod long_emulated;
-mod nav_twins;
+use crate::long_emulated;
+use crate::nav_twins;
 
 use host_sim::closed_loop::runner::{run, RunOptions};
 use host_sim::closed_loop::Sample;

@@ -15,11 +15,11 @@ pub fn long_runs_wanted() -> bool {
     std::env::var_os("ROV_LONG").is_some_and(|v| v != "0")
 }
 
-/// Whether the long test `name` of the test binary `binary` (about `wall_s` of wall time on
+/// Whether the long test `name` of the test module `module` (about `wall_s` of wall time on
 /// 2 cores) runs here: with `ROV_LONG` it does; without, it writes
-/// `SKIPPED <name> (long emulated test, ~N s; run with ROV_LONG=1 cargo test -p host-sim
-/// --test <binary>)` straight to the terminal (not captured by the test harness) and does not.
-pub fn long_test(binary: &str, name: &str, wall_s: u32) -> bool {
+/// `SKIPPED <name> (long test, ~N s; run with ROV_LONG=1 cargo test -p host-sim --test it
+/// <module>::<name>)` straight to the terminal (not captured by the test harness) and does not.
+pub fn long_test(module: &str, name: &str, wall_s: u32) -> bool {
     if long_runs_wanted() {
         return true;
     }
@@ -27,7 +27,7 @@ pub fn long_test(binary: &str, name: &str, wall_s: u32) -> bool {
     let _ = writeln!(
         std::io::stderr(),
         "SKIPPED {name} (long test, ~{wall_s} s on 2 cores; run with ROV_LONG=1 cargo test -p \
-         host-sim --test {binary})"
+         host-sim --test it {module}::{name})"
     );
     false
 }

@@ -4,7 +4,7 @@
 //! AUTO and `Track` likewise), with a rate or limit out of range (`OutOfRange`), each
 //! changing nothing; a mode change stops a turn in flight (`Aborted`) and the calibration in
 //! force stays. The flown turn's fit is tested in closed loop in
-//! `host-sim/tests/nav_compass_cal_flown.rs`.
+//! `host-sim/tests/it/nav_compass_cal_flown.rs`.
 
 // Test code: a failed expectation should stop the test.
 #![allow(

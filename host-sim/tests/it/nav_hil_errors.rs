@@ -14,8 +14,8 @@
 //! (`docs/navigation.md`, "The errors on the emulated MCU"). The shortened runs too
 //! take minutes of QEMU: they run where `ROV_LONG` is set (CI; `long_emulated`).
 
-mod long_emulated;
-mod nav_twins;
+use crate::long_emulated;
+use crate::nav_twins;
 
 use host_sim::closed_loop::runner::{run, RunOptions};
 use host_sim::closed_loop::{RunOutput, Sample};

@@ -12,8 +12,8 @@
 //! comparison runs where `ROV_LONG` is set (CI; `long_emulated`), the cut node link
 //! (2.5 s simulated) everywhere.
 
-mod common;
-mod long_emulated;
+use crate::common;
+use crate::long_emulated;
 
 use common::{host_sim, scratch};
 use host_sim::closed_loop::RunOptions;

@@ -4,7 +4,7 @@
 //! actions remove the offsets. The asserted bounds are the measured values rounded up
 //! (docs/tracking.md lists the measured numbers).
 
-mod tracking_common;
+use crate::tracking_common;
 
 use controller_core::controller::ControlMode;
 use controller_core::controller::Gains;

@@ -5,7 +5,7 @@
 //! +-5 deg off, with that uncertainty). Figures on the TRUE position, RMS over the last
 //! 80 %.
 
-mod nav_twins;
+use crate::nav_twins;
 
 use host_sim::closed_loop::runner::{run, RunOptions};
 use host_sim::scenario::Scenario;
