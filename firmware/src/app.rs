@@ -425,14 +425,18 @@ where
             return;
         }
         if let Some(imu) = self.sensors.imu(now) {
-            let _ = self.autopilot.handle_nav(now, crate::autopilot::OWN_READING, &Command::Imu(imu));
+            let _ =
+                self.autopilot
+                    .handle_nav(now, crate::autopilot::OWN_READING, &Command::Imu(imu));
         }
         if let Some(pressure_pa) = self.sensors.pressure_pa(now) {
             let cmd = Command::Pressure {
                 t_us: now,
                 pressure_pa,
             };
-            let _ = self.autopilot.handle_nav(now, crate::autopilot::OWN_READING, &cmd);
+            let _ = self
+                .autopilot
+                .handle_nav(now, crate::autopilot::OWN_READING, &cmd);
         }
     }
 
@@ -440,7 +444,11 @@ where
     /// on-board estimator as a tether `DvlFix` would be (refused without one).
     fn read_dvl(&mut self, now: u64) {
         if let Some(fix) = self.sensors.dvl(now) {
-            let _ = self.autopilot.handle_nav(now, crate::autopilot::OWN_READING, &Command::DvlFix(fix));
+            let _ = self.autopilot.handle_nav(
+                now,
+                crate::autopilot::OWN_READING,
+                &Command::DvlFix(fix),
+            );
         }
     }
 

@@ -161,13 +161,7 @@ pub fn serve<E: ServedEndpoint>(
                 // Where the vehicle was put in the water, as the operator knows it: the
                 // surface's `--launch` (north, east, depth in m, heading in degrees).
                 let path = o.out.join(format!("{}.launch", sc.name));
-                let text = format!(
-                    "{},{},{},{}\n",
-                    l.x_m,
-                    l.y_m,
-                    l.z_m,
-                    l.yaw_rad.to_degrees()
-                );
+                let text = format!("{},{},{},{}\n", l.x_m, l.y_m, l.z_m, l.yaw_rad.to_degrees());
                 std::fs::write(&path, text).with_context(|| format!("write {}", path.display()))?;
                 launch_written = true;
             }

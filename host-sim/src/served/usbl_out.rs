@@ -31,11 +31,7 @@ impl UsblOut {
         let to: SocketAddr = to
             .parse()
             .with_context(|| format!("--usbl-to {to}: not HOST:PORT"))?;
-        let socket = UdpSocket::bind(if to.is_ipv4() {
-            "0.0.0.0:0"
-        } else {
-            "[::]:0"
-        })?;
+        let socket = UdpSocket::bind(if to.is_ipv4() { "0.0.0.0:0" } else { "[::]:0" })?;
         Ok(Self {
             socket,
             to,
@@ -95,7 +91,11 @@ mod tests {
             panic!("{line}");
         };
         assert_eq!(s.orientation, Orientation::NorthUp);
-        assert!((s.time_of_day_s - 45_296.789).abs() < 1e-6, "{}", s.time_of_day_s);
+        assert!(
+            (s.time_of_day_s - 45_296.789).abs() < 1e-6,
+            "{}",
+            s.time_of_day_s
+        );
         assert_eq!((s.x_m, s.y_m, s.depth_m), (-1.5, 3.25, 2.5));
         assert_eq!(s.accuracy_m, Some(0.3));
     }

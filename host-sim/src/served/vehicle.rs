@@ -308,9 +308,10 @@ impl ControllerEndpoint for ServedVehicle {
                     Some(out) => {
                         // The transponder's depth as the USBL sees it: the latest pressure
                         // reading's.
-                        let depth_m = f.pressure.back().map_or(0.0, |&(_, pa)| {
-                            self.onboard.pressure.depth_m(pa)
-                        });
+                        let depth_m = f
+                            .pressure
+                            .back()
+                            .map_or(0.0, |&(_, pa)| self.onboard.pressure.depth_m(pa));
                         out.send(&p, depth_m, self.ticks.saturating_sub(1) * self.period_us);
                     }
                     None => self.own.push(Command::UsblFix(p)),

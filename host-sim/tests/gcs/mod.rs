@@ -216,7 +216,10 @@ pub fn dive(
                 if let Some(p) = found {
                     return p;
                 }
-                assert!(std::time::Instant::now() < end, "no {ext} from the served vehicle");
+                assert!(
+                    std::time::Instant::now() < end,
+                    "no {ext} from the served vehicle"
+                );
                 std::thread::sleep(std::time::Duration::from_millis(50));
             }
         };

@@ -148,7 +148,10 @@ const FAULT_NAMES: [(u16, &str); 15] = [
     (fault::PWM_ERROR, "PWM output error"),
     (fault::SERIAL_ERROR, "tether serial error"),
     (fault::OVERRUN, "control loop overrun"),
-    (fault::SENSOR_LOST, "IMU or pressure sensor lost: thrusters neutral"),
+    (
+        fault::SENSOR_LOST,
+        "IMU or pressure sensor lost: thrusters neutral",
+    ),
     (fault::BATTERY_LOW, "battery low"),
     (fault::BATTERY_CRITICAL, "battery critical"),
     (fault::LEAK, "leak detected"),

@@ -30,9 +30,9 @@
 
 use crate::surface::vehicle::Vehicle;
 use anyhow::{anyhow, bail, Context, Result};
+use controller_core::nav::onboard::OnboardConfig;
 use controller_core::nav::PositionFix;
 use controller_core::state::NavState;
-use controller_core::nav::onboard::OnboardConfig;
 use protocol::Command;
 use sensor_drivers::usbl::{parse, LocalOrigin, Orientation, Sentence};
 use std::io::Read;
@@ -134,7 +134,9 @@ impl VehicleClock {
 
 /// The UTC instant of `time_of_day_s` (s since midnight) nearest to `now`.
 pub fn utc_of_time_of_day(time_of_day_s: f64, now: SystemTime) -> SystemTime {
-    let now_s = now.duration_since(UNIX_EPOCH).map_or(0.0, |d| d.as_secs_f64());
+    let now_s = now
+        .duration_since(UNIX_EPOCH)
+        .map_or(0.0, |d| d.as_secs_f64());
     let midnight = (now_s / 86_400.0).floor() * 86_400.0;
     let mut t = midnight + time_of_day_s;
     // A time of day just before midnight heard just after it was yesterday's, and the other
@@ -172,7 +174,10 @@ pub fn fix_of(
             }
             Ok(SurfaceFix {
                 ned_m: [f.y_m, f.x_m, f.depth_m],
-                std_m: f.accuracy_m.filter(|a| *a > 0.0).unwrap_or(DEFAULT_FIX_STD_M),
+                std_m: f
+                    .accuracy_m
+                    .filter(|a| *a > 0.0)
+                    .unwrap_or(DEFAULT_FIX_STD_M),
                 valid_at: utc_of_time_of_day(f.time_of_day_s, now),
             })
         }
@@ -185,9 +190,7 @@ pub fn fix_of(
             Ok(SurfaceFix {
                 ned_m: [n as f32, e as f32, -g.altitude_m.unwrap_or(0.0)],
                 std_m: DEFAULT_FIX_STD_M,
-                valid_at: g
-                    .time_of_day_s
-                    .map_or(now, |t| utc_of_time_of_day(t, now)),
+                valid_at: g.time_of_day_s.map_or(now, |t| utc_of_time_of_day(t, now)),
             })
         }
     }
@@ -226,8 +229,7 @@ fn parse_launch(s: &str) -> Result<NavState> {
     let [n, e, d, h] = v[..] else {
         bail!("--launch {s}: four numbers N,E,D,HEADING_DEG");
     };
-    if !v.iter().all(|x| x.is_finite()) || n.hypot(e) > 1_000.0 || !(-1.0..=1_000.0).contains(&d)
-    {
+    if !v.iter().all(|x| x.is_finite()) || n.hypot(e) > 1_000.0 || !(-1.0..=1_000.0).contains(&d) {
         bail!("--launch {s}: within 1 km of the origin, depth -1..1000 m");
     }
     Ok(NavState {
@@ -279,10 +281,7 @@ impl SurfaceNav {
         let origin = match o.usbl_origin.as_deref() {
             None => None,
             Some(s) => {
-                let v: Vec<f64> = s
-                    .split(',')
-                    .filter_map(|x| x.trim().parse().ok())
-                    .collect();
+                let v: Vec<f64> = s.split(',').filter_map(|x| x.trim().parse().ok()).collect();
                 match v[..] {
                     [lat, lon] if lat.abs() <= 90.0 && lon.abs() <= 180.0 => Some(LocalOrigin {
                         latitude_deg: lat,
@@ -297,8 +296,9 @@ impl SurfaceNav {
             Some(p) => {
                 let text = std::fs::read_to_string(p)
                     .with_context(|| format!("--nav-config {}", p.display()))?;
-                serde_json::from_str(&text)
-                    .with_context(|| format!("--nav-config {}: not an estimator's settings", p.display()))?
+                serde_json::from_str(&text).with_context(|| {
+                    format!("--nav-config {}: not an estimator's settings", p.display())
+                })?
             }
         };
         Ok(Self {
@@ -380,7 +380,10 @@ impl SurfaceNav {
                 }
             };
             let age = now.duration_since(fix.valid_at).unwrap_or_default();
-            let Some(t_us) = self.clock.vehicle_us(fix.valid_at).filter(|_| age <= MAX_FIX_AGE)
+            let Some(t_us) = self
+                .clock
+                .vehicle_us(fix.valid_at)
+                .filter(|_| age <= MAX_FIX_AGE)
             else {
                 self.stats.untimed += 1;
                 continue;
@@ -410,7 +413,8 @@ impl SurfaceNav {
 
     /// Is the vehicle's estimator running (its `Status` counts IMU samples)?
     fn running(&self, v: &mut Vehicle) -> bool {
-        v.last_status().is_some_and(|s| s.nav_health.imu_samples > 0)
+        v.last_status()
+            .is_some_and(|s| s.nav_health.imu_samples > 0)
     }
 
     /// Start (or with `restart`, restart at the latest fix) the vehicle's estimator; what to
@@ -428,8 +432,10 @@ impl SurfaceNav {
                 let (depth_m, yaw_rad) = if restart {
                     (v.state.z_m, v.state.yaw_rad)
                 } else {
-                    config.nav.initial_heading_std_rad =
-                        config.nav.initial_heading_std_rad.max(UNKNOWN_HEADING_STD_RAD);
+                    config.nav.initial_heading_std_rad = config
+                        .nav
+                        .initial_heading_std_rad
+                        .max(UNKNOWN_HEADING_STD_RAD);
                     (f.ned_m[2], v.state.yaw_rad)
                 };
                 NavState {
@@ -440,7 +446,9 @@ impl SurfaceNav {
                     ..NavState::default()
                 }
             }
-            (true, _, None) => return Ok(Some("Navigation restart refused: no USBL fix yet".into())),
+            (true, _, None) => {
+                return Ok(Some("Navigation restart refused: no USBL fix yet".into()))
+            }
             (false, None, None) => return Ok(None),
         };
         let Some(t_us) = self.clock.vehicle_us(SystemTime::now()) else {
@@ -500,8 +508,9 @@ mod tests {
     #[test]
     fn psimssb_north_up_gives_north_east_depth_and_head_up_is_refused() {
         let now = SystemTime::now();
-        let n = parse(b"$PSIMSSB,180554.432,M44,A,,C,N,M,-61.300,39.017,34.026,0.072,T,0.050576,*47")
-            .unwrap();
+        let n =
+            parse(b"$PSIMSSB,180554.432,M44,A,,C,N,M,-61.300,39.017,34.026,0.072,T,0.050576,*47")
+                .unwrap();
         let f = fix_of(&n, &mut None, now).unwrap();
         assert_eq!(f.ned_m, [39.017, -61.3, 34.026]);
         assert_eq!(f.std_m, 0.072);
