@@ -3,7 +3,8 @@
 //! low / critical level, latched as in ArduPilot (a battery that recovers at rest is still
 //! the one that sagged).
 
-use super::{BatteryStatus, Confirm, HealthParams, HealthSample};
+use super::confirm::Confirm;
+use crate::protocol::{BatteryStatus, HealthParams, HealthSample};
 
 /// Time constant of the current's low-pass filter used for the remaining time, s (the
 /// thrusters' draw changes every step; the estimate follows the mean draw).

@@ -2,7 +2,7 @@
 //! counted it stays until the probe reads dry for the same time (a probe that dries in a
 //! wave is still in a leaking enclosure).
 
-use super::Confirm;
+use super::confirm::Confirm;
 
 /// Debounced leak state.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -9,11 +9,13 @@
 //! SURFACE mode (`SURFACE_END`) are this vehicle's own. `docs/health.md` has the table.
 
 mod battery;
+mod confirm;
 pub mod depth_limit;
 mod leak;
 pub mod sensing;
 
 pub use battery::{BatteryLevel, BatteryMonitor, BatteryState};
+pub use confirm::Confirm;
 pub use depth_limit::DepthLimit;
 pub use leak::LeakDebounce;
 pub use sensing::{EnclosureSense, NoEnclosure, PowerSense, WithHealth};
@@ -51,24 +53,6 @@ pub const HEALTH_FAULTS: u16 = fault::BATTERY_LOW
     | fault::LEAK
     | fault::ENCLOSURE
     | fault::DEPTH_LIMIT;
-
-/// A timer that confirms a condition after it has held for a while.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct Confirm {
-    since_us: Option<u64>,
-}
-
-impl Confirm {
-    /// Feed the condition at `now_us`; true once it has held for `hold_us`.
-    pub fn update(&mut self, now_us: u64, condition: bool, hold_us: u64) -> bool {
-        if !condition {
-            self.since_us = None;
-            return false;
-        }
-        let since = *self.since_us.get_or_insert(now_us);
-        now_us.saturating_sub(since) >= hold_us
-    }
-}
 
 /// The health checks and their state between calls.
 #[derive(Debug, Clone)]

@@ -4,7 +4,7 @@
 //! ([`EnclosureSense`]). embedded-hal 1.0 has no ADC trait, so the board implements
 //! [`PowerSense`] over its own ADC. [`WithHealth`] adds them to any [`Sensors`].
 
-use super::HealthSample;
+use crate::protocol::HealthSample;
 use crate::sensors::Sensors;
 use controller_core::nav::{DvlFix, ImuSample};
 use embedded_hal::digital::InputPin;

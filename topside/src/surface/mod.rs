@@ -51,6 +51,7 @@
 
 mod calibration;
 mod commander;
+mod faults;
 mod frames;
 mod geodesy;
 mod guard;
@@ -134,38 +135,6 @@ pub fn manual_thrust(x: i16, z: i16, r: i16) -> ManualThrust {
         heave: -((f32::from(z) - 500.0) / 500.0).clamp(-1.0, 1.0),
     }
 }
-
-/// Names of the fault flags, for `STATUSTEXT`: the tether protocol's, then the topside
-/// layout's (a topside board reports its node link in the same `faults`).
-const FAULT_NAMES: [(u16, &str); 15] = [
-    (
-        fault::HEARTBEAT_LOST,
-        "tether heartbeat lost: thrusters neutral",
-    ),
-    (fault::LINK_DISARMED, "tether lost: disarmed"),
-    (fault::NAV_STALE, "navigation stale: thrusters neutral"),
-    (fault::MANUAL_STALE, "pilot input lost: thrusters neutral"),
-    (fault::PWM_ERROR, "PWM output error"),
-    (fault::SERIAL_ERROR, "tether serial error"),
-    (fault::OVERRUN, "control loop overrun"),
-    (
-        fault::SENSOR_LOST,
-        "IMU or pressure sensor lost: thrusters neutral",
-    ),
-    (fault::BATTERY_LOW, "battery low"),
-    (fault::BATTERY_CRITICAL, "battery critical"),
-    (fault::LEAK, "leak detected"),
-    (fault::ENCLOSURE, "enclosure pressure or temperature high"),
-    (fault::DEPTH_LIMIT, "at 90 % of the depth limit"),
-    (
-        protocol::fault::NODE_LINK_LOST,
-        "node link lost: prediction only",
-    ),
-    (
-        protocol::fault::NODE_NOT_ARMED,
-        "node not armed: disarm and arm again",
-    ),
-];
 
 /// The topside's state: the ground stations, the vehicle behind the tether, who commands,
 /// the missions, the pilot's sticks and the mode shown.
@@ -253,17 +222,7 @@ impl Topside {
             self.watch_vehicle(k.is_multiple_of(per_second))?;
 
             let faults = self.v.tel.faults & !fault::SATURATED;
-            for (bit, name) in FAULT_NAMES {
-                if faults & bit != 0 && self.last_faults & bit == 0 {
-                    self.gcs.text(
-                        MavSeverity::MAV_SEVERITY_CRITICAL,
-                        &format!("Failsafe: {name}"),
-                    )?;
-                } else if faults & bit == 0 && self.last_faults & bit != 0 {
-                    self.gcs
-                        .text(MavSeverity::MAV_SEVERITY_INFO, &format!("Cleared: {name}"))?;
-                }
-            }
+            faults::report(&mut self.gcs, faults, self.last_faults)?;
             self.last_faults = faults;
 
             self.missions
