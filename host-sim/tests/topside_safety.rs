@@ -125,8 +125,9 @@ fn fence_and_rally_leave_the_mission_and_every_item_is_answered() {
     );
 }
 
-/// The surface program killed (SIGKILL) mid-dive on a vehicle with its own estimator, after a
-/// parameter was saved; restarted with the saved file it flies again (heartbeat, the saved
+/// The surface program killed (SIGKILL) mid-dive on a vehicle with its own estimator, started
+/// and fed from the surface, after a parameter was saved; the vehicle dives on, and the
+/// surface restarted with the saved file in front of it flies again (heartbeat, the saved
 /// parameter, MANUAL and arming accepted) within 5 s, with no thrust before a stick asks.
 #[test]
 fn a_restart_mid_dive_with_the_saved_file_flies_again_within_5_s() {
@@ -141,7 +142,7 @@ fn a_restart_mid_dive_with_the_saved_file_flies_again_within_5_s() {
         port,
         &dir.join("dive.tlog"),
         &params,
-        &["--duration", "300"],
+        &["--duration", "300", "--surface-nav"],
     );
     let mut dive = Command::new("python3")
         .arg(concat!(
@@ -164,7 +165,15 @@ fn a_restart_mid_dive_with_the_saved_file_flies_again_within_5_s() {
         }
         out.push_str(&String::from_utf8_lossy(&buf[..n]));
     }
-    stop(first);
+    // Only the surface program dies: the vehicle dives on.
+    let gcs::Dive {
+        topside: first_surface,
+        vehicle,
+        tcp,
+        surface_args,
+        ..
+    } = first;
+    stop(first_surface);
     let _ = dive.kill();
     let _ = dive.wait();
     println!("{out}");
@@ -207,11 +216,12 @@ fn a_restart_mid_dive_with_the_saved_file_flies_again_within_5_s() {
         .duration_since(UNIX_EPOCH)
         .unwrap()
         .as_secs_f64();
-    let second = fly_dive(
-        "nav-circle-3d",
+    let second = gcs::surface(
+        tcp,
         port,
         &dir.join("resume.tlog"),
         &params,
+        &surface_args,
         &["--duration", "300"],
     );
     resume
@@ -228,6 +238,7 @@ fn a_restart_mid_dive_with_the_saved_file_flies_again_within_5_s() {
         ..out
     };
     stop(second);
+    stop(vehicle);
     let stdout = String::from_utf8_lossy(&out.stdout).to_string();
     println!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
     assert!(out.status.success(), "the resumed session failed");

@@ -197,9 +197,8 @@ fn the_topside_drives_a_vehicle_on_a_serial_line() {
 
 #[test]
 fn a_serial_device_that_is_not_there_is_a_clear_error() {
-    let out = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+    let out = Command::new(gcs::rov_topside())
         .args([
-            "topside",
             "--serial",
             "/dev/no-such-tty",
             "--mavlink",

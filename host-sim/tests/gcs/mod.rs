@@ -67,6 +67,11 @@ pub struct Dive {
     pub vehicle: Child,
     /// Where the served vehicle writes its truth log.
     pub out: PathBuf,
+    /// The served vehicle's TCP port.
+    pub tcp: u16,
+    /// The surface's navigation arguments (`--usbl`, `--launch`, `--nav-config`) and its
+    /// tether heartbeat rate, for another surface program in front of the same vehicle.
+    pub surface_args: Vec<String>,
 }
 
 impl Dive {
@@ -234,24 +239,39 @@ pub fn dive(
         ]);
     }
     let heartbeat_hz = (10.0 * speedup).clamp(10.0, 50.0).round().to_string();
-    let topside = Command::new(rov_topside())
-        .args(["--tcp", &format!("127.0.0.1:{tcp}")])
-        .args(["--mavlink", &format!("udpout:127.0.0.1:{port}")])
-        .args(["--heartbeat-hz", &heartbeat_hz])
-        .arg("--tlog")
-        .arg(tlog)
-        .arg("--params")
-        .arg(params)
-        .args(&nav_args)
-        .args(surface_args)
-        .process_group(0)
-        .spawn()
-        .unwrap();
+    nav_args.extend(["--heartbeat-hz".into(), heartbeat_hz]);
+    let topside = surface(tcp, port, tlog, params, &nav_args, &surface_args);
     Dive {
         topside,
         vehicle,
         out,
+        tcp,
+        surface_args: nav_args,
     }
+}
+
+/// `rov-topside --tcp 127.0.0.1:TCP` sending MAVLink to `udpout:127.0.0.1:PORT`, its tlog and
+/// parameters where the test says, with `fixed` and `extra` arguments.
+pub fn surface(
+    tcp: u16,
+    port: u16,
+    tlog: &Path,
+    params: &Path,
+    fixed: &[String],
+    extra: &[&str],
+) -> Child {
+    Command::new(rov_topside())
+        .args(["--tcp", &format!("127.0.0.1:{tcp}")])
+        .args(["--mavlink", &format!("udpout:127.0.0.1:{port}")])
+        .arg("--tlog")
+        .arg(tlog)
+        .arg("--params")
+        .arg(params)
+        .args(fixed)
+        .args(extra)
+        .process_group(0)
+        .spawn()
+        .unwrap()
 }
 
 /// A simulated dive: through `host-sim vehicle` and `rov-topside` ([`dive`]), or with

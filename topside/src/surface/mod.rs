@@ -274,6 +274,7 @@ impl Topside {
         self.manual = ManualThrust::default();
         self.manual_at = None;
         self.sticks_seen_centred = false;
+        self.v.outputs_changed();
         if self.missions.uploader().is_some_and(|u| Some(u) != now) {
             self.missions
                 .abandon(&mut self.gcs, "control changed during the upload")?;

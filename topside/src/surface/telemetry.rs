@@ -149,6 +149,11 @@ pub(super) fn send_state(gcs: &mut Gcs, v: &Vehicle) -> Result<()> {
             hdg: (heading_deg * 100.0).round() as u16 % 36000,
         }))?;
     }
+    // The pulse widths of a frame the vehicle may have sent before its latest accepted
+    // command (an arm, a mode change) or change of commander are not what its ESCs see now.
+    if v.frames_before_pulses > 0 {
+        return Ok(());
+    }
     let [p1, p2, p3] = v.tel.pulse_us;
     gcs.send(MavMessage::SERVO_OUTPUT_RAW(SERVO_OUTPUT_RAW_DATA {
         time_usec: v.tel.t_us as u32,

@@ -149,6 +149,10 @@ pub struct Vehicle {
     pub(super) stride: u64,
     /// When the vehicle last sent telemetry (wall clock).
     heard_at: Instant,
+    /// Telemetry frames still to come before the pulse widths are shown again after a change
+    /// of what the vehicle is told (an accepted command, a change of commander): the first
+    /// frame after it may have left the vehicle before the change reached it.
+    pub(super) frames_before_pulses: u8,
     /// Telemetry frames refused by [`check_telemetry`], and the latest reason.
     pub(super) frames_refused: u64,
     pub(super) last_refusal: Option<String>,
@@ -223,6 +227,7 @@ impl Vehicle {
             settings,
             stride: stride.max(1),
             heard_at: Instant::now(),
+            frames_before_pulses: 0,
             frames_refused: 0,
             last_refusal: None,
         };
@@ -274,6 +279,7 @@ impl Vehicle {
             settings: Settings::new(vehicle.unwrap_or(VehicleParams::OBSERVER)),
             stride: 1,
             heard_at: Instant::now(),
+            frames_before_pulses: 0,
             frames_refused: 0,
             last_refusal: None,
         };
@@ -333,6 +339,12 @@ impl Vehicle {
         Ok(r)
     }
 
+    /// What the vehicle's outputs follow changed (an accepted command, a new commander's
+    /// sticks): the pulse widths of the frames that may predate it are not shown.
+    pub(super) fn outputs_changed(&mut self) {
+        self.frames_before_pulses = 2;
+    }
+
     /// When the vehicle last sent telemetry (wall clock).
     pub(super) fn heard_at(&self) -> Instant {
         self.heard_at
@@ -350,7 +362,12 @@ impl Vehicle {
             return Ok(Err(Refusal::Silent));
         }
         match self.end.command(cmd) {
-            Ok(r) => Ok(r.map_err(Refusal::Nack)),
+            Ok(r) => {
+                if r.is_ok() {
+                    self.outputs_changed();
+                }
+                Ok(r.map_err(Refusal::Nack))
+            }
             Err(e) => {
                 eprintln!("topside: {e:#} (refused; the topside goes on)");
                 Ok(Err(Refusal::Silent))
@@ -364,6 +381,7 @@ impl Vehicle {
         let (t_s, tel) = self.end.step(self.periods)?;
         if let Some(t) = tel {
             self.heard_at = Instant::now();
+            self.frames_before_pulses = self.frames_before_pulses.saturating_sub(1);
             match check_telemetry(&t) {
                 Ok(()) => {
                     self.tel = t;
