@@ -124,7 +124,7 @@ pub fn least_squares(
         let regressor = svd
             .v_t
             .as_ref()
-            .map(|vt| vt.row(imin).iamax())
+            .map(|vt| vt.row(imin).transpose().iamax())
             .and_then(|j| names.get(j))
             .map_or_else(|| "?".to_string(), |s| (*s).to_string());
         return Err(FitError::NotExcited {
