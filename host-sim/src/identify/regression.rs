@@ -69,7 +69,12 @@ pub struct LinearFit {
 impl LinearFit {
     /// Standard error of parameter `i`.
     pub fn std_error(&self, i: usize) -> f64 {
-        self.covariance.get((i, i)).copied().unwrap_or(f64::NAN).max(0.0).sqrt()
+        self.covariance
+            .get((i, i))
+            .copied()
+            .unwrap_or(f64::NAN)
+            .max(0.0)
+            .sqrt()
     }
 
     /// 95 % half-width of parameter `i`.
