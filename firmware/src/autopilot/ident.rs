@@ -40,10 +40,15 @@ enum Drive {
 const HALF_S: f32 = 3.0;
 /// Length of a turn under way (s).
 const TURN_S: f32 = 8.0;
-/// Levels of the six cycles, as fractions of the axis's thrust either way.
-const LEVELS: [f32; 6] = [0.2, 0.4, 0.65, 0.3, 0.55, 0.8];
-/// Heave levels are this share of the surge ones (the depth band is tighter than the radius).
-const HEAVE_SHARE: f32 = 0.45;
+/// Levels of the eight cycles, as fractions of the axis's thrust either way: low ones for
+/// the linear drag, high ones for the quadratic, mixed so that each held-out block of the
+/// fit's validation sees a spread.
+const LEVELS: [f32; 8] = [0.1, 0.3, 0.55, 0.8, 0.2, 0.45, 0.7, 0.35];
+/// Heave levels are this share of the surge ones.
+const HEAVE_SHARE: f32 = 1.0;
+/// Share of the depth band at which a heave step that pushes farther out turns round (the
+/// vehicle stays in its band whatever its speed).
+const HEAVE_TURN_BAND: f32 = 0.6;
 /// Surge share and yaw share of the turns under way.
 const TURN_SURGE: f32 = 0.3;
 const TURN_YAW: f32 = 0.35;
@@ -55,7 +60,7 @@ const HEADING_KD: f32 = 2.5;
 const RETURN_SHARE_PER_M: f32 = 0.02;
 const RETURN_MAX_SHARE: f32 = 0.15;
 
-/// The schedule's length (s): six cycles of three doublets, then two turns.
+/// The schedule's length (s): eight cycles of three doublets, then two turns.
 pub const IDENT_DURATION_S: f32 = LEVELS.len() as f32 * 6.0 * HALF_S + 2.0 * TURN_S;
 
 /// Accepted room: radius around the start (m) and depth band either side of the start
@@ -208,7 +213,15 @@ impl IdentFlight {
             Drive::Surge => (share(level, 2.0 * fwd, 2.0 * rev), heading, None),
             Drive::Yaw => (back_n, level * yaw_cap, None),
             Drive::Heave => {
-                // Positive heave pushes down; the net buoyancy is balanced first.
+                // Positive heave pushes down; the net buoyancy is balanced first. A push
+                // farther out than the turn-round share of the band is reversed.
+                let dz = nav.z_m - self.start_m[2];
+                let turn = HEAVE_TURN_BAND * self.depth_band_m;
+                let level = if (level > 0.0 && dz > turn) || (level < 0.0 && dz < -turn) {
+                    -level
+                } else {
+                    level
+                };
                 let trim = p.buoyancy_offset_n;
                 (
                     back_n,

@@ -37,12 +37,23 @@ pub struct Outcome {
 /// Identify a vehicle from a record, starting from `prior`.
 pub fn identify(rec: &Record, prior: &VehicleParams, anchor: Anchor) -> Result<Outcome> {
     rec.check()?;
-    let thrust = rec.nominal_thrust_n(prior)?;
-    let axes = fit::fit_axes(rec, &thrust, prior)?;
-    let identified = fit::physical(axes, anchor);
+    // The excitation is judged once, on the prior's lag (a refusal names the axes).
+    fit::check_excitation(rec, &rec.nominal_thrust_n(prior)?, prior)?;
+    let (axes, lag_s) = fit::fit_axes_with_lag(rec, prior)?;
+    let thrust = rec.nominal_thrust_lagged_n(prior, lag_s)?;
+    let mut identified = fit::physical(axes, anchor);
+    identified.thruster_time_constant_s = lag_s;
     let params = vehicle_file::identified_params(&identified, prior);
-    let validation = validate::predict(&identified.model, prior, rec, &thrust);
-    let prior_validation = validate::predict(&validate::prior_model(prior), prior, rec, &thrust);
+    let lever = f64::from(prior.thruster_lever_arm_m);
+    let fitted = identified
+        .axes
+        .fits
+        .clone()
+        .map(|f| f.theta.iter().copied().collect::<Vec<f64>>());
+    let validation = validate::predict(&fitted, lever, rec, &thrust);
+    let prior_thrust = rec.nominal_thrust_n(prior)?;
+    let prior_thetas = fit::Axis::ALL.map(|a| fit::prior_theta(a, prior));
+    let prior_validation = validate::predict(&prior_thetas, lever, rec, &prior_thrust);
     Ok(Outcome {
         identified,
         params,

@@ -10,11 +10,12 @@ use controller_core::params::VehicleParams;
 use std::path::Path;
 
 /// The columns the fit needs.
-pub const COLUMNS: [&str; 11] = [
+pub const COLUMNS: [&str; 12] = [
     "t_s",
     "u_m_s",
     "v_m_s",
     "w_m_s",
+    "p_rad_s",
     "q_rad_s",
     "r_rad_s",
     "roll_rad",
@@ -31,8 +32,8 @@ pub struct RecordSample {
     pub t_s: f64,
     /// Body velocities `[u, v, w]` (m/s).
     pub vel_m_s: [f64; 3],
-    /// Pitch and yaw rates `[q, r]` (rad/s).
-    pub rate_rad_s: [f64; 2],
+    /// Body rates `[p, q, r]` (rad/s).
+    pub rate_rad_s: [f64; 3],
     /// Roll and pitch (rad).
     pub tilt_rad: [f64; 2],
     /// ESC pulses `[F1x, F2x, F3z]` (us).
@@ -52,7 +53,7 @@ impl Record {
         let mut rd = csv::Reader::from_path(path)
             .with_context(|| format!("cannot read {}", path.display()))?;
         let headers = rd.headers()?.clone();
-        let mut index = [0usize; 11];
+        let mut index = [0usize; 12];
         for (slot, name) in index.iter_mut().zip(COLUMNS) {
             *slot = headers
                 .iter()
@@ -62,7 +63,7 @@ impl Record {
         let mut samples = Vec::new();
         for (line, rec) in rd.records().enumerate() {
             let rec = rec.with_context(|| format!("{}: row {}", path.display(), line + 2))?;
-            let mut v = [0.0f64; 11];
+            let mut v = [0.0f64; 12];
             for (out, &i) in v.iter_mut().zip(&index) {
                 let field = rec.get(i).unwrap_or("");
                 *out = field.parse().map_err(|_| {
@@ -73,11 +74,11 @@ impl Record {
                     )
                 })?;
             }
-            let [t, u, vv, w, q, r, roll, pitch, p1, p2, p3] = v;
+            let [t, u, vv, w, p, q, r, roll, pitch, p1, p2, p3] = v;
             samples.push(RecordSample {
                 t_s: t,
                 vel_m_s: [u, vv, w],
-                rate_rad_s: [q, r],
+                rate_rad_s: [p, q, r],
                 tilt_rad: [roll, pitch],
                 pulse_us: [p1, p2, p3],
             });
@@ -138,11 +139,15 @@ impl Record {
     /// pulse curve, then its thrusters' first-order lag (solved exactly over each period,
     /// the pulse held).
     pub fn nominal_thrust_n(&self, prior: &VehicleParams) -> Result<Vec<[f64; 3]>> {
+        self.nominal_thrust_lagged_n(prior, f64::from(prior.thruster_time_constant_s))
+    }
+
+    /// As [`Self::nominal_thrust_n`] with the lag's time constant `tc` (s).
+    pub fn nominal_thrust_lagged_n(&self, prior: &VehicleParams, tc: f64) -> Result<Vec<[f64; 3]>> {
         let vehicle = prior
             .validate()
             .map_err(|e| anyhow!("prior vehicle: {e}"))?;
         let pwm = PwmMap::for_vehicle(&vehicle);
-        let tc = f64::from(prior.thruster_time_constant_s);
         let decay = if tc > 0.0 {
             (-self.period_s() / tc).exp()
         } else {

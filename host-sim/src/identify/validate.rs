@@ -3,81 +3,51 @@
 //! fitted model alone carrying the axis through the block), against the recorded one. The
 //! prior is simulated the same way, so the figure says how much the fit improved.
 
-use super::fit::{in_fit_part, Axis, Couplings, Model};
+use super::fit::{axis_series, in_fit_part, Axis};
 use super::record::Record;
 use crate::output::plots::{init_font, FONT_NAME};
 use anyhow::{anyhow, Result};
-use controller_core::params::VehicleParams;
 use plotters::prelude::*;
 use std::path::Path;
 
-/// The prior as a [`Model`] (scales 1).
-pub fn prior_model(p: &VehicleParams) -> Model {
-    let f = f64::from;
-    Model {
-        m11_kg: f(p.mass_kg - p.x_udot_kg),
-        m33_kg_m2: f(p.i_z_kg_m2 - p.n_rdot_kg_m2),
-        mz_kg: f(p.mass_kg - p.z_wdot_kg),
-        x_u: f(p.x_u),
-        x_uu: f(p.x_uu),
-        n_r: f(p.n_r),
-        n_rr: f(p.n_rr),
-        z_w: f(p.z_w),
-        z_ww: f(p.z_ww),
-        net_buoyancy_n: f(p.buoyancy_offset_n),
-        thrust_scale_ahead: 1.0,
-        thrust_scale_astern: 1.0,
-    }
-}
-
-/// One axis's acceleration under `m` at sample `k` with its velocity `x`.
+/// One axis's acceleration under the regression parameters `theta` at sample `k` with its
+/// own velocity `x` (the recorded one in the coupling terms, the pitch acceleration by
+/// central differences).
 fn accel(
     axis: Axis,
-    m: &Model,
-    c: &Couplings,
+    theta: &[f64],
     rec: &Record,
     thrust: &[[f64; 3]],
+    lever_arm_m: f64,
     k: usize,
     x: f64,
 ) -> f64 {
-    let s = &rec.samples[k];
-    let f = thrust[k];
-    let scaled = |v: f64| {
-        if v >= 0.0 {
-            m.thrust_scale_ahead * v
-        } else {
-            m.thrust_scale_astern * v
-        }
-    };
-    let [u, v, _] = s.vel_m_s;
-    let [q, r] = s.rate_rad_s;
-    let [roll, pitch] = s.tilt_rad;
+    let mut s = rec.samples[k];
     match axis {
-        Axis::Surge => {
-            (scaled(f[0]) + scaled(f[1]) - m.x_u * x - m.x_uu * x.abs() * x) / m.m11_kg
-                + c.m22_over_m11 * v * r
-        }
-        Axis::Yaw => {
-            (c.lever_arm_m * (scaled(f[0]) - scaled(f[1])) - m.n_r * x - m.n_rr * x.abs() * x)
-                / m.m33_kg_m2
-                + c.munk_over_m33 * u * v
-        }
-        Axis::Heave => {
-            (scaled(f[2])
-                - m.z_w * x
-                - m.z_ww * x.abs() * x
-                - m.net_buoyancy_n * roll.cos() * pitch.cos())
-                / m.mz_kg
-                + c.m11_over_mz * u * q
+        Axis::Surge => s.vel_m_s[0] = x,
+        Axis::Yaw => s.rate_rad_s[2] = x,
+        Axis::Heave => s.vel_m_s[2] = x,
+    }
+    let one = Record { samples: vec![s] };
+    let series = axis_series(axis, &one, &thrust[k..=k], lever_arm_m);
+    let mut a: f64 = series.phi[0].iter().zip(theta).map(|(p, t)| p * t).sum();
+    if axis == Axis::Surge {
+        let lo = k.saturating_sub(1);
+        let hi = (k + 1).min(rec.samples.len() - 1);
+        let dt = rec.samples[hi].t_s - rec.samples[lo].t_s;
+        if dt > 0.0 {
+            let q_dot = (rec.samples[hi].rate_rad_s[1] - rec.samples[lo].rate_rad_s[1]) / dt;
+            a += theta.last().copied().unwrap_or(0.0) * q_dot;
         }
     }
+    a
 }
 
 fn recorded(axis: Axis, rec: &Record, k: usize) -> f64 {
     let s = &rec.samples[k];
     match axis {
         Axis::Surge => s.vel_m_s[0],
-        Axis::Yaw => s.rate_rad_s[1],
+        Axis::Yaw => s.rate_rad_s[2],
         Axis::Heave => s.vel_m_s[2],
     }
 }
@@ -121,20 +91,25 @@ impl Prediction {
     }
 }
 
-/// Simulate the held-out blocks under `m` (Heun's method at the record's period).
-pub fn predict(m: &Model, prior: &VehicleParams, rec: &Record, thrust: &[[f64; 3]]) -> Prediction {
-    let c = Couplings::of(prior);
+/// Simulate the held-out blocks under the three axes' parameters `thetas` (Heun's method
+/// at the record's period) with the nominal thrust `thrust`.
+pub fn predict(
+    thetas: &[Vec<f64>; 3],
+    lever_arm_m: f64,
+    rec: &Record,
+    thrust: &[[f64; 3]],
+) -> Prediction {
     let dt = rec.period_s();
     let mut traces: [Vec<(f64, f64, f64)>; 3] = Default::default();
     for block in held_out_blocks(rec) {
-        for (axis, trace) in Axis::ALL.iter().zip(traces.iter_mut()) {
+        for ((axis, trace), theta) in Axis::ALL.iter().zip(traces.iter_mut()).zip(thetas) {
             let mut x = recorded(*axis, rec, block.start);
             for k in block.clone() {
                 trace.push((rec.samples[k].t_s, recorded(*axis, rec, k), x));
                 if k + 1 < rec.samples.len() {
-                    let a0 = accel(*axis, m, &c, rec, thrust, k, x);
+                    let a0 = accel(*axis, theta, rec, thrust, lever_arm_m, k, x);
                     let xp = x + dt * a0;
-                    let a1 = accel(*axis, m, &c, rec, thrust, k + 1, xp);
+                    let a1 = accel(*axis, theta, rec, thrust, lever_arm_m, k + 1, xp);
                     x += 0.5 * dt * (a0 + a1);
                 }
             }

@@ -42,6 +42,9 @@ pub fn identified_params(id: &Identified, prior: &VehicleParams) -> VehicleParam
     p.z_w = f(m.z_w.max(0.0));
     p.z_ww = f(m.z_ww.max(0.0));
     p.buoyancy_offset_n = f(m.net_buoyancy_n);
+    if id.thruster_time_constant_s.is_finite() {
+        p.thruster_time_constant_s = f(id.thruster_time_constant_s);
+    }
     p.thrust_max_forward_n = f(f64::from(prior.thrust_max_forward_n) * m.thrust_scale_ahead);
     p.thrust_max_reverse_n = f(f64::from(prior.thrust_max_reverse_n) * m.thrust_scale_astern);
     p

@@ -20,7 +20,7 @@ pub struct IdentificationSpec {
     /// Radius of the room around the start point (m, 3-100), default 30.
     #[serde(default = "d_radius")]
     pub radius_m: f64,
-    /// Half-height of the depth band around the start depth (m, 0.5-20), default 4.
+    /// Half-height of the depth band around the start depth (m, 0.5-20), default 6.
     #[serde(default = "d_band")]
     pub depth_band_m: f64,
     /// The vehicle file the firmware flies with; the Observer's when absent. A relative
@@ -36,7 +36,7 @@ fn d_radius() -> f64 {
     30.0
 }
 fn d_band() -> f64 {
-    4.0
+    6.0
 }
 fn observer() -> VehicleParams {
     VehicleParams::OBSERVER
@@ -59,8 +59,8 @@ impl IdentificationSpec {
         if let Some(file) = &self.prior {
             let beside = dir.map(|d| d.join(file)).filter(|p| p.exists());
             let path = beside.unwrap_or_else(|| Path::new(file).to_path_buf());
-            self.prior_params = crate::scenario::vehicle::load(&path)
-                .context("key `identification.prior`")?;
+            self.prior_params =
+                crate::scenario::vehicle::load(&path).context("key `identification.prior`")?;
         }
         Ok(())
     }
@@ -68,10 +68,16 @@ impl IdentificationSpec {
     /// The room in range, the start deeper than the band, the run long enough to fly it.
     pub fn check(&self, start_depth_m: f64, duration_s: f64) -> Result<()> {
         if !(3.0..=100.0).contains(&self.radius_m) {
-            bail!("identification.radius_m = {} must be 3-100 m", self.radius_m);
+            bail!(
+                "identification.radius_m = {} must be 3-100 m",
+                self.radius_m
+            );
         }
         if !(0.5..=20.0).contains(&self.depth_band_m) {
-            bail!("identification.depth_band_m = {} must be 0.5-20 m", self.depth_band_m);
+            bail!(
+                "identification.depth_band_m = {} must be 0.5-20 m",
+                self.depth_band_m
+            );
         }
         if start_depth_m <= self.depth_band_m {
             bail!(
