@@ -211,3 +211,44 @@ fn intervals_hold_the_truth_in_90_percent_of_50_runs() {
         );
     }
 }
+
+/// RMS tracking error over the last 80 % (m) of `scenario` flown on the plant `truth` by
+/// the law given the vehicle file `file` (a software run).
+fn tracking_rms(scenario: &str, truth: &VehicleParams, file: &VehicleParams) -> f64 {
+    use host_sim::closed_loop::runner::run;
+    use host_sim::closed_loop::RunOptions;
+    let mut sc = Scenario::load(scenario).unwrap();
+    sc.vehicle_params = *file;
+    sc.expect = None;
+    let sc = sc.resolve().unwrap();
+    let opts = RunOptions {
+        plant_params: Some(*truth),
+        ..RunOptions::default()
+    };
+    run(&sc, &opts).unwrap().summary.rms_position_error_last80_m
+}
+
+/// The tracking law with the identified file flies within 10 % + 1 cm of the same law with
+/// the true file (circle and lawnmower on the true state, nav-circle-3d on the estimator);
+/// the Observer's file on the same vehicle is reported beside them.
+#[test]
+fn tracking_with_the_identified_file_is_within_10_percent_and_1_cm_of_the_true_file() {
+    for file in ["heavy-slow.toml", "light.toml"] {
+        let (_, out, truth) = identify_vehicle(file, 3);
+        for scenario in ["circle-3d", "lawnmower-3d", "nav-circle-3d"] {
+            let with_truth = tracking_rms(scenario, &truth, &truth);
+            let with_identified = tracking_rms(scenario, &truth, &out.params);
+            let with_observer = tracking_rms(scenario, &truth, &VehicleParams::OBSERVER);
+            eprintln!(
+                "{file} {scenario}: RMS last 80 %: true file {:.2} cm, identified {:.2} cm, Observer's {:.2} cm",
+                100.0 * with_truth,
+                100.0 * with_identified,
+                100.0 * with_observer
+            );
+            assert!(
+                with_identified <= 1.1 * with_truth + 0.01,
+                "{file} {scenario}: identified {with_identified} vs true {with_truth}"
+            );
+        }
+    }
+}
