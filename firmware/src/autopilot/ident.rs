@@ -62,6 +62,8 @@ const RETURN_MAX_SHARE: f32 = 0.15;
 
 /// The schedule's length (s): eight cycles of three doublets, then two turns.
 pub const IDENT_DURATION_S: f32 = LEVELS.len() as f32 * 6.0 * HALF_S + 2.0 * TURN_S;
+// The manoeuvre lasts at most three minutes.
+const _: () = assert!(IDENT_DURATION_S <= 180.0);
 
 /// Accepted room: radius around the start (m) and depth band either side of the start
 /// depth (m).
@@ -104,7 +106,7 @@ pub enum IdentOutcome {
 /// The step of the schedule at `t_s`: what it drives and its signed level; `None` past the
 /// end.
 fn schedule(t_s: f32) -> Option<(Drive, f32)> {
-    if !(t_s >= 0.0) {
+    if t_s.is_nan() || t_s < 0.0 {
         return None;
     }
     let cycle_s = 6.0 * HALF_S;
@@ -114,7 +116,7 @@ fn schedule(t_s: f32) -> Option<(Drive, f32)> {
         let level = LEVELS.get(cycle).copied()?;
         let within = t_s - cycle as f32 * cycle_s;
         let half = (within / HALF_S) as usize;
-        let sign = if half % 2 == 0 { 1.0 } else { -1.0 };
+        let sign = if half.is_multiple_of(2) { 1.0 } else { -1.0 };
         let drive = match half / 2 {
             0 => Drive::Surge,
             1 => Drive::Yaw,
@@ -347,8 +349,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_schedule_lasts_under_three_minutes_and_drives_every_axis_both_ways() {
-        assert!(IDENT_DURATION_S <= 180.0, "{IDENT_DURATION_S}");
+    fn the_schedule_ends_at_its_duration_and_drives_every_axis_both_ways() {
         let mut seen = [[false; 2]; 4];
         let mut t = 0.0;
         while let Some((d, level)) = schedule(t) {

@@ -554,7 +554,7 @@ pub fn physical(axes: AxisFits, anchor: Anchor) -> Identified {
         Anchor::NetBuoyancy { value_n, .. } => Some(value_n),
     };
     let model = Model::from_thetas(point, anchor_n, weights);
-    let mut cols: Vec<Vec<f64>> = vec![Vec::with_capacity(DRAWS); 12];
+    let mut cols: Vec<Vec<f64>> = (0..12).map(|_| Vec::with_capacity(DRAWS)).collect();
     for (k, a) in anchor_draws.iter().enumerate() {
         let th = [
             d[0].get(k).map_or(&[][..], Vec::as_slice),

@@ -144,7 +144,7 @@ pub fn plot(path: &Path, identified: &Prediction, prior: &Prediction) -> Result<
             id.first().map_or(0.0, |p| p.0),
             id.last().map_or(1.0, |p| p.0),
         );
-        if !(lo < hi) {
+        if lo.is_nan() || hi.is_nan() || lo >= hi {
             (lo, hi) = (-1.0, 1.0);
         }
         let pad = 0.05 * (hi - lo);
