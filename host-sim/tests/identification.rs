@@ -185,9 +185,21 @@ fn intervals_hold_the_truth_in_90_percent_of_50_runs() {
                 let out =
                     identify(&rec, &VehicleParams::OBSERVER, buoyancy_anchor(&truth)).unwrap();
                 let id = &out.identified;
-                let inside = std::array::from_fn(|i| (id.lo[i]..=id.hi[i]).contains(&t[i]));
-                let err =
+                let inside: [bool; 12] =
+                    std::array::from_fn(|i| (id.lo[i]..=id.hi[i]).contains(&t[i]));
+                let err: [f64; 12] =
                     std::array::from_fn(|i| (id.model.values()[i] / t[i] - 1.0).abs() * 100.0);
+                let judged_in = JUDGED.iter().filter(|&&i| inside[i]).count();
+                let worst = JUDGED.iter().map(|&i| err[i]).fold(0.0, f64::max);
+                let out: Vec<&str> = JUDGED
+                    .iter()
+                    .filter(|&&i| !inside[i])
+                    .map(|&i| MODEL_NAMES[i].0)
+                    .collect();
+                eprintln!(
+                    "mc {tag}: {judged_in}/{} judged intervals hold the truth; worst error {worst:.1} %; out: {out:?}",
+                    JUDGED.len()
+                );
                 (inside, err)
             })
             .collect();
