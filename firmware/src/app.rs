@@ -308,6 +308,16 @@ where
         &self.autopilot
     }
 
+    /// Load the vehicle's stored health parameters (a board reads them from its flash at
+    /// boot); checked and refused as a `SetHealth` from the surface is.
+    pub fn set_health_params(
+        &mut self,
+        params: &crate::protocol::HealthParams,
+    ) -> Result<(), NackReason> {
+        let now = self.now_us();
+        self.autopilot.handle(now, 0, &Command::SetHealth(*params))
+    }
+
     /// Duties last written to the three outputs.
     pub fn duties(&self) -> [u16; 3] {
         self.duty
@@ -410,18 +420,23 @@ where
     /// refused reading changes nothing; the estimator's timeouts raise `SENSOR_LOST`.
     fn read_sensors(&mut self, now: u64) {
         self.read_dvl(now);
+        self.read_health(now);
         if self.autopilot.onboard_nav().is_none() {
             return;
         }
         if let Some(imu) = self.sensors.imu(now) {
-            let _ = self.autopilot.handle_nav(now, 0, &Command::Imu(imu));
+            let _ =
+                self.autopilot
+                    .handle_nav(now, crate::autopilot::OWN_READING, &Command::Imu(imu));
         }
         if let Some(pressure_pa) = self.sensors.pressure_pa(now) {
             let cmd = Command::Pressure {
                 t_us: now,
                 pressure_pa,
             };
-            let _ = self.autopilot.handle_nav(now, 0, &cmd);
+            let _ = self
+                .autopilot
+                .handle_nav(now, crate::autopilot::OWN_READING, &cmd);
         }
     }
 
@@ -429,8 +444,20 @@ where
     /// on-board estimator as a tether `DvlFix` would be (refused without one).
     fn read_dvl(&mut self, now: u64) {
         if let Some(fix) = self.sensors.dvl(now) {
-            let _ = self.autopilot.handle_nav(now, 0, &Command::DvlFix(fix));
+            let _ = self.autopilot.handle_nav(
+                now,
+                crate::autopilot::OWN_READING,
+                &Command::DvlFix(fix),
+            );
         }
+    }
+
+    /// Read the health inputs and run the health checks, which may switch to SURFACE or
+    /// disarm before this step; on a board without health inputs the depth limit's warning
+    /// is still checked.
+    fn read_health(&mut self, now: u64) {
+        let s = self.sensors.health(now).unwrap_or_default();
+        self.autopilot.health_check(now, &s);
     }
 
     /// Close a work segment (see [`Telemetry::loop_ticks`]).
@@ -531,6 +558,7 @@ where
             Command::Nav(_) | Command::Step { .. } => {
                 if lockstep {
                     self.read_dvl(now);
+                    self.read_health(now);
                     self.control(now);
                     self.send_telemetry(now);
                 }

@@ -22,9 +22,11 @@
 //! vehicle's IMU and pressure sensor and by the fixes that come down the tether.
 
 mod arming;
+mod health;
 mod ident;
 mod mission;
 mod onboard;
+pub use onboard::OWN_READING;
 mod output;
 mod swing;
 
@@ -35,6 +37,7 @@ pub use mission::{
 };
 
 use crate::compass_swing::{SwingFlight, SwingOutcome};
+use crate::health::HealthMonitor;
 pub use crate::protocol::Failsafe;
 use crate::protocol::{fault, Command, ManualThrust, Mode, NackReason, NavSample};
 use controller_core::alloc::Allocation;
@@ -46,6 +49,7 @@ use controller_core::params::VehicleParams;
 use controller_core::reference::mission::MissionPath;
 use controller_core::reference::{Bounds, Reference};
 use controller_core::state::{BodyForces, NavState, TrackingErrors};
+use health::SurfacePhase;
 use mission::Mission;
 
 /// Largest magnitudes accepted in a `NavState` (anything beyond is a broken estimator).
@@ -154,6 +158,10 @@ pub struct Autopilot {
     /// The pilot's sticks were seen at centre since the latest arming, change of mode or
     /// restart: until then they count as centred.
     sticks_seen_centred: bool,
+    /// The health checks (battery, leak, enclosure, depth limit).
+    health: HealthMonitor,
+    /// Where the SURFACE mode is.
+    surface: SurfacePhase,
     /// Control steps run.
     pub steps: u32,
 }
@@ -187,6 +195,8 @@ impl Autopilot {
             ident: None,
             ident_outcome: IdentOutcome::None,
             sticks_seen_centred: false,
+            health: HealthMonitor::with_defaults(),
+            surface: SurfacePhase::Ascent,
             steps: 0,
         }
     }
@@ -274,6 +284,7 @@ impl Autopilot {
                 if self.armed {
                     return Ok(());
                 }
+                self.check_health_for_arming()?;
                 self.arm(now_us)
             }
             Command::Disarm => {
@@ -288,6 +299,7 @@ impl Autopilot {
                 reference
                     .check_bounds(&Bounds::VEHICLE)
                     .map_err(NackReason::from)?;
+                self.check_reference_depth(reference)?;
                 self.reference = Some((*reference, start_us.unwrap_or(now_us)));
                 Ok(())
             }
@@ -363,6 +375,7 @@ impl Autopilot {
                 Ok(())
             }
             Command::SetVehicle(params) => self.set_vehicle(params),
+            Command::SetHealth(params) => self.set_health(params),
             Command::SetFailsafe(f) => {
                 // Timeouts are not changed mid-dive (relaxing one would weaken a failsafe
                 // that is protecting the vehicle now).
@@ -410,7 +423,9 @@ impl Autopilot {
     /// `no-panic` feature, docs/firmware.md).
     #[cfg_attr(feature = "no-panic", no_panic::no_panic)]
     pub fn step(&mut self, now_us: u64) -> StepOutput {
-        let out = self.step_inner(now_us);
+        let mut out = self.step_inner(now_us);
+        out = self.limit_depth(out, now_us);
+        out.faults |= self.health.latest().faults;
         self.thrust_cmd_n = out.allocation.thrust_n;
         out
     }
@@ -454,6 +469,7 @@ impl Autopilot {
         let ident_forces = self.ident_step(now_us, nav_fresh, faults, dt_s);
         let (sample, cm) = match (self.mode, &self.reference, &self.hold) {
             (Mode::Idle, ..) => return self.neutral(faults),
+            (Mode::Surface, ..) => return self.surface_step(nav_fresh, dt_s, faults),
             (Mode::Manual | Mode::Stabilize | Mode::DepthHold, ..) => {
                 let m = match self.manual {
                     Some((t, m)) if now_us.saturating_sub(t) < fs.manual_stale_us => {
@@ -525,5 +541,7 @@ impl Autopilot {
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_health;
 #[cfg(test)]
 mod tests_sticks;

@@ -18,6 +18,7 @@ pub mod app;
 pub mod autopilot;
 pub mod compass_swing;
 pub mod harness;
+pub mod health;
 pub mod node;
 pub mod node_link;
 /// The tether protocol (the `protocol` crate), under the name the firmware's modules use.

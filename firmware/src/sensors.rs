@@ -27,6 +27,12 @@ pub trait Sensors {
     fn dvl(&mut self, _now_us: u64) -> Option<DvlFix> {
         None
     }
+    /// The health inputs read now (the power-sense module's ADC pins, the leak probe, the
+    /// enclosure's sensor), or `None` on a board without them
+    /// (`health::WithHealth` adds them).
+    fn health(&mut self, _now_us: u64) -> Option<crate::protocol::HealthSample> {
+        None
+    }
     /// True on a board with sensors of its own: the tether's `Imu` and `Pressure` are then
     /// refused (`OwnSensors`), so that the surface cannot feed the estimator on a real
     /// vehicle.

@@ -2,28 +2,8 @@
 //! error names the key. Shared by the scenario and the sensor keys.
 
 use anyhow::{bail, Result};
-use std::fmt;
 
-/// The marker of an input refused before any work started (the command line's exit code 2):
-/// attached as context to the error that says why, e.g. `Scenario::load(..).map_err(refused)`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Refused;
-
-impl fmt::Display for Refused {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str("refused")
-    }
-}
-
-/// Mark `e` as a refused input (see [`Refused`]).
-pub fn refused(e: anyhow::Error) -> anyhow::Error {
-    e.context(Refused)
-}
-
-/// Whether `e` is a refused input (see [`Refused`]).
-pub fn is_refused(e: &anyhow::Error) -> bool {
-    e.downcast_ref::<Refused>().is_some()
-}
+pub use topside::refusal::{is_refused, refused, Refused};
 
 /// `key` must be a finite number.
 pub fn fin(key: &str, v: f64) -> Result<()> {

@@ -13,7 +13,6 @@
 //! - [`output`]: what a run writes (summary, CSV, plots).
 //! - [`tether`]: the port, the framed link, the firmware as an endpoint (in process, in
 //!   QEMU, a board), the tether log.
-//! - [`topside`]: the surface side: MAVLink 2 to ground stations, the tether to the vehicle.
 //! - [`served`]: the simulator serves a vehicle (SITL): the plant, the sensors and the
 //!   firmware library's `App` in real time, its tether on a TCP port (`host-sim vehicle`).
 //! - [`identify`]: a vehicle's model fitted from a recorded run (`host-sim identify`).
@@ -28,5 +27,4 @@ pub mod output;
 pub mod scenario;
 pub mod served;
 pub mod tether;
-pub mod topside;
 pub mod world;

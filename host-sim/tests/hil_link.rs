@@ -1,13 +1,13 @@
-//! `host-sim link` against the firmware's QEMU image: a scripted console session arms,
+//! The surface console (`rov-topside console`) against the firmware's QEMU image: a scripted console session arms,
 //! holds a point in 3-D, switches mode, disarms, and streams telemetry to CSV.
 //! Skipped, with a message, when `qemu-system-arm` is not installed.
 
 use firmware::protocol::Reply;
-use host_sim::commands::link::console;
 use host_sim::tether::link::Link;
 use host_sim::tether::qemu::{image_or_skip, start_qemu_link};
 use std::path::PathBuf;
 use std::time::Duration;
+use topside::console::console;
 
 fn firmware_elf() -> Option<PathBuf> {
     image_or_skip().expect("the firmware's qemu image")

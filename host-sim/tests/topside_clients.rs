@@ -1,4 +1,5 @@
-//! `host-sim topside --sim` driven by a ground station we did not write: pymavlink.
+//! The surface program (`rov-topside --tcp` in front of `host-sim vehicle`) driven by a ground
+//! station we did not write: pymavlink.
 //!
 //! The client (`tests/clients/pymavlink_session.py`) connects, checks the vehicle type and the
 //! telemetry streams, sets MANUAL, arms, flies forward on `MANUAL_CONTROL`, stops the stream
@@ -11,9 +12,8 @@
 
 mod gcs;
 
-use gcs::{free_udp_port, pymavlink_or_skip, stop, topside_sim};
+use gcs::{dive, fly, free_udp_port, pymavlink_or_skip, stop, Flight};
 use std::net::UdpSocket;
-use std::os::unix::process::CommandExt;
 use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -118,8 +118,27 @@ fn fly_session(name: &str, extra: &[&str]) {
     assert!(commands(&|c| matches!(c, Cmd::Arm)) >= 1);
     assert!(commands(&|c| matches!(c, Cmd::SetMode(_))) >= 3);
     assert!(commands(&|c| matches!(c, Cmd::ManualThrust(_))) >= 50);
-    assert!(commands(&|c| matches!(c, Cmd::SetVehicle(_))) == 1);
-    assert!(telemetry >= 500);
+    // Without --vehicle the surface keeps the vehicle's own description, as with a real one;
+    // the lock-step harness of the emulated board sends the scenario's.
+    let lockstep = extra.contains(&"--emulated");
+    assert_eq!(
+        commands(&|c| matches!(c, Cmd::SetVehicle(_))),
+        usize::from(lockstep)
+    );
+    // The vehicle's 10 Hz telemetry over the session, every frame logged.
+    let stamps: Vec<u64> = frames
+        .replies
+        .iter()
+        .filter_map(|r| match &r.2 {
+            Reply::Telemetry(t) => Some(t.t_us),
+            _ => None,
+        })
+        .collect();
+    let span_s = (stamps.last().unwrap() - stamps.first().unwrap()) as f64 * 1e-6;
+    assert!(
+        telemetry as f64 >= 0.9 * 10.0 * span_s && span_s > 20.0,
+        "{telemetry} telemetry frames over {span_s:.1} s of the vehicle's time"
+    );
 
     // The dive drawn from its log: the same files as a simulated run.
     let replay_dir = dir.join("replay");
@@ -165,14 +184,10 @@ fn files(dir: &std::path::Path, ext: &str) -> Vec<PathBuf> {
     found
 }
 
-/// `host-sim topside --sim circle-3d` to `udpout:127.0.0.1:PORT`, with `extra` options.
-fn topside(
-    port: u16,
-    tlog: &std::path::Path,
-    params: &std::path::Path,
-    extra: &[&str],
-) -> std::process::Child {
-    topside_sim(
+/// `circle-3d` flown through the surface program to `udpout:127.0.0.1:PORT`, with `extra`
+/// options (`gcs::fly`).
+fn topside(port: u16, tlog: &std::path::Path, params: &std::path::Path, extra: &[&str]) -> Flight {
+    fly(
         "circle-3d",
         port,
         tlog,
@@ -281,46 +296,6 @@ fn a_manual_control_flood_starves_neither_the_tether_nor_a_second_ground_station
         &[&observer.to_string()],
     );
     assert!(out.contains("PASS: disarmed"), "the session ran to its end");
-}
-
-#[test]
-fn the_global_origin_maps_degrees_to_metres_both_ways() {
-    use host_sim::topside::GlobalOrigin;
-    let o = GlobalOrigin::from_mavlink(450_000_000, 100_000_000, 0).unwrap();
-    // At 45 degrees the WGS-84 meridian radius is 6,367,381.8 m: 1e-5 degree is 1.11132 m.
-    let [n, e] = o.to_local(45.00001, 10.0);
-    assert!((n - 1.111_32).abs() < 1e-4 && e.abs() < 1e-9, "{n} {e}");
-    for (n, e) in [(4.0, -3.0), (-700.0, 650.0), (0.01, 0.02)] {
-        let [lat, lon] = o.to_global(n, e);
-        let [n2, e2] = o.to_local(lat, lon);
-        assert!((n2 - n).abs() < 1e-6 && (e2 - e).abs() < 1e-6);
-    }
-    assert!(GlobalOrigin::from_mavlink(950_000_000, 0, 0).is_none());
-}
-
-#[test]
-fn long_status_texts_are_split_between_words() {
-    use host_sim::topside::split_text;
-    let t =
-        "VEH_BUOY refused: not safe to fly: buoyancy_offset_n: more than half the vertical thrust";
-    let lines = split_text(t, 50);
-    assert!(lines.iter().all(|l| l.chars().count() <= 50), "{lines:?}");
-    assert_eq!(lines.join(" "), t);
-    assert_eq!(split_text("short", 50), ["short"]);
-    assert_eq!(split_text(&"x".repeat(120), 50).concat(), "x".repeat(120));
-}
-
-#[test]
-fn manual_control_follows_ardusub_conventions() {
-    use host_sim::topside::manual_thrust;
-    let m = manual_thrust(1000, 500, 0);
-    assert_eq!((m.surge, m.yaw, m.heave), (1.0, 0.0, 0.0));
-    // z above 500 is up; the core's heave is positive down.
-    assert_eq!(manual_thrust(0, 1000, 0).heave, -1.0);
-    assert_eq!(manual_thrust(0, 0, 0).heave, 1.0);
-    assert_eq!(manual_thrust(0, 500, -1000).yaw, -1.0);
-    // Out-of-range sticks are clamped, never passed on.
-    assert!(manual_thrust(i16::MAX, i16::MIN, i16::MIN).is_valid());
 }
 
 /// Missions: pymavlink uploads a 3-waypoint mission through the standard protocol,
@@ -491,7 +466,13 @@ fn an_empty_datagram_and_garbage_do_not_end_the_topside() {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let port = free_udp_port();
-    let mut child = topside(port, &dir.join("e.tlog"), &dir.join("params.json"), &[]);
+    let mut child = dive(
+        "circle-3d",
+        port,
+        &dir.join("e.tlog"),
+        &dir.join("params.json"),
+        &["--duration", "300"],
+    );
     let station = RawStation::new(port);
     assert!(station.answers(Duration::from_secs(20)), "alive at first");
     station.send_raw(&[]);
@@ -499,7 +480,7 @@ fn an_empty_datagram_and_garbage_do_not_end_the_topside() {
     station.send_raw(&[0x55; 300]);
     station.send_raw(&[]);
     let alive = station.answers(Duration::from_secs(20));
-    let exited = child.try_wait().unwrap();
+    let exited = child.topside.try_wait().unwrap();
     stop(child);
     assert!(exited.is_none(), "the topside ended: {exited:?}");
     assert!(alive, "the topside answers after the empty datagram");
@@ -599,16 +580,14 @@ fn a_tcp_ground_station_may_disconnect_and_come_back() {
         .local_addr()
         .unwrap()
         .port();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .args(["topside", "--sim", "circle-3d", "--duration", "300"])
-        .args(["--mavlink", &format!("tcpin:127.0.0.1:{port}")])
-        .arg("--tlog")
-        .arg(dir.join("t.tlog"))
-        .arg("--params")
-        .arg(dir.join("params.json"))
-        .process_group(0)
-        .spawn()
-        .unwrap();
+    let tcpin = format!("tcpin:127.0.0.1:{port}");
+    let mut child = dive(
+        "circle-3d",
+        free_udp_port(),
+        &dir.join("t.tlog"),
+        &dir.join("params.json"),
+        &["--duration", "300", "--mavlink", &tcpin],
+    );
     let connect = || {
         let end = Instant::now() + Duration::from_secs(60);
         loop {
@@ -661,7 +640,7 @@ fn a_tcp_ground_station_may_disconnect_and_come_back() {
     .unwrap();
     second.write_all(&frame).unwrap();
     let served = hears(&mut second, Duration::from_secs(30));
-    let exited = child.try_wait().unwrap();
+    let exited = child.topside.try_wait().unwrap();
     stop(child);
     assert!(exited.is_none(), "the topside ended: {exited:?}");
     assert!(served, "the reconnected station is served");
@@ -675,29 +654,17 @@ fn two_starts_write_two_sets_of_logs_and_the_first_is_intact() {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let run = || {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_host-sim"))
-            .args([
-                "topside",
-                "--sim",
-                "circle-3d",
-                "--duration",
-                "2",
-                "--speedup",
-                "4",
-            ])
-            .args([
-                "--mavlink",
-                &format!("udpout:127.0.0.1:{}", free_udp_port()),
-            ])
-            .arg("--tlog")
-            .arg(dir.join("dive.tlog"))
-            .arg("--params")
-            .arg(dir.join("params.json"))
-            .spawn()
-            .unwrap();
+        let mut child = dive(
+            "circle-3d",
+            free_udp_port(),
+            &dir.join("dive.tlog"),
+            &dir.join("params.json"),
+            &["--duration", "2"],
+        );
         let end = Instant::now() + Duration::from_secs(120);
         loop {
-            if let Some(status) = child.try_wait().unwrap() {
+            if let Some(status) = child.topside.try_wait().unwrap() {
+                stop(child);
                 assert!(status.success(), "{status:?}");
                 return;
             }
@@ -746,26 +713,30 @@ struct Row {
 fn read_truth(path: &std::path::Path) -> Vec<Row> {
     let text = std::fs::read_to_string(path).unwrap();
     let mut lines = text.lines();
-    assert_eq!(
-        lines.next(),
-        Some("t_s,x_m,y_m,z_m,yaw_rad,nav_x_m,nav_y_m,nav_z_m,nav_yaw_rad,armed")
-    );
+    let cols: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| cols.iter().position(|c| *c == name).unwrap();
+    let (t, x, y, z) = (col("t_s"), col("x_m"), col("y_m"), col("z_m"));
+    let (nx, ny, nz) = (col("nav_x_m"), col("nav_y_m"), col("nav_z_m"));
     lines
         .filter(|l| !l.is_empty())
-        .map(|l| {
-            let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
-            Row {
-                t_s: v[0],
-                truth_m: [v[1], v[2], v[3]],
-                nav_m: [v[5], v[6], v[7]],
-            }
+        .filter_map(|l| {
+            let v: Vec<f64> = l
+                .split(',')
+                .map(|x| x.parse().unwrap_or(f64::NAN))
+                .collect();
+            // A killed process may leave its last line unfinished.
+            (v.len() == cols.len()).then(|| Row {
+                t_s: v[t],
+                truth_m: [v[x], v[y], v[z]],
+                nav_m: [v[nx], v[ny], v[nz]],
+            })
         })
         .collect()
 }
 
-/// `host-sim topside --sim nav-circle-3d` flown by pymavlink: the simulated
-/// vehicle navigates on its own estimator, fed with the simulated sensors through the tether
-/// (the one closed loop, as `hil` runs it), and the ground station sees that estimate. The
+/// `nav-circle-3d` served by `host-sim vehicle` and flown by pymavlink through `rov-topside
+/// --tcp`: the simulated vehicle navigates on its own estimator, fed with the simulated
+/// sensors, and the ground station sees that estimate. The
 /// client (`clients/pymavlink_estimator.py`) uploads a mission, arms, flies it in AUTO and
 /// prints every `LOCAL_POSITION_NED`; they are held against the topside's truth log
 /// (`.truth.csv`: the true state and the vehicle's estimate of each control period): the
@@ -778,16 +749,34 @@ fn pymavlink_flies_a_mission_on_the_vehicles_own_estimator() {
     if !pymavlink_or_skip() {
         return;
     }
-    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("topside-estimator");
+    fly_on_the_estimator("topside-estimator", None);
+}
+
+/// The same, the estimator restarted from the surface (`MAV_CMD_USER_1`) at 60 s of the
+/// vehicle's clock, mid-mission: the same bound after the restart's transient.
+#[test]
+fn the_surface_restarts_the_vehicles_estimator_mid_dive() {
+    if !pymavlink_or_skip() {
+        return;
+    }
+    fly_on_the_estimator("topside-estimator-restart", Some(60.0));
+}
+
+/// The software run of `nav-circle-3d` (`host-sim run`): its estimation RMS after 10 s
+/// (m), the figure the surface path is held to within 10 % + 1 cm.
+const SOFTWARE_ESTIMATION_RMS_M: f64 = 0.0754;
+
+fn fly_on_the_estimator(name: &str, restart_s: Option<f64>) {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let port = free_udp_port();
-    let topside = topside_sim(
+    let topside = dive(
         "nav-circle-3d",
         port,
         &dir.join("est.tlog"),
         &dir.join("params.json"),
-        &["--duration", "400", "--speedup", "4"],
+        &["--duration", "400", "--speedup", "4", "--surface-nav"],
     );
     let out = Command::new("python3")
         .arg(concat!(
@@ -797,8 +786,10 @@ fn pymavlink_flies_a_mission_on_the_vehicles_own_estimator() {
         .arg(port.to_string())
         // The scenario's duration: the figure over the span of its software run.
         .arg("150")
+        .args(restart_s.map(|s| s.to_string()))
         .output()
         .unwrap();
+    let truth_path = topside.truth();
     stop(topside);
     let stdout = String::from_utf8_lossy(&out.stdout).to_string();
     let pass: Vec<&str> = stdout.lines().filter(|l| !l.starts_with("POS")).collect();
@@ -809,35 +800,56 @@ fn pymavlink_flies_a_mission_on_the_vehicles_own_estimator() {
     );
     assert!(out.status.success(), "the pymavlink client failed");
 
-    let truth_path = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .find(|p| p.to_string_lossy().ends_with(".truth.csv"))
-        .expect("the topside's truth log");
     let rows = read_truth(&truth_path);
     let period_s = rows[1].t_s - rows[0].t_s;
 
-    // Each position the ground station saw: stamped with the time after its control period.
-    let (mut matched, mut sq, mut n_err, mut off_truth) = (0usize, 0.0, 0usize, 0.0f64);
-    for line in stdout.lines().filter_map(|l| l.strip_prefix("POS ")) {
-        let v: Vec<f64> = line
-            .split_whitespace()
-            .map(|x| x.parse().unwrap())
-            .collect();
-        let t_s = v[0] / 1e3 - period_s;
+    // Each position the ground station saw, with the truth log's row of its time stamp: the
+    // stamp is the control tick's time, and the row of that tick is this one, the one after or
+    // the one before, depending on when a server writes its row; the offset that the shown
+    // positions agree with is found from them, then every shown position must agree.
+    let shown: Vec<Vec<f64>> = stdout
+        .lines()
+        .filter_map(|l| l.strip_prefix("POS "))
+        .map(|line| {
+            line.split_whitespace()
+                .map(|x| x.parse().unwrap())
+                .collect()
+        })
+        .collect();
+    let row_of = |v: &[f64], offset: f64| {
+        let t_s = v[0] / 1e3 + offset * period_s;
         let i = ((t_s - rows[0].t_s) / period_s).round();
-        let Some(row) = rows
-            .get(i as usize)
+        rows.get(i as usize)
             .filter(|r| i >= 0.0 && (r.t_s - t_s).abs() < 0.6 * period_s)
-        else {
+    };
+    let agrees = |v: &[f64], r: &Row| (0..3).all(|k| (v[k + 1] - r.nav_m[k]).abs() < 1e-3);
+    let offset = [0.0, 1.0, -1.0]
+        .into_iter()
+        .max_by_key(|&o| {
+            shown
+                .iter()
+                .filter(|v| row_of(v, o).is_some_and(|r| agrees(v, r)))
+                .count()
+        })
+        .unwrap();
+    let (mut matched, mut sq, mut n_err, mut off_truth) = (0usize, 0.0, 0usize, 0.0f64);
+    let mut disagree = 0usize;
+    for v in &shown {
+        let Some(row) = row_of(v, offset) else {
             continue;
         };
         matched += 1;
-        let shown = [v[1], v[2], v[3]];
-        for k in 0..3 {
+        // A fix fused in the same tick after the frame was built moves the row's estimate:
+        // while the estimator converges on its first fixes (the first seconds) that can be
+        // decimetres; after 10 s every shown position is the row's estimate.
+        if !agrees(v, row) {
+            disagree += 1;
+            let restarting = restart_s.is_some_and(|r| (r..r + 10.0).contains(&row.t_s));
             assert!(
-                (shown[k] - row.nav_m[k]).abs() < 1e-3,
-                "LOCAL_POSITION_NED at {t_s:.2} s is not the vehicle's estimate: {shown:?} vs {:?}",
+                row.t_s < 10.0 || restarting,
+                "LOCAL_POSITION_NED at {:.2} s is not the vehicle's estimate: {:?} vs {:?}",
+                row.t_s,
+                &v[1..4],
                 row.nav_m
             );
         }
@@ -845,7 +857,8 @@ fn pymavlink_flies_a_mission_on_the_vehicles_own_estimator() {
             .map(|k| (row.nav_m[k] - row.truth_m[k]).powi(2))
             .sum();
         off_truth = off_truth.max(e2.sqrt());
-        if row.t_s >= 10.0 {
+        let transient_s = restart_s.map_or(10.0, |r| r + 10.0);
+        if row.t_s >= 10.0 && !(row.t_s >= transient_s - 10.0 && row.t_s < transient_s) {
             sq += e2;
             n_err += 1;
         }
@@ -855,6 +868,10 @@ fn pymavlink_flies_a_mission_on_the_vehicles_own_estimator() {
         "{matched} positions matched to the truth log"
     );
     assert!(n_err >= 100, "{n_err} positions after 10 s");
+    assert!(
+        disagree * 20 <= matched,
+        "{disagree} of {matched} shown positions are not the vehicle's estimate"
+    );
     let rms = (sq / n_err as f64).sqrt();
     println!(
         "{matched} LOCAL_POSITION_NED matched to the truth log; estimate against the truth: \
@@ -864,5 +881,9 @@ fn pymavlink_flies_a_mission_on_the_vehicles_own_estimator() {
     );
     // The truth is not what is shown: an estimate differs from it.
     assert!(off_truth > 1e-3, "the positions shown are the truth");
-    assert!(rms <= 0.10, "estimation RMS {:.3} m > 0.10 m", rms);
+    let bound = 1.1 * SOFTWARE_ESTIMATION_RMS_M + 0.01;
+    assert!(
+        rms <= bound,
+        "estimation RMS {rms:.4} m > {bound:.4} m (the software run's {SOFTWARE_ESTIMATION_RMS_M} m + 10 % + 1 cm)"
+    );
 }

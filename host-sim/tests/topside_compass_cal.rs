@@ -8,7 +8,7 @@
 
 mod gcs;
 
-use gcs::{free_udp_port, pymavlink_or_skip, stop, topside_sim};
+use gcs::{dive, free_udp_port, pymavlink_or_skip, stop};
 use std::path::PathBuf;
 use std::process::Command;
 
@@ -44,12 +44,12 @@ fn pymavlink_starts_the_compass_turn_and_reads_the_fit_back() {
     std::fs::write(&file, scenario).unwrap();
 
     let port = free_udp_port();
-    let topside = topside_sim(
+    let topside = dive(
         &file,
         port,
         &dir.join("cal.tlog"),
         &dir.join("params.json"),
-        &["--duration", "600", "--speedup", "4"],
+        &["--duration", "600", "--speedup", "4", "--start-nav"],
     );
     let out = Command::new("python3")
         .arg(concat!(

@@ -18,7 +18,7 @@ use std::time::{Duration, Instant};
 mod common;
 mod gcs;
 use common::host_sim;
-use gcs::{exits_at_duration, free_udp_port, stop, topside_sim};
+use gcs::{exits_at_duration, free_udp_port, stop, topside_lockstep};
 
 fn text(o: &Output) -> String {
     format!(
@@ -83,7 +83,7 @@ fn the_topside_program_runs_the_emulated_topside_layout() {
     let dir = common::scratch("topside-layout", "emulated");
     let sc = scenario(&dir, "layout", TOPSIDE);
     let port = free_udp_port();
-    let topside: Child = topside_sim(
+    let topside: Child = topside_lockstep(
         &sc,
         port,
         &dir.join("emulated.tlog"),
@@ -193,15 +193,33 @@ struct Flight {
 /// estimate ready: before that it refuses with `NavNotReady`; the scenario's launch point is
 /// told to the estimator, so it is ready at once here), arm, GUIDED, the target; then score
 /// the truth log.
-fn fly(scenario: &Path, dir: &Path) -> Flight {
+fn fly(scenario: &Path, dir: &Path, layout: bool) -> Flight {
     let port = free_udp_port();
-    let topside: Child = topside_sim(
-        scenario,
-        port,
-        &dir.join("fly.tlog"),
-        &dir.join("params.json"),
-        &["--duration", &FLIGHT_S.to_string(), "--speedup", "10"],
-    );
+    // The topside layout in lock-step behind `host-sim topside --sim`; the onboard layout
+    // served by `host-sim vehicle` behind `rov-topside --tcp`, the path of a real dive.
+    let flight = if layout {
+        gcs::Flight::Lockstep(topside_lockstep(
+            scenario,
+            port,
+            &dir.join("fly.tlog"),
+            &dir.join("params.json"),
+            &["--duration", &FLIGHT_S.to_string(), "--speedup", "10"],
+        ))
+    } else {
+        gcs::Flight::Dive(gcs::dive(
+            scenario,
+            port,
+            &dir.join("fly.tlog"),
+            &dir.join("params.json"),
+            &[
+                "--vehicle-duration",
+                &FLIGHT_S.to_string(),
+                "--speedup",
+                "8",
+                "--start-nav",
+            ],
+        ))
+    };
     let gcs = Station(mavlink::connect::<MavMessage>(&format!("udpin:127.0.0.1:{port}")).unwrap());
     let sim_s = |gcs: &Station| {
         gcs.wait(Duration::from_secs(20), |m| match m {
@@ -246,29 +264,57 @@ fn fly(scenario: &Path, dir: &Path) -> Flight {
             ..Default::default()
         },
     ));
-    // The topside stops at --duration.
-    exits_at_duration(topside, Duration::from_secs(120));
-
-    let truth = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .find(|p| p.to_string_lossy().ends_with(".truth.csv"))
-        .expect("the topside's truth log");
+    // The flight ends at its duration: the lock-step surface's, or the served vehicle's.
+    let truth = match flight {
+        gcs::Flight::Lockstep(topside) => {
+            exits_at_duration(topside, Duration::from_secs(120));
+            std::fs::read_dir(dir)
+                .unwrap()
+                .map(|e| e.unwrap().path())
+                .find(|p| p.to_string_lossy().ends_with(".truth.csv"))
+                .expect("the topside's truth log")
+        }
+        gcs::Flight::Dive(mut d) => {
+            let end = std::time::Instant::now() + Duration::from_secs(120);
+            while d.vehicle.try_wait().unwrap().is_none() {
+                assert!(
+                    std::time::Instant::now() < end,
+                    "the served vehicle did not stop"
+                );
+                std::thread::sleep(Duration::from_millis(100));
+            }
+            let truth = d.truth();
+            stop(d);
+            truth
+        }
+    };
+    // Both truth logs by their columns' names.
     let text = std::fs::read_to_string(truth).unwrap();
-    let rows: Vec<Vec<f64>> = text
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+    let mut lines = text.lines();
+    let cols: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let c = |name: &str| cols.iter().position(|x| *x == name).unwrap();
+    let (t, armed) = (c("t_s"), c("armed"));
+    let (x, nx) = (
+        [c("x_m"), c("y_m"), c("z_m")],
+        [c("nav_x_m"), c("nav_y_m"), c("nav_z_m")],
+    );
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| {
+            l.split(',')
+                .map(|v| v.parse().unwrap_or(f64::NAN))
+                .collect::<Vec<f64>>()
+        })
+        .filter(|r| r.len() == cols.len())
         .collect();
-    let last_s = rows.last().unwrap()[0];
+    let last_s = rows.last().unwrap()[t];
     assert!(last_s > FLIGHT_S - 0.1, "the truth log ends at {last_s} s");
     let (mut sq, mut max, mut est, mut n) = (0.0, 0.0f64, 0.0, 0usize);
-    for r in rows.iter().filter(|r| r[0] >= last_s - SCORED_S) {
-        assert_eq!(r[9], 1.0, "armed at {} s", r[0]);
-        let d2: f64 = (0..3).map(|k| (r[1 + k] - TARGET_M[k]).powi(2)).sum();
+    for r in rows.iter().filter(|r| r[t] >= last_s - SCORED_S) {
+        assert_eq!(r[armed], 1.0, "armed at {} s", r[t]);
+        let d2: f64 = (0..3).map(|k| (r[x[k]] - TARGET_M[k]).powi(2)).sum();
         sq += d2;
         max = max.max(d2.sqrt());
-        est += (0..3).map(|k| (r[5 + k] - r[1 + k]).powi(2)).sum::<f64>();
+        est += (0..3).map(|k| (r[nx[k]] - r[x[k]]).powi(2)).sum::<f64>();
         n += 1;
     }
     Flight {
@@ -290,8 +336,8 @@ fn a_ground_station_flies_the_topside_layout_to_a_guided_target() {
     let onboard_dir = dir.join("onboard");
     std::fs::create_dir_all(&layout_dir).unwrap();
     std::fs::create_dir_all(&onboard_dir).unwrap();
-    let layout = fly(&scenario(&dir, "layout", TOPSIDE), &layout_dir);
-    let onboard = fly(&scenario(&dir, "onboard", ""), &onboard_dir);
+    let layout = fly(&scenario(&dir, "layout", TOPSIDE), &layout_dir, true);
+    let onboard = fly(&scenario(&dir, "onboard", ""), &onboard_dir, false);
     for (name, f) in [("topside layout", &layout), ("onboard layout", &onboard)] {
         println!(
             "{name}: POSHOLD accepted at {:.1} s; true distance to the target over the last \
@@ -326,7 +372,7 @@ fn a_pilot_drives_the_topside_layout_in_manual() {
     let dir = common::scratch("topside-layout", "manual");
     let sc = scenario(&dir, "layout", TOPSIDE);
     let port = free_udp_port();
-    let topside = topside_sim(
+    let topside = topside_lockstep(
         &sc,
         port,
         &dir.join("manual.tlog"),
@@ -443,7 +489,7 @@ fn the_ground_station_sees_the_node_link_cut_within_250_ms() {
         &format!("{TOPSIDE}tether_cut_s = {cut_s}\n"),
     );
     let port = free_udp_port();
-    let topside = topside_sim(
+    let topside = topside_lockstep(
         &sc,
         port,
         &dir.join("cut.tlog"),

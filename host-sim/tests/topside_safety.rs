@@ -16,7 +16,7 @@ use firmware::protocol::{
     decode_frame, encode, Command as Cmd, Decoded, Mode, Reply, MAX_FRAME_LEN,
 };
 use firmware::Config;
-use gcs::{free_udp_port, pymavlink_or_skip, stop, topside_sim, wait};
+use gcs::{dive as fly_dive, free_udp_port, pymavlink_or_skip, stop, wait};
 use host_sim::tether::in_process::InProcessFirmware;
 use mavlink::dialects::ardupilotmega::{MavCmd, MavMessage, MavModeFlag, COMMAND_LONG_DATA};
 use mavlink::{MavConnection, MavHeader};
@@ -45,7 +45,7 @@ fn simulated_session(name: &str, check: &str, ports: &[u16], extra: &[&str]) -> 
     }
     args.extend(extra.iter().map(|s| s.to_string()));
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
-    let topside = topside_sim(
+    let topside = fly_dive(
         "circle-3d",
         ports[0],
         &dir.join(format!("{name}.tlog")),
@@ -136,7 +136,7 @@ fn a_restart_mid_dive_with_the_saved_file_flies_again_within_5_s() {
     let dir = session_dir("restart");
     let params = dir.join("params.json");
     let port = free_udp_port();
-    let first = topside_sim(
+    let first = fly_dive(
         "nav-circle-3d",
         port,
         &dir.join("dive.tlog"),
@@ -207,7 +207,7 @@ fn a_restart_mid_dive_with_the_saved_file_flies_again_within_5_s() {
         .duration_since(UNIX_EPOCH)
         .unwrap()
         .as_secs_f64();
-    let second = topside_sim(
+    let second = fly_dive(
         "nav-circle-3d",
         port,
         &dir.join("resume.tlog"),

@@ -33,6 +33,7 @@
 pub mod client;
 pub mod decoder;
 pub mod framing;
+pub mod health;
 pub mod limits;
 pub mod messages;
 
@@ -42,6 +43,7 @@ pub use framing::{
     encode, encode_with_version, EncodeError, Envelope, Header, CRC, CRC_LEN, MAX_ENCODED_LEN,
     MAX_FRAME_LEN, MAX_PAYLOAD_LEN, PROTOCOL_VERSION,
 };
+pub use health::{BatteryStatus, FailsafeAction, HealthParams, HealthSample, SurfaceEnd};
 pub use messages::*;
 
 #[cfg(test)]

@@ -4,6 +4,7 @@
 //! `docs/protocol.md` has the table.
 
 use crate::decoder::DropCounters;
+use crate::health::{BatteryStatus, HealthParams};
 use controller_core::controller::ControlMode;
 use controller_core::law::paper_xy::PaperXyGains;
 use controller_core::law::paper_xz::PaperXzGains;
@@ -66,6 +67,10 @@ pub enum Mode {
     /// Fly the uploaded mission from where the vehicle is, with the 3-D tracking law, and hold
     /// the last waypoint (ArduSub's AUTO; version 4).
     Auto,
+    /// Go up (ArduSub's SURFACE; version 7): horizontal thrusters neutral, the vertical
+    /// thruster up until the vehicle is within 0.3 m of the surface, then hold that depth
+    /// or disarm (`SURFACE_END`). The battery and leak failsafes switch to it.
+    Surface,
 }
 
 /// The one map between the tether's tracking modes and the core's laws: a law in a plane is
@@ -247,6 +252,11 @@ pub enum Command {
         /// Time limit of the turn (s).
         time_limit_s: f32,
     },
+    /// Replace the health parameters (version 7, [`HealthParams::validate`]): battery scales
+    /// and thresholds, the leak and enclosure limits, the depth limit, the end of SURFACE.
+    /// Refused while armed (`Armed`), except a depth limit made shallower or switched on,
+    /// which is taken at any time; the parameters in force then stay.
+    SetHealth(HealthParams),
     /// Fly the identification manoeuvre (docs/identification.md): armed in `Hold` with the
     /// on-board estimate ready, force steps on every axis for under three minutes, stopped
     /// by a stick, a change of mode, a failsafe or the vehicle leaving its room:
@@ -415,6 +425,12 @@ pub enum NackReason {
     NotArmed,
     /// A compass calibration turn outside `Hold` (not in AUTO, `Track` or the pilot modes).
     NotInHold,
+    /// A target (reference, waypoint) deeper than the depth limit `DEPTH_LIMIT_M`
+    /// (version 7).
+    DepthLimit,
+    /// Arming while a leak or a critical battery holds (version 7; ArduSub's pre-arm
+    /// checks).
+    Health,
 }
 
 impl From<controller_core::Error> for NackReason {
@@ -451,6 +467,20 @@ pub mod fault {
     /// The on-board IMU or pressure sensor stopped answering (or answers only refused
     /// values): thrust is neutral in the modes that need navigation.
     pub const SENSOR_LOST: u16 = 1 << 8;
+    /// The battery is low (under `BATT_LOW_VOLT` for `BATT_LOW_TIMER`, or less than
+    /// `BATT_LOW_MAH` left); latched until reboot. Its action is `BATT_FS_LOW_ACT`.
+    pub const BATTERY_LOW: u16 = 1 << 9;
+    /// The battery is critical (`BATT_CRT_VOLT`, `BATT_CRT_MAH`); latched until reboot. Its
+    /// action is `BATT_FS_CRT_ACT`.
+    pub const BATTERY_CRITICAL: u16 = 1 << 10;
+    /// A leak probe reads wet (debounced). Its action is `FS_LEAK_ENABLE`.
+    pub const LEAK: u16 = 1 << 11;
+    /// The enclosure's pressure (`FS_PRESS_MAX`) or temperature (`FS_TEMP_MAX`) is over its
+    /// limit: a warning.
+    pub const ENCLOSURE: u16 = 1 << 12;
+    /// The vehicle is at or below 90 % of the depth limit (`DEPTH_LIMIT_M`): a warning; the
+    /// vertical command is capped there.
+    pub const DEPTH_LIMIT: u16 = 1 << 13;
     /// The paper's layout (a topside MCU and a node on the vehicle): no valid uplink from the
     /// node for 3 link periods; the estimator predicts only, and from 250 ms neutral is
     /// commanded.
@@ -551,6 +581,8 @@ pub struct Status {
     pub compass_cal: CompassCalibration,
     /// The latest compass calibration turn: flying, accepted or refused with the reason.
     pub compass_swing: SwingOutcome,
+    /// The battery (version 7).
+    pub battery: BatteryStatus,
 }
 
 /// How the latest compass calibration turn ended (or that one is flying), reported in

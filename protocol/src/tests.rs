@@ -15,18 +15,18 @@ fn frame(seq: u16, cmd: &Command) -> Vec<u8> {
 }
 
 #[test]
-fn the_bytes_are_postcard_then_crc32_then_cobs_as_in_version_6() {
+fn the_bytes_are_postcard_then_crc32_then_cobs_as_in_version_7() {
     // Computed independently (Python: zlib.crc32 and a textbook COBS) from the postcard
-    // payloads [6, 7, 0xAC, 0x02, 1] (version 6, seq 7, session 300 as a varint, `Arm` =
-    // variant 1) and [6, 42, 0xAC, 0x02, 0, 0xE8, 0x07] (seq 42, `Heartbeat` = variant 0,
+    // payloads [7, 7, 0xAC, 0x02, 1] (version 7, seq 7, session 300 as a varint, `Arm` =
+    // variant 1) and [7, 42, 0xAC, 0x02, 0, 0xE8, 0x07] (seq 42, `Heartbeat` = variant 0,
     // t_us = 1000 as a varint). Version 6 put the session after the sequence number.
     assert_eq!(
         frame(7, &Command::Arm),
-        [0, 10, 6, 7, 172, 2, 1, 20, 204, 230, 65, 0]
+        [0, 10, 7, 7, 172, 2, 1, 164, 229, 134, 124, 0]
     );
     assert_eq!(
         frame(42, &Command::Heartbeat { t_us: 1000 }),
-        [0, 5, 6, 42, 172, 2, 7, 232, 7, 79, 154, 150, 79, 0]
+        [0, 5, 7, 42, 172, 2, 7, 232, 7, 251, 145, 225, 233, 0]
     );
 }
 
@@ -105,6 +105,12 @@ fn every_command_and_reply_round_trips_and_fits() {
         Command::Step { t_us: u64::MAX },
         Command::SetVehicle(controller_core::params::VehicleParams::OBSERVER),
         Command::SetFailsafe(Failsafe::DEFAULT),
+        Command::SetHealth(crate::HealthParams {
+            batt_capacity_mah: f32::MAX,
+            leak1_pin: i8::MIN,
+            ..crate::HealthParams::DEFAULT
+        }),
+        Command::SetMode(Mode::Surface),
         Command::OpenSession { nonce: u32::MAX },
         Command::SetCompassCal(controller_core::nav::compass_cal::CompassCalibration {
             sin_rad: f32::MAX,
@@ -151,6 +157,14 @@ fn every_command_and_reply_round_trips_and_fits() {
     st.link.dropped.crc = u32::MAX;
     st.link.replayed = u32::MAX;
     st.link.no_session = u32::MAX;
+    st.faults = u16::MAX;
+    st.battery = crate::BatteryStatus {
+        voltage_v: f32::MAX,
+        current_a: f32::MIN,
+        consumed_mah: f32::MAX,
+        remaining_pct: f32::MAX,
+        time_remaining_s: f32::MAX,
+    };
     let f = encode(u32::MAX, 2, &Reply::Status(st), &mut out)
         .unwrap()
         .to_vec();

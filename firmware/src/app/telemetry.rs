@@ -68,6 +68,7 @@ where
                 .map_or(Default::default(), |o| o.estimator().health()),
             compass_cal: self.autopilot.compass_calibration(),
             compass_swing: self.autopilot.swing_outcome(),
+            battery: self.autopilot.health().battery.status(),
         }
     }
 

@@ -112,7 +112,10 @@ impl Autopilot {
     /// Check that `mode` can be flown now and set up what it flies from `now_us` (HOLD's
     /// point, AUTO's path); on `Err` nothing changed.
     pub(super) fn enter_mode(&mut self, now_us: u64, mode: Mode) -> Result<(), NackReason> {
-        let needs_nav = !matches!(mode, Mode::Idle | Mode::Manual | Mode::Track { .. });
+        let needs_nav = !matches!(
+            mode,
+            Mode::Idle | Mode::Manual | Mode::Track { .. } | Mode::Surface
+        );
         if needs_nav && !self.nav_fresh(now_us) {
             return Err(NackReason::NavStale);
         }
@@ -139,6 +142,7 @@ impl Autopilot {
                 }
             }
             Mode::Hold => self.hold = Some((Reference::Hold { pos_m: here_m }, now_us)),
+            Mode::Surface => self.surface = super::SurfacePhase::Ascent,
             Mode::Idle | Mode::Manual | Mode::Stabilize | Mode::DepthHold => {}
         }
         Ok(())

@@ -42,6 +42,7 @@ impl Autopilot {
         if far || too_many || !(0.0..=MAX_MISSION_DEPTH_M).contains(&z) || !speed_ok {
             return Err(NackReason::OutOfRange);
         }
+        self.check_target_depth(z)?;
         if index == 0 {
             self.upload = Mission::default();
         }

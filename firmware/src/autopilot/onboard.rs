@@ -7,6 +7,10 @@ use controller_core::nav::compass_cal::CompassCalibration;
 use controller_core::nav::onboard::OnboardNav;
 use controller_core::nav::Refusal;
 
+/// The number the vehicle's own readings are handled under (`App::read_sensors`,
+/// `App::read_dvl`): never a tether command's.
+pub const OWN_READING: u16 = 0;
+
 impl Autopilot {
     /// Apply `f` to the on-board estimator (refused without one), recording `seq`.
     pub(super) fn feed(
@@ -17,7 +21,12 @@ impl Autopilot {
         let thrust = self.thrust_cmd_n;
         let o = self.onboard.as_mut().ok_or(NackReason::NavSource)?;
         f(o, thrust).map_err(NackReason::NavRefused)?;
-        self.onboard_seq = seq;
+        // The number of the last tether input taken, which the lock-step telemetry answers;
+        // the vehicle's own readings (its IMU, pressure sensor and DVL: number 0, which no
+        // tether command carries after its session's opening) do not move it.
+        if seq != OWN_READING {
+            self.onboard_seq = seq;
+        }
         Ok(())
     }
 

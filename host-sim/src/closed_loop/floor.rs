@@ -51,6 +51,8 @@ const POSITION_NOISE_M2_S: f64 = 1.0e-6;
 const EPOCH_EVERY: u32 = 10;
 /// The window of the figures starts here (s), as `rms_estimation_error_m`'s.
 const SCORE_FROM_S: f64 = 10.0;
+/// The second window starts at this share of the run, as the tracking figure's (last 80 %).
+const LAST80_FROM: f64 = 0.2;
 /// Longest IMU interval integrated (s), as the estimator's.
 const MAX_DT_S: f64 = 0.25;
 
@@ -71,6 +73,17 @@ pub struct NavFloor {
     pub forward_rms_m: f64,
     /// `filter_rms_m / forward_rms_m`.
     pub ratio_to_forward: f64,
+    /// The smoother's RMS over the last 80 % of the run (m): the window of the tracking
+    /// figure, after the launch transient (the first fixes averaging the start's 0.5 m down,
+    /// the heading learning its compass bias from the track), which hindsight removes and a
+    /// filter cannot.
+    pub floor_rms_last80_m: f64,
+    /// The on-board estimator's RMS over the last 80 % (m).
+    pub filter_rms_last80_m: f64,
+    /// `filter_rms_last80_m / floor_rms_last80_m`.
+    pub ratio_last80: f64,
+    /// The forward pass's RMS over the last 80 % (m).
+    pub forward_rms_last80_m: f64,
     /// Epochs of the smoother scored.
     pub epochs_scored: u64,
     /// USBL fixes the smoother's gate refused.
@@ -129,8 +142,8 @@ pub struct FloorRecorder {
     events: Vec<Event>,
     /// The true position at each IMU sample's time.
     truth: Vec<(u64, [f64; 3])>,
-    filter_sq: f64,
-    filter_n: u64,
+    /// The estimator's squared position error at each control tick `(t_s, e^2)`.
+    filter_sq: Vec<(f64, f64)>,
 }
 
 impl FloorRecorder {
@@ -143,8 +156,7 @@ impl FloorRecorder {
             axes,
             events: Vec::new(),
             truth: Vec::new(),
-            filter_sq: 0.0,
-            filter_n: 0,
+            filter_sq: Vec::new(),
         }
     }
 
@@ -194,10 +206,8 @@ impl FloorRecorder {
 
     /// The estimator's position error at a control tick at `t_s`.
     pub fn filter_error(&mut self, t_s: f64, err_m: [f64; 3]) {
-        if t_s >= SCORE_FROM_S {
-            self.filter_sq += self.on_axes(err_m);
-            self.filter_n += 1;
-        }
+        let sq = self.on_axes(err_m);
+        self.filter_sq.push((t_s, sq));
     }
 
     fn on_axes(&self, e: [f64; 3]) -> f64 {
@@ -219,7 +229,9 @@ impl FloorRecorder {
         })?;
         let mut truth = self.truth.clone();
         truth.sort_by_key(|(t, _)| *t);
-        let (mut sq, mut sq_f, mut n) = (0.0, 0.0, 0u64);
+        let end_s = self.filter_sq.last().map_or(0.0, |(t, _)| *t);
+        let last80_from_s = LAST80_FROM * end_s;
+        let (mut all, mut last80) = (Rms::default(), Rms::default());
         for (ep, (x, _)) in epochs.iter().zip(&smoothed) {
             let t_s = ep.t_us as f64 * 1e-6;
             if t_s < SCORE_FROM_S {
@@ -229,24 +241,42 @@ impl FloorRecorder {
                 continue;
             };
             let tp = truth[i].1;
-            sq += self.on_axes([x[N] - tp[0], x[E] - tp[1], x[Z] - tp[2]]);
+            let sq = self.on_axes([x[N] - tp[0], x[E] - tp[1], x[Z] - tp[2]]);
             let xf = &ep.x_f;
-            sq_f += self.on_axes([xf[N] - tp[0], xf[E] - tp[1], xf[Z] - tp[2]]);
-            n += 1;
+            let sq_f = self.on_axes([xf[N] - tp[0], xf[E] - tp[1], xf[Z] - tp[2]]);
+            all.add(sq, sq_f);
+            if t_s >= last80_from_s {
+                last80.add(sq, sq_f);
+            }
         }
-        if n == 0 || self.filter_n == 0 {
+        let (mut filter, mut filter_last80) = (Rms::default(), Rms::default());
+        for &(t_s, sq) in &self.filter_sq {
+            if t_s >= SCORE_FROM_S {
+                filter.add(sq, 0.0);
+            }
+            if t_s >= last80_from_s {
+                filter_last80.add(sq, 0.0);
+            }
+        }
+        if all.n == 0 || filter.n == 0 || last80.n == 0 || filter_last80.n == 0 {
             return None;
         }
-        let floor_rms_m = (sq / n as f64).sqrt();
-        let forward_rms_m = (sq_f / n as f64).sqrt();
-        let filter_rms_m = (self.filter_sq / self.filter_n as f64).sqrt();
+        let floor_rms_m = all.rms();
+        let forward_rms_m = all.rms_b();
+        let filter_rms_m = filter.rms();
+        let floor_rms_last80_m = last80.rms();
+        let filter_rms_last80_m = filter_last80.rms();
         Some(NavFloor {
             floor_rms_m,
             filter_rms_m,
             ratio: filter_rms_m / floor_rms_m,
             forward_rms_m,
             ratio_to_forward: filter_rms_m / forward_rms_m,
-            epochs_scored: n,
+            floor_rms_last80_m,
+            filter_rms_last80_m,
+            ratio_last80: filter_rms_last80_m / floor_rms_last80_m,
+            forward_rms_last80_m: last80.rms_b(),
+            epochs_scored: all.n,
             usbl_refused,
         })
     }
@@ -504,6 +534,30 @@ impl FloorRecorder {
         let pp = phi * *p * phi.transpose() + Mat::from_diagonal(&q_d);
         *p = 0.5 * (pp + pp.transpose());
         phi
+    }
+}
+
+/// Two sums of squares over the same samples, for their RMS.
+#[derive(Debug, Default, Clone, Copy)]
+struct Rms {
+    a: f64,
+    b: f64,
+    n: u64,
+}
+
+impl Rms {
+    fn add(&mut self, a: f64, b: f64) {
+        self.a += a;
+        self.b += b;
+        self.n += 1;
+    }
+
+    fn rms(&self) -> f64 {
+        (self.a / self.n as f64).sqrt()
+    }
+
+    fn rms_b(&self) -> f64 {
+        (self.b / self.n as f64).sqrt()
     }
 }
 

@@ -40,7 +40,7 @@ pub fn run_hil(sc: &RunSetup, opts: &HilOptions, qemu_log: Option<&Path>) -> Res
                 )
             }
             HilTarget::InProcess => {
-                let fw = InProcessFirmware::new()?;
+                let fw = InProcessFirmware::for_scenario(sc)?;
                 dvl_wire = opts.dvl_on_uart.then(|| fw.dvl_wire());
                 (
                     Box::new(fw),

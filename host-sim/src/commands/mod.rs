@@ -16,12 +16,12 @@ pub mod current_sweep;
 pub mod deployment;
 pub mod hil;
 pub mod identify;
-pub mod link;
 pub mod list;
 pub mod merge;
 pub mod monte_carlo;
 pub mod replay;
 pub mod run;
+pub mod topside_sim;
 pub mod vehicle;
 
 /// Exit code of an input refused before any work (see the module's table).

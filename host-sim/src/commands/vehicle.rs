@@ -1,15 +1,24 @@
 //! `host-sim vehicle SCENARIO --listen tcp:HOST:PORT`: the simulator serves a vehicle, as
 //! ArduPilot's SITL does (`crate::served`): the scenario's plant, its sensors and the
-//! firmware library's `App` in (scaled) real time, the vehicle's tether on a TCP port for a
-//! surface program (`host-sim topside --tcp HOST:PORT`), the true state to
-//! `OUT/<scenario>.truth.csv`.
+//! firmware (the library's `App` in process, `--qemu`: the image in QEMU; a topside-layout
+//! scenario: the topside MCU and its node, in process or, `--qemu`, the two images) in
+//! (scaled) real time, the vehicle's tether on a TCP port for a surface program
+//! (`rov-topside --tcp HOST:PORT`), the true state to `OUT/<scenario>.truth.csv`.
 
 use crate::checks::refused;
 use crate::scenario::deployment::Control;
-use crate::scenario::Scenario;
+use crate::scenario::{RunSetup, Scenario};
+use crate::served::endpoint::ServedEndpoint;
+use crate::served::image::ServedImage;
+use crate::served::layout::ServedLayout;
 use crate::served::server::{bind, check, serve, ServeOptions};
+use crate::served::vehicle::ServedVehicle;
+use crate::tether::qemu::{
+    qemu_firmware_image, qemu_layout_images, workspace_root, FirmwareImage, LayoutImages,
+};
+use crate::tether::topside_layout::{layout_scenario, LayoutTarget};
 use anyhow::{anyhow, Result};
-use std::net::{SocketAddr, ToSocketAddrs};
+use std::net::{SocketAddr, TcpListener, ToSocketAddrs};
 use std::path::PathBuf;
 
 /// `host-sim vehicle` options.
@@ -37,9 +46,21 @@ pub struct VehicleArgs {
     /// launch point at boot (otherwise the surface starts it with `StartNav`).
     #[arg(long)]
     pub start_nav: bool,
-    /// The firmware image in QEMU instead of the library (not served yet: refused).
-    #[arg(long)]
-    pub qemu: bool,
+    /// The simulated USBL at the surface sends its fixes as `$PSIMSSB` NMEA sentences to this
+    /// UDP address (`HOST:PORT`, the surface program's `--usbl udpin:...`), as a real USBL
+    /// does; without it the fixes go into the vehicle's own inputs. The folder of the truth
+    /// log also gets what the operator knows of the dive: `<scenario>.launch` (the surface's
+    /// `--launch`) and `<scenario>.nav-config.json` (its `--nav-config`).
+    #[arg(long, value_name = "HOST:PORT")]
+    pub usbl_to: Option<String>,
+    /// The firmware image in QEMU instead of the library: ELF, or without one the `qemu`
+    /// image built from this workspace (as `host-sim hil` builds it). A topside-layout
+    /// scenario: its two images (topside-emu, node-emu) built from the workspace (no ELF).
+    #[arg(long, num_args = 0..=1, value_name = "ELF")]
+    pub qemu: Option<Option<PathBuf>>,
+    /// The QEMU binary.
+    #[arg(long, default_value = "qemu-system-arm")]
+    pub qemu_bin: String,
 }
 
 /// `tcp:HOST:PORT` as one socket address.
@@ -63,34 +84,110 @@ pub fn main(a: VehicleArgs) -> Result<std::process::ExitCode> {
         duration_s: a.duration,
         out: a.out.clone(),
         start_nav: a.start_nav,
+        usbl_to: a.usbl_to.clone(),
     };
     check(&o).map_err(refused)?;
-    if a.qemu {
+    let layout = sc.deployment.control == Control::Topside;
+    if let (true, Some(Some(elf))) = (layout, &a.qemu) {
         return Err(refused(anyhow!(
-            "--qemu: the firmware image is not served yet (the library in process is); \
-             `host-sim topside --sim {} --emulated` flies the image in QEMU",
-            sc.name
-        )));
-    }
-    if sc.deployment.control == Control::Topside {
-        return Err(refused(anyhow!(
-            "{}: deployment.control = \"topside\": the topside layout is not served yet; \
-             `host-sim topside --sim {}` flies it",
+            "{}: deployment.control = \"topside\" is two images (topside-emu, node-emu), \
+             built from the workspace: give --qemu without an ELF ({} names one)",
             sc.name,
-            sc.name
+            elf.display()
         )));
     }
+    if o.usbl_to.is_some() && (layout || a.qemu.is_some()) {
+        return Err(refused(anyhow!(
+            "--usbl-to: the USBL as NMEA is served with the firmware library in process only; \
+             the image in QEMU and the topside layout take its fixes as the vehicle's inputs"
+        )));
+    }
+    // What is served, decided (and the images found or built) before the port is taken.
+    let served = match (layout, a.qemu) {
+        (false, None) => Served::Library,
+        (false, Some(elf)) => {
+            let elf = match elf {
+                Some(elf) => elf,
+                None => match qemu_firmware_image(&workspace_root())? {
+                    FirmwareImage::Ready(elf) => elf,
+                    FirmwareImage::Unavailable(why) => {
+                        return Err(refused(anyhow!(
+                            "--qemu: the emulated board cannot run here: {why} (serve the \
+                             library in process: leave out --qemu)"
+                        )))
+                    }
+                },
+            };
+            if !elf.is_file() {
+                return Err(refused(anyhow!("--qemu {}: no such file", elf.display())));
+            }
+            Served::Image(elf)
+        }
+        (true, None) => Served::Layout(LayoutTarget::InProcess),
+        (true, Some(_)) => match qemu_layout_images(&workspace_root())? {
+            LayoutImages::Ready(elfs) => Served::Layout(LayoutTarget::Emulated {
+                elfs,
+                qemu: a.qemu_bin.clone(),
+            }),
+            LayoutImages::Unavailable(why) => {
+                return Err(refused(anyhow!(
+                    "--qemu: the emulated boards cannot run here: {why} (serve the layout in \
+                     process: leave out --qemu)"
+                )))
+            }
+        },
+    };
     let (listener, local) = bind(o.listen)?;
+    std::fs::create_dir_all(&o.out)?;
+    match served {
+        Served::Library => {
+            let mut vehicle = ServedVehicle::new(&sc, o.start_nav)?;
+            if let Some(to) = &o.usbl_to {
+                vehicle.set_usbl_out(crate::served::usbl_out::UsblOut::new(to, o.speedup)?);
+            }
+            run(&sc, &o, &listener, local, vehicle)
+        }
+        Served::Image(elf) => {
+            let log = o.out.join(format!("{}.qemu-stdout.bin", sc.name));
+            let image = ServedImage::start(&sc, &elf, &a.qemu_bin, Some(&log), o.start_nav)?;
+            run(&sc, &o, &listener, local, image)
+        }
+        Served::Layout(target) => {
+            let sc = layout_scenario(&sc).resolve()?;
+            let layout = ServedLayout::new(&sc, &target, o.start_nav)?;
+            run(&sc, &o, &listener, local, layout)
+        }
+    }
+}
+
+/// What `host-sim vehicle` serves.
+enum Served {
+    /// The firmware library's `App` in process.
+    Library,
+    /// The `qemu` image in QEMU.
+    Image(PathBuf),
+    /// The topside layout's two MCUs.
+    Layout(LayoutTarget),
+}
+
+/// Serve `endpoint` on `listener` (bound to `local`); the summary on stdout.
+fn run<E: ServedEndpoint>(
+    sc: &RunSetup,
+    o: &ServeOptions,
+    listener: &TcpListener,
+    local: SocketAddr,
+    endpoint: E,
+) -> Result<std::process::ExitCode> {
     println!(
-        "vehicle: {} served on tcp:{local} (firmware library in process, {}x real time), \
-         truth log {}",
+        "vehicle: {} served on tcp:{local} ({}, {}x real time), truth log {}",
         sc.name,
+        endpoint.describe(),
         o.speedup,
         crate::served::server::truth_path(&o.out, &sc.name).display()
     );
     use std::io::Write;
     std::io::stdout().flush()?;
-    let rep = serve(&sc, &o, &listener)?;
+    let rep = serve(sc, o, listener, endpoint)?;
     println!(
         "vehicle: {:.1} s simulated in {:.1} s of wall time ({:.2}x, {}x asked); late ticks \
          {}, largest lag {:.1} ms, slip {:.1} ms; surfaces served {}; vehicle inputs refused {}",

@@ -6,10 +6,11 @@
 mod built_in;
 pub mod deployment;
 mod expect;
+pub mod health;
 pub mod identification;
 mod reference;
 mod setup;
-pub mod vehicle;
+pub use topside::vehicle_file as vehicle;
 
 pub use built_in::{BuiltIn, BUILT_IN};
 pub use expect::ExpectSpec;
@@ -358,6 +359,12 @@ pub struct Scenario {
     ///. Flown by the firmware (`hil`); a software `run` refuses it.
     #[serde(default)]
     pub calibration: Option<CalibrationSpec>,
+    /// `[battery]`: the simulated battery (in-process firmware runs).
+    #[serde(default)]
+    pub battery: crate::world::battery::BatterySpec,
+    /// `[health]`: health events and the vehicle's health parameters.
+    #[serde(default)]
+    pub health: health::HealthSpec,
     /// `[identification]`: fly the identification manoeuvre in `Hold`
     /// ([`IdentificationSpec`]). Flown by the firmware (`hil`).
     #[serde(default)]
@@ -525,6 +532,7 @@ impl Scenario {
         if self.name.trim().is_empty() {
             bail!("name must not be empty");
         }
+        self.health.check(&self.battery)?;
         self.deployment.validate()?;
         self.deployment.check_with(self.navigation.source)?;
         if !self

@@ -16,6 +16,13 @@
 //! to the surface. The bridge opens a session of its own at boot (before a surface opens
 //! one) and a new one under the surface's before the numbers would wrap; the surface keeps
 //! the session number it was given.
+//!
+//! Before a lock-step image (the firmware in QEMU, whose clock is the time stamps it is
+//! given) the bridge also stands in for a board's own clock: a surface `Heartbeat` reaches
+//! it stamped with the vehicle's time ([`TetherBridge::set_vehicle_time`]; a fixed-rate board
+//! ignores the stamp and reads its clock), and the image's `Telemetry`, which answers every
+//! control step there, reaches the surface at a board's telemetry period
+//! ([`TetherBridge::set_telemetry_period`]).
 
 use anyhow::{anyhow, Result};
 use firmware::protocol::{
@@ -82,12 +89,20 @@ pub struct TetherBridge {
     replays: VecDeque<u16>,
     /// The nonce of a session the bridge asked for.
     opening: Option<u32>,
+    /// A surface's `OpenSession` not answered yet: the App's number, the surface's.
+    surface_opening: Option<(u16, u16)>,
     /// Vehicle inputs waiting for the bridge's session to open.
     held: Vec<Command>,
     /// Vehicle inputs refused by the App.
     pub own_refused: u64,
     /// Why the App refused the latest vehicle input it refused.
     pub own_refused_why: Option<NackReason>,
+    /// The vehicle's time (us) a surface `Heartbeat` is stamped with (`None`: as sent).
+    vehicle_time_us: Option<u64>,
+    /// `Telemetry` to the surface at most once a this long (us; `None`: all of it), and the
+    /// time stamp of the latest one passed.
+    telemetry_period_us: Option<u64>,
+    last_telemetry_us: Option<u64>,
 }
 
 impl TetherBridge {
@@ -116,13 +131,59 @@ impl TetherBridge {
         Ok(out)
     }
 
+    /// Stamp the surface's heartbeats with the vehicle's time `t_us` (a lock-step image:
+    /// its clock is the time stamps it takes).
+    pub fn set_vehicle_time(&mut self, t_us: u64) {
+        self.vehicle_time_us = Some(t_us);
+    }
+
+    /// Pass the App's `Telemetry` to the surface at most once every `period_us` of its time
+    /// stamps (a lock-step image answers every control step with one).
+    pub fn set_telemetry_period(&mut self, period_us: u64) {
+        self.telemetry_period_us = Some(period_us);
+    }
+
+    /// Whether the bridge's own session is being opened (its answer not read yet).
+    pub fn opening(&self) -> bool {
+        self.opening.is_some()
+    }
+
+    /// The App's number of a surface's `OpenSession` whose answer has not been read: until
+    /// it is, a vehicle input framed now would go in the session it replaces.
+    pub fn surface_opening(&self) -> Option<u16> {
+        self.surface_opening.map(|(n, _)| n)
+    }
+
+    /// One vehicle input framed in the bridge's session, and its number there (its answer,
+    /// as every answer to a vehicle input, is not sent to the surface); `None` while no
+    /// session is in force or one is being opened ([`own_inputs`](Self::own_inputs) holds
+    /// inputs meanwhile).
+    pub fn own_frame(&mut self, cmd: &Command) -> Result<Option<(u16, Vec<u8>)>> {
+        if self.opening.is_some() || self.app_session == 0 {
+            return Ok(None);
+        }
+        let n = self.take_seq();
+        let mut out = vec![0];
+        out.extend(frame(self.app_session, n, cmd)?);
+        Ok(Some((n, out)))
+    }
+
     /// One good frame of the surface, renumbered for the App.
     fn surface_frame(&mut self, seq: u16, session: u32, msg: &Command) -> Result<Vec<u8>> {
+        let restamped;
+        let msg = match (msg, self.vehicle_time_us) {
+            (Command::Heartbeat { .. }, Some(t_us)) => {
+                restamped = Command::Heartbeat { t_us };
+                &restamped
+            }
+            _ => msg,
+        };
         if let Command::OpenSession { .. } = msg {
             // The App numbers the new session from this frame's number on.
             self.surface_last = Some(seq);
             self.opening = None;
             let n = self.take_seq();
+            self.surface_opening = Some((n, seq));
             return frame(session, n, msg);
         }
         let in_force = session != 0 && session == self.surface_session;
@@ -241,12 +302,22 @@ impl TetherBridge {
                 }
                 self.app_session = session;
                 self.surface_session = session;
+                self.surface_opening = None;
                 Answer::Pass
             }
             Reply::Ack { seq } => match self.surface_seq(seq) {
                 Some(s) => Answer::Renumbered(Reply::Ack { seq: s }),
                 None => Answer::Drop,
             },
+            Reply::Nack { seq, reason } if self.surface_opening().is_some_and(|n| n == seq) => {
+                // The surface's session refused, under the surface's number.
+                let surface = self.surface_opening.map_or(0, |(_, s)| s);
+                self.surface_opening = None;
+                Answer::Renumbered(Reply::Nack {
+                    seq: surface,
+                    reason,
+                })
+            }
             Reply::Nack { seq, reason } => match self.surface_seq(seq) {
                 Some(s) => Answer::Renumbered(Reply::Nack { seq: s, reason }),
                 None => {
@@ -261,6 +332,14 @@ impl TetherBridge {
                     Answer::Renumbered(Reply::Status(st))
                 }
                 None => Answer::Drop,
+            },
+            Reply::Telemetry(t) => match self.telemetry_period_us {
+                Some(p) if self.last_telemetry_us.is_some_and(|l| t.t_us < l + p) => Answer::Drop,
+                Some(_) => {
+                    self.last_telemetry_us = Some(t.t_us);
+                    Answer::Pass
+                }
+                None => Answer::Pass,
             },
             _ => Answer::Pass,
         }
@@ -453,6 +532,56 @@ mod tests {
                 assert_eq!(answers, vec![Reply::Ack { seq: k }], "surface {nonce}");
             }
         }
+        assert_eq!((b.own_refused, b.own_refused_why), (0, None));
+    }
+
+    /// Before a lock-step App: the surface's heartbeat is stamped with the vehicle's time
+    /// (its `Status` says that time, not the surface's), the step's telemetry reaches the
+    /// surface every 100 ms, and a step framed after the surface's `OpenSession` has been
+    /// answered goes in the new session.
+    #[test]
+    fn a_lock_step_app_behind_the_bridge() {
+        let mut app = InProcessFirmware::with_config(Config::lockstep(Board::Host)).unwrap();
+        let mut b = TetherBridge::new();
+        b.set_telemetry_period(100_000);
+        let mut s = Surface { session: 0, seq: 0 };
+        let (_, open) = s.frame(&Command::OpenSession { nonce: 9 });
+        let r = exchange(&mut app, &mut b, &open, &[]);
+        assert!(b.surface_opening().is_none(), "{r:?}");
+        let Some(&(_, Reply::Session { session, .. })) =
+            r.iter().find(|(_, m)| matches!(m, Reply::Session { .. }))
+        else {
+            panic!("no session: {r:?}");
+        };
+        s.session = session;
+        let mut telemetry = 0;
+        for k in 0..50u64 {
+            let t_us = k * 20_000;
+            b.set_vehicle_time(t_us);
+            // The surface's clock is far ahead of the vehicle's.
+            let (hb, f) = s.frame(&Command::Heartbeat {
+                t_us: 3_600_000_000,
+            });
+            let rx = b.from_surface(&f).unwrap();
+            let tx = app.pass(&rx);
+            let mut r = replies(&b.from_app(&tx).unwrap());
+            let (_, step) = b.own_frame(&nav(t_us)).unwrap().unwrap();
+            let tx = app.pass(&step);
+            r.extend(replies(&b.from_app(&tx).unwrap()));
+            assert!(
+                r.iter().any(|(_, m)| matches!(
+                    m,
+                    Reply::Status(st) if st.heartbeat_seq == hb && st.t_us == t_us
+                )),
+                "{r:?}"
+            );
+            telemetry += r
+                .iter()
+                .filter(|(_, m)| matches!(m, Reply::Telemetry(_)))
+                .count();
+        }
+        // 50 steps of 20 ms: one telemetry frame per 100 ms.
+        assert_eq!(telemetry, 10);
         assert_eq!((b.own_refused, b.own_refused_why), (0, None));
     }
 }

@@ -1,19 +1,21 @@
-//! The served vehicle's main loop: the closed loop with [`ServedVehicle`] as its controller,
+//! The served vehicle's main loop: the closed loop with a [`ServedEndpoint`] as its
+//! controller (the firmware library in process, the image in QEMU, the topside layout),
 //! paced to the wall clock, its tether on a TCP port for one surface at a time, the true
 //! state to a CSV.
 //!
 //! Pacing: simulated time runs `speedup` times the wall clock, never faster. When the
 //! machine cannot keep up, the simulated clock waits for the wall clock, never the reverse:
-//! a tick that starts more than a control period (of wall time) late is counted, its lag
-//! is added to the slip, and the schedule restarts from it (no burst to catch up, which
-//! would run the vehicle's failsafe timers fast against the surface's heartbeats).
+//! a tick that starts more than a control period (of wall time, at least [`LATE_MIN`]) late
+//! is counted, its lag is added to the slip, and the schedule restarts from it (no longer
+//! burst to catch up, which would run the vehicle's failsafe timers fast against the
+//! surface's heartbeats).
 //!
 //! The tether: one surface at a time; another that connects meanwhile is closed at once.
 //! A surface that disconnects is a cut tether: the vehicle's bytes are lost until the next
 //! one connects, and its own failsafes act meanwhile (heartbeat lost: neutral, then
 //! disarmed).
 
-use super::vehicle::ServedVehicle;
+use super::endpoint::ServedEndpoint;
 use crate::closed_loop::estimator_nav::navigation_for_vehicle;
 use crate::closed_loop::{ClosedLoop, Navigation, RunOptions};
 use crate::scenario::RunSetup;
@@ -31,6 +33,12 @@ nav_x_m,nav_y_m,nav_z_m,nav_yaw_rad,armed,mode,surface";
 /// The lag is noted on stderr at most this often while the machine cannot keep up.
 const LAG_NOTE_EVERY: Duration = Duration::from_secs(10);
 
+/// A tick is late (counted, and the schedule restarts from it) when it starts more than a
+/// control period of wall time late, and never at less than this: a loop finer than the
+/// machine's sleep granularity (the topside layout's 2.5 ms) catches up a few ticks at once,
+/// a burst far inside the failsafes' timeouts.
+const LATE_MIN: Duration = Duration::from_millis(10);
+
 /// Bytes for a surface that does not read, at most: past this it is disconnected.
 const MAX_UNSENT: usize = 1 << 20;
 
@@ -47,6 +55,9 @@ pub struct ServeOptions {
     pub out: PathBuf,
     /// The vehicle starts its own estimator at the launch point.
     pub start_nav: bool,
+    /// The simulated USBL's NMEA to this UDP address (`HOST:PORT`), for the surface program;
+    /// `None`: its fixes go into the vehicle's inputs.
+    pub usbl_to: Option<String>,
 }
 
 /// What a served run did.
@@ -87,8 +98,13 @@ pub fn bind(addr: SocketAddr) -> Result<(TcpListener, SocketAddr)> {
     Ok((l, local))
 }
 
-/// Serve the vehicle of `sc` on `listener` until `duration_s` (or forever).
-pub fn serve(sc: &RunSetup, o: &ServeOptions, listener: &TcpListener) -> Result<ServeReport> {
+/// Serve `endpoint`, the vehicle of `sc`, on `listener` until `duration_s` (or forever).
+pub fn serve<E: ServedEndpoint>(
+    sc: &RunSetup,
+    o: &ServeOptions,
+    listener: &TcpListener,
+    endpoint: E,
+) -> Result<ServeReport> {
     let truth_path = truth_path(&o.out, &sc.name);
     std::fs::create_dir_all(&o.out).with_context(|| format!("create {}", o.out.display()))?;
     let mut truth = BufWriter::new(
@@ -99,10 +115,15 @@ pub fn serve(sc: &RunSetup, o: &ServeOptions, listener: &TcpListener) -> Result<
         open_ended: true,
         ..RunOptions::default()
     };
-    let endpoint = ServedVehicle::new(sc, o.start_nav)?;
+    // What the operator knows of this dive: the estimator's settings for its instruments.
+    if let Some(c) = endpoint.onboard_config() {
+        let path = o.out.join(format!("{}.nav-config.json", sc.name));
+        std::fs::write(&path, serde_json::to_string_pretty(&c)?)
+            .with_context(|| format!("write {}", path.display()))?;
+    }
     let mut run = ClosedLoop::new(sc, &run_opts, navigation_for_vehicle(sc), endpoint)?;
     let period_s = run.period_s();
-    let tick_wall = Duration::from_secs_f64(period_s / o.speedup);
+    let late_after = Duration::from_secs_f64(period_s / o.speedup).max(LATE_MIN);
     let mut rep = ServeReport {
         truth: truth_path,
         ..ServeReport::default()
@@ -110,9 +131,11 @@ pub fn serve(sc: &RunSetup, o: &ServeOptions, listener: &TcpListener) -> Result<
     let mut surface: Option<Surface> = None;
     let wall0 = Instant::now();
     let (mut anchor_wall, mut anchor_t) = (wall0, 0.0);
+    let stride = run.endpoint().truth_stride().max(1);
     let rows_per_flush = (1.0 / period_s).round().max(1.0) as u64;
     let mut ticks = 0u64;
     let mut next_lag_note = wall0;
+    let mut launch_written = false;
     loop {
         if o.duration_s
             .is_some_and(|d| run.t_s() >= d - 0.5 * period_s)
@@ -121,7 +144,10 @@ pub fn serve(sc: &RunSetup, o: &ServeOptions, listener: &TcpListener) -> Result<
         }
         accept(listener, &mut surface, &mut rep.surfaces);
         if let Some(s) = surface.as_mut() {
-            if !read_surface(s, &mut run.endpoint_mut().surface_in) {
+            let mut bytes = Vec::new();
+            let open = read_surface(s, &mut bytes);
+            run.endpoint_mut().surface_sent(&bytes);
+            if !open {
                 eprintln!("vehicle: surface {} disconnected (tether cut)", s.peer);
                 surface = None;
             }
@@ -130,7 +156,17 @@ pub fn serve(sc: &RunSetup, o: &ServeOptions, listener: &TcpListener) -> Result<
             rep.stopped = Some(run.stop_reason().to_string());
             break;
         }
-        let out = std::mem::take(&mut run.endpoint_mut().surface_out);
+        if !launch_written {
+            if let Some(l) = run.endpoint().launch() {
+                // Where the vehicle was put in the water, as the operator knows it: the
+                // surface's `--launch` (north, east, depth in m, heading in degrees).
+                let path = o.out.join(format!("{}.launch", sc.name));
+                let text = format!("{},{},{},{}\n", l.x_m, l.y_m, l.z_m, l.yaw_rad.to_degrees());
+                std::fs::write(&path, text).with_context(|| format!("write {}", path.display()))?;
+                launch_written = true;
+            }
+        }
+        let out = run.endpoint_mut().take_surface_out();
         if let Some(s) = surface.as_mut() {
             s.unsent.extend(out);
             if !write_surface(s) {
@@ -138,7 +174,9 @@ pub fn serve(sc: &RunSetup, o: &ServeOptions, listener: &TcpListener) -> Result<
                 surface = None;
             }
         }
-        truth_row(&mut truth, &run, wall0, surface.is_some())?;
+        if ticks.is_multiple_of(stride) {
+            truth_row(&mut truth, &run, wall0, surface.is_some())?;
+        }
         ticks += 1;
         if ticks.is_multiple_of(rows_per_flush) {
             truth.flush()?;
@@ -151,7 +189,7 @@ pub fn serve(sc: &RunSetup, o: &ServeOptions, listener: &TcpListener) -> Result<
             None => {
                 let lag = now.duration_since(due);
                 rep.max_lag_s = rep.max_lag_s.max(lag.as_secs_f64());
-                if lag > tick_wall {
+                if lag > late_after {
                     rep.late_ticks += 1;
                     rep.slip_s += lag.as_secs_f64();
                     (anchor_wall, anchor_t) = (now, run.t_s());
@@ -173,7 +211,7 @@ pub fn serve(sc: &RunSetup, o: &ServeOptions, listener: &TcpListener) -> Result<
     truth.flush()?;
     rep.sim_s = run.t_s();
     rep.wall_s = wall0.elapsed().as_secs_f64();
-    rep.own_refused = run.endpoint().bridge().own_refused;
+    rep.own_refused = run.endpoint().own_refused();
     Ok(rep)
 }
 
@@ -230,21 +268,16 @@ fn write_surface(s: &mut Surface) -> bool {
 }
 
 /// One row of the truth log: the true state after the tick, what the vehicle believes.
-fn truth_row(
+fn truth_row<E: ServedEndpoint>(
     w: &mut impl Write,
-    run: &ClosedLoop<Box<dyn Navigation>, ServedVehicle>,
+    run: &ClosedLoop<Box<dyn Navigation>, E>,
     wall0: Instant,
     connected: bool,
 ) -> Result<()> {
     let s = run.sample();
     let x = &s.state.eta;
-    let ap = run.endpoint().app().autopilot();
-    let n = ap.nav_state();
-    let mode = format!("{:?}", ap.mode());
-    let mode = mode
-        .split(|c: char| !c.is_alphanumeric())
-        .next()
-        .unwrap_or_default();
+    let b = run.endpoint().believed();
+    let (n, mode) = (&b.nav, &b.mode);
     writeln!(
         w,
         "{:.3},{:.3},{:.4},{:.4},{:.4},{:.5},{:.5},{:.5},{:.4},{:.4},{:.4},{:.5},{},{mode},{}",
@@ -260,7 +293,7 @@ fn truth_row(
         n.y_m,
         n.z_m,
         n.yaw_rad,
-        u8::from(ap.armed()),
+        u8::from(b.armed),
         u8::from(connected)
     )?;
     Ok(())

@@ -11,11 +11,13 @@
 //! the surface. The plant gets the thrust of the pulse widths on its three outputs.
 
 use super::bridge::TetherBridge;
+use super::endpoint::{Believed, ServedEndpoint};
 use crate::clock::us;
 use crate::closed_loop::estimator_nav::onboard_config;
 use crate::closed_loop::{ControllerEndpoint, StepReply};
 use crate::scenario::RunSetup;
 use crate::tether::in_process::{SimPwm, SimSerial};
+use crate::world::battery::{HealthWire, VehicleElectrics};
 use crate::world::sensors::{Measurement, NavSource};
 use anyhow::{anyhow, Result};
 use controller_core::alloc::PwmMap;
@@ -46,9 +48,12 @@ struct Feed {
     current_imu: Option<ImuSample>,
     pressure: VecDeque<(u64, f32)>,
     dvl: VecDeque<DvlFix>,
+    /// The power-sense module, leak probe and enclosure sensor.
+    health: Option<HealthWire>,
 }
 
-/// The vehicle's own IMU, pressure sensor and DVL (on its UART), fed from the plant: the
+/// The vehicle's own IMU, pressure sensor, DVL (on its UART) and health inputs, fed from the
+/// plant and the simulated battery: the
 /// surface's `Imu` and `Pressure` are refused (`OwnSensors`), as by a real vehicle. Read
 /// before each control step (the IMU and pressure only while the on-board estimator runs:
 /// the App's rule).
@@ -82,6 +87,10 @@ impl Sensors for PlantBus {
         }
         latest
     }
+
+    fn health(&mut self, _now_us: u64) -> Option<firmware::health::HealthSample> {
+        self.0.borrow_mut().health.as_mut().map(HealthWire::sample)
+    }
 }
 
 /// The App of the served vehicle.
@@ -92,6 +101,8 @@ pub struct ServedVehicle {
     app: ServedApp,
     clock: SimTime,
     feed: PlantBus,
+    /// The simulated battery and health events (`[battery]`, `[health]`).
+    electrics: VehicleElectrics,
     bridge: TetherBridge,
     /// The control period (us): the App's, and the loop's.
     period_us: u64,
@@ -109,6 +120,11 @@ pub struct ServedVehicle {
     pub surface_in: Vec<u8>,
     /// Bytes for the surface, written by the passes since taken.
     pub surface_out: Vec<u8>,
+    /// The simulated USBL at the surface: its fixes go to the surface program as NMEA
+    /// (otherwise into the vehicle's inputs, as a navigation computer's would).
+    usbl: Option<super::usbl_out::UsblOut>,
+    /// The launch point the vehicle was put in the water at (known once the loop starts).
+    pub launch: Option<NavState>,
 }
 
 impl ServedVehicle {
@@ -133,6 +149,15 @@ impl ServedVehicle {
         .map_err(|e| anyhow!("controller: {e}"))?;
         let clock = SimTime::default();
         let feed = PlantBus::default();
+        let health = sc.health.params(&sc.battery)?;
+        let electrics = VehicleElectrics::new(
+            sc.battery,
+            sc.health.events()?,
+            health,
+            PwmMap::for_vehicle(sc.vehicle()),
+            f64::from(sc.vehicle_params.thrust_max_forward_n),
+        );
+        feed.0.borrow_mut().health = Some(electrics.wire());
         let mut app = App::with_sensors(
             [SimPwm::default(), SimPwm::default(), SimPwm::default()],
             SimSerial::default(),
@@ -142,11 +167,14 @@ impl ServedVehicle {
             feed.clone(),
         )
         .map_err(|e| anyhow!("firmware config: {e}"))?;
+        app.set_health_params(&health)
+            .map_err(|r| anyhow!("the firmware refused the health parameters: {r:?}"))?;
         app.hello();
         Ok(Self {
             app,
             clock,
             feed,
+            electrics,
             bridge: TetherBridge::new(),
             period_us,
             ticks: 0,
@@ -158,6 +186,8 @@ impl ServedVehicle {
             own: Vec::new(),
             surface_in: Vec::new(),
             surface_out: Vec::new(),
+            usbl: None,
+            launch: None,
         })
     }
 
@@ -207,10 +237,18 @@ impl ServedVehicle {
     }
 }
 
+impl ServedVehicle {
+    /// The USBL's fixes to the surface program as NMEA over UDP (`usbl_out`).
+    pub fn set_usbl_out(&mut self, out: super::usbl_out::UsblOut) {
+        self.usbl = Some(out);
+    }
+}
+
 impl ControllerEndpoint for ServedVehicle {
     /// At time 0: the vehicle's own description (as configured on a real vehicle), with
     /// `start_nav` its estimator started at the launch point; the boot's pass.
     fn start(&mut self, nav0: &NavState) -> Result<()> {
+        self.launch = Some(*nav0);
         self.own.push(Command::SetVehicle(self.vehicle));
         if self.start_nav {
             self.own.push(Command::StartNav {
@@ -231,6 +269,8 @@ impl ControllerEndpoint for ServedVehicle {
             self.own.push(Command::Nav(NavSample { t_us, state: *nav }));
         }
         self.pass()?;
+        self.electrics
+            .advance(t_us, self.app.last_output().pulse_us);
         let tel = self.app.telemetry(t_us);
         let applied = tel
             .pulse_us
@@ -264,9 +304,55 @@ impl ControllerEndpoint for ServedVehicle {
                     .push_back((d.t_us, self.onboard.pressure.pressure_pa(d.depth_m))),
                 Measurement::Heading(h) => self.own.push(Command::Compass(h)),
                 Measurement::Dvl(d) => f.dvl.push_back(d),
-                Measurement::Position(p, _) => self.own.push(Command::UsblFix(p)),
+                Measurement::Position(p, _) => match self.usbl.as_mut() {
+                    Some(out) => {
+                        // The transponder's depth as the USBL sees it: the latest pressure
+                        // reading's.
+                        let depth_m = f
+                            .pressure
+                            .back()
+                            .map_or(0.0, |&(_, pa)| self.onboard.pressure.depth_m(pa));
+                        out.send(&p, depth_m, self.ticks.saturating_sub(1) * self.period_us);
+                    }
+                    None => self.own.push(Command::UsblFix(p)),
+                },
             }
         }
         Ok(())
+    }
+}
+
+impl ServedEndpoint for ServedVehicle {
+    fn describe(&self) -> String {
+        "firmware library in process".into()
+    }
+
+    fn surface_sent(&mut self, bytes: &[u8]) {
+        self.surface_in.extend_from_slice(bytes);
+    }
+
+    fn take_surface_out(&mut self) -> Vec<u8> {
+        std::mem::take(&mut self.surface_out)
+    }
+
+    fn believed(&self) -> Believed {
+        let ap = self.app.autopilot();
+        Believed {
+            nav: ap.nav_state(),
+            armed: ap.armed(),
+            mode: Believed::mode_name(&ap.mode()),
+        }
+    }
+
+    fn own_refused(&self) -> u64 {
+        self.bridge.own_refused
+    }
+
+    fn launch(&self) -> Option<NavState> {
+        self.launch
+    }
+
+    fn onboard_config(&self) -> Option<controller_core::nav::onboard::OnboardConfig> {
+        Some(self.onboard)
     }
 }

@@ -9,10 +9,15 @@
 //! same framing, state machine, failsafes and PWM quantization as the firmware image, at the
 //! speed of a software run.
 
+use crate::scenario::health::HealthSpec;
+use crate::scenario::RunSetup;
+use crate::world::battery::{BatterySpec, HealthWire, VehicleElectrics};
 use crate::world::sensors::DvlWire;
 use anyhow::{anyhow, Result};
+use controller_core::alloc::PwmMap;
 use controller_core::controller::{Controller, Gains};
 use controller_core::params::Vehicle;
+use firmware::health::WithHealth;
 use firmware::protocol::Board;
 use firmware::sensors::dvl::{a50::VelocityGate, DvlPort, WithDvl};
 use firmware::{App, Config, Monotonic, NoSensors};
@@ -106,13 +111,23 @@ impl Monotonic for SimClock {
 }
 
 /// The App as the boards build it, with simulated peripherals: the sensor readings come
-/// over the tether, the DVL on its own UART ([`DvlWire`]).
-pub type SimApp = App<SimPwm, SimSerial, SimClock, WithDvl<NoSensors, DvlWire>>;
+/// over the tether, the DVL on its own UART ([`DvlWire`]), the health inputs (the
+/// power-sense module's ADC, the leak probe's GPIO, the enclosure's sensor) on
+/// [`HealthWire`].
+pub type SimApp = App<
+    SimPwm,
+    SimSerial,
+    SimClock,
+    WithHealth<WithDvl<NoSensors, DvlWire>, HealthWire, HealthWire, HealthWire>,
+>;
 
 /// The firmware library in process, as a byte port.
 pub struct InProcessFirmware {
     app: SimApp,
     dvl_wire: DvlWire,
+    /// The simulated battery and health events, written into the App's health inputs
+    /// after each pass at the App's time.
+    electrics: VehicleElectrics,
 }
 
 impl InProcessFirmware {
@@ -124,14 +139,38 @@ impl InProcessFirmware {
     /// Boot the App with `config`: `Config::fixed_rate` makes a vehicle that runs on the
     /// host's clock, as a board does, driven by [`Self::pass`].
     pub fn with_config(config: Config) -> Result<Self> {
-        let controller = Controller::new(Vehicle::observer(), Gains::default())
-            .map_err(|e| anyhow!("controller: {e}"))?;
+        Self::with_health(config, &BatterySpec::default(), &HealthSpec::default())
+    }
+
+    /// Boot the App (lock-step) with the scenario's battery and health (`[battery]`,
+    /// `[health]`): its health parameters as stored on the vehicle, its health inputs fed by
+    /// the simulated battery and events.
+    pub fn for_scenario(sc: &RunSetup) -> Result<Self> {
+        Self::with_health(Config::lockstep(Board::Host), &sc.battery, &sc.health)
+    }
+
+    /// Boot the App with `config`, a simulated `battery` and the `health` events and
+    /// parameters.
+    pub fn with_health(config: Config, battery: &BatterySpec, health: &HealthSpec) -> Result<Self> {
+        let vehicle = Vehicle::observer();
+        let params = health.params(battery)?;
+        let electrics = VehicleElectrics::new(
+            *battery,
+            health.events()?,
+            params,
+            PwmMap::for_vehicle(&vehicle),
+            f64::from(vehicle.params().thrust_max_forward_n),
+        );
+        let controller =
+            Controller::new(vehicle, Gains::default()).map_err(|e| anyhow!("controller: {e}"))?;
         let dvl_wire = DvlWire::default();
         // The in-memory line takes no time per byte.
-        let sensors = WithDvl {
+        let dvl = WithDvl {
             inner: NoSensors,
             dvl: DvlPort::new(dvl_wire.clone(), VelocityGate::default(), 0),
         };
+        let wire = electrics.wire();
+        let sensors = WithHealth::new(dvl, wire.clone(), Some(wire.clone()), wire);
         let mut app = App::with_sensors(
             [SimPwm::default(), SimPwm::default(), SimPwm::default()],
             SimSerial::default(),
@@ -141,8 +180,28 @@ impl InProcessFirmware {
             sensors,
         )
         .map_err(|e| anyhow!("firmware config: {e}"))?;
+        app.set_health_params(&params)
+            .map_err(|r| anyhow!("the firmware refused the health parameters: {r:?}"))?;
         app.hello();
-        Ok(Self { app, dvl_wire })
+        Ok(Self {
+            app,
+            dvl_wire,
+            electrics,
+        })
+    }
+
+    /// The simulated battery and health inputs (the truth the vehicle measures).
+    pub fn electrics(&self) -> &VehicleElectrics {
+        &self.electrics
+    }
+
+    /// One pass of the App's main loop, then the battery advanced to the App's time with
+    /// the pulses it commands.
+    fn tick(&mut self) {
+        self.app.tick();
+        let t_us = self.app.now_us();
+        let pulses = self.app.last_output().pulse_us;
+        self.electrics.advance(t_us, pulses);
     }
 
     /// The line into the App's DVL port (a clone: what is sent on it, the App reads).
@@ -154,7 +213,7 @@ impl InProcessFirmware {
     /// the host's clock): `received` goes in first; what it sent comes back.
     pub fn pass(&mut self, received: &[u8]) -> Vec<u8> {
         self.app.parts_mut().1.rx.extend(received);
-        self.app.tick();
+        self.tick();
         self.app.parts_mut().1.tx.drain(..).collect()
     }
 
@@ -179,7 +238,7 @@ impl std::io::Read for InProcessFirmware {
     fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
         // One pass of the main loop per read while bytes wait (a tick reads a bounded number).
         while self.app.parts_mut().1.tx.is_empty() && !self.app.parts_mut().1.rx.is_empty() {
-            self.app.tick();
+            self.tick();
         }
         let tx = &mut self.app.parts_mut().1.tx;
         let n = buf.len().min(tx.len());

@@ -4,9 +4,10 @@
 
 pub mod endpoint;
 pub mod in_process;
-pub mod link;
-pub mod port;
 pub mod qemu;
 pub mod report;
-pub mod tether_log;
 pub mod topside_layout;
+
+// The surface end of the tether lives in the surface program's crate; the simulator drives
+// the firmware through the same code.
+pub use topside::{link, port, tether_log};

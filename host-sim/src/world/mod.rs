@@ -1,6 +1,7 @@
 //! The simulated world: the plants (rigid body, thrusters, water), the frames, the sensors and
 //! their noise. Depends on nothing of the simulation above it.
 
+pub mod battery;
 pub mod frames;
 pub mod noise;
 pub mod plant;

@@ -1,15 +1,19 @@
-//! What the tests that fly `host-sim topside` from a real ground station (pymavlink, MAVProxy)
-//! share: the check that pymavlink is there (SKIPPED with the fix, or a failure with
-//! `ROV_REQUIRE_PYMAVLINK=1` as `.ci/run` sets it), a free UDP port, stopping a topside.
+//! What the tests that fly the surface program from a real ground station (pymavlink,
+//! MAVProxy) share: the check that pymavlink is there (SKIPPED with the fix, or a failure with
+//! `ROV_REQUIRE_PYMAVLINK=1` as `.ci/run` sets it), a free UDP port, a simulated dive started
+//! the way a real one is (`host-sim vehicle` serving the vehicle, `rov-topside --tcp` at the
+//! surface), stopping it.
 
 // Each test binary that includes this module uses a part of it.
 #![allow(dead_code)]
 
 use std::ffi::OsStr;
+use std::io::{BufRead, BufReader};
 use std::net::UdpSocket;
 use std::os::unix::process::CommandExt;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
+use std::sync::OnceLock;
 
 /// Is pymavlink importable? Without it: SKIPPED with the fix, or a panic when CI requires it.
 pub fn pymavlink_or_skip() -> bool {
@@ -38,14 +42,56 @@ pub fn free_udp_port() -> u16 {
         .port()
 }
 
-/// Stop a topside and what it started (the emulator of `--emulated`): a killed process runs
-/// no destructors, so its whole process group (started with `process_group(0)`) is killed.
-pub fn stop(mut child: Child) {
-    let _ = Command::new("kill")
-        .args(["-KILL", "--", &format!("-{}", child.id())])
-        .status();
-    let _ = child.kill();
-    let _ = child.wait();
+/// What a test stops: a process and what it started, or a whole simulated dive.
+pub trait Stop {
+    /// Stop it (its process groups: a killed process runs no destructors).
+    fn stop(self);
+}
+
+impl Stop for Child {
+    fn stop(mut self) {
+        let _ = Command::new("kill")
+            .args(["-KILL", "--", &format!("-{}", self.id())])
+            .status();
+        let _ = self.kill();
+        let _ = self.wait();
+    }
+}
+
+/// A simulated dive as a real one is flown: the vehicle served by `host-sim vehicle` on a TCP
+/// port, the surface program `rov-topside --tcp` in front of it.
+pub struct Dive {
+    /// The surface program.
+    pub topside: Child,
+    /// The served vehicle.
+    pub vehicle: Child,
+    /// Where the served vehicle writes its truth log.
+    pub out: PathBuf,
+}
+
+impl Dive {
+    /// The served vehicle's truth log (the true state beside what the vehicle believes): the
+    /// newest `.truth.csv` in its folder.
+    pub fn truth(&self) -> PathBuf {
+        std::fs::read_dir(&self.out)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.to_string_lossy().ends_with(".truth.csv"))
+            .max_by_key(|p| std::fs::metadata(p).and_then(|m| m.modified()).unwrap())
+            .expect("the served vehicle's truth log")
+    }
+}
+
+impl Stop for Dive {
+    fn stop(self) {
+        self.topside.stop();
+        self.vehicle.stop();
+    }
+}
+
+/// Stop a process (its group, started with `process_group(0)`) or a dive.
+pub fn stop(s: impl Stop) {
+    s.stop();
 }
 
 /// Wait up to `timeout` for a topside started with `--duration` to stop by itself, and
@@ -65,10 +111,189 @@ pub fn exits_at_duration(mut child: Child, timeout: std::time::Duration) {
     assert!(status.success(), "topside exit {status:?}");
 }
 
-/// `host-sim topside --sim SCENARIO` sending MAVLink to `udpout:127.0.0.1:PORT`, its tlog and
-/// parameters file where the test says, with `extra` arguments (`--duration`, `--speedup`,
-/// ...), in a process group of its own so that [`stop`] ends what it starts (QEMU).
-pub fn topside_sim(
+/// The `rov-topside` binary of this build profile, built if needed (`cargo test --workspace`
+/// builds it; a test run alone with `-p host-sim` gets it built here, once).
+pub fn rov_topside() -> PathBuf {
+    static BIN: OnceLock<PathBuf> = OnceLock::new();
+    BIN.get_or_init(|| {
+        let exe = std::env::current_exe().unwrap();
+        // <target>/<profile>/deps/<test binary>
+        let profile_dir = exe.parent().and_then(Path::parent).unwrap().to_path_buf();
+        let mut cargo = Command::new(env!("CARGO"));
+        cargo.args(["build", "-q", "-p", "topside", "--bin", "rov-topside"]);
+        if profile_dir.file_name().is_some_and(|n| n == "release") {
+            cargo.arg("--release");
+        }
+        let ok = cargo
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .status()
+            .is_ok_and(|s| s.success());
+        assert!(ok, "cargo build -p topside --bin rov-topside failed");
+        profile_dir.join("rov-topside")
+    })
+    .clone()
+}
+
+/// `host-sim vehicle SCENARIO` serving on a free port, its truth log in `out`, with `extra`
+/// arguments (`--speedup`, `--duration`): the process (in a group of its own) and the port.
+pub fn serve_vehicle(scenario: impl AsRef<OsStr>, out: &Path, extra: &[&str]) -> (Child, u16) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .arg("vehicle")
+        .arg(scenario)
+        .args(["--listen", "tcp:127.0.0.1:0", "--out"])
+        .arg(out)
+        .args(extra)
+        .stdout(Stdio::piped())
+        .process_group(0)
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    BufReader::new(child.stdout.as_mut().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let port = line
+        .split("tcp:127.0.0.1:")
+        .nth(1)
+        .and_then(|s| s.split_whitespace().next())
+        .and_then(|p| p.parse().ok())
+        .unwrap_or_else(|| panic!("no port in the served vehicle's first line {line:?}"));
+    (child, port)
+}
+
+/// A simulated dive flown the way a real one is: `host-sim vehicle SCENARIO` served on a free
+/// port, and `rov-topside --tcp` sending MAVLink to `udpout:127.0.0.1:PORT`, its tlog and
+/// parameters file where the test says. Of `extra`, `--speedup K`, `--start-nav` and
+/// `--vehicle-duration S` (its `--duration`) go to the vehicle, everything else to the
+/// surface (`--duration`, `--mavlink`, `--vehicle`). With
+/// `--speedup K` the surface's tether heartbeat goes K times faster (at most 50 Hz), so that
+/// the vehicle sees one every 0.1 s of its own time.
+pub fn dive(
+    scenario: impl AsRef<OsStr>,
+    port: u16,
+    tlog: &Path,
+    params: &Path,
+    extra: &[&str],
+) -> Dive {
+    let (mut vehicle_args, mut surface_args) = (Vec::new(), Vec::new());
+    let mut speedup = 1.0f64;
+    let mut surface_nav = false;
+    let mut it = extra.iter();
+    while let Some(&a) = it.next() {
+        match a {
+            "--speedup" => {
+                let k = *it.next().unwrap();
+                speedup = k.parse().unwrap();
+                vehicle_args.extend(["--speedup", k]);
+            }
+            "--start-nav" => vehicle_args.push(a),
+            // The USBL at the surface: the served vehicle's as NMEA to the surface program,
+            // which starts the vehicle's estimator at the dive's launch point and relays the
+            // fixes.
+            "--surface-nav" => surface_nav = true,
+            // The served vehicle's own end (simulated time), not the surface's.
+            "--vehicle-duration" => vehicle_args.extend(["--duration", *it.next().unwrap()]),
+            _ => surface_args.push(a),
+        }
+    }
+    let out = tlog.parent().unwrap().to_path_buf();
+    let usbl_port = free_udp_port().to_string();
+    let usbl_to = format!("127.0.0.1:{usbl_port}");
+    if surface_nav {
+        vehicle_args.extend(["--usbl-to", usbl_to.as_str()]);
+    }
+    let (vehicle, tcp) = serve_vehicle(&scenario, &out, &vehicle_args);
+    let mut nav_args: Vec<String> = Vec::new();
+    if surface_nav {
+        // What the operator knows of the dive, written by the served vehicle at its start.
+        let newest = |ext: &str| {
+            let end = std::time::Instant::now() + std::time::Duration::from_secs(10);
+            loop {
+                let found = std::fs::read_dir(&out)
+                    .unwrap()
+                    .map(|e| e.unwrap().path())
+                    .filter(|p| p.to_string_lossy().ends_with(ext))
+                    .max_by_key(|p| std::fs::metadata(p).and_then(|m| m.modified()).unwrap());
+                if let Some(p) = found {
+                    return p;
+                }
+                assert!(
+                    std::time::Instant::now() < end,
+                    "no {ext} from the served vehicle"
+                );
+                std::thread::sleep(std::time::Duration::from_millis(50));
+            }
+        };
+        let launch = std::fs::read_to_string(newest(".launch")).unwrap();
+        nav_args.extend([
+            "--usbl".into(),
+            format!("udpin:{usbl_to}"),
+            "--launch".into(),
+            launch.trim().to_string(),
+            "--nav-config".into(),
+            newest(".nav-config.json").to_string_lossy().to_string(),
+        ]);
+    }
+    let heartbeat_hz = (10.0 * speedup).clamp(10.0, 50.0).round().to_string();
+    let topside = Command::new(rov_topside())
+        .args(["--tcp", &format!("127.0.0.1:{tcp}")])
+        .args(["--mavlink", &format!("udpout:127.0.0.1:{port}")])
+        .args(["--heartbeat-hz", &heartbeat_hz])
+        .arg("--tlog")
+        .arg(tlog)
+        .arg("--params")
+        .arg(params)
+        .args(&nav_args)
+        .args(surface_args)
+        .process_group(0)
+        .spawn()
+        .unwrap();
+    Dive {
+        topside,
+        vehicle,
+        out,
+    }
+}
+
+/// A simulated dive: through `host-sim vehicle` and `rov-topside` ([`dive`]), or with
+/// `--emulated` in `extra`, in lock-step ([`topside_lockstep`]: the image in QEMU is not
+/// served yet).
+pub enum Flight {
+    /// Served, as a real dive.
+    Dive(Dive),
+    /// In lock-step behind `host-sim topside --sim`.
+    Lockstep(Child),
+}
+
+impl Stop for Flight {
+    fn stop(self) {
+        match self {
+            Flight::Dive(d) => d.stop(),
+            Flight::Lockstep(c) => c.stop(),
+        }
+    }
+}
+
+/// [`dive`], or [`topside_lockstep`] with `--emulated` in `extra`.
+pub fn fly(
+    scenario: impl AsRef<OsStr>,
+    port: u16,
+    tlog: &Path,
+    params: &Path,
+    extra: &[&str],
+) -> Flight {
+    if extra.contains(&"--emulated") {
+        Flight::Lockstep(topside_lockstep(scenario, port, tlog, params, extra))
+    } else {
+        Flight::Dive(dive(scenario, port, tlog, params, extra))
+    }
+}
+
+/// `host-sim topside --sim SCENARIO`: the surface program in front of a vehicle flown in
+/// lock-step in the simulator, for what `host-sim vehicle` does not serve yet (the image in
+/// QEMU with `--emulated`, the topside layout), sending MAVLink to `udpout:127.0.0.1:PORT`,
+/// its tlog and parameters where the test says, with `extra` arguments, in a process group
+/// of its own so that [`stop`] ends what it starts (QEMU).
+pub fn topside_lockstep(
     scenario: impl AsRef<OsStr>,
     port: u16,
     tlog: &Path,
@@ -90,19 +315,12 @@ pub fn topside_sim(
         .unwrap()
 }
 
-/// `host-sim topside --serial DEVICE` (115,200 Bd) sending MAVLink to
+/// `rov-topside --serial DEVICE` (115,200 Bd) sending MAVLink to
 /// `udpout:127.0.0.1:PORT`, its tlog and parameters in `dir`, stopping after `duration_s`
 /// of its own time.
 pub fn topside_serial(device: &str, port: u16, dir: &Path, duration_s: u32) -> Child {
-    Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .args([
-            "topside",
-            "--serial",
-            device,
-            "--baud",
-            "115200",
-            "--mavlink",
-        ])
+    Command::new(rov_topside())
+        .args(["--serial", device, "--baud", "115200", "--mavlink"])
         .arg(format!("udpout:127.0.0.1:{port}"))
         .arg("--tlog")
         .arg(dir.join("serial.tlog"))

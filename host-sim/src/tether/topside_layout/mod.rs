@@ -2,7 +2,7 @@
 //! thin node on the vehicle, the node link between them over the byte-level tether model
 //! ([`crate::world::tether_wire`]).
 //!
-//! [`TopsideLayout`] is a [`ControllerEndpoint`] of [`crate::closed_loop`]'s loop: the
+//! [`TopsideLayout`] is a [`ControllerEndpoint`](crate::closed_loop::ControllerEndpoint) of [`crate::closed_loop`]'s loop: the
 //! harness (the PC on the topside's tether, the wire, the watched bytes, the report) around
 //! the two MCUs, which sit behind the [`Roles`] interface with two implementations:
 //! [`InProcessRoles`] ([`TopsideLayout::for_scenario`], described below) and
@@ -41,37 +41,35 @@
 //! and when the ground station's `Telemetry` showed the loss.
 
 mod emulated;
+mod endpoint;
+mod external;
+mod pc;
 mod ports;
 mod report;
 mod roles;
+mod watch;
 
 use crate::clock::us;
 use crate::closed_loop::estimator_nav::{onboard_config, VehicleNav};
-use crate::closed_loop::{run_closed_loop, ControllerEndpoint, RunOptions, RunOutput, StepReply};
+use crate::closed_loop::{run_closed_loop, RunOptions, RunOutput};
 use crate::scenario::{RunSetup, Scenario};
 use crate::tether::in_process::{SimPwm, SimSerial};
 pub use crate::tether::qemu::LayoutElfs;
-use crate::world::sensors::Measurement;
 use crate::world::tether_wire::Duplex;
-use anyhow::{anyhow, bail, Result};
+use anyhow::{anyhow, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::controller::{Controller, Gains};
 use controller_core::nav::onboard::OnboardConfig;
-use controller_core::nav::Refusal;
-use controller_core::reference::{RefSample, Reference};
-use controller_core::state::NavState;
+use controller_core::reference::Reference;
 pub use emulated::{EmulatedRoles, BOARD_TIMEOUT, TOPSIDE_GRID_US};
 use firmware::node::{Node, NodeConfig};
-use firmware::node_link::{status, Downlink, LinkDecoder, LinkFrame, Uplink};
+use firmware::node_link::{Downlink, LinkDecoder, Uplink};
 use firmware::topside_link::{
-    fault as link_fault, ImuStamp, LinkSensors, LinkThruster, NodeBridge, TopsideConfig,
-    TopsideLink,
+    ImuStamp, LinkSensors, LinkThruster, NodeBridge, TopsideConfig, TopsideLink,
 };
 use firmware::{App, Config, Timing};
-pub use ports::{PlantSensors, VClock, WirePort};
-use protocol::{
-    fault, Answer, Board, Client, Command, Event, Mode, NackReason, Reply, Status, Telemetry,
-};
+pub use ports::{ExternalPc, PlantSensors, VClock, WirePort};
+use protocol::{Board, Client, Command, Mode, Status, Telemetry};
 pub use report::{Latency, LayoutReport};
 pub use roles::{ControlView, InProcessRoles, NodePass, Roles, TopsidePass};
 
@@ -131,6 +129,10 @@ pub struct TopsideLayout {
     /// `start` flies the scenario (its reference, mode and arm); off for `host-sim
     /// topside`, where the ground stations command.
     fly_scenario: bool,
+    /// The PC outside the simulation (a served surface), in place of the harness's own.
+    external: Option<Box<dyn ExternalPc>>,
+    /// With an external PC: the estimator starts at the launch point at the start.
+    external_start_nav: bool,
     next_heartbeat_us: u64,
     /// PC commands and when they are due at the topside (us).
     pending_pc: Vec<(u64, Command)>,
@@ -194,16 +196,6 @@ impl NodeView {
     pub fn output_us(&self) -> [u16; 3] {
         self.pulse_us
     }
-}
-
-/// The first microsecond at or after `t_s` (a byte delivered at `t_s` is read by a pass
-/// then).
-fn arrival_us(t_s: f64) -> u64 {
-    let mut u = (t_s * 1e6).ceil().max(0.0) as u64;
-    while (u as f64) * 1e-6 < t_s {
-        u += 1;
-    }
-    u
 }
 
 impl TopsideLayout {
@@ -328,6 +320,8 @@ impl TopsideLayout {
             latest_telemetry: None,
             latest_status: None,
             fly_scenario: true,
+            external: None,
+            external_start_nav: false,
             next_heartbeat_us: 0,
             pending_pc: Vec::new(),
             usbl_seqs: BTreeSet::new(),
@@ -362,306 +356,6 @@ impl TopsideLayout {
                 told_delay_s: told,
                 ..LayoutReport::default()
             },
-        }
-    }
-
-    /// Send a command to the topside over the PC's tether.
-    fn pc_send(&mut self, cmd: &Command) -> Result<u16> {
-        let sent = self
-            .pc
-            .send(cmd, self.t_us)
-            .map_err(|e| anyhow!("{cmd:?}: {e}"))?;
-        self.pc_out.push(0);
-        self.pc_out.extend_from_slice(sent.frame.bytes());
-        Ok(sent.seq)
-    }
-
-    /// The PC's waiting bytes to the topside at once (no node-link pass in process),
-    /// and what it answered.
-    fn pc_exchange(&mut self) -> Result<Vec<Event>> {
-        let bytes = std::mem::take(&mut self.pc_out);
-        let tp = self.roles.topside_tether(self.t_us, &bytes)?;
-        Ok(self.watch_topside(self.t_us as f64 * 1e-6, tp))
-    }
-
-    /// What the topside sent the PC: the session, refusals, telemetry (the good frames, as
-    /// the PC's client reports them).
-    fn pc_receive(&mut self, bytes: Vec<u8>) -> Vec<Event> {
-        let mut out = Vec::new();
-        let mut rest = bytes.as_slice();
-        while let Some(e) = self.pc.receive(&mut rest) {
-            if let Event::Reply { reply, .. } = e {
-                match reply {
-                    Reply::Telemetry(t) => {
-                        self.report.telemetry_frames += 1;
-                        self.latest_telemetry = Some(t);
-                        self.on_ground_telemetry(&t);
-                    }
-                    Reply::Status(st) => self.latest_status = Some(st),
-                    Reply::Ack { seq } => {
-                        self.usbl_seqs.remove(&seq);
-                    }
-                    Reply::Nack { seq, reason } => {
-                        let usbl = self.usbl_seqs.remove(&seq);
-                        if usbl && reason == NackReason::NavRefused(Refusal::Outlier) {
-                            self.report.usbl_fixes_rejected += 1;
-                        }
-                        self.report.nacks += 1;
-                        *self
-                            .report
-                            .nack_reasons
-                            .entry(format!("{reason:?}"))
-                            .or_default() += 1;
-                    }
-                    _ => {}
-                }
-                out.push(e);
-            }
-        }
-        out
-    }
-
-    fn on_ground_telemetry(&mut self, t: &Telemetry) {
-        if let Some(cut) = self.cut_at_us {
-            let lost = t.faults & link_fault::NODE_LINK_LOST != 0;
-            if lost && t.t_us >= cut && self.report.ground_saw_loss_s.is_none() {
-                self.report.ground_saw_loss_s = Some(t.t_us as f64 * 1e-6);
-            }
-        }
-    }
-
-    /// A command from the PC, answered (`Ack`) or refused, run at once in the topside.
-    pub fn command(&mut self, cmd: &Command) -> Result<()> {
-        if let Err(reason) = self.try_command(cmd)? {
-            bail!("the topside refused {cmd:?}: {reason:?}")
-        }
-        Ok(())
-    }
-
-    /// [`command`](Self::command) with the refusal's reason as a value (`host-sim topside`
-    /// shows it to the ground station); an error only when the topside did not answer.
-    pub fn try_command(&mut self, cmd: &Command) -> Result<Result<(), NackReason>> {
-        let seq = self.pc_send(cmd)?;
-        for e in self.pc_exchange()? {
-            if let Event::Reply {
-                answer: Some(Answer::Command { seq: s, result }),
-                ..
-            } = e
-            {
-                if s == seq {
-                    return Ok(result);
-                }
-            }
-        }
-        bail!("the topside did not answer {cmd:?}")
-    }
-
-    /// The ground stations command (`host-sim topside`): `start` sends the vehicle and
-    /// starts the navigation, but neither the scenario's reference and mode nor `Arm`.
-    pub fn ground_station_commands(&mut self) {
-        self.fly_scenario = false;
-    }
-
-    /// The latest `Status` the PC received.
-    pub fn latest_status(&self) -> Option<&Status> {
-        self.latest_status.as_ref()
-    }
-
-    /// Open the PC's session with the topside.
-    fn open_session(&mut self) -> Result<()> {
-        let nonce = 0x2500_0001;
-        let frame = self
-            .pc
-            .open(nonce, self.t_us)
-            .map_err(|e| anyhow!("OpenSession: {e}"))?;
-        self.pc_out.push(0);
-        self.pc_out.extend_from_slice(frame.bytes());
-        for e in self.pc_exchange()? {
-            if let Event::Reply {
-                answer: Some(Answer::Session { .. }),
-                ..
-            } = e
-            {
-                return Ok(());
-            }
-        }
-        bail!("the topside did not open a session")
-    }
-
-    /// One pass of both MCUs at virtual time `t_us`, with the wire between them.
-    fn pass(&mut self, t_us: u64) -> Result<()> {
-        self.t_us = t_us;
-        let t_s = t_us as f64 * 1e-6;
-        // The wire delivers what has arrived.
-        let mut node_in = Vec::new();
-        self.wire.down.read_into(t_s, &mut node_in);
-        let mut top_in = Vec::new();
-        self.wire.up.read_into(t_s, &mut top_in);
-
-        // The PC's bytes to the topside.
-        if self.pc.session() != 0 && t_us >= self.next_heartbeat_us {
-            self.next_heartbeat_us = t_us + HEARTBEAT_PERIOD_US;
-            let _ = self.pc_send(&Command::Heartbeat { t_us });
-        }
-        let (due, later): (Vec<_>, Vec<_>) = std::mem::take(&mut self.pending_pc)
-            .into_iter()
-            .partition(|(t, _)| *t <= t_us);
-        self.pending_pc = later;
-        for (_, cmd) in due {
-            if let Ok(seq) = self.pc_send(&cmd) {
-                if matches!(cmd, Command::UsblFix(_)) {
-                    self.usbl_seqs.insert(seq);
-                }
-            }
-        }
-        let tether_in = std::mem::take(&mut self.pc_out);
-        // The node's pass, then the topside's (the board's loop).
-        let (np, tp) = self.roles.pass(t_us, &node_in, &tether_in, &top_in)?;
-        self.watch_node(t_us, np);
-        self.watch_topside(t_s, tp);
-        Ok(())
-    }
-
-    /// The node's side: what it read and applied, what it sent.
-    fn watch_node(&mut self, t_us: u64, np: NodePass) {
-        let mut last_valid = None;
-        for &b in &np.read {
-            if let Some(LinkFrame::Frame { seq, msg }) = self.node_rx_dec.push(b) {
-                last_valid = Some((seq, msg));
-            }
-        }
-        let accepted = np.accepted;
-        if accepted != self.node_accepted {
-            self.report.downlinks_applied += u64::from(accepted.wrapping_sub(self.node_accepted));
-            self.node_accepted = accepted;
-            if let Some((seq, got)) = last_valid {
-                let expect = self.sent.get(&seq).copied();
-                // The frame taken is the one sent with its number, and the outputs carry
-                // its pulses (armed; disarmed they stay neutral).
-                let out = np.pulse_us;
-                let right =
-                    expect.is_some_and(|(d, _)| d == got && (!np.armed || d.pulse_us == out));
-                if !right {
-                    self.report.wrong_commands_applied += 1;
-                }
-                if let Some((_, Some(up))) = expect {
-                    if let Some(&(newest, oldest)) = self.uplink_imu_us.get(&up) {
-                        self.report.latency.samples_us.push(t_us - newest);
-                        self.report.latency_oldest.samples_us.push(t_us - oldest);
-                    }
-                }
-                if self.cut_at_us.is_none_or(|c| t_us < c) {
-                    self.report.last_good_frame_s = Some(t_us as f64 * 1e-6);
-                }
-                self.schedule_failsafes(t_us, u64::from(got.ttl_ms) * 1_000);
-            }
-        }
-        if let Some(cut) = self.cut_at_us {
-            if t_us >= cut {
-                let t_s = t_us as f64 * 1e-6;
-                if self.report.node_neutral_s.is_none() && np.pulse_us == [1500; 3] {
-                    self.report.node_neutral_s = Some(t_s);
-                }
-                let latched = np.status & status::LATCHED != 0;
-                if self.report.node_latched_s.is_none() && !np.armed && latched {
-                    self.report.node_latched_s = Some(t_s);
-                }
-            }
-        }
-        if !np.written.is_empty() {
-            let imu = np.imu_read_us;
-            for &b in &np.written {
-                if let Some(LinkFrame::Frame { seq, msg }) = self.node_tx_dec.push(b) {
-                    self.uplink_counters = Some(msg.counters);
-                    self.uplink_samples += u64::from(msg.samples);
-                    self.uplink_dt_us += u64::from(msg.dt_us);
-                    if let Some(imu) = imu {
-                        let oldest = self.prev_uplink_imu_us.unwrap_or(imu);
-                        self.uplink_imu_us.insert(seq, (imu, oldest));
-                        self.prev_uplink_imu_us = Some(imu);
-                    }
-                }
-            }
-            if let Some(arrives_s) = self.wire.up.write(t_us as f64 * 1e-6, &np.written) {
-                self.on_arrival(arrives_s);
-            }
-        }
-        self.node_view = NodePass {
-            read: Vec::new(),
-            written: Vec::new(),
-            ..np
-        };
-    }
-
-    /// The topside's side: the uplink it accepted (the cause of its step), the downlinks it
-    /// wrote (kept: what was sent; then onto the wire), what it told the PC (returned).
-    fn watch_topside(&mut self, t_s: f64, tp: TopsidePass) -> Vec<Event> {
-        let mut last = None;
-        for &b in &tp.link_read {
-            if let Some(LinkFrame::Frame { seq, .. }) = self.top_rx_dec.push(b) {
-                last = Some(seq);
-            }
-        }
-        let cause = if tp.stepped { last } else { None };
-        if !tp.link_written.is_empty() {
-            for &b in &tp.link_written {
-                if let Some(LinkFrame::Frame { seq, msg }) = self.top_tx_dec.push(b) {
-                    self.sent.insert(seq, (msg, cause));
-                }
-            }
-            if let Some(arrives_s) = self.wire.down.write(t_s, &tp.link_written) {
-                self.on_arrival(arrives_s);
-            }
-        }
-        self.pc_receive(tp.tether_written)
-    }
-
-    /// A write's last byte arrives at `arrives_s`: the emulated roles run a pass then.
-    fn on_arrival(&mut self, arrives_s: f64) {
-        if self.roles.pass_period_us().is_none() {
-            self.events.insert(arrival_us(arrives_s));
-        }
-    }
-
-    /// With a cut to come, the emulated node also runs a pass when the downlink it applied
-    /// at `t_us` expires (`ttl_us` later) and when it would latch without another (the node's
-    /// 1 s), so that the cut's timings are the node's own, not those of its next IMU time.
-    fn schedule_failsafes(&mut self, t_us: u64, ttl_us: u64) {
-        let Some(cut) = self.cut_at_us else { return };
-        if self.roles.pass_period_us().is_some() {
-            return;
-        }
-        let disarm = u64::from(NodeConfig::DEFAULT.disarm_after_us);
-        for e in [t_us + ttl_us, t_us + disarm] {
-            if e >= cut {
-                self.events.insert(e);
-                self.roles.wake_node_at(e);
-            }
-        }
-    }
-
-    /// Run both MCUs up to `t_us` (inclusive): one pass every [`PASS_US`] in process; the
-    /// emulated roles at the node's IMU times, at frame arrivals and at `t_us`.
-    fn run_to(&mut self, t_us: u64) -> Result<()> {
-        if let Some(period) = self.roles.pass_period_us() {
-            let mut next = (self.t_us / period + 1) * period;
-            while next <= t_us {
-                self.pass(next)?;
-                next += period;
-            }
-            return Ok(());
-        }
-        loop {
-            let imu = u64::from(NODE_IMU_PERIOD_US);
-            let mut next = ((self.t_us / imu + 1) * imu).min(t_us);
-            if let Some(&e) = self.events.range(self.t_us + 1..).next() {
-                next = next.min(e);
-            }
-            if next <= self.t_us {
-                return Ok(());
-            }
-            self.events = self.events.split_off(&(next + 1));
-            self.pass(next)?;
         }
     }
 
@@ -746,100 +440,6 @@ impl TopsideLayout {
     /// A PC command sent at the next pass (a test disarms and arms again).
     pub fn queue_command(&mut self, cmd: Command) {
         self.pending_pc.push((0, cmd));
-    }
-}
-
-impl ControllerEndpoint for TopsideLayout {
-    /// The USBL fixes the topside's estimator refused on its gate (its `Nack`s).
-    fn usbl_fixes_rejected(&self) -> Option<u64> {
-        Some(self.report.usbl_fixes_rejected)
-    }
-
-    /// At virtual time 0: the topside's first downlink (disarmed: the node's arm transition
-    /// needs it), then the PC's set-up as `hil` sends it to the onboard App.
-    fn start(&mut self, nav0: &NavState) -> Result<()> {
-        self.pass(0)?;
-        self.open_session()?;
-        // A heartbeat is answered by `Status`, not `Ack`.
-        let hb = self.pc_send(&Command::Heartbeat { t_us: 0 })?;
-        for e in self.pc_exchange()? {
-            if let Event::Reply {
-                answer:
-                    Some(Answer::Command {
-                        seq,
-                        result: Err(reason),
-                    }),
-                ..
-            } = e
-            {
-                if seq == hb {
-                    bail!("the topside refused the first heartbeat: {reason:?}");
-                }
-            }
-        }
-        self.next_heartbeat_us = HEARTBEAT_PERIOD_US;
-        self.command(&Command::SetVehicle(self.vehicle))?;
-        self.command(&Command::StartNav {
-            t_us: 0,
-            initial: *nav0,
-            config: self.onboard,
-        })?;
-        if !self.fly_scenario {
-            return Ok(());
-        }
-        self.command(&Command::SetReference {
-            reference: self.reference,
-            start_us: Some(0),
-        })?;
-        self.command(&Command::SetMode(self.mode))?;
-        self.command(&Command::Arm)?;
-        Ok(())
-    }
-
-    fn step(&mut self, t_s: f64, _nav: &NavState, _reference: &RefSample) -> Result<StepReply> {
-        self.run_to(us(t_s))?;
-        // In process the App's latest step; emulated, the latest telemetry's (every 100 ms).
-        let out = self.roles.control().unwrap_or_else(|| {
-            self.latest_telemetry
-                .as_ref()
-                .map_or_else(ControlView::default, ControlView::from_telemetry)
-        });
-        let pulse = self.node_view.pulse_us;
-        let applied = pulse.map(|p| f64::from(self.pwm.thrust_n(f32::from(p))));
-        Ok(StepReply {
-            requested: out.requested,
-            achieved: out.achieved,
-            thrust_cmd_n: out.thrust_n,
-            applied_n: applied,
-            pulse_us: pulse.map(f64::from),
-            errors: out.errors,
-            saturated: out.faults & fault::SATURATED != 0,
-            estimate: Some((out.nav, out.position_std_m.map(f64::from))),
-        })
-    }
-
-    /// IMU and depth to the node's sensors (available from their time stamps); the fixes
-    /// that come from the surface to the topside over the PC's tether.
-    fn forward(&mut self, measurements: &[Measurement]) -> Result<()> {
-        for m in measurements {
-            match *m {
-                Measurement::Imu(s) => self.roles.push_imu(s),
-                Measurement::Depth(d) => {
-                    let p = self.onboard.pressure.pressure_pa(d.depth_m);
-                    self.roles.push_pressure(d.t_us, p);
-                }
-                // On the vehicle: they share the tether's latency.
-                Measurement::Heading(h) => self
-                    .pending_pc
-                    .push((self.t_us + self.vehicle_fix_delay_us, Command::Compass(h))),
-                Measurement::Dvl(d) => self
-                    .pending_pc
-                    .push((self.t_us + self.vehicle_fix_delay_us, Command::DvlFix(d))),
-                // At the surface: at once.
-                Measurement::Position(p, _) => self.pending_pc.push((0, Command::UsblFix(p))),
-            }
-        }
-        Ok(())
     }
 }
 

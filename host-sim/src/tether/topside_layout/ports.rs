@@ -1,8 +1,11 @@
 //! The two MCUs' surroundings in the topside layout: the virtual clock both read, the
-//! node link's ends on the wire model, the node's sensors fed from the plant.
+//! node link's ends on the wire model, the node's sensors fed from the plant, and the
+//! topside's PC tether when its PC is outside the simulation.
 
+use anyhow::Result;
 use controller_core::nav::ImuSample;
 use firmware::Monotonic;
+use protocol::Command;
 use std::cell::{Cell, RefCell};
 use std::collections::VecDeque;
 use std::convert::Infallible;
@@ -107,4 +110,13 @@ impl firmware::Sensors for PlantSensors {
         }
         latest
     }
+}
+
+/// The topside's PC tether when its PC is outside the simulation.
+pub trait ExternalPc {
+    /// The bytes for the topside's pass at `t_us`: `inputs` (the instruments' readings due
+    /// now) framed, and what the PC sent since the previous pass.
+    fn to_topside(&mut self, t_us: u64, inputs: &[Command]) -> Result<Vec<u8>>;
+    /// What the topside wrote to its PC tether in a pass.
+    fn topside_wrote(&mut self, bytes: &[u8]) -> Result<()>;
 }

@@ -1,0 +1,33 @@
+//! The long runs (minutes each on 2 cores: the emulated-board runs in QEMU, and the in-process
+//! firmware's longest flights) run where `ROV_LONG` is set
+//! (CI sets it: `.ci/run`); elsewhere each prints a `SKIPPED` line that says how to run it, so
+//! that the README's `cargo test --workspace` stays a few minutes. The quick emulated-board
+//! tests (the firmware's link failsafes, the estimator on the board over a short run, the
+//! topside layout's cut node link) run everywhere.
+
+// Each test binary that includes this module uses part of it.
+#![allow(dead_code)]
+
+use std::io::Write;
+
+/// `ROV_LONG` is set (to anything but `0`): the long emulated runs are wanted.
+pub fn long_runs_wanted() -> bool {
+    std::env::var_os("ROV_LONG").is_some_and(|v| v != "0")
+}
+
+/// Whether the long test `name` of the test module `module` (about `wall_s` of wall time on
+/// 2 cores) runs here: with `ROV_LONG` it does; without, it writes
+/// `SKIPPED <name> (long test, ~N s; run with ROV_LONG=1 cargo test -p host-sim --test it
+/// <module>::<name>)` straight to the terminal (not captured by the test harness) and does not.
+pub fn long_test(module: &str, name: &str, wall_s: u32) -> bool {
+    if long_runs_wanted() {
+        return true;
+    }
+    // Written to the stream itself: the harness captures only `print!` / `eprint!`.
+    let _ = writeln!(
+        std::io::stderr(),
+        "SKIPPED {name} (long test, ~{wall_s} s on 2 cores; run with ROV_LONG=1 cargo test -p \
+         host-sim --test it {module}::{name})"
+    );
+    false
+}

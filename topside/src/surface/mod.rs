@@ -1,0 +1,681 @@
+//! The surface program (`rov-topside`). One side speaks the tether to the vehicle, the other
+//! MAVLink 2 to ground stations (QGroundControl, MAVProxy, pymavlink), with ArduSub's
+//! conventions so that existing tools map the vehicle's modes and sticks.
+//!
+//! The vehicle is reached through a byte stream only ([`vehicle`]): `--serial DEV[:BAUD]` (a
+//! real vehicle, or the topside board of the paper's layout: the same tether protocol) or
+//! `--tcp HOST:PORT` (a simulated vehicle served by `host-sim vehicle`, or a serial-to-TCP
+//! bridge). The vehicle runs on its own clock and navigates itself; the modes run on the
+//! vehicle: the surface translates.
+//!
+//! | MAVLink in | tether out |
+//! |---|---|
+//! | `COMMAND_LONG` `MAV_CMD_COMPONENT_ARM_DISARM` | `Arm` / `Disarm`, answered by `COMMAND_ACK` (`DENIED` + `STATUSTEXT` with the firmware's reason) |
+//! | `SET_MODE`, `COMMAND_LONG` `MAV_CMD_DO_SET_MODE` (ArduSub custom modes) | MANUAL (19): `SetMode(Manual)`; STABILIZE (0): `SetMode(Stabilize)` (heading held while the yaw stick is centred); ALT_HOLD (2): `SetMode(DepthHold)` (and the depth while the throttle is centred); POSHOLD (16): `SetMode(Hold)`; GUIDED (4): hold the current point, then `SET_POSITION_TARGET_LOCAL_NED` targets |
+//! | `MANUAL_CONTROL` (x surge, r yaw in -1000..1000; z heave 0..1000, 500 neutral, above 500 up; y sway ignored: no thruster) | `ManualThrust` every control period while in MANUAL, STABILIZE or ALT_HOLD |
+//! | `SET_POSITION_TARGET_LOCAL_NED` (position, NED) | `SetReference(Hold)` in GUIDED |
+//!
+//! AUTO (3) flies the uploaded mission on the vehicle (`SetMode(Auto)`), refused without one.
+//! Missions: the standard protocol (`MISSION_COUNT` / `MISSION_REQUEST_INT` /
+//! `MISSION_ITEM_INT` (or the float `MISSION_ITEM`) / `MISSION_ACK`, download with
+//! `MISSION_REQUEST_LIST`,
+//! `MISSION_CLEAR_ALL`), `MAV_CMD_NAV_WAYPOINT` items in `MAV_FRAME_LOCAL_NED` (x, y in metres
+//! x 1e4, z the depth in metres), at most 32; a mission with another frame or command, a NaN,
+//! an unreachable depth or too many items is refused with `MISSION_ACK` and a `STATUSTEXT`, and
+//! the mission in use stays. In AUTO: `MISSION_ITEM_REACHED` for each waypoint passed and
+//! `MISSION_CURRENT` at 1 Hz. Any other message is ignored and counted.
+//!
+//! Out: `HEARTBEAT` at 1 Hz (`MAV_TYPE_SUBMARINE`, `MAV_AUTOPILOT_ARDUPILOTMEGA`, the armed
+//! flag, `custom_mode` = the mode), `SYS_STATUS` at 1 Hz, and at 10 Hz `ATTITUDE`,
+//! `LOCAL_POSITION_NED`, `VFR_HUD` (heading, depth as negative altitude) and `SERVO_OUTPUT_RAW`
+//! (the three pulse widths the ESCs see); a `STATUSTEXT` for every failsafe the firmware
+//! raises or clears and every refusal.
+//!
+//! Several ground stations: all see everything, one commands (`commander`: the first to
+//! command, the one that armed, or the one granted `CHANGE_OPERATOR_CONTROL` with the
+//! passkey `CTRL_PASSKEY`; anyone may disarm). No input from a ground station ends the
+//! topside (`transport`). What is refused or held back before it reaches the vehicle
+//! (messages for another system, arming with a stick held, thrust before a centred stick
+//! after an arm, mode change or change of commander) and what is not believed from it is in
+//! `guard`. Refused inputs
+//! are answered (`COMMAND_ACK` / `MISSION_ACK` / `PARAM_VALUE`) with a `STATUSTEXT` reason:
+//! `ARM_DISARM` with param1 other than 1 or 0, `DO_SET_MODE` with param2 not a whole mode
+//! number, GUIDED targets outside the surface..100 m / 1 km box, `VEH_PWM_NEUTRAL`.
+//!
+//! Every MAVLink message sent or received goes to a `.tlog` (each a big-endian 64-bit
+//! microsecond UNIX time stamp followed by the MAVLink frame: what QGroundControl, MAVExplorer
+//! and pymavlink read), under a new time-stamped name each start (`logs`).
+//!
+//! The start (arguments, the vehicle behind the tether, the ground stations, the logs) is in
+//! `start`; the `Topside` here owns the state and runs the loop.
+
+mod calibration;
+mod commander;
+mod faults;
+mod frames;
+mod geodesy;
+mod guard;
+mod logs;
+mod missions;
+pub mod navigation;
+pub mod params;
+mod start;
+mod telemetry;
+mod transport;
+mod vehicle;
+
+pub use commander::{Commander, Verdict, COMMANDER_SILENCE};
+pub use frames::split_text;
+pub use geodesy::{item_position, GlobalOrigin};
+pub use guard::{sticks_centred, STICK_CENTRED};
+pub use logs::{open_logs, utc_stamp};
+pub use missions::MISSION_MAX_ITEMS;
+pub use start::{main, start_with, SurfaceOptions, TopsideArgs};
+pub use transport::{take_frames, GcsStats, StationId, POLL_LIMIT};
+pub use vehicle::{check_telemetry, Vehicle, VehicleEnd, TETHER_TIMEOUT, VEHICLE_SILENCE};
+
+use anyhow::Result;
+use controller_core::controller::ControlMode;
+use controller_core::reference::Reference;
+use mavlink::dialects::ardupilotmega::{
+    MavCmd, MavMessage, MavMissionResult, MavResult, MavSeverity, GPS_GLOBAL_ORIGIN_DATA,
+};
+use mavlink::MavHeader;
+use missions::Missions;
+use params::PARAMS;
+use protocol::{fault, Command, ManualThrust, Mode};
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+use transport::Gcs;
+
+/// A `MANUAL_CONTROL` older than this (wall clock) is no longer forwarded.
+pub const MANUAL_CONTROL_TIMEOUT: Duration = Duration::from_millis(500);
+
+/// ArduSub's custom mode numbers (`ArduSub/mode.h`).
+pub mod ardusub_mode {
+    /// Heading hold with the yaw stick centred.
+    pub const STABILIZE: u32 = 0;
+    /// Depth hold with the pilot steering.
+    pub const ALT_HOLD: u32 = 2;
+    /// The uploaded mission.
+    pub const AUTO: u32 = 3;
+    /// Go to and hold a point.
+    pub const GUIDED: u32 = 4;
+    /// Go up to the surface (the battery and leak failsafes).
+    pub const SURFACE: u32 = 9;
+    /// Hold the position.
+    pub const POSHOLD: u32 = 16;
+    /// Sticks straight to the thrusters.
+    pub const MANUAL: u32 = 19;
+}
+
+/// The ArduSub mode a firmware mode is shown as.
+fn custom_mode_of(mode: Mode, guided: bool) -> u32 {
+    match mode {
+        Mode::Manual => ardusub_mode::MANUAL,
+        Mode::Stabilize => ardusub_mode::STABILIZE,
+        Mode::Auto => ardusub_mode::AUTO,
+        Mode::DepthHold => ardusub_mode::ALT_HOLD,
+        Mode::Hold => ardusub_mode::POSHOLD,
+        Mode::Track { .. } if guided => ardusub_mode::GUIDED,
+        Mode::Track { .. } => ardusub_mode::AUTO,
+        Mode::Idle => ardusub_mode::MANUAL,
+        Mode::Surface => ardusub_mode::SURFACE,
+    }
+}
+
+/// `MANUAL_CONTROL` to normalized thrust, ArduSub's conventions: x forward and r clockwise in
+/// -1000..1000, z 0..1000 with 500 neutral and above 500 up (our heave is positive down); y
+/// (sway) has no thruster.
+pub fn manual_thrust(x: i16, z: i16, r: i16) -> ManualThrust {
+    let norm = |v: f32| (v / 1000.0).clamp(-1.0, 1.0);
+    ManualThrust {
+        surge: norm(f32::from(x)),
+        yaw: norm(f32::from(r)),
+        heave: -((f32::from(z) - 500.0) / 500.0).clamp(-1.0, 1.0),
+    }
+}
+
+/// The topside's state: the ground stations, the vehicle behind the tether, who commands,
+/// the missions, the pilot's sticks and the mode shown.
+struct Topside {
+    gcs: Gcs,
+    v: Vehicle,
+    commander: Commander,
+    missions: Missions,
+    /// The commander's latest sticks, and when they came (wall clock: the pilot's stream is
+    /// real time).
+    manual: ManualThrust,
+    manual_at: Option<Instant>,
+    /// GUIDED is shown (the vehicle's `Track` mode entered through GUIDED).
+    guided: bool,
+    /// The faults last reported (`STATUSTEXT` on each change).
+    last_faults: u16,
+    /// Where accepted parameters are saved.
+    params_file: PathBuf,
+    /// The compass calibration turn's outcome last reported (`calibration.rs`).
+    mag_cal: Option<firmware::compass_swing::SwingOutcome>,
+    /// The commander's sticks have been seen at centre since the last arm, mode change or
+    /// change of commander: until then the vehicle is sent centred sticks.
+    sticks_seen_centred: bool,
+    /// Saved parameters the vehicle did not take at start, applied when it does.
+    pending: start::Pending,
+    /// The vehicle was last said to be silent.
+    vehicle_silent: bool,
+    /// Telemetry refusals already said.
+    refusals_said: u64,
+    /// The vehicle's navigation from the surface: its estimator's start, the USBL's fixes.
+    nav: navigation::SurfaceNav,
+}
+
+impl Topside {
+    fn run(&mut self, a: &SurfaceOptions, speedup: f64) -> Result<()> {
+        let wall0 = Instant::now();
+        let mut k: u64 = 0;
+        let per_second = (1.0 / self.v.period_s).round().max(1.0) as u64;
+        let per_tenth = (per_second / 10).max(1);
+        loop {
+            if let Some(d) = a.duration {
+                if self.v.t_s >= d {
+                    break;
+                }
+            }
+            // Pace: simulated time runs `speedup` times the wall clock.
+            let due = wall0 + Duration::from_secs_f64(self.v.t_s / speedup);
+            if let Some(wait) = due.checked_duration_since(Instant::now()) {
+                std::thread::sleep(wait);
+            }
+
+            for (station, header, msg, mission_type) in self.gcs.poll()? {
+                self.on_message(station, header, msg, mission_type)?;
+            }
+            for (station, header, item) in std::mem::take(&mut self.gcs.unknown_items) {
+                self.on_unknown_item(station, header, item)?;
+            }
+            let before = self.commander.holder();
+            self.commander.tick(&mut self.gcs)?;
+            self.after_control_change(before)?;
+
+            let fresh = self
+                .manual_at
+                .is_some_and(|at| at.elapsed() < MANUAL_CONTROL_TIMEOUT);
+            let v = &mut self.v;
+            let pilot_mode = matches!(v.tel.mode, Mode::Manual | Mode::Stabilize | Mode::DepthHold);
+            if pilot_mode && v.tel.armed && fresh && k.is_multiple_of(v.stride) {
+                // Forwarded every period (every stride of the topside layout's finer loop)
+                // while the pilot's stream lives, centred until the commander's sticks were
+                // seen at centre; when it stops, nothing is forwarded and the firmware's
+                // MANUAL_STALE failsafe neutralizes the thrusters.
+                let sticks = if self.sticks_seen_centred {
+                    self.manual
+                } else {
+                    ManualThrust::default()
+                };
+                v.send(&Command::ManualThrust(sticks))?;
+            }
+            v.step()?;
+            for text in self.nav.tick(&mut self.v)? {
+                eprintln!("topside: {text}");
+                self.gcs.text(MavSeverity::MAV_SEVERITY_INFO, &text)?;
+            }
+            self.poll_mag_cal()?;
+            self.watch_vehicle(k.is_multiple_of(per_second))?;
+
+            let faults = self.v.tel.faults & !fault::SATURATED;
+            faults::report(&mut self.gcs, faults, self.last_faults)?;
+            self.last_faults = faults;
+
+            self.missions
+                .tick(&mut self.gcs, &self.v.tel, k.is_multiple_of(per_second))?;
+            if k.is_multiple_of(per_second) {
+                telemetry::send_heartbeat(&mut self.gcs, &self.v, self.guided)?;
+            }
+            if k.is_multiple_of(per_tenth) {
+                telemetry::send_state(&mut self.gcs, &self.v)?;
+            }
+            k += 1;
+            self.gcs.flush()?;
+        }
+        let s = self.gcs.stats;
+        eprintln!(
+            "topside: {:.1} s simulated; MAVLink {} sent, {} handled, {} ignored, {} malformed, \
+             {} addressed to another system or component, {} disconnects; {} commands refused \
+             and {} MANUAL_CONTROL ignored from stations not in control, {} takeovers \
+             refused; {} vehicle frames refused",
+            self.v.t_s,
+            s.sent,
+            s.handled,
+            s.ignored,
+            s.malformed,
+            s.not_ours,
+            s.disconnects,
+            self.commander.refused,
+            self.commander.manual_ignored,
+            self.commander.takeovers_refused,
+            self.v.frames_refused
+        );
+        let u = self.nav.stats;
+        if u.sentences > 0 {
+            eprintln!(
+                "topside: USBL {} sentences, {} fixes relayed, {} bad, {} head-up, {} untimed; \
+                 {} estimator starts",
+                u.sentences, u.relayed, u.bad, u.head_up, u.untimed, self.nav.starts
+            );
+        }
+        Ok(())
+    }
+
+    /// When control changed hands: the old commander's sticks and upload are dropped.
+    fn after_control_change(&mut self, before: Option<StationId>) -> Result<()> {
+        let now = self.commander.holder();
+        if now == before {
+            return Ok(());
+        }
+        self.manual = ManualThrust::default();
+        self.manual_at = None;
+        self.sticks_seen_centred = false;
+        if self.missions.uploader().is_some_and(|u| Some(u) != now) {
+            self.missions
+                .abandon(&mut self.gcs, "control changed during the upload")?;
+        }
+        Ok(())
+    }
+
+    /// One message from `station`: ignored if addressed to another system or component,
+    /// else arbitrated, then handled.
+    fn on_message(
+        &mut self,
+        station: StationId,
+        header: MavHeader,
+        msg: MavMessage,
+        mission_type: u8,
+    ) -> Result<()> {
+        if self.addressed_elsewhere(station, &msg) {
+            return Ok(());
+        }
+        let before = self.commander.holder();
+        let passkey = self.v.settings.passkey();
+        let verdict =
+            self.commander
+                .judge(&mut self.gcs, station, header, &msg, passkey.as_deref())?;
+        self.after_control_change(before)?;
+        if let Verdict::Refuse(holder) = verdict {
+            return self.refuse_station(station, header, holder, &msg);
+        }
+        if matches!(msg, MavMessage::CHANGE_OPERATOR_CONTROL(_)) {
+            return Ok(());
+        }
+        if let MavMessage::MANUAL_CONTROL(m) = &msg {
+            self.manual_at = Some(Instant::now());
+            if sticks_centred(&manual_thrust(m.x, m.z, m.r)) {
+                self.sticks_seen_centred = true;
+            }
+        }
+        if !self.missions.handle(
+            &mut self.gcs,
+            &mut self.v,
+            station,
+            header,
+            &msg,
+            mission_type,
+        )? {
+            self.handle(station, msg)?;
+        }
+        Ok(())
+    }
+
+    /// A command from a station not in control: refused with the reason, nothing changes.
+    // (The deprecated SET_MODE and MISSION_ITEM are still sent by ground stations.)
+    #[allow(deprecated)]
+    fn refuse_station(
+        &mut self,
+        station: StationId,
+        header: MavHeader,
+        holder: StationId,
+        msg: &MavMessage,
+    ) -> Result<()> {
+        let gcs = &mut self.gcs;
+        if matches!(msg, MavMessage::MANUAL_CONTROL(_)) {
+            // Counted and noted by the commander.
+            gcs.stats.ignored += 1;
+            return Ok(());
+        }
+        gcs.stats.handled += 1;
+        let why = format!(
+            "{} has control (CHANGE_OPERATOR_CONTROL to take it)",
+            gcs.label(holder)
+        );
+        let warn = MavSeverity::MAV_SEVERITY_WARNING;
+        let rejected = MavResult::MAV_RESULT_TEMPORARILY_REJECTED;
+        match msg {
+            MavMessage::COMMAND_LONG(c) => {
+                gcs.text_to(station, warn, &format!("Command refused: {why}"))?;
+                gcs.ack(station, c.command, rejected)
+            }
+            MavMessage::COMMAND_INT(c) => {
+                gcs.text_to(station, warn, &format!("Command refused: {why}"))?;
+                gcs.ack(station, c.command, rejected)
+            }
+            MavMessage::SET_MODE(_) => {
+                gcs.text_to(station, warn, &format!("Mode refused: {why}"))?;
+                gcs.ack(station, MavCmd::MAV_CMD_DO_SET_MODE, rejected)
+            }
+            MavMessage::PARAM_SET(p) => {
+                let name = telemetry::param_name(&p.param_id);
+                gcs.text_to(station, warn, &format!("{name} refused: {why}"))?;
+                match params::find(&name) {
+                    Some((i, _)) => telemetry::send_param(gcs, &self.v.settings, i, Some(station)),
+                    None => Ok(()),
+                }
+            }
+            MavMessage::MISSION_COUNT(_)
+            | MavMessage::MISSION_ITEM(_)
+            | MavMessage::MISSION_ITEM_INT(_)
+            | MavMessage::MISSION_CLEAR_ALL(_) => {
+                let peer = (
+                    station,
+                    u8::try_from(header.system_id).unwrap_or(u8::MAX),
+                    header.component_id,
+                );
+                Missions::deny(gcs, peer, MavMissionResult::MAV_MISSION_DENIED, &why)
+            }
+            _ => gcs.text_to(station, warn, &format!("Refused: {why}")),
+        }
+    }
+
+    fn refuse(&mut self, station: StationId, cmd: MavCmd, why: &str) -> Result<()> {
+        self.gcs
+            .text_to(station, MavSeverity::MAV_SEVERITY_WARNING, why)?;
+        self.gcs.ack(station, cmd, MavResult::MAV_RESULT_DENIED)
+    }
+
+    fn set_mode(&mut self, station: StationId, custom: u32) -> Result<()> {
+        let cmd = MavCmd::MAV_CMD_DO_SET_MODE;
+        let v = &mut self.v;
+        let (firmware_mode, reference) = match custom {
+            ardusub_mode::MANUAL => (Mode::Manual, None),
+            ardusub_mode::STABILIZE => (Mode::Stabilize, None),
+            ardusub_mode::ALT_HOLD => (Mode::DepthHold, None),
+            ardusub_mode::POSHOLD => (Mode::Hold, None),
+            ardusub_mode::GUIDED => (
+                Mode::from(ControlMode::Tracking3d),
+                Some(Reference::Hold {
+                    pos_m: [v.state.x_m, v.state.y_m, v.state.z_m],
+                }),
+            ),
+            ardusub_mode::AUTO => (Mode::Auto, None),
+            other => return self.refuse(station, cmd, &format!("Unknown mode {other}")),
+        };
+        if let Some(reference) = reference {
+            if let Err(why) = v.command(&Command::SetReference {
+                reference,
+                start_us: None,
+            })? {
+                return self.refuse(station, cmd, &format!("Reference refused: {why:?}"));
+            }
+        }
+        match v.command(&Command::SetMode(firmware_mode))? {
+            Ok(()) => {
+                // The vehicle took it: shown (and judged, e.g. a mission upload in AUTO) now,
+                // not at its next telemetry.
+                v.tel.mode = firmware_mode;
+                self.guided = custom == ardusub_mode::GUIDED;
+                self.sticks_seen_centred = false;
+                self.gcs.ack(station, cmd, MavResult::MAV_RESULT_ACCEPTED)
+            }
+            Err(why) => self.refuse(station, cmd, &format!("Mode refused: {why:?}")),
+        }
+    }
+
+    // `SET_MODE` is deprecated in favour of `MAV_CMD_DO_SET_MODE`, but pymavlink's
+    // `set_mode` and MAVProxy's `mode` still send it, so both are obeyed.
+    #[allow(deprecated)]
+    fn handle(&mut self, station: StationId, msg: MavMessage) -> Result<()> {
+        let warn = MavSeverity::MAV_SEVERITY_WARNING;
+        match msg {
+            MavMessage::PARAM_REQUEST_LIST(_) => {
+                self.gcs.stats.handled += 1;
+                for i in 0..PARAMS.len() {
+                    telemetry::send_param(&mut self.gcs, &self.v.settings, i, Some(station))?;
+                }
+            }
+            MavMessage::PARAM_REQUEST_READ(r) => {
+                self.gcs.stats.handled += 1;
+                let index = if r.param_index >= 0 {
+                    Some(r.param_index as usize).filter(|&i| i < PARAMS.len())
+                } else {
+                    params::find(telemetry::param_name(&r.param_id).as_str()).map(|(i, _)| i)
+                };
+                match index {
+                    Some(i) => {
+                        telemetry::send_param(&mut self.gcs, &self.v.settings, i, Some(station))?
+                    }
+                    None => self.gcs.text_to(station, warn, "No such parameter")?,
+                }
+            }
+            MavMessage::PARAM_SET(p) => self.param_set(station, &p)?,
+            MavMessage::COMMAND_LONG(c) => {
+                self.gcs.stats.handled += 1;
+                match c.command {
+                    MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => {
+                        // MAVLink: 1 arms, 0 disarms; anything else (NaN, 0.5, -1) is refused
+                        // rather than read as one of them (ArduPilot's rule too).
+                        let cmd = if c.param1 == 1.0 {
+                            Command::Arm
+                        } else if c.param1 == 0.0 {
+                            Command::Disarm
+                        } else {
+                            let why = format!(
+                                "Arming refused: param1 must be 1 (arm) or 0 (disarm), not {}",
+                                c.param1
+                            );
+                            return self.refuse(station, c.command, &why);
+                        };
+                        if cmd == Command::Arm {
+                            if let Some(why) = self.sticks_refuse_arming()? {
+                                return self.refuse(station, c.command, &why);
+                            }
+                        }
+                        match self.v.command(&cmd)? {
+                            Ok(()) => {
+                                // Shown now, not at the vehicle's next telemetry.
+                                self.v.tel.armed = cmd == Command::Arm;
+                                if cmd == Command::Arm {
+                                    self.sticks_seen_centred = false;
+                                }
+                                self.gcs
+                                    .ack(station, c.command, MavResult::MAV_RESULT_ACCEPTED)?
+                            }
+                            Err(why) => self.refuse(
+                                station,
+                                c.command,
+                                &format!("Arming refused: {why:?}"),
+                            )?,
+                        }
+                    }
+                    MavCmd::MAV_CMD_DO_SET_MODE => match custom_mode_of_param(c.param2) {
+                        Some(custom) => self.set_mode(station, custom)?,
+                        None => {
+                            let why = format!(
+                                "Mode refused: param2 must be a custom mode number, not {}",
+                                c.param2
+                            );
+                            self.refuse(station, c.command, &why)?
+                        }
+                    },
+                    MavCmd::MAV_CMD_DO_START_MAG_CAL => self.start_mag_cal(station)?,
+                    // The vehicle's estimator restarted at the latest USBL fix (param1 = 1).
+                    MavCmd::MAV_CMD_USER_1 if c.param1 == 1.0 => {
+                        match self.nav.start(&mut self.v, true)? {
+                            Some(text) if text.starts_with("Navigation restarted") => {
+                                eprintln!("topside: {text}");
+                                self.gcs.text(MavSeverity::MAV_SEVERITY_INFO, &text)?;
+                                self.gcs
+                                    .ack(station, c.command, MavResult::MAV_RESULT_ACCEPTED)?
+                            }
+                            other => {
+                                let why = other.unwrap_or_else(|| {
+                                    "Navigation restart refused: the vehicle's clock is not known yet".into()
+                                });
+                                self.refuse(station, c.command, &why)?
+                            }
+                        }
+                    }
+                    other => {
+                        self.gcs
+                            .ack(station, other, MavResult::MAV_RESULT_UNSUPPORTED)?;
+                    }
+                }
+            }
+            MavMessage::SET_MODE(m) => {
+                self.gcs.stats.handled += 1;
+                self.set_mode(station, m.custom_mode)?;
+            }
+            MavMessage::MANUAL_CONTROL(m) => {
+                self.gcs.stats.handled += 1;
+                self.manual = manual_thrust(m.x, m.z, m.r);
+            }
+            MavMessage::SET_GPS_GLOBAL_ORIGIN(o) => {
+                self.gcs.stats.handled += 1;
+                match GlobalOrigin::from_mavlink(o.latitude, o.longitude, o.altitude) {
+                    Some(origin) => {
+                        self.gcs.origin = Some(origin);
+                        self.gcs.text(
+                            MavSeverity::MAV_SEVERITY_INFO,
+                            &format!("Origin set: {:.7}, {:.7}", origin.lat_deg, origin.lon_deg),
+                        )?;
+                        // ArduPilot answers with the origin in force.
+                        self.gcs
+                            .send(MavMessage::GPS_GLOBAL_ORIGIN(GPS_GLOBAL_ORIGIN_DATA {
+                                latitude: o.latitude,
+                                longitude: o.longitude,
+                                altitude: o.altitude,
+                            }))?;
+                    }
+                    None => self.gcs.text_to(
+                        station,
+                        warn,
+                        "Origin refused: latitude or longitude off the globe",
+                    )?,
+                }
+            }
+            MavMessage::SET_POSITION_TARGET_LOCAL_NED(p) => {
+                self.gcs.stats.handled += 1;
+                if !self.guided {
+                    self.gcs
+                        .text_to(station, warn, "Position target ignored: not in GUIDED")?;
+                    return Ok(());
+                }
+                if let Err(why) = guided_target(&p) {
+                    return self
+                        .gcs
+                        .text_to(station, warn, &format!("Target refused: {why}"));
+                }
+                if let Err(why) = self.v.command(&Command::SetReference {
+                    reference: Reference::Hold {
+                        pos_m: [p.x, p.y, p.z],
+                    },
+                    start_us: None,
+                })? {
+                    self.gcs
+                        .text_to(station, warn, &format!("Target refused: {why:?}"))?;
+                }
+            }
+            _ => self.gcs.stats.ignored += 1,
+        }
+        Ok(())
+    }
+
+    fn param_set(
+        &mut self,
+        station: StationId,
+        p: &mavlink::dialects::ardupilotmega::PARAM_SET_DATA,
+    ) -> Result<()> {
+        self.gcs.stats.handled += 1;
+        let warn = MavSeverity::MAV_SEVERITY_WARNING;
+        let name = telemetry::param_name(&p.param_id);
+        let Some((i, param)) = params::find(&name) else {
+            return self
+                .gcs
+                .text_to(station, warn, &format!("No parameter {name}"));
+        };
+        let refusal = if let Some(why) = params::read_only(&name) {
+            Some(format!("{name} refused: read-only, {why}"))
+        } else {
+            let mut proposed = self.v.settings;
+            (param.set)(&mut proposed, p.param_value);
+            let group = params::group(param);
+            // The checks the vehicle makes, here first (a clear reason), then the vehicle's.
+            match proposed.check(group) {
+                // The reason without the name said twice.
+                Err(e) => Some(format!(
+                    "{name} refused: {}",
+                    format!("{e:#}").replacen(&format!("{name} "), "", 1)
+                )),
+                Ok(()) => match self.v.apply(proposed, group)? {
+                    Ok(()) => None,
+                    Err(why) => Some(format!("{name} refused by the vehicle: {why:?}")),
+                },
+            }
+        };
+        match refusal {
+            Some(text) => self.gcs.text_to(station, warn, &text)?,
+            None => {
+                // The operator's value wins over a saved one still waiting.
+                let group = params::group(param);
+                self.pending.forget(group);
+                params::save(&self.params_file, &self.pending.merged(&self.v.settings))?
+            }
+        }
+        // The answer is the value in force (the new one, or the old one on a refusal), to
+        // every station: all see what the vehicle holds.
+        telemetry::send_param(&mut self.gcs, &self.v.settings, i, None)
+    }
+}
+
+/// `MAV_CMD_DO_SET_MODE`'s param2 as a custom mode number: a whole number from 0 to
+/// `u32::MAX`; NaN, a fraction or a negative is no mode (a plain `as u32` would read NaN and
+/// -5 as 0, STABILIZE).
+pub fn custom_mode_of_param(param2: f32) -> Option<u32> {
+    (param2.is_finite() && param2.fract() == 0.0 && (0.0..=u32::MAX as f32).contains(&param2))
+        .then_some(param2 as u32)
+}
+
+/// A GUIDED position target's checks at the surface: a position in `MAV_FRAME_LOCAL_NED`
+/// (not ignored by its type mask), finite, from the surface down to the deepest waypoint a
+/// mission may have, and within a mission's range of the origin. The vehicle checks again.
+pub fn guided_target(
+    p: &mavlink::dialects::ardupilotmega::SET_POSITION_TARGET_LOCAL_NED_DATA,
+) -> std::result::Result<(), String> {
+    use mavlink::dialects::ardupilotmega::{MavFrame, PositionTargetTypemask as M};
+    if p.coordinate_frame != MavFrame::MAV_FRAME_LOCAL_NED {
+        return Err(format!(
+            "frame {:?}, only MAV_FRAME_LOCAL_NED",
+            p.coordinate_frame
+        ));
+    }
+    let ignored = M::POSITION_TARGET_TYPEMASK_X_IGNORE
+        | M::POSITION_TARGET_TYPEMASK_Y_IGNORE
+        | M::POSITION_TARGET_TYPEMASK_Z_IGNORE;
+    if p.type_mask.intersects(ignored) {
+        return Err("only position targets (the type mask ignores the position)".into());
+    }
+    if ![p.x, p.y, p.z].iter().all(|v| v.is_finite()) {
+        return Err("not finite".into());
+    }
+    let max_depth = protocol::limits::MAX_MISSION_DEPTH_M;
+    if !(0.0..=max_depth).contains(&p.z) {
+        return Err(format!(
+            "depth {} m is outside 0 (the surface) to {max_depth} m",
+            p.z
+        ));
+    }
+    let range = p.x.hypot(p.y);
+    let max_range = protocol::limits::MAX_MISSION_RANGE_M;
+    if range > max_range {
+        return Err(format!(
+            "{range:.0} m from the origin, at most {max_range} m"
+        ));
+    }
+    Ok(())
+}

@@ -1,0 +1,536 @@
+//! The ground station's parameter list (`PARAM_*`): every control-law gain, the failsafe
+//! timeouts and the vehicle's description, by names of at most 16 characters. A change is
+//! checked here first (the core's validation, the firmware's rules) and then sent to the
+//! vehicle (`SetTrackingGains` / `SetPaperGains` / `SetFailsafe` / `SetVehicle`), which checks
+//! again and may refuse; nothing changes on a refusal. Accepted changes are saved to a JSON
+//! file and restored at the next start.
+//!
+//! Names: `TRK_*` the tracking laws ([`TrackingGains`](controller_core::law::tracking::TrackingGains)),
+//! `PXZ_*` / `PXY_*` the paper's XZ / XY laws, `FS_*` the failsafe timeouts in seconds,
+//! `VEH_*` the vehicle ([`VehicleParams`], a vehicle file's keys; `VEH_PWM_*` its pulse curve),
+//! `MIS_SPEED` the speed along a mission's path (kept here, sent with the next mission),
+//! `COMPASS_DEV_SIN` / `COMPASS_DEV_COS` the compass's heading-dependent deviation in
+//! **degrees** (it reads `psi + sin_deg sin(psi) + cos_deg cos(psi)`; sent as
+//! `SetCompassCal` in radians, refused beyond 30 degrees of amplitude and while armed). The
+//! constant part of a compass's error has no parameter: the estimator learns it.
+//! `CTRL_PASSKEY` is the passkey another ground station gives in `CHANGE_OPERATOR_CONTROL` to
+//! take control (`commander`): a whole number from 1 to 999,999, its decimal digits the
+//! passkey; 0 (the default) refuses every takeover (the holder releases control or falls
+//! silent). Kept at the surface; ArduSub has no such parameter.
+//!
+//! At start the saved file is restored only where it differs from what the vehicle holds and
+//! the vehicle takes it now; a group the vehicle refuses now (a new description while its
+//! estimator runs or while armed) waits and is applied when the vehicle takes it (`start`).
+
+use anyhow::{anyhow, bail, Context, Result};
+use controller_core::controller::Gains;
+use controller_core::nav::compass_cal::{CalRefusal, CompassCalibration, MAX_DEVIATION_RAD};
+use controller_core::params::VehicleParams;
+use protocol::Failsafe;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// The failsafe timeouts in seconds, as a ground station shows them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FailsafeSeconds {
+    /// Heartbeat age at which thrust goes neutral.
+    pub heartbeat_neutral_s: f32,
+    /// Heartbeat age at which the vehicle disarms.
+    pub heartbeat_disarm_s: f32,
+    /// Navigation age at which the laws stop.
+    pub nav_stale_s: f32,
+    /// Pilot-input age at which manual thrust goes neutral.
+    pub pilot_stale_s: f32,
+}
+
+impl FailsafeSeconds {
+    /// The firmware's timeouts in seconds.
+    pub fn of(f: &Failsafe) -> Self {
+        let s = |us: u64| (us as f64 * 1e-6) as f32;
+        Self {
+            heartbeat_neutral_s: s(f.heartbeat_neutral_us),
+            heartbeat_disarm_s: s(f.heartbeat_disarm_us),
+            nav_stale_s: s(f.nav_stale_us),
+            pilot_stale_s: s(f.manual_stale_us),
+        }
+    }
+
+    /// The firmware's timeouts (microseconds), refused with a reason naming the parameter
+    /// where the firmware would refuse them ([`Failsafe::validate`]).
+    pub fn to_firmware(&self) -> Result<Failsafe> {
+        let us = |name: &str, s: f32, max_us: u64| -> Result<u64> {
+            let range = (Failsafe::MIN_US as f64 * 1e-6, max_us as f64 * 1e-6);
+            let v = (f64::from(s) * 1e6).round();
+            if s.is_finite() && (Failsafe::MIN_US as f64..=max_us as f64).contains(&v) {
+                Ok(v as u64)
+            } else {
+                bail!("{name} must be {}-{} s", range.0, range.1)
+            }
+        };
+        let f = Failsafe {
+            heartbeat_neutral_us: us(
+                "FS_HB_NEUTRAL",
+                self.heartbeat_neutral_s,
+                Failsafe::MAX_NEUTRAL_US,
+            )?,
+            heartbeat_disarm_us: us(
+                "FS_HB_DISARM",
+                self.heartbeat_disarm_s,
+                Failsafe::MAX_DISARM_US,
+            )?,
+            nav_stale_us: us("FS_NAV_STALE", self.nav_stale_s, Failsafe::MAX_NAV_STALE_US)?,
+            manual_stale_us: us(
+                "FS_PILOT_STALE",
+                self.pilot_stale_s,
+                Failsafe::MAX_NEUTRAL_US,
+            )?,
+        };
+        if f.heartbeat_neutral_us > f.heartbeat_disarm_us {
+            bail!("FS_HB_NEUTRAL must not exceed FS_HB_DISARM");
+        }
+        // The firmware's own rule, in case the two ever differ.
+        f.validate()
+            .map_err(|why| anyhow!("the firmware's check: {why:?}"))?;
+        Ok(f)
+    }
+}
+
+/// Everything the parameter list shows: what is in force on the vehicle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settings {
+    /// The laws' gains.
+    pub gains: Gains,
+    /// The failsafe timeouts.
+    pub failsafe: FailsafeSeconds,
+    /// The vehicle's description.
+    pub vehicle: VehicleParams,
+    /// Speed along a mission's path (m/s), sent with the next mission uploaded.
+    pub mission_speed_m_s: f32,
+    /// The compass's deviation (degrees).
+    pub compass: CompassDeviationDeg,
+    /// The passkey for `CHANGE_OPERATOR_CONTROL` (0: no takeover).
+    pub control_passkey: f32,
+}
+
+/// The compass's heading-dependent deviation as the ground station shows it, in degrees
+/// (`COMPASS_DEV_SIN`, `COMPASS_DEV_COS`).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CompassDeviationDeg {
+    /// Coefficient of `sin(psi)` (degrees).
+    pub sin_deg: f32,
+    /// Coefficient of `cos(psi)` (degrees).
+    pub cos_deg: f32,
+}
+
+impl CompassDeviationDeg {
+    /// The calibration the vehicle takes (radians).
+    pub fn to_calibration(self) -> CompassCalibration {
+        CompassCalibration {
+            sin_rad: self.sin_deg.to_radians(),
+            cos_rad: self.cos_deg.to_radians(),
+        }
+    }
+
+    /// A calibration (radians) as degrees.
+    pub fn of(cal: &CompassCalibration) -> Self {
+        Self {
+            sin_deg: cal.sin_rad.to_degrees(),
+            cos_deg: cal.cos_rad.to_degrees(),
+        }
+    }
+}
+
+/// The mission speed unless a ground station sets `MIS_SPEED`: the scenarios' survey speed.
+pub const MISSION_SPEED_M_S: f32 = 0.25;
+/// Slowest mission speed taken (m/s): slower, the laws' feasible references stall.
+pub const MIN_MISSION_SPEED_M_S: f32 = 0.05;
+
+impl Settings {
+    /// Default gains and timeouts on `vehicle`.
+    pub fn new(vehicle: VehicleParams) -> Self {
+        Self {
+            gains: Gains::default(),
+            failsafe: FailsafeSeconds::of(&Failsafe::DEFAULT),
+            vehicle,
+            mission_speed_m_s: MISSION_SPEED_M_S,
+            compass: CompassDeviationDeg::default(),
+            control_passkey: 0.0,
+        }
+    }
+
+    /// The checks the vehicle will make, here first, with a reason naming the value.
+    pub fn check(&self, group: Group) -> Result<()> {
+        match group {
+            Group::Tracking | Group::Paper => {
+                self.gains.validate().map_err(|e| anyhow!("{e}"))?;
+            }
+            Group::Failsafe => {
+                self.failsafe.to_firmware()?;
+            }
+            Group::Vehicle => {
+                crate::vehicle_file::check(&self.vehicle)?;
+            }
+            Group::Mission => {
+                let max = protocol::limits::MAX_MISSION_SPEED_M_S;
+                let v = self.mission_speed_m_s;
+                if !(v.is_finite() && (MIN_MISSION_SPEED_M_S..=max).contains(&v)) {
+                    bail!("MIS_SPEED must be {MIN_MISSION_SPEED_M_S}-{max} m/s");
+                }
+            }
+            Group::Control => {
+                let k = self.control_passkey;
+                if !(k.is_finite() && k.fract() == 0.0 && (0.0..=MAX_PASSKEY).contains(&k)) {
+                    bail!("CTRL_PASSKEY must be a whole number from 0 to {MAX_PASSKEY}");
+                }
+            }
+            Group::Compass => {
+                let c = self.compass;
+                let max_deg = MAX_DEVIATION_RAD.to_degrees();
+                match c.to_calibration().validate() {
+                    Ok(_) => {}
+                    Err(CalRefusal::OutOfRange) => bail!(
+                        "COMPASS_DEV_SIN, COMPASS_DEV_COS: deviation {:.1} deg is over {max_deg:.0} deg",
+                        c.sin_deg.hypot(c.cos_deg)
+                    ),
+                    Err(why) => bail!("COMPASS_DEV_SIN, COMPASS_DEV_COS: {why:?}"),
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One parameter: its name and how to read and write it.
+pub struct Param {
+    /// MAVLink `param_id` (<= 16 characters).
+    pub name: &'static str,
+    /// Read it.
+    pub get: fn(&Settings) -> f32,
+    /// Write it.
+    pub set: fn(&mut Settings, f32),
+}
+
+/// Which tether command carries a parameter.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Group {
+    /// `SetTrackingGains`.
+    Tracking,
+    /// `SetPaperGains`.
+    Paper,
+    /// `SetFailsafe`.
+    Failsafe,
+    /// `SetVehicle` (refused by the vehicle while armed).
+    Vehicle,
+    /// Kept at the surface and sent with the next mission (`MissionItem`).
+    Mission,
+    /// `SetCompassCal` (refused by the vehicle while armed).
+    Compass,
+    /// Kept at the surface: who may take control.
+    Control,
+}
+
+/// The groups in the order a restart restores them: the vehicle first (the others are
+/// checked against it on board), then the timeouts and the gains.
+pub const GROUPS: [Group; 7] = [
+    Group::Vehicle,
+    Group::Compass,
+    Group::Failsafe,
+    Group::Tracking,
+    Group::Paper,
+    Group::Mission,
+    Group::Control,
+];
+
+/// Largest `CTRL_PASSKEY` (six digits: exact in the parameter's 32-bit float).
+pub const MAX_PASSKEY: f32 = 999_999.0;
+
+impl Settings {
+    /// `group`'s values taken from `from`; the others stay.
+    pub fn take_group(&mut self, from: &Settings, group: Group) {
+        match group {
+            Group::Tracking => self.gains.tracking = from.gains.tracking,
+            Group::Paper => {
+                self.gains.paper_xz = from.gains.paper_xz;
+                self.gains.paper_xy = from.gains.paper_xy;
+            }
+            Group::Failsafe => self.failsafe = from.failsafe,
+            Group::Vehicle => self.vehicle = from.vehicle,
+            Group::Mission => self.mission_speed_m_s = from.mission_speed_m_s,
+            Group::Compass => self.compass = from.compass,
+            Group::Control => self.control_passkey = from.control_passkey,
+        }
+    }
+
+    /// True when `other` holds the same values of `group`.
+    pub fn same_group(&self, other: &Settings, group: Group) -> bool {
+        let mut mixed = *self;
+        mixed.take_group(other, group);
+        mixed == *self
+    }
+
+    /// The passkey `CHANGE_OPERATOR_CONTROL` must carry, none while `CTRL_PASSKEY` is 0.
+    pub fn passkey(&self) -> Option<String> {
+        let k = self.control_passkey;
+        (k >= 1.0 && k.is_finite()).then(|| format!("{}", k as u32))
+    }
+}
+
+macro_rules! params {
+    ($($name:literal => $($field:ident).+),* $(,)?) => {
+        &[$(Param {
+            name: $name,
+            get: |s| s.$($field).+,
+            set: |s, v| s.$($field).+ = v,
+        }),*]
+    };
+}
+
+/// Every parameter, in the order of `PARAM_REQUEST_LIST`.
+pub const PARAMS: &[Param] = params![
+    "TRK_HAND_M" => gains.tracking.hand_m,
+    "TRK_XY_KP" => gains.tracking.xy_kp,
+    "TRK_XY_KD" => gains.tracking.xy_kd,
+    "TRK_XY_KI" => gains.tracking.xy_ki,
+    "TRK_XZ_KP" => gains.tracking.xz_kp,
+    "TRK_XZ_KD" => gains.tracking.xz_kd,
+    "TRK_XZ_KI" => gains.tracking.xz_ki,
+    "TRK_PITCH_KP" => gains.tracking.pitch_kp,
+    "TRK_PITCH_KD" => gains.tracking.pitch_kd,
+    "TRK_PITCH_MAX" => gains.tracking.pitch_max_rad,
+    "TRK_DEPTH_KP" => gains.tracking.depth_kp,
+    "TRK_DEPTH_KD" => gains.tracking.depth_kd,
+    "TRK_DEPTH_KI" => gains.tracking.depth_ki,
+    "TRK_YAW_KP" => gains.tracking.yaw_kp,
+    "TRK_YAW_KD" => gains.tracking.yaw_kd,
+    "TRK_ERR_LIM_M" => gains.tracking.error_limit_m,
+    "TRK_INT_LIM" => gains.tracking.integral_limit_m_s2,
+    "TRK_CUR_OBS" => gains.tracking.current_observer_rad_s,
+    "PXZ_K" => gains.paper_xz.k,
+    "PXZ_C1W" => gains.paper_xz.c1w,
+    "PXZ_C2W" => gains.paper_xz.c2w,
+    "PXZ_C1Q" => gains.paper_xz.c1q,
+    "PXZ_C2Q" => gains.paper_xz.c2q,
+    "PXZ_CQ" => gains.paper_xz.cq,
+    "PXZ_C1" => gains.paper_xz.c1,
+    "PXZ_C2" => gains.paper_xz.c2,
+    "PXY_K" => gains.paper_xy.k,
+    "PXY_C1U" => gains.paper_xy.c1u,
+    "PXY_C2U" => gains.paper_xy.c2u,
+    "PXY_C1R" => gains.paper_xy.c1r,
+    "PXY_C2R" => gains.paper_xy.c2r,
+    "PXY_CR" => gains.paper_xy.cr,
+    "PXY_C3" => gains.paper_xy.c3,
+    "PXY_C4" => gains.paper_xy.c4,
+    "FS_HB_NEUTRAL" => failsafe.heartbeat_neutral_s,
+    "FS_HB_DISARM" => failsafe.heartbeat_disarm_s,
+    "FS_NAV_STALE" => failsafe.nav_stale_s,
+    "FS_PILOT_STALE" => failsafe.pilot_stale_s,
+    "VEH_MASS" => vehicle.mass_kg,
+    "VEH_XUDOT" => vehicle.x_udot_kg,
+    "VEH_YVDOT" => vehicle.y_vdot_kg,
+    "VEH_ZWDOT" => vehicle.z_wdot_kg,
+    "VEH_MQDOT" => vehicle.m_qdot_kg_m2,
+    "VEH_NRDOT" => vehicle.n_rdot_kg_m2,
+    "VEH_XU" => vehicle.x_u,
+    "VEH_YV" => vehicle.y_v,
+    "VEH_ZW" => vehicle.z_w,
+    "VEH_MQ" => vehicle.m_q,
+    "VEH_NR" => vehicle.n_r,
+    "VEH_XUU" => vehicle.x_uu,
+    "VEH_YVV" => vehicle.y_vv,
+    "VEH_ZWW" => vehicle.z_ww,
+    "VEH_MQQ" => vehicle.m_qq,
+    "VEH_NRR" => vehicle.n_rr,
+    "VEH_IX" => vehicle.i_x_kg_m2,
+    "VEH_IY" => vehicle.i_y_kg_m2,
+    "VEH_IZ" => vehicle.i_z_kg_m2,
+    "VEH_ZG" => vehicle.z_g_m,
+    "VEH_GRAVITY" => vehicle.gravity_m_s2,
+    "VEH_BUOY" => vehicle.buoyancy_offset_n,
+    "VEH_THR_ARM" => vehicle.thruster_lever_arm_m,
+    "VEH_THR_FWD" => vehicle.thrust_max_forward_n,
+    "VEH_THR_REV" => vehicle.thrust_max_reverse_n,
+    "VEH_THR_TAU" => vehicle.thruster_time_constant_s,
+    "VEH_PWM_MIN" => vehicle.pulse.min_us,
+    "VEH_PWM_NEUTRAL" => vehicle.pulse.neutral_us,
+    "VEH_PWM_MAX" => vehicle.pulse.max_us,
+    "VEH_PWM_DEADBAND" => vehicle.pulse.deadband_us,
+    "VEH_PWM_LINEAR" => vehicle.pulse.linear_fraction,
+    "MIS_SPEED" => mission_speed_m_s,
+    "COMPASS_DEV_SIN" => compass.sin_deg,
+    "COMPASS_DEV_COS" => compass.cos_deg,
+    "CTRL_PASSKEY" => control_passkey,
+];
+
+/// Parameters shown but not settable, with the reason: the ESCs' neutral pulse is
+/// the ESC's constant, not part of a description a ground station may move.
+pub const READ_ONLY: &[(&str, &str)] = &[(
+    "VEH_PWM_NEUTRAL",
+    "neutral is the ESC's constant, not a setting",
+)];
+
+/// Why a parameter is read-only, if it is.
+pub fn read_only(name: &str) -> Option<&'static str> {
+    READ_ONLY
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, why)| *why)
+}
+
+/// A parameter by name, with its index.
+pub fn find(name: &str) -> Option<(usize, &'static Param)> {
+    PARAMS.iter().enumerate().find(|(_, p)| p.name == name)
+}
+
+/// The tether command group of a parameter.
+pub fn group(p: &Param) -> Group {
+    match p.name.split('_').next() {
+        Some("TRK") => Group::Tracking,
+        Some("FS") => Group::Failsafe,
+        Some("VEH") => Group::Vehicle,
+        Some("MIS") => Group::Mission,
+        Some("COMPASS") => Group::Compass,
+        Some("CTRL") => Group::Control,
+        _ => Group::Paper,
+    }
+}
+
+/// The settings as a name -> value map (the saved file).
+pub fn to_map(s: &Settings) -> BTreeMap<String, f32> {
+    PARAMS
+        .iter()
+        .map(|p| (p.name.to_string(), (p.get)(s)))
+        .collect()
+}
+
+/// Save the settings as JSON.
+pub fn save(path: &Path, g: &Settings) -> Result<()> {
+    if let Some(dir) = path.parent() {
+        if !dir.as_os_str().is_empty() {
+            std::fs::create_dir_all(dir)?;
+        }
+    }
+    let text = serde_json::to_string_pretty(&to_map(g))? + "\n";
+    std::fs::write(path, text).with_context(|| format!("write {}", path.display()))
+}
+
+/// Load saved values over `defaults`; an unknown name, a non-finite value or a set the
+/// checks refuse is an error naming it.
+pub fn load(path: &Path, defaults: Settings) -> Result<Settings> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("read {}", path.display()))?;
+    let map: BTreeMap<String, f32> = serde_json::from_str(&text)
+        .with_context(|| format!("{}: not a JSON object of numbers", path.display()))?;
+    let mut g = defaults;
+    for (name, v) in map {
+        let (_, p) =
+            find(&name).ok_or_else(|| anyhow!("{}: unknown parameter {name}", path.display()))?;
+        if !v.is_finite() {
+            bail!("{}: {name} is not finite", path.display());
+        }
+        if read_only(&name).is_some() {
+            // Shown, saved, never restored: the value in force stays.
+            continue;
+        }
+        (p.set)(&mut g, v);
+    }
+    for group in GROUPS {
+        g.check(group)
+            .map_err(|e| anyhow!("{}: the saved values are refused: {e}", path.display()))?;
+    }
+    Ok(g)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_fit_mavlink_and_are_unique() {
+        for (i, p) in PARAMS.iter().enumerate() {
+            assert!(p.name.len() <= 16, "{}", p.name);
+            assert!(
+                PARAMS[i + 1..].iter().all(|q| q.name != p.name),
+                "{}",
+                p.name
+            );
+        }
+    }
+
+    #[test]
+    fn defaults_pass_every_check_and_round_trip_the_failsafe() {
+        let s = Settings::new(VehicleParams::OBSERVER);
+        for group in GROUPS {
+            s.check(group).unwrap();
+        }
+        assert_eq!(s.failsafe.to_firmware().unwrap(), Failsafe::DEFAULT);
+        assert_eq!(
+            group(&PARAMS[find("VEH_PWM_MAX").unwrap().0]),
+            Group::Vehicle
+        );
+        assert_eq!(
+            group(&PARAMS[find("FS_NAV_STALE").unwrap().0]),
+            Group::Failsafe
+        );
+        assert_eq!(group(&PARAMS[find("PXY_C4").unwrap().0]), Group::Paper);
+    }
+
+    #[test]
+    fn the_passkey_is_a_whole_number_and_0_means_no_takeover() {
+        let mut s = Settings::new(VehicleParams::OBSERVER);
+        assert_eq!(s.passkey(), None);
+        s.control_passkey = 4321.0;
+        s.check(Group::Control).unwrap();
+        assert_eq!(s.passkey().as_deref(), Some("4321"));
+        for bad in [0.5, -1.0, 1e6, f32::NAN] {
+            s.control_passkey = bad;
+            assert!(s.check(Group::Control).is_err(), "{bad}");
+        }
+        assert_eq!(
+            group(&PARAMS[find("CTRL_PASSKEY").unwrap().0]),
+            Group::Control
+        );
+        let (a, mut b) = (
+            Settings::new(VehicleParams::OBSERVER),
+            Settings::new(VehicleParams::OBSERVER),
+        );
+        b.vehicle.mass_kg += 1.0;
+        assert!(a.same_group(&b, Group::Tracking) && !a.same_group(&b, Group::Vehicle));
+    }
+
+    #[test]
+    fn every_parameter_reads_back_what_was_written() {
+        let mut g = Settings::new(VehicleParams::OBSERVER);
+        for (i, p) in PARAMS.iter().enumerate() {
+            (p.set)(&mut g, 100.0 + i as f32);
+        }
+        for (i, p) in PARAMS.iter().enumerate() {
+            assert_eq!((p.get)(&g), 100.0 + i as f32, "{}", p.name);
+        }
+    }
+
+    #[test]
+    fn a_saved_file_loads_back_and_a_bad_one_is_refused_by_name() {
+        let dir = std::env::temp_dir().join(format!("rov-params-{}", std::process::id()));
+        let path = dir.join("p.json");
+        let defaults = Settings::new(VehicleParams::OBSERVER);
+        let mut g = defaults;
+        g.gains.tracking.xy_kp *= 1.5;
+        g.vehicle.mass_kg = 12.5;
+        g.failsafe.pilot_stale_s = 0.8;
+        save(&path, &g).unwrap();
+        assert_eq!(load(&path, defaults).unwrap(), g);
+        std::fs::write(&path, r#"{"TRK_NOPE": 1.0}"#).unwrap();
+        assert!(format!("{:#}", load(&path, defaults).unwrap_err()).contains("TRK_NOPE"));
+        for bad in [
+            r#"{"TRK_XY_KP": -1.0}"#,
+            r#"{"VEH_BUOY": 9.0}"#,
+            r#"{"FS_HB_NEUTRAL": 3.0}"#,
+            r#"{"FS_HB_DISARM": 0.3}"#,
+        ] {
+            std::fs::write(&path, bad).unwrap();
+            let e = format!("{:#}", load(&path, defaults).unwrap_err());
+            assert!(e.contains("refused"), "{bad}: {e}");
+        }
+        let _ = std::fs::remove_dir_all(dir);
+    }
+}

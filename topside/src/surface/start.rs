@@ -1,0 +1,267 @@
+//! How the surface program starts (`rov-topside`): its arguments, the vehicle behind the
+//! tether (`--serial DEV[:BAUD]` or `--tcp HOST:PORT`: the same byte stream, a real vehicle or a
+//! simulated one served by `host-sim vehicle`), the ground stations, the logs and the saved
+//! parameters; then `Topside::run` until the end.
+//!
+//! The saved parameters never stop a start: a file that cannot be read or is refused by the
+//! checks is said (log and `STATUSTEXT`) and the vehicle's values stay; a group that differs
+//! from what the vehicle holds is sent, and one the vehicle refuses now (a description while
+//! its estimator runs or while armed) waits ([`Pending`]), tried again every second and
+//! applied when the vehicle takes it, the operator told either way.
+
+use super::commander::Commander;
+use super::missions::Missions;
+use super::params::{Group, Settings};
+use super::transport::Gcs;
+use super::vehicle::Vehicle;
+use super::{open_logs, params, Topside};
+use crate::port::VehicleLink;
+use crate::refusal::refused;
+use anyhow::Result;
+use mavlink::dialects::ardupilotmega::MavSeverity;
+use protocol::ManualThrust;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// The longest a read of the vehicle's port waits for a byte: the surface's loop drains what
+/// has arrived every control period, and a vehicle that talks faster than the port's usual
+/// 20 ms wait (a simulated one served faster than real time) must not hold it there.
+const DRAIN_POLL: Duration = Duration::from_millis(1);
+
+/// Saved parameters waiting for the vehicle to take them, said again this often.
+const PENDING_REMINDER: Duration = Duration::from_secs(30);
+
+/// Saved parameter groups the vehicle refused at start: the saved values and the groups
+/// still to apply.
+#[derive(Debug, Default)]
+pub(super) struct Pending {
+    saved: Option<Settings>,
+    groups: Vec<Group>,
+    said_at: Option<Instant>,
+}
+
+impl Pending {
+    /// `settings` with the waiting groups' saved values (what the file keeps).
+    pub(super) fn merged(&self, settings: &Settings) -> Settings {
+        let mut s = *settings;
+        if let Some(saved) = &self.saved {
+            for &g in &self.groups {
+                s.take_group(saved, g);
+            }
+        }
+        s
+    }
+
+    /// The operator set a parameter of `group`: its saved values no longer wait.
+    pub(super) fn forget(&mut self, group: Group) {
+        self.groups.retain(|&g| g != group);
+    }
+
+    /// Try the waiting groups again; each the vehicle takes is said, and what still waits
+    /// is said again every [`PENDING_REMINDER`].
+    pub(super) fn retry(&mut self, v: &mut Vehicle, gcs: &mut Gcs) -> Result<()> {
+        let Some(saved) = self.saved else {
+            return Ok(());
+        };
+        let mut waiting = Vec::new();
+        let mut last_why = None;
+        for g in std::mem::take(&mut self.groups) {
+            match v.apply(saved, g)? {
+                Ok(()) => {
+                    let text = format!("Saved {g:?} parameters applied");
+                    eprintln!("topside: {text}");
+                    gcs.text(MavSeverity::MAV_SEVERITY_INFO, &text)?;
+                }
+                Err(why) => {
+                    waiting.push(g);
+                    last_why = Some(why);
+                }
+            }
+        }
+        self.groups = waiting;
+        if let Some(why) = last_why {
+            if self.said_at.is_none_or(|t| t.elapsed() >= PENDING_REMINDER) {
+                self.said_at = Some(Instant::now());
+                let text = format!(
+                    "Saved {:?} parameters wait: the vehicle refuses them now ({why:?}); \
+                     applied when it takes them",
+                    self.groups
+                );
+                eprintln!("topside: {text}");
+                gcs.text(MavSeverity::MAV_SEVERITY_WARNING, &text)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `rov-topside` options: where the vehicle is, and the surface's own.
+#[derive(clap::Args, Debug, Clone)]
+pub struct TopsideArgs {
+    /// Where the vehicle is.
+    #[command(flatten)]
+    pub link: VehicleLink,
+    /// The surface's own options.
+    #[command(flatten)]
+    pub surface: SurfaceOptions,
+}
+
+/// The surface program's options beside the vehicle's link.
+#[derive(clap::Args, Debug, Clone)]
+pub struct SurfaceOptions {
+    /// MAVLink address: udpout:HOST:PORT (to a ground station listening, QGroundControl's
+    /// default 14550), udpin:HOST:PORT, tcpin:HOST:PORT, tcpout:HOST:PORT. Give it again
+    /// for more ground stations: each gets everything the vehicle says, and one at a time
+    /// commands (see `commander`).
+    #[arg(long, default_value = "udpout:127.0.0.1:14550")]
+    pub mavlink: Vec<String>,
+    /// Stop after this long (s); default: run until stopped.
+    #[arg(long)]
+    pub duration: Option<f64>,
+    /// Where the .tlog goes: each start a new file beside this name, time-stamped
+    /// (`out/topside-20261126-101500.tlog`, UTC); an existing file is never truncated.
+    #[arg(long, default_value = "out/topside.tlog")]
+    pub tlog: PathBuf,
+    /// MAVLink system id of the vehicle.
+    #[arg(long, default_value_t = 1)]
+    pub system_id: u8,
+    /// The parameters set from the ground station: restored from this file at start, saved
+    /// to it after every accepted `PARAM_SET`.
+    #[arg(long, default_value = "out/topside-params.json")]
+    pub params: PathBuf,
+    /// The vehicle's description (a vehicle file, `vehicles/observer.toml`'s format), sent
+    /// to the vehicle at start. Without it the vehicle keeps its own.
+    #[arg(long)]
+    pub vehicle: Option<PathBuf>,
+    /// The surface's heartbeat to the vehicle, per second (1-50): the vehicle's link failsafe
+    /// trips after 0.5 s of its own time without one. A simulated vehicle served faster than
+    /// real time needs it faster by as much.
+    #[arg(long, default_value_t = 10)]
+    pub heartbeat_hz: u32,
+    /// Where the raw tether log goes (every byte both ways, time-stamped; `tether_log`).
+    /// Default: the `.tlog`'s time-stamped name with the extension `.tether`; a name given
+    /// here is time-stamped the same way.
+    #[arg(long)]
+    pub tether_log: Option<PathBuf>,
+    /// The vehicle's navigation from the surface (USBL, the estimator's start).
+    #[command(flatten)]
+    pub nav: super::navigation::NavOptions,
+}
+
+/// Run the surface program until `--duration` (or forever): the vehicle on the link given.
+pub fn main(a: TopsideArgs) -> Result<()> {
+    // The inputs first: an input refused creates no log.
+    let vehicle_file = a
+        .surface
+        .vehicle
+        .as_deref()
+        .map(crate::vehicle_file::load)
+        .transpose()
+        .map_err(refused)?;
+    let endpoint = a.link.endpoint()?;
+    if !(1..=50).contains(&a.surface.heartbeat_hz) {
+        return Err(refused(anyhow::anyhow!(
+            "--heartbeat-hz {} outside 1-50",
+            a.surface.heartbeat_hz
+        )));
+    }
+    let heartbeat_hz = a.surface.heartbeat_hz;
+    start_with(&a.surface, 1.0, |tether_path| {
+        // Short reads: each control period drains what the vehicle said and goes on.
+        let port = crate::port::open_with_poll(&endpoint, DRAIN_POLL)?;
+        let port = Box::new(crate::tether_log::LoggedPort::new(port, tether_path)?);
+        let what = match &endpoint {
+            crate::port::Endpoint::Tcp(addr) => format!("vehicle at tcp:{addr}"),
+            crate::port::Endpoint::Serial { device, baud } => {
+                format!("vehicle on {} at {baud} Bd", device.display())
+            }
+        };
+        Ok((Vehicle::real(port, vehicle_file, heartbeat_hz)?, what))
+    })
+}
+
+/// Open the logs and the ground stations, get the vehicle from `vehicle` (given the tether
+/// log's path), restore the saved parameters and run. `speedup` paces the surface's loop
+/// against the vehicle's clock: 1 for a vehicle on its own clock.
+pub fn start_with(
+    o: &SurfaceOptions,
+    speedup: f64,
+    vehicle: impl FnOnce(&Path) -> Result<(Vehicle, String)>,
+) -> Result<()> {
+    if !(speedup.is_finite() && speedup > 0.0) {
+        return Err(refused(anyhow::anyhow!(
+            "the speed-up must be > 0 (got {speedup})"
+        )));
+    }
+    let nav = super::navigation::SurfaceNav::open(&o.nav).map_err(refused)?;
+    let (tlog, tlog_path, tether_path) = open_logs(&o.tlog, o.tether_log.as_deref())?;
+    let gcs = Gcs::open(&o.mavlink, o.system_id, tlog)?;
+    let (v, what) = vehicle(&tether_path)?;
+    run_topside(o, speedup, gcs, v, what, &tlog_path, &tether_path, nav)
+}
+
+/// The saved parameters restored, then the topside's loop.
+#[allow(clippy::too_many_arguments)]
+fn run_topside(
+    a: &SurfaceOptions,
+    speedup: f64,
+    mut gcs: Gcs,
+    mut v: Vehicle,
+    what: String,
+    tlog_path: &Path,
+    tether_path: &Path,
+    nav: super::navigation::SurfaceNav,
+) -> Result<()> {
+    let mut pending = Pending::default();
+    if a.params.exists() {
+        match params::load(&a.params, v.settings) {
+            Err(e) => {
+                let text = format!("Saved parameters not used: {e:#}");
+                eprintln!("topside: {text}");
+                gcs.text(MavSeverity::MAV_SEVERITY_WARNING, &text)?;
+            }
+            Ok(saved) => {
+                // Only what differs is sent; what the vehicle refuses now waits.
+                pending.groups = params::GROUPS
+                    .into_iter()
+                    .filter(|&g| !v.settings.same_group(&saved, g))
+                    .collect();
+                pending.saved = Some(saved);
+                pending.retry(&mut v, &mut gcs)?;
+                eprintln!(
+                    "topside: parameters restored from {}{}",
+                    a.params.display(),
+                    if pending.groups.is_empty() {
+                        String::new()
+                    } else {
+                        format!(" except {:?} (waiting for the vehicle)", pending.groups)
+                    }
+                );
+            }
+        }
+    }
+    eprintln!(
+        "topside: {what}, MAVLink on {}, tlog {}, tether log {}",
+        a.mavlink.join(", "),
+        tlog_path.display(),
+        tether_path.display()
+    );
+    let mut t = Topside {
+        gcs,
+        v,
+        commander: Commander::default(),
+        missions: Missions::default(),
+        manual: ManualThrust::default(),
+        manual_at: None,
+        guided: false,
+        last_faults: 0,
+        mag_cal: None,
+        params_file: a.params.clone(),
+        sticks_seen_centred: false,
+        pending,
+        vehicle_silent: false,
+        refusals_said: 0,
+        nav,
+    };
+    t.run(a, speedup)
+}
