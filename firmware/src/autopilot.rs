@@ -23,6 +23,7 @@
 
 mod arming;
 mod health;
+mod ident;
 mod mission;
 mod onboard;
 pub use onboard::OWN_READING;
@@ -30,6 +31,7 @@ mod output;
 mod swing;
 
 pub use arming::STICK_CENTRED;
+pub use ident::{IdentAbort, IdentFlight, IdentOutcome, IDENT_DURATION_S};
 pub use mission::{
     MAX_MISSION_DEPTH_M, MAX_MISSION_RANGE_M, MAX_MISSION_SPEED_M_S, MISSION_TURN_RADIUS_M,
 };
@@ -150,6 +152,9 @@ pub struct Autopilot {
     swing: Option<SwingFlight>,
     /// How the latest calibration turn ended, or that one is flying.
     swing_outcome: SwingOutcome,
+    /// An identification manoeuvre in flight (in `Hold`), and how the latest one ended.
+    ident: Option<IdentFlight>,
+    ident_outcome: IdentOutcome,
     /// The pilot's sticks were seen at centre since the latest arming, change of mode or
     /// restart: until then they count as centred.
     sticks_seen_centred: bool,
@@ -187,6 +192,8 @@ impl Autopilot {
             compass_cal: CompassCalibration::NONE,
             swing: None,
             swing_outcome: SwingOutcome::None,
+            ident: None,
+            ident_outcome: IdentOutcome::None,
             sticks_seen_centred: false,
             health: HealthMonitor::with_defaults(),
             surface: SurfacePhase::Ascent,
@@ -319,12 +326,17 @@ impl Autopilot {
             Command::StopNav => {
                 self.onboard = None;
                 self.abort_swing();
+                self.abort_ident(IdentAbort::ModeChange);
                 Ok(())
             }
             Command::StartCompassCal {
                 yaw_rate_rad_s,
                 time_limit_s,
             } => self.start_swing(now_us, *yaw_rate_rad_s, *time_limit_s),
+            Command::StartIdent {
+                radius_m,
+                depth_band_m,
+            } => self.start_ident(now_us, *radius_m, *depth_band_m),
             Command::MissionItem {
                 index,
                 count,
@@ -382,6 +394,7 @@ impl Autopilot {
                         NackReason::NonFinite
                     });
                 }
+                self.ident_sticks(m);
                 self.take_sticks(now_us, m);
                 Ok(())
             }
@@ -451,6 +464,9 @@ impl Autopilot {
         } else {
             None
         };
+        // The identification manoeuvre (in `Hold`): its forces; the law holds the depth
+        // where it gives no heave.
+        let ident_forces = self.ident_step(now_us, nav_fresh, faults, dt_s);
         let (sample, cm) = match (self.mode, &self.reference, &self.hold) {
             (Mode::Idle, ..) => return self.neutral(faults),
             (Mode::Surface, ..) => return self.surface_step(nav_fresh, dt_s, faults),
@@ -503,6 +519,14 @@ impl Autopilot {
         }
         let nav = self.nav_state();
         let law = self.controller.step(cm, &nav, &sample, dt_s);
+        if let Some((surge_n, yaw_n_m, heave_n)) = ident_forces {
+            let requested = BodyForces {
+                surge_n,
+                yaw_n_m,
+                heave_n: heave_n.unwrap_or(law.requested.heave_n),
+            };
+            return self.forces_output(requested, law.errors, faults);
+        }
         if let Some([surge_n, yaw_n_m]) = swing_forces {
             let requested = BodyForces {
                 surge_n,

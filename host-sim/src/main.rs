@@ -63,6 +63,8 @@ enum Command {
     Vehicle(commands::vehicle::VehicleArgs),
     /// Draw the figures of a run from a recorded dive (.tlog)
     Replay(commands::replay::ReplayArgs),
+    /// Fit a vehicle's model from a run's timeseries.csv and write its vehicle file
+    Identify(commands::identify::IdentifyArgs),
     /// The topside layout against the onboard one: tracking, latency, delay
     /// margin, a cut and byte corruption of the node link
     Deployment(commands::deployment::DeploymentArgs),
@@ -101,6 +103,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
         Some(Command::Topside(a)) => done(commands::topside_sim::main(a)),
         Some(Command::Vehicle(a)) => commands::vehicle::main(a),
         Some(Command::Replay(a)) => done(commands::replay::main(a)),
+        Some(Command::Identify(a)) => done(commands::identify::main(a)),
         Some(Command::Deployment(a)) => commands::deployment::main(a).map(|met| {
             if met {
                 ExitCode::SUCCESS

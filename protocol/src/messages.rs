@@ -257,6 +257,17 @@ pub enum Command {
     /// Refused while armed (`Armed`), except a depth limit made shallower or switched on,
     /// which is taken at any time; the parameters in force then stay.
     SetHealth(HealthParams),
+    /// Fly the identification manoeuvre (docs/identification.md): armed in `Hold` with the
+    /// on-board estimate ready, force steps on every axis for under three minutes, stopped
+    /// by a stick, a change of mode, a failsafe or the vehicle leaving its room:
+    /// `radius_m` around the start (3-100 m) and `depth_band_m` either side of the start
+    /// depth (0.5-20 m, the start deeper than the band).
+    StartIdent {
+        /// Radius of the room around the start point (m).
+        radius_m: f32,
+        /// Half-height of the depth band around the start depth (m).
+        depth_band_m: f32,
+    },
 }
 
 /// What the vehicle sends back for a command it takes; a refused command is answered by

@@ -32,6 +32,7 @@ impl Autopilot {
         self.auto = None;
         self.sticks_seen_centred = false;
         self.abort_swing();
+        self.abort_ident(super::IdentAbort::ModeChange);
     }
 
     /// Arm (from disarmed): a clean start in the current mode. A stick mode refuses while
@@ -94,6 +95,7 @@ impl Autopilot {
         let changed = mode != self.mode;
         self.enter_mode(now_us, mode)?;
         self.abort_swing();
+        self.abort_ident(super::IdentAbort::ModeChange);
         if changed {
             self.controller.reset();
             self.engaged_us = now_us;

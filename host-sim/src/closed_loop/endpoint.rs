@@ -86,6 +86,13 @@ impl CoreEndpoint {
                 sc.name
             ));
         }
+        if sc.identification.is_some() {
+            return Err(anyhow!(
+                "scenario {}: the identification manoeuvre ([identification]) is flown by the \
+                 firmware: run it with `host-sim hil` (e.g. --in-process)",
+                sc.name
+            ));
+        }
         let mut controller = Controller::new(*sc.controller_vehicle(), Gains::default())
             .map_err(|e| anyhow!("controller gains: {e}"))?;
         if sc.disturbance.delay_known {

@@ -15,6 +15,7 @@ pub mod all;
 pub mod current_sweep;
 pub mod deployment;
 pub mod hil;
+pub mod identify;
 pub mod list;
 pub mod merge;
 pub mod monte_carlo;

@@ -7,12 +7,14 @@ mod built_in;
 pub mod deployment;
 mod expect;
 pub mod health;
+pub mod identification;
 mod reference;
 mod setup;
 pub use topside::vehicle_file as vehicle;
 
 pub use built_in::{BuiltIn, BUILT_IN};
 pub use expect::ExpectSpec;
+pub use identification::IdentificationSpec;
 pub use reference::ReferenceSpec;
 pub use setup::RunSetup;
 
@@ -363,6 +365,10 @@ pub struct Scenario {
     /// `[health]`: health events and the vehicle's health parameters.
     #[serde(default)]
     pub health: health::HealthSpec,
+    /// `[identification]`: fly the identification manoeuvre in `Hold`
+    /// ([`IdentificationSpec`]). Flown by the firmware (`hil`).
+    #[serde(default)]
+    pub identification: Option<IdentificationSpec>,
     /// The vehicle's parameters: the file's, read by [`Scenario::load`], or the Observer.
     #[serde(skip, default = "observer_params")]
     pub vehicle_params: VehicleParams,
@@ -417,6 +423,10 @@ impl Scenario {
             let path = beside.unwrap_or_else(|| Path::new(file).to_path_buf());
             s.vehicle_params = crate::scenario::vehicle::load(&path)
                 .with_context(|| format!("scenario {origin}: key `vehicle`"))?;
+        }
+        if let Some(i) = s.identification.as_mut() {
+            i.load_prior(dir)
+                .with_context(|| format!("scenario {origin}"))?;
         }
         Ok(s)
     }
@@ -511,6 +521,12 @@ impl Scenario {
             }
             if self.navigation.source != crate::world::sensors::NavSource::Estimator {
                 bail!("calibration needs navigation.source = \"estimator\" (the turn fits the estimator's yaw rate against the compass)");
+            }
+        }
+        if let Some(i) = &self.identification {
+            i.check(self.initial.z_m, self.duration_s)?;
+            if self.navigation.source != crate::world::sensors::NavSource::Estimator {
+                bail!("identification needs navigation.source = \"estimator\" (the vehicle flies it on its own estimate)");
             }
         }
         if self.name.trim().is_empty() {

@@ -183,6 +183,8 @@ pub struct TetherEndpoint {
     calibration: Option<(f32, f32)>,
     /// The calibration turn is flying.
     calibrating: bool,
+    /// `[identification]`: the manoeuvre's `(radius, depth band)`, not yet started.
+    identification: Option<(f32, f32)>,
     /// When the reference the firmware flies began ([`ControllerEndpoint::reference_start_s`]).
     reference_start_s: f64,
     /// The firmware's DVL port, when it has one: the DVL's fixes go there as the DVL's
@@ -231,7 +233,12 @@ impl TetherEndpoint {
             reference: *sc.reference(),
             noise: opts.noise.map(Noise::new),
             pwm: PwmMap::for_vehicle(sc.vehicle()),
-            vehicle: sc.vehicle_params,
+            // With `[identification]` the firmware flies with the prior, the plant is the
+            // scenario's vehicle.
+            vehicle: sc
+                .identification
+                .as_ref()
+                .map_or(sc.vehicle_params, |i| i.prior_params),
             reply_timeout: opts.reply_timeout,
             max_tries: opts.max_tries,
             apply_pulses: opts.apply_pulses,
@@ -260,6 +267,10 @@ impl TetherEndpoint {
                 .calibration
                 .map(|c| (c.yaw_rate_rad_s as f32, c.time_limit_s as f32)),
             calibrating: false,
+            identification: sc
+                .identification
+                .as_ref()
+                .map(|i| (i.radius_m as f32, i.depth_band_m as f32)),
             reference_start_s: 0.0,
             dvl_wire: None,
         })
@@ -404,7 +415,8 @@ impl TetherEndpoint {
             self.reference_start_s = t_s;
         }
         if self.pending_mode.is_none() {
-            return self.advance_calibration(t_s);
+            self.advance_calibration(t_s)?;
+            return self.start_identification(t_s);
         }
         let Some(mode) = self.pending_mode else {
             return Ok(());
@@ -442,6 +454,28 @@ impl TetherEndpoint {
                 self.next_mode_try_s = Some(t_s + 1.0);
             }
             Err(reason) => bail!("the firmware refused {mode:?} at t = {t_s:.3} s: {reason:?}"),
+        }
+        Ok(())
+    }
+
+    /// `[identification]`, once in `Hold` with the estimate ready (and any calibration turn
+    /// over): start the manoeuvre; the vehicle stays in `Hold` after it.
+    fn start_identification(&mut self, t_s: f64) -> Result<()> {
+        if self.calibrating || self.calibration.is_some() {
+            return Ok(());
+        }
+        if let Some((radius_m, depth_band_m)) = self.identification.take() {
+            let cmd = Command::StartIdent {
+                radius_m,
+                depth_band_m,
+            };
+            if let Err(reason) = self
+                .link
+                .command(&cmd, Duration::from_millis(500), 5, |_| {})?
+            {
+                bail!("the firmware refused the identification manoeuvre at t = {t_s:.3} s: {reason:?}");
+            }
+            self.report.mode_set_at_s = Some(t_s);
         }
         Ok(())
     }
@@ -571,7 +605,7 @@ impl ControllerEndpoint for TetherEndpoint {
             // estimate is ready (an unknown start); arm in `Idle` (neutral) and set the mode
             // between the steps as soon as it is taken (`try_pending_mode`).
             // With `[calibration]`, the turn is flown in `Hold` first.
-            let first = if self.calibration.is_some() {
+            let first = if self.calibration.is_some() || self.identification.is_some() {
                 Mode::Hold
             } else {
                 self.mode
@@ -581,7 +615,9 @@ impl ControllerEndpoint for TetherEndpoint {
                 .link
                 .command(&Command::SetMode(first), tmo, 5, |_| {})?
             {
-                Ok(()) if self.calibration.is_none() => self.report.mode_set_at_s = Some(0.0),
+                Ok(()) if self.calibration.is_none() && self.identification.is_none() => {
+                    self.report.mode_set_at_s = Some(0.0)
+                }
                 Ok(()) => {}
                 Err(reason @ NackReason::NavNotReady(_)) if needs_position => {
                     self.pending_mode = Some(first);

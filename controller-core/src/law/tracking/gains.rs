@@ -105,8 +105,104 @@ impl TrackingGains {
     }
 }
 
+/// Thrust authority of a vehicle: the acceleration its weaker thrust direction gives in
+/// surge (both horizontal thrusters), in heave (the vertical one) and in yaw (the pair in
+/// opposition), `[m/s^2, m/s^2, rad/s^2]`.
+pub fn authority(v: &crate::params::Vehicle) -> [f32; 3] {
+    let p = v.params();
+    let weaker = p.thrust_max_forward_n.min(p.thrust_max_reverse_n);
+    [
+        2.0 * weaker / v.xy.m11,
+        weaker / v.xz.m_z,
+        2.0 * p.thruster_lever_arm_m * weaker / v.xy.m33,
+    ]
+}
+
+impl TrackingGains {
+    /// The defaults fitted to a vehicle: each loop slowed by the share `s` of the
+    /// Observer's thrust authority the vehicle has on its axis (`s <= 1`; a vehicle with
+    /// more authority keeps the defaults). A position gain scales with `s`, a rate gain with
+    /// `sqrt(s)` (the loop's damping ratio is kept), an integral gain with `s^1.5` and the
+    /// integral's limit with `s`: the force a given error asks for shrinks with the thrust
+    /// the vehicle has. The laws cancel the model (mass, drag), so nothing else of the
+    /// vehicle enters. Every scaled gain stays within [`crate::law::gain_bounds`]: the
+    /// bounds' lower side `k_d >= 2 k_p T + 4 k_i / k_p` scales at most with `sqrt(s)`, as
+    /// `k_d` does, and the floors are below the defaults times `s = 0.05` (the smallest
+    /// share used).
+    pub fn for_vehicle(v: &crate::params::Vehicle) -> Self {
+        let mine = authority(v);
+        let observer = crate::params::Vehicle::observer();
+        let reference = authority(&observer);
+        let share = |i: usize| {
+            let (a, r) = (
+                mine.get(i).copied().unwrap_or(1.0),
+                reference.get(i).copied().unwrap_or(1.0),
+            );
+            if a.is_finite() && r > 0.0 {
+                (a / r).clamp(0.05, 1.0)
+            } else {
+                1.0
+            }
+        };
+        let (sx, sz, sy) = (share(0), share(1), share(2));
+        let d = Self::DEFAULT;
+        let rate = crate::math::sqrt;
+        let horizontal = sx.min(sy);
+        Self {
+            xy_kp: d.xy_kp * horizontal,
+            xy_kd: d.xy_kd * rate(horizontal),
+            xy_ki: d.xy_ki * horizontal * rate(horizontal),
+            xz_kp: d.xz_kp * sx,
+            xz_kd: d.xz_kd * rate(sx),
+            xz_ki: d.xz_ki * sx * rate(sx),
+            depth_kp: d.depth_kp * sz,
+            depth_kd: d.depth_kd * rate(sz),
+            depth_ki: d.depth_ki * sz * rate(sz),
+            yaw_kp: d.yaw_kp * sy,
+            yaw_kd: d.yaw_kd * rate(sy),
+            integral_limit_m_s2: d.integral_limit_m_s2 * sx.min(sz),
+            ..d
+        }
+    }
+}
+
 impl Default for TrackingGains {
     fn default() -> Self {
         Self::DEFAULT
+    }
+}
+
+#[cfg(test)]
+mod for_vehicle_tests {
+    use super::*;
+    use crate::law::gain_bounds::check_tracking;
+    use crate::params::VehicleParams;
+
+    #[test]
+    fn the_observer_keeps_the_defaults() {
+        let g = TrackingGains::for_vehicle(&crate::params::Vehicle::observer());
+        assert_eq!(g, TrackingGains::DEFAULT);
+    }
+
+    #[test]
+    fn a_weaker_vehicle_gets_slower_gains_within_the_bounds() {
+        for scale in [0.65, 0.3, 0.1, 0.01] {
+            let p = VehicleParams {
+                mass_kg: 15.18,
+                thrust_max_forward_n: 20.0 * scale,
+                thrust_max_reverse_n: 15.0 * scale,
+                ..VehicleParams::OBSERVER
+            };
+            let p = VehicleParams {
+                thrust_max_forward_n: p.thrust_max_forward_n.max(2.0),
+                thrust_max_reverse_n: p.thrust_max_reverse_n.max(2.0),
+                ..p
+            };
+            let g = TrackingGains::for_vehicle(&p.validate().unwrap());
+            g.validate().unwrap();
+            check_tracking(&g).unwrap_or_else(|e| panic!("scale {scale}: {e}"));
+            assert!(g.depth_kp < TrackingGains::DEFAULT.depth_kp, "{scale}");
+            assert!(g.xy_kp < TrackingGains::DEFAULT.xy_kp, "{scale}");
+        }
     }
 }

@@ -1,0 +1,109 @@
+//! `host-sim identify LOG --out vehicle.toml`: a vehicle's model fitted from a recorded run
+//! (its `timeseries.csv`, or the run's folder holding one), written as a vehicle file that
+//! `vehicle = ...` and the surface's `--vehicle` load; the validation figure beside it.
+//! docs/identification.md describes the manoeuvre, the fit and the anchor.
+
+use crate::checks::refused;
+use crate::identify::{self, fit::MODEL_NAMES, Anchor, Record};
+use crate::scenario::vehicle;
+use anyhow::{anyhow, bail, Context, Result};
+use std::path::{Path, PathBuf};
+
+/// `host-sim identify` options.
+#[derive(clap::Args, Debug, Clone)]
+pub struct IdentifyArgs {
+    /// The run's `timeseries.csv`, or the run's output folder.
+    pub log: PathBuf,
+    /// The vehicle file to write.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// The vehicle file the vehicle flew the manoeuvre with (its pulse curve, dry mass,
+    /// rigid inertias and the terms not fitted); the Observer's by default.
+    #[arg(long, value_name = "FILE")]
+    pub prior: Option<PathBuf>,
+    /// The net buoyancy B - W (N, positive floats up) measured by weighing the vehicle in
+    /// water: the fit's force scale, so that the thrust scales are identified too. Without
+    /// it the prior's thrust curve ahead is taken as right.
+    #[arg(long, value_name = "N", allow_hyphen_values = true)]
+    pub net_buoyancy_n: Option<f64>,
+    /// Standard deviation of `--net-buoyancy-n` (N).
+    #[arg(long, value_name = "N", default_value_t = 0.05)]
+    pub net_buoyancy_std_n: f64,
+    /// The validation figure (default: beside --out, `<out stem>-validation.png`).
+    #[arg(long, value_name = "PNG")]
+    pub plot: Option<PathBuf>,
+}
+
+/// The record named by `log` (a file or a run folder).
+pub fn read_log(log: &Path) -> Result<Record> {
+    let path = if log.is_dir() {
+        log.join("timeseries.csv")
+    } else {
+        log.to_path_buf()
+    };
+    Record::from_timeseries_csv(&path)
+}
+
+/// Run `host-sim identify`.
+pub fn main(a: IdentifyArgs) -> Result<()> {
+    let anchor = match a.net_buoyancy_n {
+        None => Anchor::ThrustAhead,
+        Some(v) => {
+            if !v.is_finite() || v.abs() < 0.2 {
+                return Err(refused(anyhow!(
+                    "--net-buoyancy-n {v}: a measured net buoyancy of at least 0.2 N either way \
+                     (a neutral vehicle gives no force scale; leave it out to use the thrust curve)"
+                )));
+            }
+            if !(a.net_buoyancy_std_n.is_finite() && a.net_buoyancy_std_n >= 0.0) {
+                return Err(refused(anyhow!(
+                    "--net-buoyancy-std-n must be finite and >= 0"
+                )));
+            }
+            Anchor::NetBuoyancy {
+                value_n: v,
+                std_n: a.net_buoyancy_std_n,
+            }
+        }
+    };
+    let prior = match &a.prior {
+        Some(p) => vehicle::load(p).map_err(refused)?,
+        None => vehicle::parse(vehicle::OBSERVER_TOML, "observer.toml")?,
+    };
+    let rec = read_log(&a.log).map_err(refused)?;
+    let out = identify::identify(&rec, &prior, anchor).map_err(refused)?;
+    let source = a.log.display().to_string();
+    vehicle::check(&out.params)
+        .context("the identified vehicle is not flyable; nothing written")?;
+    let text = identify::vehicle_file::to_toml(&out.params, &out.identified, &source)?;
+    // The file must load as written (a round trip through the same parser as `vehicle =`).
+    vehicle::parse(&text, "the identified file")?;
+    std::fs::write(&a.out, &text).with_context(|| format!("cannot write {}", a.out.display()))?;
+    let plot = a.plot.clone().unwrap_or_else(|| {
+        let stem = a
+            .out
+            .file_stem()
+            .map_or_else(|| "vehicle".into(), |s| s.to_string_lossy().into_owned());
+        a.out.with_file_name(format!("{stem}-validation.png"))
+    });
+    identify::validate::plot(&plot, &out.validation, &out.prior_validation)?;
+    let id = &out.identified;
+    println!("identified from {source} ({} samples):", rec.samples.len());
+    for (((name, unit), v), (lo, hi)) in MODEL_NAMES
+        .iter()
+        .zip(id.model.values())
+        .zip(id.lo.iter().zip(id.hi.iter()))
+    {
+        println!("  {name:<22} {v:>10.4}  95 % [{lo:.4}, {hi:.4}] {unit}");
+    }
+    let [su, sr, sw] = out.validation.rms();
+    let [pu, pr, pw] = out.prior_validation.rms();
+    println!(
+        "held-out RMS (identified / prior): u {su:.4} / {pu:.4} m/s, r {sr:.4} / {pr:.4} rad/s, w {sw:.4} / {pw:.4} m/s"
+    );
+    println!("wrote {} and {}", a.out.display(), plot.display());
+    if !(su.is_finite() && sr.is_finite() && sw.is_finite()) {
+        bail!("the identified model's prediction is not finite");
+    }
+    Ok(())
+}
