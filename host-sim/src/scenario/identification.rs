@@ -60,7 +60,7 @@ impl IdentificationSpec {
             let beside = dir.map(|d| d.join(file)).filter(|p| p.exists());
             let path = beside.unwrap_or_else(|| Path::new(file).to_path_buf());
             self.prior_params =
-                crate::scenario::vehicle::load(&path).context("key `identification.prior`")?;
+                topside::vehicle_file::load(&path).context("key `identification.prior`")?;
         }
         Ok(())
     }
