@@ -52,6 +52,12 @@ def main():
     target = [float(v) for v in sys.argv[2:5]]
     m = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=255)
     expect(m.wait_heartbeat(timeout=60) is not None, "a HEARTBEAT arrives")
+    # The vehicle's battery monitor (the served vehicle's simulated pack) in SYS_STATUS.
+    st = m.recv_match(type="SYS_STATUS", blocking=True, timeout=5)
+    expect(st is not None and 10_000 <= st.voltage_battery <= 25_200
+           and 0 <= st.battery_remaining <= 100 and st.current_battery >= 0,
+           f"SYS_STATUS carries the battery ({st.voltage_battery if st else None} mV, "
+           f"{st.current_battery if st else None} cA, {st.battery_remaining if st else None} %)")
 
     # Every parameter, by PARAM_REQUEST_LIST.
     m.mav.param_request_list_send(m.target_system, m.target_component)

@@ -44,6 +44,18 @@ pub(super) fn send_param(
     }
 }
 
+/// The faults during which the vehicle is in a failsafe (thrust neutral, surfacing or
+/// disarmed), not a warning.
+const FAILSAFES: u16 = fault::HEARTBEAT_LOST
+    | fault::LINK_DISARMED
+    | fault::NAV_STALE
+    | fault::MANUAL_STALE
+    | fault::SENSOR_LOST
+    | fault::BATTERY_LOW
+    | fault::BATTERY_CRITICAL
+    | fault::LEAK
+    | link_fault::NODE_LINK_LOST;
+
 pub(super) fn send_heartbeat(gcs: &mut Gcs, v: &Vehicle, guided: bool) -> Result<()> {
     let mut base = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
     if v.tel.armed {
@@ -54,7 +66,10 @@ pub(super) fn send_heartbeat(gcs: &mut Gcs, v: &Vehicle, guided: bool) -> Result
         mavtype: MavType::MAV_TYPE_SUBMARINE,
         autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
         base_mode: base,
-        system_status: if v.tel.armed {
+        // CRITICAL while a failsafe holds, as ArduSub reports it.
+        system_status: if v.tel.faults & FAILSAFES != 0 {
+            MavState::MAV_STATE_CRITICAL
+        } else if v.tel.armed {
             MavState::MAV_STATE_ACTIVE
         } else {
             MavState::MAV_STATE_STANDBY
@@ -86,6 +101,7 @@ pub(super) fn send_heartbeat(gcs: &mut Gcs, v: &Vehicle, guided: bool) -> Result
         healthy &= !MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS;
     }
     let drops = v.frames_dropped().min(u64::from(u16::MAX)) as u16;
+    let b = &v.battery;
     gcs.send(MavMessage::SYS_STATUS(SYS_STATUS_DATA {
         onboard_control_sensors_present: sensors,
         onboard_control_sensors_enabled: sensors,
@@ -95,7 +111,23 @@ pub(super) fn send_heartbeat(gcs: &mut Gcs, v: &Vehicle, guided: bool) -> Result
         // system or component (ignored).
         errors_count1: v.frames_refused.min(u64::from(u16::MAX)) as u16,
         errors_count2: gcs.stats.not_ours.min(u64::from(u16::MAX)) as u16,
-        battery_remaining: -1,
+        // The vehicle's battery monitor (`Status.battery`): millivolts, centiamperes, %;
+        // MAVLink's "not measured" where it measures nothing.
+        voltage_battery: if b.voltage_v > 0.0 {
+            (b.voltage_v * 1000.0).round().clamp(0.0, 65_534.0) as u16
+        } else {
+            u16::MAX
+        },
+        current_battery: if b.current_a >= 0.0 {
+            (b.current_a * 100.0).round().clamp(0.0, 32_767.0) as i16
+        } else {
+            -1
+        },
+        battery_remaining: if b.voltage_v > 0.0 {
+            b.remaining_pct.round().clamp(0.0, 100.0) as i8
+        } else {
+            -1
+        },
         ..Default::default()
     }))
 }

@@ -149,6 +149,8 @@ pub struct Vehicle {
     pub(super) stride: u64,
     /// When the vehicle last sent telemetry (wall clock).
     heard_at: Instant,
+    /// The battery's figures from the vehicle's latest `Status` (zero: not measured).
+    pub(super) battery: protocol::BatteryStatus,
     /// Telemetry frames still to come before the pulse widths are shown again after a change
     /// of what the vehicle is told (an accepted command, a change of commander): the first
     /// frame after it may have left the vehicle before the change reached it.
@@ -228,6 +230,7 @@ impl Vehicle {
             stride: stride.max(1),
             heard_at: Instant::now(),
             frames_before_pulses: 0,
+            battery: protocol::BatteryStatus::default(),
             frames_refused: 0,
             last_refusal: None,
         };
@@ -280,6 +283,7 @@ impl Vehicle {
             stride: 1,
             heard_at: Instant::now(),
             frames_before_pulses: 0,
+            battery: protocol::BatteryStatus::default(),
             frames_refused: 0,
             last_refusal: None,
         };
@@ -398,6 +402,9 @@ impl Vehicle {
                     self.tel.t_us = t.t_us;
                 }
             }
+        }
+        if let Some(st) = self.end.last_status() {
+            self.battery = st.battery;
         }
         self.t_s = t_s;
         self.periods += 1;
