@@ -12,14 +12,13 @@
 mod gcs;
 
 use firmware::protocol::{Command as Cmd, Reply};
-use gcs::{free_udp_port, pymavlink_or_skip, rov_topside, stop};
+use gcs::{free_udp_port, pymavlink_or_skip, rov_topside, serve_vehicle as vehicle, stop};
 use host_sim::tether::link::{tcp_port, Link};
 use std::collections::HashMap;
-use std::io::{BufRead, BufReader};
 use std::net::{TcpListener, TcpStream};
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 /// Simulated time per wall time of the pymavlink sessions (the surface runs at the same; at 4x
@@ -38,28 +37,6 @@ fn host_sim(args: &[&str]) -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_host-sim"));
     c.args(args);
     c
-}
-
-/// `host-sim vehicle SCENARIO` on a free port: the process and the port it printed.
-fn vehicle(scenario: &str, out: &Path, extra: &[&str]) -> (Child, u16) {
-    let mut child = host_sim(&["vehicle", scenario, "--listen", "tcp:127.0.0.1:0", "--out"])
-        .arg(out)
-        .args(extra)
-        .stdout(Stdio::piped())
-        .process_group(0)
-        .spawn()
-        .unwrap();
-    let mut line = String::new();
-    BufReader::new(child.stdout.as_mut().unwrap())
-        .read_line(&mut line)
-        .unwrap();
-    let port = line
-        .split("tcp:127.0.0.1:")
-        .nth(1)
-        .and_then(|s| s.split_whitespace().next())
-        .and_then(|p| p.parse().ok())
-        .unwrap_or_else(|| panic!("no port in {line:?}"));
-    (child, port)
 }
 
 /// The truth log's columns by name, and its complete rows.
