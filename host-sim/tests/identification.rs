@@ -9,6 +9,7 @@
 use controller_core::params::VehicleParams;
 use firmware::autopilot::IDENT_DURATION_S;
 use host_sim::commands::hil::{run_hil, HilOptions, HilTarget};
+use host_sim::commands::identify::read_log;
 use host_sim::identify::fit::MODEL_NAMES;
 use host_sim::identify::{identify, Anchor, Outcome, Record};
 use host_sim::output::write_csv;
@@ -38,6 +39,11 @@ fn out_dir(tag: &str) -> PathBuf {
 /// Fly the manoeuvre on `truth` (the firmware given the Observer's file) with noise seed
 /// `seed`; the record read back from the run's timeseries.csv, the instruments' noise added.
 fn fly(truth: &VehicleParams, seed: u64, tag: &str) -> Record {
+    fly_logged(truth, seed, tag, None)
+}
+
+/// [`fly`], the tether's traffic also written to `tether_log` (`rov-topside`'s format).
+fn fly_logged(truth: &VehicleParams, seed: u64, tag: &str, tether_log: Option<&Path>) -> Record {
     let mut sc = Scenario::load("nav-circle-3d").unwrap();
     sc.name = format!("ident-{tag}");
     sc.vehicle_params = *truth;
@@ -50,6 +56,7 @@ fn fly(truth: &VehicleParams, seed: u64, tag: &str) -> Record {
     let mut o = HilOptions::new(HilTarget::InProcess);
     o.record = true;
     o.telemetry_rows = false;
+    o.tether_log = tether_log.map(Path::to_path_buf);
     let h = run_hil(&sc, &o, None).unwrap();
     let csv = out_dir(tag).join("timeseries.csv");
     write_csv(&csv, &h.run.log).unwrap();
@@ -147,6 +154,52 @@ fn light_identified_from_one_manoeuvre_within_10_percent() {
     let (worst, out, _) = identify_vehicle("light.toml", 1);
     assert!(worst <= 10.0, "worst {worst:.1} %");
     vehicle::check(&out.params).unwrap();
+}
+
+/// Fly heavy-slow's manoeuvre with the tether logged and identify it from the log as
+/// `host-sim identify` reads a dive's (`read_log`): the vehicle's own telemetry, i.e. the
+/// velocities and rates of its estimator (DVL, gyro, compass, depth, USBL with their noise)
+/// and the pulses it wrote; no plant truth and no noise added by the test. The errors of
+/// every value (%) and the outcome.
+fn identify_from_tether_log(tag: &str) -> ([f64; 12], Outcome) {
+    let truth = vehicle_file("heavy-slow.toml");
+    let log = out_dir(tag).join("dive.tether");
+    fly_logged(&truth, 1, tag, Some(&log));
+    let rec = read_log(&log).unwrap();
+    let out = identify(&rec, &VehicleParams::OBSERVER, buoyancy_anchor(&truth)).unwrap();
+    let t = truth_values(&truth);
+    report(tag, &out, &t);
+    let v = out.identified.model.values();
+    (std::array::from_fn(|i| (v[i] / t[i] - 1.0) * 100.0), out)
+}
+
+/// From the tether log, the values its telemetry carries unshaped by the estimator's model:
+/// yaw inertia and yaw drag (the gyro's rate) and the heave mass (DVL and depth), each
+/// within 10 % of the truth.
+#[test]
+fn heavy_slow_yaw_and_heave_mass_identified_from_the_tether_log_within_10_percent() {
+    let (err, out) = identify_from_tether_log("tether-heavy-slow-yaw");
+    for i in [1, 2, 6] {
+        assert!(
+            err[i].abs() <= 10.0,
+            "{}: {:+.1} %",
+            MODEL_NAMES[i].0,
+            err[i]
+        );
+    }
+    vehicle::check(&out.params).unwrap();
+}
+
+/// Every judged value from the tether log within 10 %: not met. The estimator that fills
+/// the telemetry's surge speed between the DVL's 5 Hz reports predicts it with the model it
+/// was given (the Observer's), so the record's surge dynamics are partly the prior's:
+/// measured m11 -40.6 %, X_uu -47.2 %, Z_ww -26.5 % (docs/identification.md).
+#[test]
+#[ignore = "not met: m11 -40.6 %, X_uu -47.2 %, Z_ww -26.5 % from the estimate (docs/identification.md)"]
+fn heavy_slow_identified_from_the_tether_log_within_10_percent() {
+    let (err, _) = identify_from_tether_log("tether-heavy-slow-all");
+    let worst = JUDGED.iter().map(|&i| err[i].abs()).fold(0.0, f64::max);
+    assert!(worst <= 10.0, "worst {worst:.1} %");
 }
 
 /// A record whose vertical thruster never ran is refused, naming heave.

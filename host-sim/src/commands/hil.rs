@@ -51,6 +51,10 @@ pub fn run_hil(sc: &RunSetup, opts: &HilOptions, qemu_log: Option<&Path>) -> Res
             }
             HilTarget::Board(ep) => (open(ep)?, format!("{ep:?}"), Duration::from_secs(2), false),
         };
+    let port: Box<dyn Port> = match &opts.tether_log {
+        Some(path) => Box::new(topside::tether_log::LoggedPort::new(port, path)?),
+        None => port,
+    };
     let link = Link::new(port, None);
     let mut endpoint =
         TetherEndpoint::connect(link, sc, opts, target_name, hello_wait, hello_required)?;
@@ -167,6 +171,10 @@ pub struct HilArgs {
     /// 23-minute survey on QEMU takes about an hour on a loaded 2-core machine.
     #[arg(long, value_name = "SECONDS", default_value_t = 600, value_parser = clap::value_parser!(u64).range(1..))]
     pub wall_limit: u64,
+    /// Write the raw tether log here (`rov-topside`'s format: what `host-sim identify`
+    /// reads as a dive's log).
+    #[arg(long, value_name = "FILE")]
+    pub tether_log: Option<PathBuf>,
 }
 
 /// `--noise`: a probability (clap refuses anything else, naming the reason, exit 2).
@@ -269,6 +277,7 @@ pub fn main(a: HilArgs) -> Result<HilOutput> {
     o.qemu = a.qemu_bin;
     o.ram_dump = a.ram_dump;
     o.nav_ready_limit_s = a.nav_ready_limit;
+    o.tether_log = a.tether_log;
     o.wall_limit = std::time::Duration::from_secs(a.wall_limit);
     if !sc.thrusters.saturate {
         eprintln!(

@@ -1,10 +1,11 @@
 //! `host-sim identify LOG --out vehicle.toml`: a vehicle's model fitted from a recorded run
-//! (its `timeseries.csv`, or the run's folder holding one), written as a vehicle file that
+//! (a dive's raw tether log as `rov-topside` writes it, a run's `timeseries.csv`, or the
+//! run's folder holding one), written as a vehicle file that
 //! `vehicle = ...` and the surface's `--vehicle` load; the validation figure beside it.
 //! docs/identification.md describes the manoeuvre, the fit and the anchor.
 
 use crate::checks::refused;
-use crate::identify::{self, fit::MODEL_NAMES, Anchor, Record};
+use crate::identify::{self, fit::MODEL_NAMES, tether_record, Anchor, Record};
 use crate::scenario::vehicle;
 use anyhow::{anyhow, bail, Context, Result};
 use std::path::{Path, PathBuf};
@@ -12,7 +13,8 @@ use std::path::{Path, PathBuf};
 /// `host-sim identify` options.
 #[derive(clap::Args, Debug, Clone)]
 pub struct IdentifyArgs {
-    /// The run's `timeseries.csv`, or the run's output folder.
+    /// A dive's tether log (`rov-topside`'s `.tether`: the vehicle's own telemetry), a run's
+    /// `timeseries.csv`, or the run's output folder.
     pub log: PathBuf,
     /// The vehicle file to write.
     #[arg(long)]
@@ -34,13 +36,32 @@ pub struct IdentifyArgs {
     pub plot: Option<PathBuf>,
 }
 
-/// The record named by `log` (a file or a run folder).
+/// The record named by `log` (a tether log, a `timeseries.csv` or a run folder).
 pub fn read_log(log: &Path) -> Result<Record> {
     let path = if log.is_dir() {
         log.join("timeseries.csv")
     } else {
         log.to_path_buf()
     };
+    let mut head = [0u8; 32];
+    let n = std::fs::File::open(&path)
+        .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
+        .with_context(|| format!("cannot read {}", path.display()))?;
+    if head
+        .get(..n)
+        .is_some_and(|h| h.starts_with(topside::tether_log::MAGIC))
+    {
+        let t = tether_record::from_tether_log(&path)?;
+        println!(
+            "{}: the vehicle's telemetry, {} samples ({} lost frames filled, {} undecodable \
+             frames in the log)",
+            path.display(),
+            t.record.samples.len(),
+            t.filled,
+            t.dropped_frames
+        );
+        return Ok(t.record);
+    }
     Record::from_timeseries_csv(&path)
 }
 

@@ -5,6 +5,8 @@
 //!   and the refusal of a record that does not excite a regressor.
 //! - [`record`]: a run's `timeseries.csv` as the fit reads it; the pulses as the prior's
 //!   nominal thrust.
+//! - [`tether_record`]: a dive's raw tether log as the same record (the vehicle's telemetry:
+//!   its own estimate and the pulses it wrote).
 //! - [`fit`]: the per-axis integral-form regressions, the anchor that gives them newtons,
 //!   the physical model with 95 % intervals.
 //! - [`validate`]: the held-out blocks simulated with the identified model and the prior;
@@ -14,6 +16,7 @@
 pub mod fit;
 pub mod record;
 pub mod regression;
+pub mod tether_record;
 pub mod validate;
 pub mod vehicle_file;
 

@@ -116,6 +116,8 @@ pub struct HilOptions {
     /// In process: the DVL's fixes reach the firmware as the DVL's serial reports on its
     /// DVL port (true), or as `DvlFix` commands over the tether (false).
     pub dvl_on_uart: bool,
+    /// Write the raw tether log (`rov-topside`'s format) here.
+    pub tether_log: Option<PathBuf>,
 }
 
 impl HilOptions {
@@ -137,6 +139,7 @@ impl HilOptions {
             telemetry_rows: true,
             nav_ready_limit_s: DEFAULT_NAV_READY_LIMIT_S,
             dvl_on_uart: true,
+            tether_log: None,
         }
     }
 }

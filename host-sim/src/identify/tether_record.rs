@@ -1,0 +1,200 @@
+//! A dive's raw tether log (`rov-topside`'s `.tether`, [`topside::tether_log`]) as the fit's
+//! record: the vehicle's own `Telemetry` frames, each carrying the navigation state its laws
+//! flew on (the on-board estimate: DVL velocities, gyro rates, attitude) and the pulse widths
+//! written to the ESCs. This is what a real dive leaves at the surface; no plant truth in it.
+//!
+//! The record is the armed span of the log (first to last armed frame). Telemetry comes once
+//! per control period; a frame lost on the tether (a corrupted or dropped frame) leaves a gap
+//! that is filled by linear interpolation when it is at most [`MAX_FILLED_GAP_PERIODS`]
+//! periods long, and counted; a longer gap is refused with its time, since the fit integrates
+//! over the record and a long hole would be invented data.
+
+use super::record::{Record, RecordSample};
+use anyhow::{bail, Result};
+use protocol::{Reply, Telemetry};
+use std::path::Path;
+
+/// The longest gap between two telemetry frames that is filled (control periods).
+pub const MAX_FILLED_GAP_PERIODS: u64 = 5;
+
+/// A record read from a tether log, and what the reading found.
+#[derive(Debug, Clone)]
+pub struct TetherRecord {
+    /// The samples, one per control period of the vehicle's clock.
+    pub record: Record,
+    /// Telemetry frames missing inside the armed span, filled by interpolation.
+    pub filled: usize,
+    /// Frames of the log that did not decode (either direction).
+    pub dropped_frames: usize,
+}
+
+fn sample(t: &Telemetry) -> RecordSample {
+    let n = &t.nav;
+    let f = f64::from;
+    RecordSample {
+        t_s: t.t_us as f64 * 1e-6,
+        vel_m_s: [f(n.u_m_s), f(n.v_m_s), f(n.w_m_s)],
+        rate_rad_s: [f(n.p_rad_s), f(n.q_rad_s), f(n.r_rad_s)],
+        tilt_rad: [f(n.roll_rad), f(n.pitch_rad)],
+        pulse_us: t.pulse_us.map(f64::from),
+    }
+}
+
+fn lerp(a: &RecordSample, b: &RecordSample, s: f64) -> RecordSample {
+    let mix = |x: f64, y: f64| x + (y - x) * s;
+    let mix3 = |x: [f64; 3], y: [f64; 3]| [mix(x[0], y[0]), mix(x[1], y[1]), mix(x[2], y[2])];
+    RecordSample {
+        t_s: mix(a.t_s, b.t_s),
+        vel_m_s: mix3(a.vel_m_s, b.vel_m_s),
+        rate_rad_s: mix3(a.rate_rad_s, b.rate_rad_s),
+        tilt_rad: [
+            mix(a.tilt_rad[0], b.tilt_rad[0]),
+            mix(a.tilt_rad[1], b.tilt_rad[1]),
+        ],
+        // The ESCs hold a pulse until the next one: no interpolation.
+        pulse_us: a.pulse_us,
+    }
+}
+
+/// The record of the vehicle's telemetry in `path`, a tether log.
+pub fn from_tether_log(path: &Path) -> Result<TetherRecord> {
+    let frames = topside::tether_log::decode(&topside::tether_log::read(path)?);
+    from_telemetry(
+        frames.replies.iter().filter_map(|(_, _, r)| match r {
+            Reply::Telemetry(t) => Some(t),
+            _ => None,
+        }),
+        frames.dropped,
+        path,
+    )
+}
+
+/// The record of `telemetry` (in the order received): duplicates (a step answered twice)
+/// and frames older than the latest are skipped; the armed span is kept.
+pub fn from_telemetry<'a>(
+    telemetry: impl Iterator<Item = &'a Telemetry>,
+    dropped_frames: usize,
+    path: &Path,
+) -> Result<TetherRecord> {
+    let mut armed: Vec<&Telemetry> = Vec::new();
+    let mut last_t_us = None;
+    for t in telemetry {
+        if last_t_us.is_some_and(|l| t.t_us <= l) {
+            continue;
+        }
+        last_t_us = Some(t.t_us);
+        armed.push(t);
+    }
+    let first = armed.iter().position(|t| t.armed);
+    let last = armed.iter().rposition(|t| t.armed);
+    let (Some(first), Some(last)) = (first, last) else {
+        bail!(
+            "{}: no armed telemetry in the tether log ({} frames)",
+            path.display(),
+            armed.len()
+        );
+    };
+    let span = armed.get(first..=last).unwrap_or_default();
+    // The control period: the commonest step between frames (lost frames make longer ones).
+    let mut steps: Vec<u64> = span
+        .windows(2)
+        .filter_map(|w| match w {
+            [a, b] => Some(b.t_us - a.t_us),
+            _ => None,
+        })
+        .collect();
+    steps.sort_unstable();
+    let Some(&period_us) = steps.get(steps.len() / 2) else {
+        bail!("{}: fewer than two armed telemetry frames", path.display());
+    };
+    if period_us == 0 {
+        bail!("{}: the telemetry's time does not rise", path.display());
+    }
+    let mut samples: Vec<RecordSample> = Vec::with_capacity(span.len());
+    let mut filled = 0usize;
+    for pair in span.windows(2) {
+        let [a, b] = pair else { continue };
+        let (sa, sb) = (sample(a), sample(b));
+        if samples.is_empty() {
+            samples.push(sa);
+        }
+        let periods = (b.t_us - a.t_us + period_us / 2) / period_us;
+        if periods > MAX_FILLED_GAP_PERIODS {
+            bail!(
+                "{}: no telemetry for {:.3} s after t = {:.3} s on the vehicle's clock \
+                 (at most {MAX_FILLED_GAP_PERIODS} control periods are filled)",
+                path.display(),
+                (b.t_us - a.t_us) as f64 * 1e-6,
+                sa.t_s
+            );
+        }
+        for k in 1..periods {
+            samples.push(lerp(&sa, &sb, k as f64 / periods as f64));
+            filled += 1;
+        }
+        samples.push(sb);
+    }
+    let record = Record { samples };
+    record.check()?;
+    Ok(TetherRecord {
+        record,
+        filled,
+        dropped_frames,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn telemetry(t_ms: u64, armed: bool, u: f32) -> Telemetry {
+        let mut t = Telemetry {
+            t_us: t_ms * 1000,
+            armed,
+            pulse_us: [1600, 1400, 1500],
+            ..Telemetry::default()
+        };
+        t.nav.u_m_s = u;
+        t
+    }
+
+    #[test]
+    fn the_armed_span_is_kept_and_a_lost_frame_is_filled() {
+        let mut frames: Vec<Telemetry> = (0..5).map(|k| telemetry(20 * k, false, 0.0)).collect();
+        frames.extend(
+            (5..300)
+                .filter(|&k| k != 100)
+                .map(|k| telemetry(20 * k, true, k as f32)),
+        );
+        frames.push(telemetry(20 * 300, false, 0.0));
+        let r = from_telemetry(frames.iter(), 3, Path::new("log")).unwrap();
+        assert_eq!(r.filled, 1);
+        assert_eq!(r.dropped_frames, 3);
+        assert_eq!(r.record.samples.len(), 295);
+        assert!((r.record.samples[0].t_s - 0.1).abs() < 1e-9);
+        let gap = &r.record.samples[95];
+        assert!((gap.t_s - 2.0).abs() < 1e-9 && (gap.vel_m_s[0] - 100.0).abs() < 1e-6);
+        assert_eq!(gap.pulse_us, [1600.0, 1400.0, 1500.0]);
+        assert!((r.record.period_s() - 0.02).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_long_gap_and_a_log_never_armed_are_refused_with_their_reason() {
+        let mut frames: Vec<Telemetry> = (0..200).map(|k| telemetry(20 * k, true, 0.1)).collect();
+        frames.extend((210..400).map(|k| telemetry(20 * k, true, 0.1)));
+        let e = from_telemetry(frames.iter(), 0, Path::new("log")).unwrap_err();
+        assert!(e.to_string().contains("no telemetry for 0.220 s"), "{e}");
+        let idle: Vec<Telemetry> = (0..200).map(|k| telemetry(20 * k, false, 0.0)).collect();
+        let e = from_telemetry(idle.iter(), 0, Path::new("log")).unwrap_err();
+        assert!(e.to_string().contains("no armed telemetry"), "{e}");
+    }
+
+    #[test]
+    fn a_step_answered_twice_counts_once() {
+        let mut frames: Vec<Telemetry> = (0..200).map(|k| telemetry(20 * k, true, 0.1)).collect();
+        frames.insert(50, telemetry(20 * 49, true, 0.1));
+        let r = from_telemetry(frames.iter(), 0, Path::new("log")).unwrap();
+        assert_eq!(r.record.samples.len(), 200);
+        assert_eq!(r.filled, 0);
+    }
+}
