@@ -17,11 +17,27 @@ use host_sim::scenario::{vehicle, IdentificationSpec, Scenario};
 use host_sim::world::noise::gauss;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// DVL velocity noise (m/s) and gyro noise at the record's rate (rad/s).
 const DVL_NOISE_M_S: f64 = 0.01;
 const GYRO_NOISE_RAD_S: f64 = 5e-4;
+
+/// Whether the long test `name` (about `wall_s` of wall time on 2 cores) runs: with
+/// `ROV_LONG` set (to anything but `0`) it does; without, a `SKIPPED` line with its command
+/// goes straight to the terminal (the harness captures only `print!` / `eprint!`).
+fn long_test(name: &str, wall_s: u32) -> bool {
+    if std::env::var_os("ROV_LONG").is_some_and(|v| v != "0") {
+        return true;
+    }
+    let _ = writeln!(
+        std::io::stderr(),
+        "SKIPPED {name} (long test, ~{wall_s} s on 2 cores; run with ROV_LONG=1 cargo test -p \
+         host-sim --test identification {name})"
+    );
+    false
+}
 
 fn vehicle_file(name: &str) -> VehicleParams {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -222,11 +238,15 @@ fn a_record_without_heave_is_refused_naming_it() {
 }
 
 /// 50 manoeuvres on each simulated vehicle (noise seeds 100-149): the share of runs whose
-/// 95 % interval holds the truth, per judged value; at least 90 % asked.
+/// 95 % interval holds the truth, per judged value; at least 90 % asked. A long test (about
+/// 70 s of CPU, 160 s of wall on a loaded 2-core machine): it runs where `ROV_LONG` is set
+/// (CI), and says SKIPPED with its command elsewhere.
 #[test]
-#[ignore = "long: 100 flown manoeuvres (about 30 min on one core); run with --ignored"]
 fn intervals_hold_the_truth_in_90_percent_of_50_runs() {
     use rayon::prelude::*;
+    if !long_test("intervals_hold_the_truth_in_90_percent_of_50_runs", 160) {
+        return;
+    }
     for file in ["heavy-slow.toml", "light.toml"] {
         let truth = vehicle_file(file);
         let t = truth_values(&truth);
