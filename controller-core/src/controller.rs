@@ -54,6 +54,15 @@ pub struct Gains {
 pub const MAX_GAIN: f32 = 1.0e3;
 
 impl Gains {
+    /// The default gains with the tracking laws' fitted to `vehicle`
+    /// ([`TrackingGains::for_vehicle`]; the Observer's are the defaults exactly).
+    pub fn for_vehicle(vehicle: &Vehicle) -> Self {
+        Self {
+            tracking: TrackingGains::for_vehicle(vehicle),
+            ..Self::default()
+        }
+    }
+
     /// Validate every set, every gain at most [`MAX_GAIN`], and the gains of the linear loops
     /// within the ranges of [`gain_bounds`] (the refusal names the range).
     pub fn validate(&self) -> Result<(), Error> {
@@ -180,8 +189,12 @@ impl Controller {
     }
 
     /// Replace the vehicle model (its limits and pulse curve with it) and clear the laws'
-    /// state; the gains stay.
+    /// state. Tracking gains that are the ones derived from the model in force
+    /// ([`TrackingGains::for_vehicle`]) follow the new model; gains an operator set stay.
     pub fn set_vehicle(&mut self, vehicle: Vehicle) {
+        if self.gains.tracking == TrackingGains::for_vehicle(&self.vehicle) {
+            self.gains.tracking = TrackingGains::for_vehicle(&vehicle);
+        }
         self.limits = ThrusterLimits::of(&vehicle);
         self.pwm = PwmMap::for_vehicle(&vehicle);
         self.vehicle = vehicle;

@@ -190,3 +190,35 @@ fn the_largest_accepted_velocity_gain_flies_without_bang_bang_and_999_does_not()
         assert!(bang.flips >= 50, "{name} at 999: {bang:?}");
     }
 }
+
+/// The tracking gains follow the vehicle: a heavier, weaker vehicle's description slows
+/// them (`TrackingGains::for_vehicle`), the Observer's gives the defaults back; gains an
+/// operator set stay through a change of description.
+#[test]
+fn the_tracking_gains_follow_the_vehicle_unless_an_operator_set_them() {
+    use controller_core::controller::{Controller, Gains};
+    use controller_core::law::tracking::TrackingGains;
+    use controller_core::params::{Vehicle, VehicleParams};
+    let heavy = VehicleParams {
+        mass_kg: 16.0,
+        thrust_max_forward_n: 13.0,
+        thrust_max_reverse_n: 9.75,
+        ..VehicleParams::OBSERVER
+    }
+    .validate()
+    .unwrap();
+    let mut c = Controller::new(Vehicle::observer(), Gains::default()).unwrap();
+    c.set_vehicle(heavy);
+    let slowed = c.gains().tracking;
+    assert_eq!(slowed, TrackingGains::for_vehicle(&heavy));
+    assert!(slowed.xy_kp < TrackingGains::DEFAULT.xy_kp, "{slowed:?}");
+    assert_eq!(*c.gains(), Gains::for_vehicle(&heavy));
+    c.set_vehicle(Vehicle::observer());
+    assert_eq!(c.gains().tracking, TrackingGains::DEFAULT);
+
+    let mut own = Gains::default();
+    own.tracking.xy_kp *= 0.9;
+    c.set_gains(own).unwrap();
+    c.set_vehicle(heavy);
+    assert_eq!(*c.gains(), own);
+}

@@ -221,7 +221,8 @@ pub enum Command {
     },
     /// Replace the vehicle's description (version 5): validated, then checked flyable
     /// (`Vehicle::check_flyable`); refused while armed or while the on-board estimator runs
-    /// on the old one. The gains stay.
+    /// on the old one. Tracking gains derived from the old description follow the new one
+    /// (`Controller::set_vehicle`); gains set by an operator stay.
     SetVehicle(VehicleParams),
     /// Replace the failsafe timeouts (version 5, [`Failsafe::validate`]); refused while
     /// armed (version 6: a failsafe is not relaxed mid-dive).

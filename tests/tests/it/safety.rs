@@ -748,12 +748,16 @@ fn vehicle_description_and_failsafe_timeouts_over_the_tether() {
         );
     }
 
-    // Accepted: a heavier vehicle (the controller's model changes, the gains stay) ...
-    let gains = *a.autopilot().controller().gains();
+    // Accepted: a heavier vehicle (the controller's model changes, the tracking gains
+    // derived from the old one follow it) ...
     let (s, r) = t.send(&mut a, &with(&|p| p.mass_kg = 14.0));
     assert!(acked(&r, s), "{r:?}");
-    assert_eq!(a.autopilot().controller().vehicle().params().mass_kg, 14.0);
-    assert_eq!(*a.autopilot().controller().gains(), gains);
+    let controller = a.autopilot().controller();
+    assert_eq!(controller.vehicle().params().mass_kg, 14.0);
+    assert_eq!(
+        *controller.gains(),
+        controller_core::controller::Gains::for_vehicle(controller.vehicle())
+    );
     // ... and a shorter navigation timeout, which then trips earlier.
     let (s, r) = t.send(&mut a, &fs(&|f| f.nav_stale_us = 100_000));
     assert!(acked(&r, s), "{r:?}");
