@@ -12,7 +12,7 @@
 
 mod gcs;
 
-use gcs::{dive, fly, free_udp_port, pymavlink_or_skip, stop, Flight};
+use gcs::{dive, free_udp_port, pymavlink_or_skip, stop, Dive};
 use std::net::UdpSocket;
 use std::path::PathBuf;
 use std::process::{Command, Stdio};
@@ -26,7 +26,8 @@ fn pymavlink_flies_the_simulated_vehicle_and_reads_the_tlog() {
     fly_session("in-process", &["--speedup", "2"]);
 }
 
-/// The same session against the firmware image in QEMU (the emulated STM32F405).
+/// The same session against the firmware image in QEMU (the emulated STM32F405), served by
+/// `host-sim vehicle --qemu=ELF`.
 #[test]
 fn pymavlink_flies_the_emulated_board() {
     if !pymavlink_or_skip() {
@@ -35,8 +36,8 @@ fn pymavlink_flies_the_emulated_board() {
     let Some(elf) = host_sim::tether::qemu::image_or_skip().unwrap() else {
         return;
     };
-    let elf = elf.to_string_lossy().to_string();
-    fly_session("emulated", &["--emulated", "--qemu", &elf]);
+    let qemu = format!("--qemu={}", elf.display());
+    fly_session("emulated", &[&qemu]);
 }
 
 fn fly_session(name: &str, extra: &[&str]) {
@@ -118,13 +119,8 @@ fn fly_session(name: &str, extra: &[&str]) {
     assert!(commands(&|c| matches!(c, Cmd::Arm)) >= 1);
     assert!(commands(&|c| matches!(c, Cmd::SetMode(_))) >= 3);
     assert!(commands(&|c| matches!(c, Cmd::ManualThrust(_))) >= 50);
-    // Without --vehicle the surface keeps the vehicle's own description, as with a real one;
-    // the lock-step harness of the emulated board sends the scenario's.
-    let lockstep = extra.contains(&"--emulated");
-    assert_eq!(
-        commands(&|c| matches!(c, Cmd::SetVehicle(_))),
-        usize::from(lockstep)
-    );
+    // Without --vehicle the surface keeps the vehicle's own description, as with a real one.
+    assert_eq!(commands(&|c| matches!(c, Cmd::SetVehicle(_))), 0);
     // The vehicle's 10 Hz telemetry over the session, every frame logged.
     let stamps: Vec<u64> = frames
         .replies
@@ -185,9 +181,9 @@ fn files(dir: &std::path::Path, ext: &str) -> Vec<PathBuf> {
 }
 
 /// `circle-3d` flown through the surface program to `udpout:127.0.0.1:PORT`, with `extra`
-/// options (`gcs::fly`).
-fn topside(port: u16, tlog: &std::path::Path, params: &std::path::Path, extra: &[&str]) -> Flight {
-    fly(
+/// options (`gcs::dive`).
+fn topside(port: u16, tlog: &std::path::Path, params: &std::path::Path, extra: &[&str]) -> Dive {
+    dive(
         "circle-3d",
         port,
         tlog,
@@ -245,7 +241,7 @@ fn pymavlink_changes_gains_the_vehicle_and_a_timeout_which_survive_a_restart_and
     stop(second);
 }
 
-/// A Python client against a fresh `topside --sim circle-3d`: the topside on `port` (plus
+/// A Python client against a fresh dive of `circle-3d`: the topside on `port` (plus
 /// `extra`), then `clients/SCRIPT PORT ARGS...`; `DIR` in `args` is the session's folder.
 /// Returns the client's output after checking that it succeeded.
 fn client_session(name: &str, script: &str, port: u16, extra: &[&str], args: &[&str]) -> String {
