@@ -260,7 +260,7 @@ fn fly(scenario: &Path, dir: &Path) -> Flight {
         },
     ));
     // The flight ends at the served vehicle's duration.
-    let truth = vehicle_ends(flight, Duration::from_secs(120));
+    let truth = vehicle_ends(flight, Duration::from_secs(300));
     // Both truth logs by their columns' names.
     let (cols, rows) = truth_rows(&truth);
     let c = |name: &str| cols.iter().position(|x| x == name).unwrap();

@@ -4,9 +4,9 @@
 //! docs/identification.md describes the manoeuvre, the fit and the anchor.
 
 use crate::checks::refused;
-use crate::identify::{self, fit::MODEL_NAMES, Anchor, Record};
 use crate::scenario::vehicle;
 use anyhow::{anyhow, bail, Context, Result};
+use identify::{fit::MODEL_NAMES, Anchor, Record};
 use std::path::{Path, PathBuf};
 
 /// `host-sim identify` options.
@@ -86,7 +86,7 @@ pub fn main(a: IdentifyArgs) -> Result<()> {
             .map_or_else(|| "vehicle".into(), |s| s.to_string_lossy().into_owned());
         a.out.with_file_name(format!("{stem}-validation.png"))
     });
-    identify::validate::plot(&plot, &out.validation, &out.prior_validation)?;
+    crate::output::identify_plot::plot(&plot, &out.validation, &out.prior_validation)?;
     let id = &out.identified;
     println!("identified from {source} ({} samples):", rec.samples.len());
     for (((name, unit), v), (lo, hi)) in MODEL_NAMES

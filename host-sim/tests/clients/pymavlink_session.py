@@ -1,4 +1,4 @@
-"""A pymavlink ground station flies `host-sim topside --sim` (issue 13, real clients).
+"""A pymavlink ground station flies a served vehicle through `rov-topside --tcp`.
 
 Usage: pymavlink_session.py PORT. Listens on udpin:127.0.0.1:PORT for the topside (which
 sends to udpout:127.0.0.1:PORT). Exits 0 and prints PASS lines, or raises.
