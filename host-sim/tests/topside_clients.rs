@@ -74,7 +74,10 @@ fn fly_session(name: &str, extra: &[&str]) {
         out.status.success(),
         "the pymavlink session failed ({name})"
     );
-    assert!(t0.elapsed() < Duration::from_secs(180));
+    // A hung session fails; the image in QEMU is served at 0.1x to 0.2x real time on the
+    // loaded 2-core machine, and the session's sticks last the vehicle's seconds.
+    let wall_limit_s = if name == "emulated" { 900 } else { 180 };
+    assert!(t0.elapsed() < Duration::from_secs(wall_limit_s));
     assert_eq!(stdout.matches("PASS:").count(), 32, "every check ran");
     // The logs of this start, under time-stamped names.
     let tlog = only_file(&dir, "tlog");

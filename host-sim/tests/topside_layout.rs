@@ -342,7 +342,8 @@ fn a_pilot_drives_the_topside_layout_in_manual() {
         port,
         &dir.join("manual.tlog"),
         &dir.join("params.json"),
-        &["--speedup", "2"],
+        // The layout starts its estimator at the launch point, as the vehicle is configured.
+        &["--speedup", "2", "--start-nav"],
     );
     let gcs = Station(mavlink::connect::<MavMessage>(&format!("udpin:127.0.0.1:{port}")).unwrap());
     let started = gcs.wait(Duration::from_secs(20), |m| {
@@ -451,7 +452,8 @@ fn the_ground_station_sees_the_node_link_cut_within_250_ms() {
         port,
         &dir.join("cut.tlog"),
         &dir.join("params.json"),
-        &["--speedup", "2"],
+        // The layout starts its estimator at the launch point, as the vehicle is configured.
+        &["--speedup", "2", "--start-nav"],
     );
     let gcs = Station(mavlink::connect::<MavMessage>(&format!("udpin:127.0.0.1:{port}")).unwrap());
     let node = S::MAV_SYS_STATUS_SENSOR_3D_GYRO
