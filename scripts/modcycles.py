@@ -5,14 +5,13 @@ crate that reach each other through `crate::`, `super::`, `self::` or child-modu
 pair that use each other, or a longer circle a -> b -> c -> a).
 
 Prints one `CYCLE` line per circle found and exits 1 when there is any; prints `checked` and
-exits 0 when there is none. The top-level check always runs; `--files` adds the file level.
+exits 0 when there is none. Both levels always run (CI runs it with no arguments):
 
-    python3 scripts/modcycles.py            # top-level modules (CI)
-    python3 scripts/modcycles.py --files    # and the files of each crate
+    python3 scripts/modcycles.py
 
 What counts as a use: a `crate::m` path in code, including grouped imports
 (`use crate::{a::X, b}`); at file level also `super::x`, `self::x` and `child::x` for a
-`mod child;` the file declares. A path names the longest module it starts with: `crate::a::b::C`
+`mod child;` the file declares, grouped ones included (`use super::{x::Y, Z}`). A path names the longest module it starts with: `crate::a::b::C`
 is a use of file `a/b.rs` (or `a/b/mod.rs`) when it exists, else of `a`. Declaring a child
 (`mod b;`) is not a use of it. Comments (doc links among them) are not uses, and neither are
 `#[cfg(test)]` modules: a test may drive a module through its caller without the shipped
@@ -198,6 +197,22 @@ def test_files(crate):
     return out
 
 
+def paths_at(txt, m):
+    """The paths a match names after its prefix (group 1, e.g. `super::` or `child::`): one,
+    or for a group (`prefix::a::{b, c::D}`) one per item, each as its list of segments (the
+    prefix's own segments other than `super` and `self` included)."""
+    head = [x for x in m.group(1).split('::') if x and x not in ('super', 'self')]
+    mid = [x for x in m.group(2).split('::') if x]
+    if m.group(3) != '{':
+        return [head + mid + [m.group(3)]]
+    depth, j = 1, m.end()
+    while j < len(txt) and depth:
+        depth += {'{': 1, '}': -1}.get(txt[j], 0)
+        j += 1
+    items = re.findall(r'(\w+(?:::\w+)*)', txt[m.end():j - 1])
+    return [head + mid + item.split('::') for item in items if item != 'self'] or [head + mid]
+
+
 def file_modules(crate):
     """Each file's module -> the other files' modules it uses (see the module doc)."""
     texts, known = {}, set()
@@ -231,29 +246,31 @@ def file_modules(crate):
         for group in re.findall(r'\bcrate::\{([^;]*)\}', txt):
             for item in re.findall(r'(\w+(?:::\w+)*)', group):
                 used.add(resolve(item.split('::')))
-        for m in re.finditer(r'(?<![\w:])((?:super::)+)((?:\w+::)*\w+)', txt):
+        for m in re.finditer(r'(?<![\w:])((?:super::)+)((?:\w+::)*)(\w+|\{)', txt):
             up = m.group(1).count('super')
             # A `mod.rs` file is its folder's module: `super` climbs from it like from a.rs.
             base = here[:len(here) - up] if up <= len(here) else []
-            used.add(resolve(base + [s for s in m.group(2).split('::') if s != 'super']))
+            for tail in paths_at(txt, m):
+                used.add(resolve(base + [s for s in tail if s != 'super']))
         children = re.findall(r'\bmod\s+(\w+)\s*;', txt)
         for child in children:
-            for m in re.finditer(r'(?<![\w:])(?:self::)?' + child + r'::((?:\w+::)*\w+)', txt):
-                used.add(resolve(here + [child] + m.group(1).split('::')))
-        for m in re.finditer(r'(?<![\w:])self::((?:\w+::)*\w+)', txt):
-            used.add(resolve(here + m.group(1).split('::')))
+            for m in re.finditer(r'(?<![\w:])(?:self::)?(' + child + r'::)((?:\w+::)*)(\w+|\{)', txt):
+                for tail in paths_at(txt, m):
+                    used.add(resolve(here + tail))
+        for m in re.finditer(r'(?<![\w:])self::()((?:\w+::)*)(\w+|\{)', txt):
+            for tail in paths_at(txt, m):
+                used.add(resolve(here + tail))
         graph[me] = {u for u in used if u != me and u not in tests}
     return {m: {u for u in us if u in graph} for m, us in graph.items()}
 
 
 def main():
     found = 0
-    files = '--files' in sys.argv[1:]
     for crate in crates():
         for circle in cycles(modules(crate)):
             print(crate, 'CYCLE', ' -> '.join(circle))
             found += 1
-        for circle in cycles(file_modules(crate)) if files else []:
+        for circle in cycles(file_modules(crate)):
             print(crate, 'CYCLE (files)', ' -> '.join(c or '(crate root)' for c in circle))
             found += 1
     print('checked')

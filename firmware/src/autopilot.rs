@@ -30,7 +30,10 @@ pub use onboard::OWN_READING;
 mod output;
 mod swing;
 
-pub use arming::STICK_CENTRED;
+/// Largest stick deflection that counts as centred (fraction of full scale), when arming in a
+/// stick mode (ArduSub refuses to arm with the throttle off neutral, `AP_Arming_Sub`) and for
+/// the stick gate.
+pub const STICK_CENTRED: f32 = 0.05;
 pub use ident::{IdentAbort, IdentFlight, IdentOutcome, IDENT_DURATION_S};
 pub use mission::{
     MAX_MISSION_DEPTH_M, MAX_MISSION_RANGE_M, MAX_MISSION_SPEED_M_S, MISSION_TURN_RADIUS_M,

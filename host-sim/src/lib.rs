@@ -15,14 +15,12 @@
 //!   QEMU, a board), the tether log.
 //! - [`served`]: the simulator serves a vehicle (SITL): the plant, the sensors and the
 //!   firmware library's `App` in real time, its tether on a TCP port (`host-sim vehicle`).
-//! - [`identify`]: a vehicle's model fitted from a recorded run (`host-sim identify`).
 //! - [`commands`]: one file per command of the command line.
 
 pub mod checks;
 pub mod clock;
 pub mod closed_loop;
 pub mod commands;
-pub mod identify;
 pub mod output;
 pub mod scenario;
 pub mod served;

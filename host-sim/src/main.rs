@@ -7,7 +7,6 @@
 //! host-sim list
 //! host-sim monte-carlo <scenario> --runs N [--seed S] [--perturb FRACTION] [--out DIR]
 //! host-sim hil <scenario> [--qemu ELF | --serial DEVICE --baud N | --tcp HOST:PORT]
-//! host-sim topside --sim SCENARIO --emulated | --sim TOPSIDE-LAYOUT-SCENARIO [rov-topside's options]
 //! host-sim vehicle <scenario> --listen tcp:HOST:PORT [--speedup N] [--duration S] [--out DIR]
 //! ```
 //! Each command lives in its own file under `host_sim::commands` (`commands/<name>.rs`, its
@@ -54,11 +53,7 @@ enum Command {
     CurrentSweep(commands::current_sweep::CurrentSweepArgs),
     /// Hardware in the loop: the firmware (QEMU or a board) closes the loop, lock-step.
     Hil(commands::hil::HilArgs),
-    /// The surface program (rov-topside's) in front of a vehicle flown in lock-step here: the
-    /// firmware image in QEMU (`--emulated`) or a topside-layout scenario. Other vehicles:
-    /// `host-sim vehicle` and `rov-topside --tcp`.
-    Topside(commands::topside_sim::TopsideSimArgs),
-    /// Serve a simulated vehicle's tether on a TCP port, in real time (SITL): for `topside
+    /// Serve a simulated vehicle's tether on a TCP port, in real time (SITL): for `rov-topside
     /// --tcp HOST:PORT`
     Vehicle(commands::vehicle::VehicleArgs),
     /// Draw the figures of a run from a recorded dive (.tlog)
@@ -100,7 +95,6 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
         Some(Command::Merge(a)) => done(commands::merge::main(a)),
         Some(Command::CurrentSweep(a)) => done(commands::current_sweep::main(a)),
         Some(Command::Hil(a)) => commands::hil::main(a).map(|o| run_code(&o.run)),
-        Some(Command::Topside(a)) => done(commands::topside_sim::main(a)),
         Some(Command::Vehicle(a)) => commands::vehicle::main(a),
         Some(Command::Replay(a)) => done(commands::replay::main(a)),
         Some(Command::Identify(a)) => done(commands::identify::main(a)),

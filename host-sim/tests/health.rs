@@ -33,7 +33,8 @@ use host_sim::closed_loop::navigation::to_nav;
 use host_sim::scenario::health::{HealthSpec, SurfaceEndSpec};
 use host_sim::tether::in_process::InProcessFirmware;
 use host_sim::world::battery::BatterySpec;
-use host_sim::world::plant::{six_dof_factory, Environment, Plant, PlantState};
+use host_sim::world::plant::six_dof::SixDof;
+use host_sim::world::plant::{Environment, Plant, PlantState};
 
 /// Control period of the lock-step loop, s.
 const DT_S: f64 = 0.02;
@@ -63,13 +64,12 @@ impl Rig {
             eta: [0.0, 0.0, depth_m, 0.0, 0.0, 0.0],
             nu: [0.0; 6],
         };
-        let mut plant = six_dof_factory(
+        let mut plant = Box::new(SixDof::new(
             &VehicleParams::default(),
             Environment::default(),
             true,
             initial,
-        )
-        .unwrap();
+        ));
         plant.set_bounds(true, None);
         let mut rig = Self {
             fw,

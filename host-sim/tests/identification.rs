@@ -2,7 +2,7 @@
 //! tether's frames, `host-sim hil --in-process`) on simulated vehicles that differ from the
 //! Observer by 30-50 % (`vehicles/heavy-slow.toml`, `vehicles/light.toml`), the firmware
 //! flying with the Observer's file on the full sensor suite; the run's `timeseries.csv`
-//! fitted by `host_sim::identify` with the velocities given the instruments' noise (the CSV
+//! fitted by the `identify` crate with the velocities given the instruments' noise (the CSV
 //! holds the plant's true velocities: the DVL's 1 cm/s and the gyro's noise are added to
 //! them).
 
@@ -10,11 +10,11 @@ use controller_core::params::VehicleParams;
 use firmware::autopilot::IDENT_DURATION_S;
 use host_sim::commands::hil::{run_hil, HilOptions, HilTarget};
 use host_sim::commands::identify::read_log;
-use host_sim::identify::fit::MODEL_NAMES;
-use host_sim::identify::{identify, Anchor, Outcome, Record};
 use host_sim::output::write_csv;
 use host_sim::scenario::{vehicle, IdentificationSpec, Scenario};
 use host_sim::world::noise::gauss;
+use identify::fit::MODEL_NAMES;
+use identify::{identify, Anchor, Outcome, Record};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::io::Write;

@@ -1,10 +1,9 @@
-//! `host-sim topside` with a scenario of the topside layout (`[deployment] control =
-//! "topside"`): the simulated vehicle is the topside MCU's App with its node behind
-//! the node link (`TopsideLayout` in the scenario's closed loop), flown from a MAVLink ground
-//! station (the `mavlink` crate) as any vehicle; the same flight of the onboard layout is
-//! the comparison. With `--emulated` the two images (`topside-emu`, `node-emu`) fly in QEMU
-//! (SKIPPED without QEMU or the thumbv7em target); `--qemu ELF` names one image and is refused
-//! with the reason, creating nothing.
+//! A scenario of the topside layout (`[deployment] control = "topside"`) served by `host-sim
+//! vehicle` (the topside MCU's App with its node behind the node link) and flown through
+//! `rov-topside --tcp` from a MAVLink ground station (the `mavlink` crate), as any vehicle; the
+//! same flight of the onboard layout is the comparison. With `--qemu` the two images
+//! (`topside-emu`, `node-emu`) are served in QEMU (SKIPPED without QEMU or the thumbv7em
+//! target).
 
 use mavlink::dialects::ardupilotmega::{
     MavCmd, MavFrame, MavMessage, MavModeFlag, MavResult, PositionTargetTypemask,
@@ -12,21 +11,13 @@ use mavlink::dialects::ardupilotmega::{
 };
 use mavlink::{MavConnection, MavHeader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Output};
 use std::time::{Duration, Instant};
 
+// This file uses the scratch folders only.
+#[allow(dead_code)]
 mod common;
 mod gcs;
-use common::host_sim;
-use gcs::{exits_at_duration, free_udp_port, stop, topside_lockstep};
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
+use gcs::{dive, free_udp_port, stop, Dive};
 
 /// The built-in `nav-circle-3d` (the estimator on the full sensor suite: IMU, depth,
 /// compass, DVL, USBL) as a scenario file in `dir`, with `extra` appended (its `[expect]`
@@ -42,38 +33,10 @@ fn scenario(dir: &Path, name: &str, extra: &str) -> PathBuf {
 
 const TOPSIDE: &str = "[deployment]\ncontrol = \"topside\"\n";
 
-#[test]
-fn a_topside_layout_scenario_with_one_qemu_image_is_refused_and_creates_nothing() {
-    let dir = common::scratch("topside-layout", "qemu-elf");
-    let sc = scenario(&dir, "layout", TOPSIDE);
-    let o = host_sim(
-        &dir,
-        &[
-            "topside",
-            "--sim",
-            sc.to_str().unwrap(),
-            "--emulated",
-            "--qemu",
-            "some.elf",
-            "--mavlink",
-            "udpout:127.0.0.1:9",
-            "--duration",
-            "1",
-        ],
-    );
-    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
-    let t = text(&o);
-    assert!(
-        t.contains("deployment.control = \"topside\" with --qemu ELF"),
-        "{t}"
-    );
-    assert!(!dir.join("out").exists(), "a refusal creates no log");
-}
-
-/// `host-sim topside --sim LAYOUT --emulated`: the two emulated images behind the topside
-/// program. The ground station hears the vehicle (HEARTBEAT), its simulated time advances
-/// (LOCAL_POSITION_NED), the node is healthy (SYS_STATUS), and the topside exits 0 at
-/// `--duration`. The images run on the host's clock, several times slower than real time
+/// `host-sim vehicle LAYOUT --qemu`: the two emulated images behind the topside program. The
+/// ground station hears the vehicle (HEARTBEAT), its simulated time advances
+/// (LOCAL_POSITION_NED), the node is healthy (SYS_STATUS), and the served vehicle exits 0 at
+/// its `--duration`. The images run on the host's clock, several times slower than real time
 /// on a loaded 2-core machine, so the flight is short.
 #[test]
 fn the_topside_program_runs_the_emulated_topside_layout() {
@@ -83,12 +46,12 @@ fn the_topside_program_runs_the_emulated_topside_layout() {
     let dir = common::scratch("topside-layout", "emulated");
     let sc = scenario(&dir, "layout", TOPSIDE);
     let port = free_udp_port();
-    let topside: Child = topside_lockstep(
+    let flight = dive(
         &sc,
         port,
         &dir.join("emulated.tlog"),
         &dir.join("params.json"),
-        &["--duration", "2", "--emulated"],
+        &["--qemu", "--vehicle-duration", "2"],
     );
     let gcs = Station(mavlink::connect::<MavMessage>(&format!("udpin:127.0.0.1:{port}")).unwrap());
     let heartbeat = gcs.wait(Duration::from_secs(120), |m| match m {
@@ -110,7 +73,49 @@ fn the_topside_program_runs_the_emulated_topside_layout() {
         })
         .expect("the emulated layout's time did not reach 1 s");
     println!("emulated topside layout: LOCAL_POSITION_NED at {t_s:.2} s");
-    exits_at_duration(topside, Duration::from_secs(600));
+    vehicle_ends(flight, Duration::from_secs(600));
+}
+
+/// Wait up to `timeout` for the served vehicle to stop at its `--duration` and exit 0, then
+/// stop the surface; past the timeout the dive is stopped and the test fails. Returns the
+/// vehicle's truth log.
+fn vehicle_ends(mut d: Dive, timeout: Duration) -> PathBuf {
+    let end = Instant::now() + timeout;
+    let status = loop {
+        if let Some(s) = d.vehicle.try_wait().unwrap() {
+            break s;
+        }
+        if Instant::now() > end {
+            stop(d);
+            panic!("the served vehicle did not stop at its --duration within {timeout:?}");
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    let truth = d.truth();
+    stop(d);
+    assert!(status.success(), "served vehicle exit {status:?}");
+    truth
+}
+
+/// A truth log's column names and its complete rows (a text column reads as NaN).
+fn truth_rows(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let cols: Vec<String> = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .map(str::to_string)
+        .collect();
+    let rows = lines
+        .map(|l| {
+            l.split(',')
+                .map(|v| v.parse().unwrap_or(f64::NAN))
+                .collect::<Vec<f64>>()
+        })
+        .filter(|r| r.len() == cols.len())
+        .collect();
+    (cols, rows)
 }
 
 /// The ground station's end: `udpin` on the port the topside sends to.
@@ -193,33 +198,26 @@ struct Flight {
 /// estimate ready: before that it refuses with `NavNotReady`; the scenario's launch point is
 /// told to the estimator, so it is ready at once here), arm, GUIDED, the target; then score
 /// the truth log.
-fn fly(scenario: &Path, dir: &Path, layout: bool) -> Flight {
+fn fly(scenario: &Path, dir: &Path) -> Flight {
     let port = free_udp_port();
-    // The topside layout in lock-step behind `host-sim topside --sim`; the onboard layout
-    // served by `host-sim vehicle` behind `rov-topside --tcp`, the path of a real dive.
-    let flight = if layout {
-        gcs::Flight::Lockstep(topside_lockstep(
-            scenario,
-            port,
-            &dir.join("fly.tlog"),
-            &dir.join("params.json"),
-            &["--duration", &FLIGHT_S.to_string(), "--speedup", "10"],
-        ))
-    } else {
-        gcs::Flight::Dive(gcs::dive(
-            scenario,
-            port,
-            &dir.join("fly.tlog"),
-            &dir.join("params.json"),
-            &[
-                "--vehicle-duration",
-                &FLIGHT_S.to_string(),
-                "--speedup",
-                "8",
-                "--start-nav",
-            ],
-        ))
-    };
+    // Both layouts served by `host-sim vehicle` behind `rov-topside --tcp`, the path of a
+    // real dive.
+    let flight = dive(
+        scenario,
+        port,
+        &dir.join("fly.tlog"),
+        &dir.join("params.json"),
+        &[
+            "--vehicle-duration",
+            &FLIGHT_S.to_string(),
+            // 2x: the vehicle's link failsafe disarms it after 1 s of its time without the
+            // surface's heartbeat, 0.5 s of wall time; at 4x a loaded machine stalled the
+            // surface for 0.33 s (both ways in its tether log) and the vehicle disarmed.
+            "--speedup",
+            "2",
+            "--start-nav",
+        ],
+    );
     let gcs = Station(mavlink::connect::<MavMessage>(&format!("udpin:127.0.0.1:{port}")).unwrap());
     let sim_s = |gcs: &Station| {
         gcs.wait(Duration::from_secs(20), |m| match m {
@@ -264,53 +262,21 @@ fn fly(scenario: &Path, dir: &Path, layout: bool) -> Flight {
             ..Default::default()
         },
     ));
-    // The flight ends at its duration: the lock-step surface's, or the served vehicle's.
-    let truth = match flight {
-        gcs::Flight::Lockstep(topside) => {
-            exits_at_duration(topside, Duration::from_secs(120));
-            std::fs::read_dir(dir)
-                .unwrap()
-                .map(|e| e.unwrap().path())
-                .find(|p| p.to_string_lossy().ends_with(".truth.csv"))
-                .expect("the topside's truth log")
-        }
-        gcs::Flight::Dive(mut d) => {
-            let end = std::time::Instant::now() + Duration::from_secs(120);
-            while d.vehicle.try_wait().unwrap().is_none() {
-                assert!(
-                    std::time::Instant::now() < end,
-                    "the served vehicle did not stop"
-                );
-                std::thread::sleep(Duration::from_millis(100));
-            }
-            let truth = d.truth();
-            stop(d);
-            truth
-        }
-    };
+    // The flight ends at the served vehicle's duration.
+    let truth = vehicle_ends(flight, Duration::from_secs(300));
     // Both truth logs by their columns' names.
-    let text = std::fs::read_to_string(truth).unwrap();
-    let mut lines = text.lines();
-    let cols: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let c = |name: &str| cols.iter().position(|x| *x == name).unwrap();
+    let (cols, rows) = truth_rows(&truth);
+    let c = |name: &str| cols.iter().position(|x| x == name).unwrap();
     let (t, armed) = (c("t_s"), c("armed"));
     let (x, nx) = (
         [c("x_m"), c("y_m"), c("z_m")],
         [c("nav_x_m"), c("nav_y_m"), c("nav_z_m")],
     );
-    let rows: Vec<Vec<f64>> = lines
-        .map(|l| {
-            l.split(',')
-                .map(|v| v.parse().unwrap_or(f64::NAN))
-                .collect::<Vec<f64>>()
-        })
-        .filter(|r| r.len() == cols.len())
-        .collect();
     let last_s = rows.last().unwrap()[t];
     assert!(last_s > FLIGHT_S - 0.1, "the truth log ends at {last_s} s");
     let (mut sq, mut max, mut est, mut n) = (0.0, 0.0f64, 0.0, 0usize);
     for r in rows.iter().filter(|r| r[t] >= last_s - SCORED_S) {
-        assert_eq!(r[armed], 1.0, "armed at {} s", r[t]);
+        assert_eq!(r[armed], 1.0, "{}: armed at {} s", dir.display(), r[t]);
         let d2: f64 = (0..3).map(|k| (r[x[k]] - TARGET_M[k]).powi(2)).sum();
         sq += d2;
         max = max.max(d2.sqrt());
@@ -325,8 +291,7 @@ fn fly(scenario: &Path, dir: &Path, layout: bool) -> Flight {
     }
 }
 
-/// `host-sim topside --sim` of a topside-layout scenario is flown from a
-/// ground station like any vehicle: the position modes wait for the topside's estimate, the
+/// A served topside-layout scenario is flown from a ground station like any vehicle: the position modes wait for the topside's estimate, the
 /// vehicle is armed, goes to a GUIDED target and holds it. Its true position over the last
 /// 20 s is held against the target, and against the same flight of the onboard layout.
 #[test]
@@ -336,8 +301,8 @@ fn a_ground_station_flies_the_topside_layout_to_a_guided_target() {
     let onboard_dir = dir.join("onboard");
     std::fs::create_dir_all(&layout_dir).unwrap();
     std::fs::create_dir_all(&onboard_dir).unwrap();
-    let layout = fly(&scenario(&dir, "layout", TOPSIDE), &layout_dir, true);
-    let onboard = fly(&scenario(&dir, "onboard", ""), &onboard_dir, false);
+    let layout = fly(&scenario(&dir, "layout", TOPSIDE), &layout_dir);
+    let onboard = fly(&scenario(&dir, "onboard", ""), &onboard_dir);
     for (name, f) in [("topside layout", &layout), ("onboard layout", &onboard)] {
         println!(
             "{name}: POSHOLD accepted at {:.1} s; true distance to the target over the last \
@@ -372,12 +337,13 @@ fn a_pilot_drives_the_topside_layout_in_manual() {
     let dir = common::scratch("topside-layout", "manual");
     let sc = scenario(&dir, "layout", TOPSIDE);
     let port = free_udp_port();
-    let topside = topside_lockstep(
+    let flight = dive(
         &sc,
         port,
         &dir.join("manual.tlog"),
         &dir.join("params.json"),
-        &["--duration", "60", "--speedup", "2"],
+        // The layout starts its estimator at the launch point, as the vehicle is configured.
+        &["--speedup", "2", "--start-nav"],
     );
     let gcs = Station(mavlink::connect::<MavMessage>(&format!("udpin:127.0.0.1:{port}")).unwrap());
     let started = gcs.wait(Duration::from_secs(20), |m| {
@@ -445,7 +411,8 @@ fn a_pilot_drives_the_topside_layout_in_manual() {
         }
         _ => None,
     });
-    stop(topside);
+    let truth = flight.truth();
+    stop(flight);
     println!(
         "SERVO_OUTPUT_RAW: {ahead} of {samples} samples with both horizontal pulses > 1550 us"
     );
@@ -458,18 +425,9 @@ fn a_pilot_drives_the_topside_layout_in_manual() {
         stale.as_deref(),
         Some("Failsafe: pilot input lost: thrusters neutral")
     );
-    let truth = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .find(|p| p.to_string_lossy().ends_with(".truth.csv"))
-        .expect("the topside's truth log");
-    let rows: Vec<Vec<f64>> = std::fs::read_to_string(truth)
-        .unwrap()
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
-        .collect();
-    let moved_m = rows.last().unwrap()[1] - rows[0][1];
+    let (cols, rows) = truth_rows(&truth);
+    let x = cols.iter().position(|c| c == "x_m").unwrap();
+    let moved_m = rows.last().unwrap()[x] - rows[0][x];
     println!("moved {moved_m:.2} m north");
     assert!(moved_m > 0.2, "the vehicle moved {moved_m:.3} m ahead");
 }
@@ -489,12 +447,13 @@ fn the_ground_station_sees_the_node_link_cut_within_250_ms() {
         &format!("{TOPSIDE}tether_cut_s = {cut_s}\n"),
     );
     let port = free_udp_port();
-    let topside = topside_lockstep(
+    let flight = dive(
         &sc,
         port,
         &dir.join("cut.tlog"),
         &dir.join("params.json"),
-        &["--duration", "9", "--speedup", "2"],
+        // The layout starts its estimator at the launch point, as the vehicle is configured.
+        &["--speedup", "2", "--start-nav"],
     );
     let gcs = Station(mavlink::connect::<MavMessage>(&format!("udpin:127.0.0.1:{port}")).unwrap());
     let node = S::MAV_SYS_STATUS_SENSOR_3D_GYRO
@@ -529,7 +488,7 @@ fn the_ground_station_sees_the_node_link_cut_within_250_ms() {
             _ => {}
         }
     }
-    stop(topside);
+    stop(flight);
     // The state messages come every 0.1 s and the `STATUSTEXT` before the next one: the
     // loss was told after `shown` and at most 0.1 s later.
     let shown = shown.expect("no \"Failsafe: node link lost\" after the cut");

@@ -2,15 +2,10 @@
 //! change of mode clear, and when the pilot's sticks may produce thrust.
 
 use super::mission::MISSION_TURN_RADIUS_M;
-use super::Autopilot;
+use super::{Autopilot, STICK_CENTRED};
 use crate::protocol::{ManualThrust, Mode, NackReason};
 use controller_core::reference::mission::MissionPath;
 use controller_core::reference::Reference;
-
-/// Largest stick deflection that counts as centred (fraction of full scale), when arming in a
-/// stick mode (ArduSub refuses to arm with the throttle off neutral, `AP_Arming_Sub`) and for
-/// the stick gate.
-pub const STICK_CENTRED: f32 = 0.05;
 
 /// Every stick within [`STICK_CENTRED`] of centre.
 fn centred(m: &ManualThrust) -> bool {

@@ -1,13 +1,14 @@
 //! The controller end of the loop ([`ControllerEndpoint`]) and the core in process
 //! ([`CoreEndpoint`]).
 
-use crate::scenario::RunSetup;
+use crate::scenario::setup::RunSetup;
 use crate::world::sensors::Measurement;
 use anyhow::{anyhow, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::controller::{ControlMode, Controller, Gains};
 use controller_core::reference::RefSample;
 use controller_core::state::{BodyForces, NavState, TrackingErrors};
+use protocol::{fault, Telemetry};
 
 /// What the controller end answered for one control tick.
 #[derive(Debug, Clone, Copy, Default)]
@@ -30,6 +31,27 @@ pub struct StepReply {
     /// The state the controller estimated itself (an on-board estimator), with the standard
     /// deviation of its position; the loop then logs and scores it instead of the stage's.
     pub estimate: Option<(NavState, [f64; 3])>,
+}
+
+impl StepReply {
+    /// A firmware's answer from its step's telemetry: `applied_n` the thrust the plant gets;
+    /// `position_std_m` with an on-board estimator (its estimate is then the telemetry's).
+    pub fn from_telemetry(
+        tel: &Telemetry,
+        applied_n: [f64; 3],
+        position_std_m: Option<[f64; 3]>,
+    ) -> Self {
+        StepReply {
+            requested: tel.requested,
+            achieved: tel.achieved,
+            thrust_cmd_n: tel.thrust_n,
+            applied_n,
+            pulse_us: tel.pulse_us.map(f64::from),
+            errors: tel.errors,
+            saturated: tel.faults & fault::SATURATED != 0,
+            estimate: position_std_m.map(|s| (tel.nav, s)),
+        }
+    }
 }
 
 /// The controller end of the loop: the core in process, the firmware library's `App` in

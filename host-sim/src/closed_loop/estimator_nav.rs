@@ -10,8 +10,10 @@
 
 use crate::clock::us;
 use crate::closed_loop::floor::{FloorNoise, FloorRecorder};
-use crate::closed_loop::{to_nav, FixRecord, NavReport, Navigation, TruthNav};
-use crate::scenario::{RunSetup, Scenario};
+use crate::closed_loop::navigation::{to_nav, FixRecord, Navigation, TruthNav};
+use crate::closed_loop::report::NavReport;
+use crate::scenario::setup::RunSetup;
+use crate::scenario::Scenario;
 use crate::world::plant::PlantState;
 use crate::world::sensor_sim::SensorSuite;
 use crate::world::sensors::{Measurement, NavSource, SensorsSpec};

@@ -2,7 +2,8 @@
 //! the truth path ([`TruthNav`]: the plant state `delay_s` ago with Gaussian noise).
 
 use super::report::NavReport;
-use crate::scenario::{NoiseStd, RunSetup};
+use crate::scenario::setup::RunSetup;
+use crate::scenario::NoiseStd;
 use crate::world::noise::gauss;
 use crate::world::plant::PlantState;
 use crate::world::sensors::Measurement;

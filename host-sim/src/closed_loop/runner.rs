@@ -10,7 +10,7 @@
 use crate::closed_loop::estimator_nav::navigation_for;
 use crate::closed_loop::{run_closed_loop, CoreEndpoint};
 use crate::scenario::deployment::Control;
-use crate::scenario::RunSetup;
+use crate::scenario::setup::RunSetup;
 use anyhow::{bail, Result};
 
 pub use crate::closed_loop::{

@@ -34,9 +34,10 @@ use super::navigation::FixRecord;
 use super::navigation::Navigation;
 use super::report::{judge, meets_tracking_figures, missed_rule, ratio, verdict, Rule, Summary};
 use super::rules::{divergence, lost_control, DiagonalNees, EndFigures, IdentRoom, Turns};
-use crate::scenario::{ExpectSpec, Plane, RunSetup, Scenario, MAX_CONTROL_TICKS};
+use crate::scenario::setup::RunSetup;
+use crate::scenario::{ExpectSpec, Plane, Scenario, MAX_CONTROL_TICKS};
 use crate::world::frames::body_to_inertial;
-use crate::world::plant::six_dof_factory;
+use crate::world::plant::six_dof::SixDof;
 use crate::world::plant::water::WaterSpec;
 use crate::world::plant::xy::XyPlant;
 use crate::world::plant::xz::XzPlant;
@@ -129,7 +130,7 @@ pub fn make_plant(
     Ok(match plane {
         Plane::Xz => Box::new(XzPlant::new(params, env, saturate, initial)),
         Plane::Xy => Box::new(XyPlant::new(params, env, saturate, initial)),
-        Plane::ThreeD => six_dof_factory(params, env, saturate, initial)?,
+        Plane::ThreeD => Box::new(SixDof::new(params, env, saturate, initial)),
     })
 }
 

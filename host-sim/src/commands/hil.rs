@@ -5,7 +5,8 @@
 use crate::closed_loop::{run_closed_loop, RunOptions};
 use crate::output::write_run;
 use crate::scenario::deployment::Control;
-use crate::scenario::{RunSetup, Scenario};
+use crate::scenario::setup::RunSetup;
+use crate::scenario::Scenario;
 pub use crate::tether::endpoint::{
     HilOptions, HilOutput, HilReport, HilTarget, TelemetryRow, TetherEndpoint,
     DEFAULT_NAV_READY_LIMIT_S, MAX_REPLY_WAIT,

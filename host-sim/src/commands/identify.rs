@@ -5,9 +5,9 @@
 //! docs/identification.md describes the manoeuvre, the fit and the anchor.
 
 use crate::checks::refused;
-use crate::identify::{self, fit::MODEL_NAMES, tether_record, Anchor, Record};
 use crate::scenario::vehicle;
 use anyhow::{anyhow, bail, Context, Result};
+use identify::{fit::MODEL_NAMES, tether_record, Anchor, Record};
 use std::path::{Path, PathBuf};
 
 /// `host-sim identify` options.
@@ -51,7 +51,12 @@ pub fn read_log(log: &Path) -> Result<Record> {
         .get(..n)
         .is_some_and(|h| h.starts_with(topside::tether_log::MAGIC))
     {
-        let t = tether_record::from_tether_log(&path)?;
+        let frames = topside::tether_log::decode(&topside::tether_log::read(&path)?);
+        let telemetry = frames.replies.iter().filter_map(|(_, _, r)| match r {
+            protocol::Reply::Telemetry(t) => Some(t),
+            _ => None,
+        });
+        let t = tether_record::from_telemetry(telemetry, frames.dropped, &path)?;
         println!(
             "{}: the vehicle's telemetry, {} samples ({} lost frames filled, {} undecodable \
              frames in the log)",
@@ -107,7 +112,7 @@ pub fn main(a: IdentifyArgs) -> Result<()> {
             .map_or_else(|| "vehicle".into(), |s| s.to_string_lossy().into_owned());
         a.out.with_file_name(format!("{stem}-validation.png"))
     });
-    identify::validate::plot(&plot, &out.validation, &out.prior_validation)?;
+    crate::output::identify_plot::plot(&plot, &out.validation, &out.prior_validation)?;
     let id = &out.identified;
     println!("identified from {source} ({} samples):", rec.samples.len());
     for (((name, unit), v), (lo, hi)) in MODEL_NAMES

@@ -21,7 +21,6 @@ pub mod merge;
 pub mod monte_carlo;
 pub mod replay;
 pub mod run;
-pub mod topside_sim;
 pub mod vehicle;
 
 /// Exit code of an input refused before any work (see the module's table).

@@ -18,7 +18,8 @@
 //! Kubernetes indexed Job).
 
 use crate::closed_loop::runner::{run, RunOptions};
-use crate::scenario::{Plane, RunSetup, Scenario};
+use crate::scenario::setup::RunSetup;
+use crate::scenario::{Plane, Scenario};
 use anyhow::{Context, Result};
 use controller_core::params::VehicleParams;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};

@@ -7,7 +7,8 @@
 
 use crate::checks::refused;
 use crate::scenario::deployment::Control;
-use crate::scenario::{RunSetup, Scenario};
+use crate::scenario::setup::RunSetup;
+use crate::scenario::Scenario;
 use crate::served::endpoint::ServedEndpoint;
 use crate::served::image::ServedImage;
 use crate::served::layout::ServedLayout;

@@ -1,5 +1,6 @@
 //! Run outputs: `summary.json` and `timeseries.csv`.
 
+pub mod identify_plot;
 pub mod plots;
 
 use crate::closed_loop::{RunOutput, Sample};

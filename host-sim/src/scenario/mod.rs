@@ -9,14 +9,13 @@ mod expect;
 pub mod health;
 pub mod identification;
 mod reference;
-mod setup;
+pub mod setup;
 pub use topside::vehicle_file as vehicle;
 
 pub use built_in::{BuiltIn, BUILT_IN};
 pub use expect::ExpectSpec;
 pub use identification::IdentificationSpec;
 pub use reference::ReferenceSpec;
-pub use setup::RunSetup;
 
 use crate::checks::{fin, nonneg, pos, vec3};
 pub use crate::world::sensors::{NavSource, NavigationSpec, SensorsSpec};
@@ -443,13 +442,6 @@ impl Scenario {
         Ok(s)
     }
 
-    /// A built-in by name, or a `.toml` file by path, resolved for a run: the one check of
-    /// the run ([`Self::resolve`]), its refusals as [`Self::load`]'s.
-    pub fn load_setup(name_or_path: &str) -> Result<RunSetup> {
-        let (s, origin) = Self::read(name_or_path)?;
-        s.resolve().with_context(|| format!("scenario {origin}"))
-    }
-
     /// A built-in by name, or a `.toml` file by path, parsed (not checked), with the name of
     /// its source for the messages.
     fn read(name_or_path: &str) -> Result<(Self, String)> {
@@ -493,14 +485,6 @@ impl Scenario {
     /// Check every value; the error names the key.
     pub fn validate(&self) -> Result<()> {
         self.check().map(|_| ())
-    }
-
-    /// Check every value ([`Self::validate`]) and resolve the scenario into what a run needs
-    /// (vehicle models, the core's reference and mode, the initial state): the one check of a
-    /// run; the loop, the navigation stages and the endpoints take the [`RunSetup`].
-    pub fn resolve(&self) -> Result<RunSetup> {
-        let (mode, reference) = self.check()?;
-        RunSetup::new(self.clone(), mode, reference)
     }
 
     /// Every check of [`Self::validate`]; what they resolved: the control mode and the

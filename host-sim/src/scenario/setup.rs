@@ -6,7 +6,7 @@
 
 use super::Scenario;
 use crate::world::plant::PlantState;
-use anyhow::{anyhow, Result};
+use anyhow::{anyhow, Context, Result};
 use controller_core::controller::ControlMode;
 use controller_core::params::Vehicle;
 use controller_core::reference::Reference;
@@ -24,10 +24,27 @@ pub struct RunSetup {
     initial: PlantState,
 }
 
+impl Scenario {
+    /// A built-in by name, or a `.toml` file by path, resolved for a run: the one check of
+    /// the run ([`Self::resolve`]), its refusals as [`Scenario::load`]'s.
+    pub fn load_setup(name_or_path: &str) -> Result<RunSetup> {
+        let (s, origin) = Self::read(name_or_path)?;
+        s.resolve().with_context(|| format!("scenario {origin}"))
+    }
+
+    /// Check every value ([`Self::validate`]) and resolve the scenario into what a run needs
+    /// (vehicle models, the core's reference and mode, the initial state): the one check of a
+    /// run; the loop, the navigation stages and the endpoints take the [`RunSetup`].
+    pub fn resolve(&self) -> Result<RunSetup> {
+        let (mode, reference) = self.check()?;
+        RunSetup::new(self.clone(), mode, reference)
+    }
+}
+
 impl RunSetup {
     /// Resolve a scenario whose own keys were checked (`mode` and `reference` are what that
     /// check resolved): the vehicle models are resolved here.
-    pub(super) fn new(scenario: Scenario, mode: ControlMode, reference: Reference) -> Result<Self> {
+    fn new(scenario: Scenario, mode: ControlMode, reference: Reference) -> Result<Self> {
         // The controller's model: with `saturate = false` (the paper's setting) unlimited
         // thrusters (1 MN), so the allocation passes the request through.
         let mut p = scenario.vehicle_params;

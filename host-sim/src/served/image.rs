@@ -24,7 +24,7 @@ use super::endpoint::{Believed, ServedEndpoint};
 use crate::clock::us;
 use crate::closed_loop::estimator_nav::onboard_config;
 use crate::closed_loop::{ControllerEndpoint, StepReply};
-use crate::scenario::RunSetup;
+use crate::scenario::setup::RunSetup;
 use crate::tether::qemu::{start_qemu_serials, QemuChild};
 use crate::world::sensors::{Measurement, NavSource};
 use anyhow::{anyhow, bail, Context, Result};
@@ -32,7 +32,7 @@ use controller_core::alloc::PwmMap;
 use controller_core::nav::onboard::OnboardConfig;
 use controller_core::reference::RefSample;
 use controller_core::state::NavState;
-use firmware::protocol::{fault, Command, Decoded, FrameDecoder, NavSample, Reply, Telemetry};
+use firmware::protocol::{Command, Decoded, FrameDecoder, NavSample, Reply, Telemetry};
 use std::io::{ErrorKind, Read, Write};
 use std::net::TcpStream;
 use std::path::Path;
@@ -262,16 +262,8 @@ impl ControllerEndpoint for ServedImage {
         let applied = tel
             .pulse_us
             .map(|p| f64::from(self.pwm.thrust_n(f32::from(p))));
-        Ok(StepReply {
-            requested: tel.requested,
-            achieved: tel.achieved,
-            thrust_cmd_n: tel.thrust_n,
-            applied_n: applied,
-            pulse_us: tel.pulse_us.map(f64::from),
-            errors: tel.errors,
-            saturated: tel.faults & fault::SATURATED != 0,
-            estimate: (!self.truth_nav).then(|| (tel.nav, tel.nav_pos_std_m.map(f64::from))),
-        })
+        let std_m = (!self.truth_nav).then(|| tel.nav_pos_std_m.map(f64::from));
+        Ok(StepReply::from_telemetry(&tel, applied, std_m))
     }
 
     /// The estimator's readings as the commands `host-sim hil` sends the image (a depth as

@@ -13,7 +13,7 @@
 use super::bridge::TetherBridge;
 use super::endpoint::{Believed, ServedEndpoint};
 use crate::closed_loop::{ControllerEndpoint, StepReply};
-use crate::scenario::RunSetup;
+use crate::scenario::setup::RunSetup;
 use crate::tether::topside_layout::{ExternalPc, LayoutTarget, TopsideLayout};
 use crate::world::sensors::Measurement;
 use anyhow::Result;

@@ -18,7 +18,7 @@
 use super::endpoint::ServedEndpoint;
 use crate::closed_loop::estimator_nav::navigation_for_vehicle;
 use crate::closed_loop::{ClosedLoop, Navigation, RunOptions};
-use crate::scenario::RunSetup;
+use crate::scenario::setup::RunSetup;
 use anyhow::{bail, Context, Result};
 use std::fs::File;
 use std::io::{BufWriter, ErrorKind, Read, Write};

@@ -15,7 +15,7 @@ use super::endpoint::{Believed, ServedEndpoint};
 use crate::clock::us;
 use crate::closed_loop::estimator_nav::onboard_config;
 use crate::closed_loop::{ControllerEndpoint, StepReply};
-use crate::scenario::RunSetup;
+use crate::scenario::setup::RunSetup;
 use crate::tether::in_process::{SimPwm, SimSerial};
 use crate::world::battery::{HealthWire, VehicleElectrics};
 use crate::world::sensors::{Measurement, NavSource};
@@ -25,7 +25,7 @@ use controller_core::controller::{Controller, Gains};
 use controller_core::nav::{DvlFix, ImuSample};
 use controller_core::reference::RefSample;
 use controller_core::state::NavState;
-use firmware::protocol::{fault, Board, Command, NavSample};
+use firmware::protocol::{Board, Command, NavSample};
 use firmware::{App, Config, Monotonic, Sensors, Timing};
 use std::cell::{Cell, RefCell};
 use std::collections::VecDeque;
@@ -275,21 +275,12 @@ impl ControllerEndpoint for ServedVehicle {
         let applied = tel
             .pulse_us
             .map(|p| f64::from(self.pwm.thrust_n(f32::from(p))));
-        let estimate = self
+        let std_m = self
             .app
             .autopilot()
             .onboard_nav()
-            .map(|o| (tel.nav, o.position_std_m().map(f64::from)));
-        Ok(StepReply {
-            requested: tel.requested,
-            achieved: tel.achieved,
-            thrust_cmd_n: tel.thrust_n,
-            applied_n: applied,
-            pulse_us: tel.pulse_us.map(f64::from),
-            errors: tel.errors,
-            saturated: tel.faults & fault::SATURATED != 0,
-            estimate,
-        })
+            .map(|o| o.position_std_m().map(f64::from));
+        Ok(StepReply::from_telemetry(&tel, applied, std_m))
     }
 
     /// IMU, depth and DVL to the vehicle's own sensors (available from their time stamps);

@@ -32,8 +32,8 @@
 
 use crate::clock::us;
 use crate::closed_loop::{ratio, ControllerEndpoint, StepReply};
-use crate::scenario::RunSetup;
-use crate::tether::link::{Endpoint, HostLinkStats, Link, Noise, NoiseSpec};
+use crate::scenario::setup::RunSetup;
+use crate::tether::link::{Endpoint, Link, Noise, NoiseSpec};
 pub use crate::tether::report::{HilOutput, HilReport, TelemetryRow};
 use crate::world::sensors::NavSource;
 use crate::world::sensors::{DvlWire, Measurement};
@@ -284,22 +284,6 @@ impl TetherEndpoint {
         self.dvl_wire = Some(wire);
     }
 
-    /// The link to the firmware (for commands between the steps: the topside's ground
-    /// stations).
-    pub fn link(&mut self) -> &mut Link {
-        &mut self.link
-    }
-
-    /// The link's counters.
-    pub fn link_stats(&self) -> &HostLinkStats {
-        &self.link.stats
-    }
-
-    /// The telemetry of the latest step.
-    pub fn latest(&self) -> &Telemetry {
-        &self.latest
-    }
-
     /// After the run: ask the firmware for its counters (the answer to one more heartbeat
     /// or, if that is lost on a noisy link, the latest answer) and hand over the report and
     /// the telemetry rows.
@@ -393,18 +377,8 @@ impl TetherEndpoint {
 
     /// What the loop gets of a step's telemetry.
     fn reply(&self, tel: &Telemetry, applied: [f64; 3]) -> StepReply {
-        StepReply {
-            requested: tel.requested,
-            achieved: tel.achieved,
-            thrust_cmd_n: tel.thrust_n,
-            applied_n: applied,
-            pulse_us: tel.pulse_us.map(f64::from),
-            errors: tel.errors,
-            saturated: tel.faults & fault::SATURATED != 0,
-            estimate: self
-                .onboard
-                .map(|_| (tel.nav, tel.nav_pos_std_m.map(f64::from))),
-        }
+        let std_m = self.onboard.map(|_| tel.nav_pos_std_m.map(f64::from));
+        StepReply::from_telemetry(tel, applied, std_m)
     }
 
     /// While the scenario's mode waits for the vehicle's estimate: once the latest telemetry

@@ -10,7 +10,7 @@
 //! speed of a software run.
 
 use crate::scenario::health::HealthSpec;
-use crate::scenario::RunSetup;
+use crate::scenario::setup::RunSetup;
 use crate::world::battery::{BatterySpec, HealthWire, VehicleElectrics};
 use crate::world::sensors::DvlWire;
 use anyhow::{anyhow, Result};

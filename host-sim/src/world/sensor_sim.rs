@@ -114,11 +114,6 @@ impl SensorSuite {
         self.thrust_n = thrust_n;
     }
 
-    /// The drawn constant IMU biases `(gyro, accel)`.
-    pub fn imu_biases(&self) -> ([f64; 3], [f64; 3]) {
-        (self.gyro_bias, self.accel_bias)
-    }
-
     /// Sample the sensors due at `t_s` on the true state; push `(arrival_s, measurement)`.
     pub fn sample(&mut self, t_s: f64, truth: &PlantState, out: &mut Vec<(f64, Measurement)>) {
         let vel = body_to_inertial(&truth.eta, [truth.nu[0], truth.nu[1], truth.nu[2]]);

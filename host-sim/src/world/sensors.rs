@@ -462,23 +462,6 @@ impl SensorsSpec {
         }
         (!missing.is_empty()).then(|| missing.join(", "))
     }
-
-    /// A short name of the suite for tables: `imu+depth+compass+dvl+usbl`.
-    pub fn suite_name(&self) -> String {
-        let mut parts = Vec::new();
-        for (fitted, name) in [
-            (self.imu.is_some(), "imu"),
-            (self.depth.is_some(), "depth"),
-            (self.compass.is_some(), "compass"),
-            (self.dvl.is_some(), "dvl"),
-            (self.usbl.is_some(), "usbl"),
-        ] {
-            if fitted {
-                parts.push(name);
-            }
-        }
-        parts.join("+")
-    }
 }
 
 /// A measurement as it reaches the vehicle, in the core's `f32` types.

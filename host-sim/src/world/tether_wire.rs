@@ -204,16 +204,6 @@ impl Wire {
         self.read_into(t_s, &mut out);
         out
     }
-
-    /// The next delivery time of a byte in flight (s).
-    pub fn next_arrival_s(&self) -> Option<f64> {
-        self.in_flight.front().map(|&(t, _)| t)
-    }
-
-    /// Whether the transmitter is still sending at `t_s` (its FIFO not yet empty).
-    pub fn busy_at(&self, t_s: f64) -> bool {
-        self.line_free_s > t_s
-    }
 }
 
 /// Both directions of the tether's pair: down (topside -> node) and up (node -> topside).

@@ -1,4 +1,4 @@
-"""MAVProxy (PyPI), a ground station we did not write, flies `host-sim topside --sim` (issue 13).
+"""MAVProxy (PyPI), a ground station we did not write, flies a served vehicle through `rov-topside --tcp`.
 
 Usage: mavproxy_session.py PORT WORKDIR. Runs `mavproxy.py --master=udpin:127.0.0.1:PORT`
 and types into its console what an operator would: ALT_HOLD, `wp load` of a QGC WPL 110 file

@@ -1,4 +1,4 @@
-"""pymavlink starts the compass calibration turn (issue 26) on `host-sim topside --sim`.
+"""pymavlink starts the compass calibration turn through `rov-topside --tcp`.
 
 Usage: pymavlink_compass_cal.py PORT SIN_DEG COS_DEG. SIN_DEG / COS_DEG: the simulated
 compass's true deviation, as COMPASS_DEV_SIN / COMPASS_DEV_COS would hold it. Refused while

@@ -1,5 +1,5 @@
-"""A pymavlink ground station uploads a mission to `host-sim topside --sim` and flies it in AUTO
-(issue 13, real clients).
+"""A pymavlink ground station uploads a mission through `rov-topside --tcp` and flies it in AUTO
+(a real client).
 
 Usage: pymavlink_mission.py PORT. Listens on udpin:127.0.0.1:PORT for the topside. Exits 0 and
 prints PASS lines, or raises. The mission protocol is driven by hand, message by message, as

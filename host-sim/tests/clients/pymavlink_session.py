@@ -1,4 +1,4 @@
-"""A pymavlink ground station flies `host-sim topside --sim` (issue 13, real clients).
+"""A pymavlink ground station flies a served vehicle through `rov-topside --tcp`.
 
 Usage: pymavlink_session.py PORT. Listens on udpin:127.0.0.1:PORT for the topside (which
 sends to udpout:127.0.0.1:PORT). Exits 0 and prints PASS lines, or raises.
@@ -19,16 +19,27 @@ def ack_of(m, command, timeout=10.0):
 
 
 def sticks(m, seconds, x=0, z=500, r=0):
-    """Send the sticks at 20 Hz; return what arrived meanwhile, by type."""
+    """Send the sticks at 20 Hz (wall clock) for `seconds` of the vehicle's time (its
+    messages' `time_boot_ms`: a served vehicle runs faster or slower than the wall clock);
+    return what arrived meanwhile, by type. At most 60 s of wall time a vehicle second."""
     seen = {}
-    end = time.time() + seconds
-    while time.time() < end:
+    start = end = None
+    wall_end = time.time() + 60.0 * seconds
+    while time.time() < wall_end:
         m.mav.manual_control_send(m.target_system, x, 0, z, r, 0)
         stop = time.time() + 0.05
         while time.time() < stop:
             msg = m.recv_match(blocking=True, timeout=0.01)
-            if msg is not None:
-                seen.setdefault(msg.get_type(), []).append(msg)
+            if msg is None:
+                continue
+            seen.setdefault(msg.get_type(), []).append(msg)
+            # The vehicle's clock, as the state messages carry it.
+            t_ms = getattr(msg, "time_boot_ms", None)
+            if t_ms is not None and msg.get_type() in ("LOCAL_POSITION_NED", "ATTITUDE"):
+                if start is None:
+                    start, end = t_ms, t_ms + 1000.0 * seconds
+                elif t_ms >= end:
+                    return seen
     return seen
 
 

@@ -169,7 +169,8 @@ pub fn serve_vehicle(scenario: impl AsRef<OsStr>, out: &Path, extra: &[&str]) ->
 /// port, and `rov-topside --tcp` sending MAVLink to `udpout:127.0.0.1:PORT`, its tlog and
 /// parameters file where the test says. Of `extra`, `--speedup K`, `--start-nav` and
 /// `--vehicle-duration S` (its `--duration`) go to the vehicle, everything else to the
-/// surface (`--duration`, `--mavlink`, `--vehicle`). With
+/// surface (`--duration`, `--mavlink`, `--vehicle`); `--qemu` or `--qemu=ELF` serves the
+/// firmware image in QEMU (a topside-layout scenario: its two images). With
 /// `--speedup K` the surface's tether heartbeat goes K times faster (at most 50 Hz), so that
 /// the vehicle sees one every 0.1 s of its own time.
 pub fn dive(
@@ -191,6 +192,8 @@ pub fn dive(
                 vehicle_args.extend(["--speedup", k]);
             }
             "--start-nav" => vehicle_args.push(a),
+            // The firmware image in QEMU (`--qemu` or `--qemu=ELF`): the vehicle's.
+            _ if a == "--qemu" || a.starts_with("--qemu=") => vehicle_args.push(a),
             // The USBL at the surface: the served vehicle's as NMEA to the surface program,
             // which starts the vehicle's estimator at the dive's launch point and relays the
             // fixes.
@@ -268,67 +271,6 @@ pub fn surface(
         .arg("--params")
         .arg(params)
         .args(fixed)
-        .args(extra)
-        .process_group(0)
-        .spawn()
-        .unwrap()
-}
-
-/// A simulated dive: through `host-sim vehicle` and `rov-topside` ([`dive`]), or with
-/// `--emulated` in `extra`, in lock-step ([`topside_lockstep`]: the image in QEMU is not
-/// served yet).
-pub enum Flight {
-    /// Served, as a real dive.
-    Dive(Dive),
-    /// In lock-step behind `host-sim topside --sim`.
-    Lockstep(Child),
-}
-
-impl Stop for Flight {
-    fn stop(self) {
-        match self {
-            Flight::Dive(d) => d.stop(),
-            Flight::Lockstep(c) => c.stop(),
-        }
-    }
-}
-
-/// [`dive`], or [`topside_lockstep`] with `--emulated` in `extra`.
-pub fn fly(
-    scenario: impl AsRef<OsStr>,
-    port: u16,
-    tlog: &Path,
-    params: &Path,
-    extra: &[&str],
-) -> Flight {
-    if extra.contains(&"--emulated") {
-        Flight::Lockstep(topside_lockstep(scenario, port, tlog, params, extra))
-    } else {
-        Flight::Dive(dive(scenario, port, tlog, params, extra))
-    }
-}
-
-/// `host-sim topside --sim SCENARIO`: the surface program in front of a vehicle flown in
-/// lock-step in the simulator, for what `host-sim vehicle` does not serve yet (the image in
-/// QEMU with `--emulated`, the topside layout), sending MAVLink to `udpout:127.0.0.1:PORT`,
-/// its tlog and parameters where the test says, with `extra` arguments, in a process group
-/// of its own so that [`stop`] ends what it starts (QEMU).
-pub fn topside_lockstep(
-    scenario: impl AsRef<OsStr>,
-    port: u16,
-    tlog: &Path,
-    params: &Path,
-    extra: &[&str],
-) -> Child {
-    Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .arg("topside")
-        .arg("--sim")
-        .arg(scenario)
-        .args(["--mavlink", &format!("udpout:127.0.0.1:{port}")])
-        .arg("--tlog")
-        .arg(tlog)
-        .arg("--params")
-        .arg(params)
         .args(extra)
         .process_group(0)
         .spawn()

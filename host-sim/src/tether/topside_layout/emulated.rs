@@ -18,8 +18,7 @@
 //! node). The two boards of one pass run at the same time: both steps are sent before
 //! either report is read.
 
-use super::roles::{ControlView, NodePass, Roles, TopsidePass};
-use super::NODE_IMU_PERIOD_US;
+use super::roles::{ControlView, NodePass, Roles, TopsidePass, NODE_IMU_PERIOD_US};
 use crate::tether::qemu::{start_qemu_serials, LayoutElfs, QemuChild};
 use anyhow::{anyhow, bail, Context, Result};
 use controller_core::nav::ImuSample;

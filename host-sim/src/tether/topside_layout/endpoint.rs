@@ -63,9 +63,6 @@ impl ControllerEndpoint for TopsideLayout {
             initial: *nav0,
             config: self.onboard,
         })?;
-        if !self.fly_scenario {
-            return Ok(());
-        }
         self.command(&Command::SetReference {
             reference: self.reference,
             start_us: Some(0),

@@ -13,12 +13,6 @@ impl TopsideLayout {
     pub fn with_external_pc(mut self, pc: Box<dyn ExternalPc>, start_nav: bool) -> Self {
         self.external = Some(pc);
         self.external_start_nav = start_nav;
-        self.fly_scenario = false;
         self
-    }
-
-    /// Whether the PC is outside the simulation.
-    pub fn pc_is_external(&self) -> bool {
-        self.external.is_some()
     }
 }

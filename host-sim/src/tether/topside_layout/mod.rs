@@ -52,7 +52,8 @@ mod watch;
 use crate::clock::us;
 use crate::closed_loop::estimator_nav::{onboard_config, VehicleNav};
 use crate::closed_loop::{run_closed_loop, RunOptions, RunOutput};
-use crate::scenario::{RunSetup, Scenario};
+use crate::scenario::setup::RunSetup;
+use crate::scenario::Scenario;
 use crate::tether::in_process::{SimPwm, SimSerial};
 pub use crate::tether::qemu::LayoutElfs;
 use crate::world::tether_wire::Duplex;
@@ -64,29 +65,24 @@ use controller_core::reference::Reference;
 pub use emulated::{EmulatedRoles, BOARD_TIMEOUT, TOPSIDE_GRID_US};
 use firmware::node::{Node, NodeConfig};
 use firmware::node_link::{Downlink, LinkDecoder, Uplink};
-use firmware::topside_link::{
-    ImuStamp, LinkSensors, LinkThruster, NodeBridge, TopsideConfig, TopsideLink,
-};
+use firmware::topside_link::{ImuStamp, NodeBridge, TopsideConfig, TopsideLink};
 use firmware::{App, Config, Timing};
 pub use ports::{ExternalPc, PlantSensors, VClock, WirePort};
-use protocol::{Board, Client, Command, Mode, Status, Telemetry};
+use protocol::{Board, Client, Command, Mode, Telemetry};
 pub use report::{Latency, LayoutReport};
-pub use roles::{ControlView, InProcessRoles, NodePass, Roles, TopsidePass};
+pub use roles::{
+    ControlView, InProcessRoles, NodePass, NodeRole, Roles, TopsideApp, TopsidePass,
+    NODE_IMU_PERIOD_US, PASS_US,
+};
 
 pub use crate::scenario::deployment::{told_delay_s, Control, DeploymentSpec, MAX_TOLD_DELAY_S};
 use std::cell::Cell;
 use std::collections::{BTreeSet, HashMap};
 use std::rc::Rc;
 
-/// One pass of each MCU's main loop every this much virtual time (us).
-pub const PASS_US: u64 = 100;
-
 /// The topside board's fallback control period (us): longer than the link's 20 ms, so a
 /// slightly late uplink does not find a step just run by the fallback (`topside_board.rs`).
 pub const FALLBACK_PERIOD_US: u32 = 25_000;
-
-/// The node's IMU period (us): the node samples at 400 Hz.
-pub const NODE_IMU_PERIOD_US: u32 = 2_500;
 
 /// The PC's heartbeat period to the topside (us).
 const HEARTBEAT_PERIOD_US: u64 = 50_000;
@@ -108,11 +104,6 @@ pub fn layout_scenario(sc: &Scenario) -> Scenario {
     sc
 }
 
-/// The topside's App: its thrusters and sensors the node link.
-pub type TopsideApp = App<LinkThruster<'static>, SimSerial, VClock, LinkSensors<'static>>;
-/// The node role on the simulated PWM outputs, wire port, virtual clock and plant sensors.
-pub type NodeRole = Node<SimPwm, WirePort, VClock, PlantSensors>;
-
 /// The topside layout as the loop's controller endpoint.
 pub struct TopsideLayout {
     /// The two MCUs: in process or emulated.
@@ -124,11 +115,6 @@ pub struct TopsideLayout {
     /// The PC's session with the topside, on the virtual clock.
     pc: Client,
     latest_telemetry: Option<Telemetry>,
-    /// The latest `Status` the PC received (the answer to its heartbeats).
-    latest_status: Option<Status>,
-    /// `start` flies the scenario (its reference, mode and arm); off for `host-sim
-    /// topside`, where the ground stations command.
-    fly_scenario: bool,
     /// The PC outside the simulation (a served surface), in place of the harness's own.
     external: Option<Box<dyn ExternalPc>>,
     /// With an external PC: the estimator starts at the launch point at the start.
@@ -318,8 +304,6 @@ impl TopsideLayout {
             pc_out: Vec::new(),
             pc: Client::default(),
             latest_telemetry: None,
-            latest_status: None,
-            fly_scenario: true,
             external: None,
             external_start_nav: false,
             next_heartbeat_us: 0,

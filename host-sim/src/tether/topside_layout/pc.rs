@@ -5,7 +5,7 @@ use super::TopsideLayout;
 use anyhow::{anyhow, bail, Result};
 use controller_core::nav::Refusal;
 use firmware::topside_link::fault as link_fault;
-use protocol::{Answer, Command, Event, NackReason, Reply, Status, Telemetry};
+use protocol::{Answer, Command, Event, NackReason, Reply, Telemetry};
 
 impl TopsideLayout {
     /// Send a command to the topside over the PC's tether.
@@ -40,7 +40,6 @@ impl TopsideLayout {
                         self.latest_telemetry = Some(t);
                         self.on_ground_telemetry(&t);
                     }
-                    Reply::Status(st) => self.latest_status = Some(st),
                     Reply::Ack { seq } => {
                         self.usbl_seqs.remove(&seq);
                     }
@@ -81,9 +80,9 @@ impl TopsideLayout {
         Ok(())
     }
 
-    /// [`command`](Self::command) with the refusal's reason as a value (`host-sim topside`
-    /// shows it to the ground station); an error only when the topside did not answer.
-    pub fn try_command(&mut self, cmd: &Command) -> Result<Result<(), NackReason>> {
+    /// [`command`](Self::command) with the refusal's reason as a value; an error only when
+    /// the topside did not answer.
+    fn try_command(&mut self, cmd: &Command) -> Result<Result<(), NackReason>> {
         let seq = self.pc_send(cmd)?;
         for e in self.pc_exchange()? {
             if let Event::Reply {
@@ -97,17 +96,6 @@ impl TopsideLayout {
             }
         }
         bail!("the topside did not answer {cmd:?}")
-    }
-
-    /// The ground stations command (`host-sim topside`): `start` sends the vehicle and
-    /// starts the navigation, but neither the scenario's reference and mode nor `Arm`.
-    pub fn ground_station_commands(&mut self) {
-        self.fly_scenario = false;
-    }
-
-    /// The latest `Status` the PC received.
-    pub fn latest_status(&self) -> Option<&Status> {
-        self.latest_status.as_ref()
     }
 
     /// Open the PC's session with the topside.

@@ -7,16 +7,29 @@
 //! wrote in the pass; what each MCU read and wrote is returned so the harness decodes it
 //! (without changing it) for the latency, wrong-command and cut figures.
 
-use super::ports::{SensorFeed, WirePort};
-use super::{NodeRole, TopsideApp};
+use super::ports::{PlantSensors, SensorFeed, VClock, WirePort};
+use crate::tether::in_process::{SimPwm, SimSerial};
 use anyhow::Result;
 use controller_core::nav::ImuSample;
 use controller_core::state::{BodyForces, NavState, TrackingErrors};
+use firmware::node::Node;
 use firmware::node_link::NodeCounters;
 use firmware::protocol::Telemetry;
-use firmware::topside_link::{NodeBridge, TopsideCounters, TopsideLink};
+use firmware::topside_link::{LinkSensors, LinkThruster, NodeBridge, TopsideCounters, TopsideLink};
+use firmware::App;
 use std::cell::{Cell, RefCell};
 use std::rc::Rc;
+
+/// One pass of each MCU's main loop every this much virtual time (us).
+pub const PASS_US: u64 = 100;
+
+/// The node's IMU period (us): the node samples at 400 Hz.
+pub const NODE_IMU_PERIOD_US: u32 = 2_500;
+
+/// The topside's App: its thrusters and sensors the node link.
+pub type TopsideApp = App<LinkThruster<'static>, SimSerial, VClock, LinkSensors<'static>>;
+/// The node role on the simulated PWM outputs, wire port, virtual clock and plant sensors.
+pub type NodeRole = Node<SimPwm, WirePort, VClock, PlantSensors>;
 
 /// What one pass of the node did, as the harness sees it.
 #[derive(Debug, Clone, Default)]
@@ -244,7 +257,7 @@ impl Roles for InProcessRoles {
     }
 
     fn pass_period_us(&self) -> Option<u64> {
-        Some(super::PASS_US)
+        Some(PASS_US)
     }
 
     fn control(&self) -> Option<ControlView> {

@@ -214,15 +214,3 @@ pub fn rk4<const N: usize>(
     }
     o
 }
-
-/// Build the 6-DOF plant behind the [`Plant`] trait (used by the runner for `plane = "3d"`).
-pub fn six_dof_factory(
-    params: &controller_core::params::VehicleParams,
-    env: Environment,
-    saturate: bool,
-    initial: PlantState,
-) -> anyhow::Result<Box<dyn Plant>> {
-    Ok(Box::new(six_dof::SixDof::new(
-        params, env, saturate, initial,
-    )))
-}

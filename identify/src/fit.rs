@@ -24,11 +24,10 @@
 
 use super::record::Record;
 use super::regression::{least_squares, FitError, LinearFit};
-use crate::world::noise::gauss;
 use anyhow::{bail, Result};
 use controller_core::params::VehicleParams;
 use nalgebra::{DMatrix, DVector};
-use rand::SeedableRng;
+use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 /// Length of one regression window (s): many thruster time constants. A longer window
@@ -579,4 +578,12 @@ pub fn physical(axes: AxisFits, anchor: Anchor) -> Identified {
         axes,
         thruster_time_constant_s: f64::NAN,
     }
+}
+
+/// Standard normal draw (Box-Muller; one of the pair is dropped), the simulator's own draw
+/// (`host_sim::world::noise::gauss`), so that a seed gives the same fit there and here.
+fn gauss(rng: &mut ChaCha8Rng) -> f64 {
+    let u1: f64 = rng.random::<f64>().max(1e-300);
+    let u2: f64 = rng.random::<f64>();
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }

@@ -1,5 +1,5 @@
-//! A dive's raw tether log (`rov-topside`'s `.tether`, [`topside::tether_log`]) as the fit's
-//! record: the vehicle's own `Telemetry` frames, each carrying the navigation state its laws
+//! A dive's raw tether log (`rov-topside`'s `.tether`, decoded by `topside::tether_log`) as
+//! the fit's record: the vehicle's own `Telemetry` frames, each carrying the navigation state its laws
 //! flew on (the on-board estimate: DVL velocities, gyro rates, attitude) and the pulse widths
 //! written to the ESCs. This is what a real dive leaves at the surface; no plant truth in it.
 //!
@@ -11,7 +11,7 @@
 
 use super::record::{Record, RecordSample};
 use anyhow::{bail, Result};
-use protocol::{Reply, Telemetry};
+use protocol::Telemetry;
 use std::path::Path;
 
 /// The longest gap between two telemetry frames that is filled (control periods).
@@ -54,19 +54,6 @@ fn lerp(a: &RecordSample, b: &RecordSample, s: f64) -> RecordSample {
         // The ESCs hold a pulse until the next one: no interpolation.
         pulse_us: a.pulse_us,
     }
-}
-
-/// The record of the vehicle's telemetry in `path`, a tether log.
-pub fn from_tether_log(path: &Path) -> Result<TetherRecord> {
-    let frames = topside::tether_log::decode(&topside::tether_log::read(path)?);
-    from_telemetry(
-        frames.replies.iter().filter_map(|(_, _, r)| match r {
-            Reply::Telemetry(t) => Some(t),
-            _ => None,
-        }),
-        frames.dropped,
-        path,
-    )
 }
 
 /// The record of `telemetry` (in the order received): duplicates (a step answered twice)

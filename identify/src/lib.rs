@@ -1,5 +1,7 @@
-//! System identification: from a recorded run to a vehicle file (`host-sim identify`,
-//! docs/identification.md).
+//! System identification: from a recorded run to a vehicle file (`host-sim identify` is its
+//! command, docs/identification.md). A library of its own: it reads a run's `timeseries.csv`
+//! and fits the core's `VehicleParams`, and needs nothing of the simulator (no plant, no
+//! scenario, no plotting: the figure is drawn by `host-sim`).
 //!
 //! - [`regression`]: linear least squares (nalgebra's SVD) with the parameters' covariance
 //!   and the refusal of a record that does not excite a regressor.
@@ -10,7 +12,7 @@
 //! - [`fit`]: the per-axis integral-form regressions, the anchor that gives them newtons,
 //!   the physical model with 95 % intervals.
 //! - [`validate`]: the held-out blocks simulated with the identified model and the prior;
-//!   RMS figures and a plot.
+//!   RMS figures.
 //! - [`vehicle_file`]: the identified vehicle file.
 
 pub mod fit;
