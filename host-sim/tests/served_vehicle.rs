@@ -1,13 +1,13 @@
 //! `host-sim vehicle`: the simulator serves a vehicle's tether on a TCP port (SITL), and a
-//! surface program reaches it as a real one (`host-sim topside --tcp`).
+//! surface program reaches it as a real one (`rov-topside --tcp`).
 //!
 //! Without pymavlink: the refusals (exit 2), a busy port (exit 3), the end at `--duration`
 //! (exit 0), a session opened through the served tether by the host's own `Link`, the
 //! vehicle's failsafe acting while the tether is cut, a second surface refused while one is
 //! served and a new one served after a disconnect. With pymavlink
 //! (`clients/pymavlink_served.py`): the parameters read, ALT_HOLD and POSHOLD armed, GUIDED to
-//! a point and disarmed through `topside --tcp`, held against the served vehicle's truth log
-//! and against the same session through `topside --sim`.
+//! a point and disarmed through `rov-topside --tcp`, held against the served vehicle's truth
+//! log and against the same session through the former lock-step surface.
 
 mod gcs;
 

@@ -1,11 +1,11 @@
 //! The one closed loop: the `f64` plant at `plant_dt_s`, a navigation stage, and a controller
 //! endpoint at `control_period_s` with a zero-order hold. Every run uses it: the software run
 //! (`host-sim run`, Monte Carlo), the firmware library's `App` in process, and the firmware
-//! over the tether (hardware in the loop, `host-sim hil`, and the simulated vehicle behind
-//! `host-sim topside --sim`). Only the endpoint differs, so the plant, the measurement path,
+//! over the tether (hardware in the loop, `host-sim hil`, and the vehicle served by `host-sim
+//! vehicle`). Only the endpoint differs, so the plant, the measurement path,
 //! the logging, the metrics and the stop rules are the same code. [`ClosedLoop`] is stepped
 //! one control period at a time (`new`, `step`, `finish`); [`run_closed_loop`] steps it to
-//! the end, the topside in (scaled) real time between its ground stations' commands.
+//! the end; `host-sim vehicle` steps it in (scaled) real time between the surface's bytes.
 //!
 //! Each control tick at `t = k * control_period_s`:
 //! 1. the [`Navigation`] stage gives the state the controller sees (today's truth path: the

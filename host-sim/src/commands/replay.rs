@@ -1,5 +1,5 @@
 //! `host-sim replay LOG`: the figures of a simulated run, drawn from a recorded dive (a
-//! `.tlog` of `host-sim topside`, QGroundControl or MAVProxy).
+//! `.tlog` of `rov-topside`, QGroundControl or MAVProxy).
 //!
 //! A `.tlog` is a sequence of records: an 8-byte big-endian UNIX time in microseconds, then
 //! one MAVLink frame (v2, or v1). The vehicle's `LOCAL_POSITION_NED` gives the time (its

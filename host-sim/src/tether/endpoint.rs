@@ -102,12 +102,8 @@ pub struct HilOptions {
     pub record: bool,
     /// With `--qemu`: save the emulated SRAM here at the end of the run (stack high-water).
     pub ram_dump: Option<PathBuf>,
-    /// At the start, set the scenario's reference and mode and arm (`hil`); without, only
-    /// the vehicle description and the navigation are sent, and the rest comes from the
-    /// ground stations (`topside --sim`).
-    pub fly_scenario: bool,
-    /// Keep a telemetry row per step (`telemetry.csv`, the failsafe checks); the topside,
-    /// which runs for hours, keeps none.
+    /// Keep a telemetry row per step (`telemetry.csv`, the failsafe checks); a long run that
+    /// needs none (the identification's flights) keeps none.
     pub telemetry_rows: bool,
     /// With the estimator on board and a mode that needs a position (`Track`, `Hold`,
     /// AUTO): the longest simulated time to wait, armed and neutral, for the vehicle's
@@ -135,7 +131,6 @@ impl HilOptions {
             wall_limit: Duration::from_secs(600),
             record: true,
             ram_dump: None,
-            fly_scenario: true,
             telemetry_rows: true,
             nav_ready_limit_s: DEFAULT_NAV_READY_LIMIT_S,
             dvl_on_uart: true,
@@ -169,8 +164,6 @@ pub struct TetherEndpoint {
     sent_measurements: Vec<u16>,
     /// Keep a telemetry row per step.
     telemetry_rows: bool,
-    /// Set the scenario's reference and mode and arm at the start.
-    fly_scenario: bool,
     /// The latest telemetry.
     latest: Telemetry,
     /// The scenario's mode, not yet set: it needs a position and the on-board estimate was
@@ -260,7 +253,6 @@ impl TetherEndpoint {
                 .then(|| crate::closed_loop::estimator_nav::onboard_config(sc)),
             sent_measurements: Vec::new(),
             telemetry_rows: opts.telemetry_rows,
-            fly_scenario: opts.fly_scenario,
             latest: Telemetry::default(),
             pending_mode: None,
             nav_ready_limit_s: opts.nav_ready_limit_s,
@@ -570,41 +562,39 @@ impl ControllerEndpoint for TetherEndpoint {
                 )?
                 .ok_or_else(|| anyhow!("no Telemetry for the first NavState"))?;
         }
-        if self.fly_scenario {
-            let set_reference = Command::SetReference {
-                reference: self.reference,
-                start_us: Some(0),
-            };
-            if let Err(reason) = self.link.command(&set_reference, tmo, 5, |_| {})? {
-                bail!("the firmware refused {set_reference:?}: {reason:?}");
+        let set_reference = Command::SetReference {
+            reference: self.reference,
+            start_us: Some(0),
+        };
+        if let Err(reason) = self.link.command(&set_reference, tmo, 5, |_| {})? {
+            bail!("the firmware refused {set_reference:?}: {reason:?}");
+        }
+        // A position mode on the on-board estimate: the vehicle refuses it until the
+        // estimate is ready (an unknown start); arm in `Idle` (neutral) and set the mode
+        // between the steps as soon as it is taken (`try_pending_mode`).
+        // With `[calibration]`, the turn is flown in `Hold` first.
+        let first = if self.calibration.is_some() || self.identification.is_some() {
+            Mode::Hold
+        } else {
+            self.mode
+        };
+        let needs_position = matches!(first, Mode::Track { .. } | Mode::Hold | Mode::Auto);
+        match self
+            .link
+            .command(&Command::SetMode(first), tmo, 5, |_| {})?
+        {
+            Ok(()) if self.calibration.is_none() && self.identification.is_none() => {
+                self.report.mode_set_at_s = Some(0.0)
             }
-            // A position mode on the on-board estimate: the vehicle refuses it until the
-            // estimate is ready (an unknown start); arm in `Idle` (neutral) and set the mode
-            // between the steps as soon as it is taken (`try_pending_mode`).
-            // With `[calibration]`, the turn is flown in `Hold` first.
-            let first = if self.calibration.is_some() || self.identification.is_some() {
-                Mode::Hold
-            } else {
-                self.mode
-            };
-            let needs_position = matches!(first, Mode::Track { .. } | Mode::Hold | Mode::Auto);
-            match self
-                .link
-                .command(&Command::SetMode(first), tmo, 5, |_| {})?
-            {
-                Ok(()) if self.calibration.is_none() && self.identification.is_none() => {
-                    self.report.mode_set_at_s = Some(0.0)
-                }
-                Ok(()) => {}
-                Err(reason @ NackReason::NavNotReady(_)) if needs_position => {
-                    self.pending_mode = Some(first);
-                    self.not_ready = Some(reason);
-                }
-                Err(reason) => bail!("the firmware refused {first:?}: {reason:?}"),
+            Ok(()) => {}
+            Err(reason @ NackReason::NavNotReady(_)) if needs_position => {
+                self.pending_mode = Some(first);
+                self.not_ready = Some(reason);
             }
-            if let Err(reason) = self.link.command(&Command::Arm, tmo, 5, |_| {})? {
-                bail!("the firmware refused Arm: {reason:?}");
-            }
+            Err(reason) => bail!("the firmware refused {first:?}: {reason:?}"),
+        }
+        if let Err(reason) = self.link.command(&Command::Arm, tmo, 5, |_| {})? {
+            bail!("the firmware refused Arm: {reason:?}");
         }
         self.link.set_noise(self.noise.take());
         Ok(())
