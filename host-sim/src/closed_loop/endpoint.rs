@@ -115,8 +115,11 @@ impl CoreEndpoint {
                 sc.name
             ));
         }
-        let mut controller = Controller::new(*sc.controller_vehicle(), Gains::default())
-            .map_err(|e| anyhow!("controller gains: {e}"))?;
+        let mut controller = Controller::new(
+            *sc.controller_vehicle(),
+            Gains::for_vehicle(sc.controller_vehicle()),
+        )
+        .map_err(|e| anyhow!("controller gains: {e}"))?;
         if sc.disturbance.delay_known {
             controller
                 .set_measurement_delay_s(sc.disturbance.delay_s as f32)

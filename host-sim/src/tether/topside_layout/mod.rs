@@ -201,7 +201,7 @@ impl TopsideLayout {
         // whole run, as the board's `static`: leaked (about 100 bytes a run).
         let bridge: &'static NodeBridge =
             Box::leak(Box::new(NodeBridge::new(config.pwm_period_us())));
-        let mut controller = Controller::new(*sc.vehicle(), Gains::default())
+        let mut controller = Controller::new(*sc.vehicle(), Gains::for_vehicle(sc.vehicle()))
             .map_err(|e| anyhow!("controller: {e}"))?;
         let told = (d.tell_delay || d.told_delay_s.is_some()).then(|| told_delay_s(&d));
         if let Some(t) = told {
