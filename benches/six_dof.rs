@@ -1,5 +1,5 @@
 //! One RK4 step of the 6-DOF plant (f64). Target: >= 3 M steps/s on one core.
-//! `cargo bench -p host-sim --bench six_dof`.
+//! `cargo bench -p rov-benches --features bench --bench six_dof`.
 #![allow(missing_docs)]
 
 use controller_core::params::VehicleParams;

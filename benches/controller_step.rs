@@ -1,5 +1,5 @@
 //! One `Controller::step` (law + allocation + anti-windup + PWM map) per law, in `f32`, on the
-//! host. `cargo bench -p controller-core --bench controller_step`.
+//! host. `cargo bench -p rov-benches --features bench --bench controller_step`.
 #![allow(missing_docs, clippy::unwrap_used)]
 
 use controller_core::controller::{ControlMode, Controller, Gains};
