@@ -25,10 +25,9 @@
 //! commands are awaited at once (a further one forgets the one due first, counted in
 //! [`Client::forgotten`]).
 
-use crate::{
-    encode, Command, Decoded, DropCounters, DropReason, EncodeError, FrameDecoder, NackReason,
-    Reply, Response, MAX_FRAME_LEN,
-};
+use crate::decoder::{Decoded, DropCounters, DropReason, FrameDecoder};
+use crate::framing::{encode, EncodeError, MAX_FRAME_LEN};
+use crate::messages::{Command, NackReason, Reply, Response};
 
 /// Commands awaited at once.
 pub const AWAITED: usize = 16;

@@ -1,7 +1,7 @@
 //! Tilt: roll and pitch from a complementary filter (the heading is a state of the
 //! horizontal filter, `horizontal.rs`).
 
-use super::{NavConfig, GRAVITY_M_S2};
+use super::config::{NavConfig, GRAVITY_M_S2};
 use crate::math::{atan2, clamp, sin_cos, sqrt, wrap_angle};
 
 /// Largest |pitch| the Euler kinematics are integrated at (rad); the Observer is passively

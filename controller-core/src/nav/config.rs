@@ -1,6 +1,9 @@
 //! The estimator's process noise and start-up uncertainty ([`NavConfig`]).
 
 use crate::error::{non_negative, positive, Error};
+
+/// Standard gravity (m/s^2).
+pub const GRAVITY_M_S2: f32 = 9.806_65;
 use serde::{Deserialize, Serialize};
 
 /// Process noise and start-up uncertainty, validated by [`NavConfig::validate`].

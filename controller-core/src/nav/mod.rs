@@ -63,11 +63,9 @@ use horizontal::Horizontal;
 use serde::{Deserialize, Serialize};
 use vertical::Vertical;
 
-pub use config::NavConfig;
+pub use config::{NavConfig, GRAVITY_M_S2};
 pub use horizontal::{CLUSTER_MIN, CLUSTER_WINDOW_US, HISTORY_LEN, HISTORY_STEP_US};
 
-/// Standard gravity (m/s^2).
-pub const GRAVITY_M_S2: f32 = 9.806_65;
 
 /// Longest IMU interval the prediction integrates (s); a longer gap is refused.
 pub const MAX_PREDICT_DT_S: f32 = 0.25;
