@@ -365,7 +365,7 @@ impl Missions {
             Err(why) => {
                 gcs.text(
                     MavSeverity::MAV_SEVERITY_WARNING,
-                    &format!("Mission not cleared: {why:?} (leave AUTO first)"),
+                    &format!("Mission not cleared: {why} (leave AUTO first)"),
                 )?;
                 Self::ack_typed(
                     self.peer,
@@ -444,7 +444,7 @@ impl Missions {
                 speed_m_s: v.settings.mission_speed_m_s,
             };
             if let Err(why) = v.command(&cmd)? {
-                let why = format!("item {i} refused by the vehicle: {why:?}");
+                let why = format!("item {i} refused by the vehicle: {why}");
                 return self.refuse(gcs, R::MAV_MISSION_INVALID, &why);
             }
         }

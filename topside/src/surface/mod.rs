@@ -51,6 +51,7 @@
 
 mod calibration;
 mod commander;
+mod commands;
 mod faults;
 mod frames;
 mod geodesy;
@@ -63,8 +64,10 @@ mod start;
 mod telemetry;
 mod transport;
 mod vehicle;
+pub mod words;
 
 pub use commander::{Commander, Verdict, COMMANDER_SILENCE};
+pub use commands::{custom_mode_of_param, mode_name, refused_param};
 pub use frames::split_text;
 pub use geodesy::{item_position, GlobalOrigin};
 pub use guard::{sticks_centred, STICK_CENTRED};
@@ -75,7 +78,6 @@ pub use transport::{take_frames, GcsStats, StationId, POLL_LIMIT};
 pub use vehicle::{check_telemetry, Vehicle, VehicleEnd, TETHER_TIMEOUT, VEHICLE_SILENCE};
 
 use anyhow::Result;
-use controller_core::controller::ControlMode;
 use controller_core::reference::Reference;
 use mavlink::dialects::ardupilotmega::{
     MavCmd, MavMessage, MavMissionResult, MavResult, MavSeverity, GPS_GLOBAL_ORIGIN_DATA,
@@ -390,44 +392,6 @@ impl Topside {
         self.gcs.ack(station, cmd, MavResult::MAV_RESULT_DENIED)
     }
 
-    fn set_mode(&mut self, station: StationId, custom: u32) -> Result<()> {
-        let cmd = MavCmd::MAV_CMD_DO_SET_MODE;
-        let v = &mut self.v;
-        let (firmware_mode, reference) = match custom {
-            ardusub_mode::MANUAL => (Mode::Manual, None),
-            ardusub_mode::STABILIZE => (Mode::Stabilize, None),
-            ardusub_mode::ALT_HOLD => (Mode::DepthHold, None),
-            ardusub_mode::POSHOLD => (Mode::Hold, None),
-            ardusub_mode::GUIDED => (
-                Mode::from(ControlMode::Tracking3d),
-                Some(Reference::Hold {
-                    pos_m: [v.state.x_m, v.state.y_m, v.state.z_m],
-                }),
-            ),
-            ardusub_mode::AUTO => (Mode::Auto, None),
-            other => return self.refuse(station, cmd, &format!("Unknown mode {other}")),
-        };
-        if let Some(reference) = reference {
-            if let Err(why) = v.command(&Command::SetReference {
-                reference,
-                start_us: None,
-            })? {
-                return self.refuse(station, cmd, &format!("Reference refused: {why:?}"));
-            }
-        }
-        match v.command(&Command::SetMode(firmware_mode))? {
-            Ok(()) => {
-                // The vehicle took it: shown (and judged, e.g. a mission upload in AUTO) now,
-                // not at its next telemetry.
-                v.tel.mode = firmware_mode;
-                self.guided = custom == ardusub_mode::GUIDED;
-                self.sticks_seen_centred = false;
-                self.gcs.ack(station, cmd, MavResult::MAV_RESULT_ACCEPTED)
-            }
-            Err(why) => self.refuse(station, cmd, &format!("Mode refused: {why:?}")),
-        }
-    }
-
     // `SET_MODE` is deprecated in favour of `MAV_CMD_DO_SET_MODE`, but pymavlink's
     // `set_mode` and MAVProxy's `mode` still send it, so both are obeyed.
     #[allow(deprecated)]
@@ -455,79 +419,8 @@ impl Topside {
                 }
             }
             MavMessage::PARAM_SET(p) => self.param_set(station, &p)?,
-            MavMessage::COMMAND_LONG(c) => {
-                self.gcs.stats.handled += 1;
-                match c.command {
-                    MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => {
-                        // MAVLink: 1 arms, 0 disarms; anything else (NaN, 0.5, -1) is refused
-                        // rather than read as one of them (ArduPilot's rule too).
-                        let cmd = if c.param1 == 1.0 {
-                            Command::Arm
-                        } else if c.param1 == 0.0 {
-                            Command::Disarm
-                        } else {
-                            let why = format!(
-                                "Arming refused: param1 must be 1 (arm) or 0 (disarm), not {}",
-                                c.param1
-                            );
-                            return self.refuse(station, c.command, &why);
-                        };
-                        if cmd == Command::Arm {
-                            if let Some(why) = self.sticks_refuse_arming()? {
-                                return self.refuse(station, c.command, &why);
-                            }
-                        }
-                        match self.v.command(&cmd)? {
-                            Ok(()) => {
-                                // Shown now, not at the vehicle's next telemetry.
-                                self.v.tel.armed = cmd == Command::Arm;
-                                if cmd == Command::Arm {
-                                    self.sticks_seen_centred = false;
-                                }
-                                self.gcs
-                                    .ack(station, c.command, MavResult::MAV_RESULT_ACCEPTED)?
-                            }
-                            Err(why) => self.refuse(
-                                station,
-                                c.command,
-                                &format!("Arming refused: {why:?}"),
-                            )?,
-                        }
-                    }
-                    MavCmd::MAV_CMD_DO_SET_MODE => match custom_mode_of_param(c.param2) {
-                        Some(custom) => self.set_mode(station, custom)?,
-                        None => {
-                            let why = format!(
-                                "Mode refused: param2 must be a custom mode number, not {}",
-                                c.param2
-                            );
-                            self.refuse(station, c.command, &why)?
-                        }
-                    },
-                    MavCmd::MAV_CMD_DO_START_MAG_CAL => self.start_mag_cal(station)?,
-                    // The vehicle's estimator restarted at the latest USBL fix (param1 = 1).
-                    MavCmd::MAV_CMD_USER_1 if c.param1 == 1.0 => {
-                        match self.nav.start(&mut self.v, true)? {
-                            Some(text) if text.starts_with("Navigation restarted") => {
-                                eprintln!("topside: {text}");
-                                self.gcs.text(MavSeverity::MAV_SEVERITY_INFO, &text)?;
-                                self.gcs
-                                    .ack(station, c.command, MavResult::MAV_RESULT_ACCEPTED)?
-                            }
-                            other => {
-                                let why = other.unwrap_or_else(|| {
-                                    "Navigation restart refused: the vehicle's clock is not known yet".into()
-                                });
-                                self.refuse(station, c.command, &why)?
-                            }
-                        }
-                    }
-                    other => {
-                        self.gcs
-                            .ack(station, other, MavResult::MAV_RESULT_UNSUPPORTED)?;
-                    }
-                }
-            }
+            MavMessage::COMMAND_LONG(c) => self.command_long(station, c)?,
+            MavMessage::COMMAND_INT(c) => self.command_int(station, c)?,
             MavMessage::SET_MODE(m) => {
                 self.gcs.stats.handled += 1;
                 self.set_mode(station, m.custom_mode)?;
@@ -579,67 +472,13 @@ impl Topside {
                     start_us: None,
                 })? {
                     self.gcs
-                        .text_to(station, warn, &format!("Target refused: {why:?}"))?;
+                        .text_to(station, warn, &format!("Target refused: {why}"))?;
                 }
             }
             _ => self.gcs.stats.ignored += 1,
         }
         Ok(())
     }
-
-    fn param_set(
-        &mut self,
-        station: StationId,
-        p: &mavlink::dialects::ardupilotmega::PARAM_SET_DATA,
-    ) -> Result<()> {
-        self.gcs.stats.handled += 1;
-        let warn = MavSeverity::MAV_SEVERITY_WARNING;
-        let name = telemetry::param_name(&p.param_id);
-        let Some((i, param)) = params::find(&name) else {
-            return self
-                .gcs
-                .text_to(station, warn, &format!("No parameter {name}"));
-        };
-        let refusal = if let Some(why) = params::read_only(&name) {
-            Some(format!("{name} refused: read-only, {why}"))
-        } else {
-            let mut proposed = self.v.settings;
-            (param.set)(&mut proposed, p.param_value);
-            let group = params::group(param);
-            // The checks the vehicle makes, here first (a clear reason), then the vehicle's.
-            match proposed.check(group) {
-                // The reason without the name said twice.
-                Err(e) => Some(format!(
-                    "{name} refused: {}",
-                    format!("{e:#}").replacen(&format!("{name} "), "", 1)
-                )),
-                Ok(()) => match self.v.apply(proposed, group)? {
-                    Ok(()) => None,
-                    Err(why) => Some(format!("{name} refused by the vehicle: {why:?}")),
-                },
-            }
-        };
-        match refusal {
-            Some(text) => self.gcs.text_to(station, warn, &text)?,
-            None => {
-                // The operator's value wins over a saved one still waiting.
-                let group = params::group(param);
-                self.pending.forget(group);
-                params::save(&self.params_file, &self.pending.merged(&self.v.settings))?
-            }
-        }
-        // The answer is the value in force (the new one, or the old one on a refusal), to
-        // every station: all see what the vehicle holds.
-        telemetry::send_param(&mut self.gcs, &self.v.settings, i, None)
-    }
-}
-
-/// `MAV_CMD_DO_SET_MODE`'s param2 as a custom mode number: a whole number from 0 to
-/// `u32::MAX`; NaN, a fraction or a negative is no mode (a plain `as u32` would read NaN and
-/// -5 as 0, STABILIZE).
-pub fn custom_mode_of_param(param2: f32) -> Option<u32> {
-    (param2.is_finite() && param2.fract() == 0.0 && (0.0..=u32::MAX as f32).contains(&param2))
-        .then_some(param2 as u32)
 }
 
 /// A GUIDED position target's checks at the surface: a position in `MAV_FRAME_LOCAL_NED`

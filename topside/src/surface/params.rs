@@ -90,7 +90,7 @@ impl FailsafeSeconds {
         }
         // The firmware's own rule, in case the two ever differ.
         f.validate()
-            .map_err(|why| anyhow!("the firmware's check: {why:?}"))?;
+            .map_err(|why| anyhow!("the firmware's check: {}", super::words::nack(why)))?;
         Ok(f)
     }
 }
@@ -192,7 +192,10 @@ impl Settings {
                         "COMPASS_DEV_SIN, COMPASS_DEV_COS: deviation {:.1} deg is over {max_deg:.0} deg",
                         c.sin_deg.hypot(c.cos_deg)
                     ),
-                    Err(why) => bail!("COMPASS_DEV_SIN, COMPASS_DEV_COS: {why:?}"),
+                    Err(why) => bail!(
+                        "COMPASS_DEV_SIN, COMPASS_DEV_COS: {}",
+                        super::words::compass(why)
+                    ),
                 }
             }
         }
@@ -240,6 +243,93 @@ pub const GROUPS: [Group; 7] = [
     Group::Mission,
     Group::Control,
 ];
+
+impl Group {
+    /// The parameters of this group as a ground station lists them.
+    pub fn names(self) -> &'static str {
+        match self {
+            Group::Tracking => "TRK_*",
+            Group::Paper => "PXZ_*, PXY_*",
+            Group::Failsafe => "FS_*",
+            Group::Vehicle => "VEH_*",
+            Group::Mission => "MIS_SPEED",
+            Group::Compass => "COMPASS_DEV_*",
+            Group::Control => "CTRL_PASSKEY",
+        }
+    }
+}
+
+/// Several groups' parameters, as a ground station lists them.
+pub fn group_names(groups: &[Group]) -> String {
+    groups
+        .iter()
+        .map(|g| g.names())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The values of `param` the checks take with every other parameter as in `settings`: the
+/// interval around its value in force, found by search (the checks are the firmware's, so
+/// the bounds are what the vehicle takes, not a copy of them). `None` when the value in
+/// force itself is refused.
+pub fn allowed_range(settings: &Settings, param: &Param) -> Option<(f32, f32)> {
+    let group = group(param);
+    let ok = |v: f32| {
+        let mut s = *settings;
+        (param.set)(&mut s, v);
+        s.check(group).is_ok()
+    };
+    let v0 = (param.get)(settings);
+    if !ok(v0) {
+        return None;
+    }
+    // Out from the value in force by doubling steps to the first value refused (or the
+    // search's end), then halving the gap between the last taken and the first refused.
+    let edge = |dir: f32| -> f32 {
+        const FARTHEST: f32 = 1.0e9;
+        let mut taken = v0;
+        let mut step = v0.abs().max(1.0) * 1e-3;
+        let refused = loop {
+            let next = v0 + dir * step;
+            if next.abs() > FARTHEST {
+                return dir * FARTHEST;
+            }
+            if !ok(next) {
+                break next;
+            }
+            taken = next;
+            step *= 2.0;
+        };
+        let (mut a, mut b) = (taken, refused);
+        for _ in 0..48 {
+            let mid = 0.5 * (a + b);
+            if mid == a || mid == b {
+                break;
+            }
+            if ok(mid) {
+                a = mid;
+            } else {
+                b = mid;
+            }
+        }
+        a
+    };
+    Some((edge(-1.0), edge(1.0)))
+}
+
+/// A number as an operator reads it: up to 4 significant digits, no trailing zeros.
+pub fn show(v: f32) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let digits = (3 - v.abs().log10().floor() as i32).clamp(0, 6) as usize;
+    let s = format!("{v:.digits$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
 
 /// Largest `CTRL_PASSKEY` (six digits: exact in the parameter's 32-bit float).
 pub const MAX_PASSKEY: f32 = 999_999.0;
