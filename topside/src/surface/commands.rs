@@ -75,6 +75,10 @@ impl Topside {
                 // not at its next telemetry.
                 v.tel.mode = firmware_mode;
                 self.guided = custom == ardusub_mode::GUIDED;
+                self.guided_target = match reference {
+                    Some(Reference::Hold { pos_m }) => Some(pos_m),
+                    _ => None,
+                };
                 self.sticks_seen_centred = false;
                 self.gcs.ack(station, cmd, MavResult::MAV_RESULT_ACCEPTED)
             }
@@ -93,6 +97,9 @@ impl Topside {
 
     /// `COMMAND_LONG`: each command answered with a `COMMAND_ACK`.
     pub(super) fn command_long(&mut self, station: StationId, c: COMMAND_LONG_DATA) -> Result<()> {
+        if super::inquiry::is_query(c.command) {
+            return self.query(station, c.command, c.param1, c.param2);
+        }
         self.gcs.stats.handled += 1;
         match c.command {
             MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => self.arm_disarm(station, c.param1),
@@ -107,6 +114,7 @@ impl Topside {
                 }
             },
             MavCmd::MAV_CMD_DO_START_MAG_CAL => self.start_mag_cal(station),
+            MavCmd::MAV_CMD_DO_REPOSITION => self.reposition_long(station, &c),
             // The vehicle's estimator restarted at the latest USBL fix (param1 = 1).
             MavCmd::MAV_CMD_USER_1 if c.param1 == 1.0 => {
                 match self.nav.start(&mut self.v, true)? {
@@ -133,9 +141,17 @@ impl Topside {
 
     /// `COMMAND_INT`: each command answered with a `COMMAND_ACK`.
     pub(super) fn command_int(&mut self, station: StationId, c: COMMAND_INT_DATA) -> Result<()> {
-        self.gcs.stats.handled += 1;
-        self.gcs
-            .ack(station, c.command, MavResult::MAV_RESULT_UNSUPPORTED)
+        if super::inquiry::is_query(c.command) {
+            return self.query(station, c.command, c.param1, c.param2);
+        }
+        match c.command {
+            MavCmd::MAV_CMD_DO_REPOSITION => self.reposition_int(station, &c),
+            other => {
+                self.gcs.stats.handled += 1;
+                self.gcs
+                    .ack(station, other, MavResult::MAV_RESULT_UNSUPPORTED)
+            }
+        }
     }
 
     /// MAVLink: 1 arms, 0 disarms; anything else (NaN, 0.5, -1) is refused rather than read
@@ -153,6 +169,20 @@ impl Topside {
         if cmd == Command::Arm {
             if let Some(why) = self.sticks_refuse_arming()? {
                 return self.refuse(station, command, &why);
+            }
+            // Nothing given before arming is flown after it: GUIDED holds where the vehicle
+            // is until a target is sent.
+            if self.guided {
+                let s = &self.v.state;
+                let hold = [s.x_m, s.y_m, s.z_m];
+                if let Err(why) = self.v.command(&Command::SetReference {
+                    reference: Reference::Hold { pos_m: hold },
+                    start_us: None,
+                })? {
+                    let why = format!("Arming refused: the GUIDED hold point was refused: {why}");
+                    return self.refuse(station, command, &why);
+                }
+                self.guided_target = Some(hold);
             }
         }
         match self.v.command(&cmd)? {

@@ -55,12 +55,15 @@ mod commands;
 mod faults;
 mod frames;
 mod geodesy;
+mod goto;
 mod guard;
+mod inquiry;
 mod logs;
 mod missions;
 pub mod navigation;
 pub mod params;
 mod start;
+mod streams;
 mod telemetry;
 mod transport;
 mod vehicle;
@@ -78,7 +81,6 @@ pub use transport::{take_frames, GcsStats, StationId, POLL_LIMIT};
 pub use vehicle::{check_telemetry, Vehicle, VehicleEnd, TETHER_TIMEOUT, VEHICLE_SILENCE};
 
 use anyhow::Result;
-use controller_core::reference::Reference;
 use mavlink::dialects::ardupilotmega::{
     MavCmd, MavMessage, MavMissionResult, MavResult, MavSeverity, GPS_GLOBAL_ORIGIN_DATA,
 };
@@ -138,6 +140,14 @@ pub fn manual_thrust(x: i16, z: i16, r: i16) -> ManualThrust {
     }
 }
 
+/// A sender's MAVLink system and component ids (8 bits on the wire).
+fn peer_of(header: MavHeader) -> (u8, u8) {
+    (
+        u8::try_from(header.system_id).unwrap_or(u8::MAX),
+        header.component_id,
+    )
+}
+
 /// The topside's state: the ground stations, the vehicle behind the tether, who commands,
 /// the missions, the pilot's sticks and the mode shown.
 struct Topside {
@@ -151,6 +161,10 @@ struct Topside {
     manual_at: Option<Instant>,
     /// GUIDED is shown (the vehicle's `Track` mode entered through GUIDED).
     guided: bool,
+    /// The point GUIDED holds or goes to (`POSITION_TARGET_LOCAL_NED`).
+    guided_target: Option<[f32; 3]>,
+    /// The streamed messages' rates, each station's own where it set one.
+    streams: streams::Streams,
     /// The faults last reported (`STATUSTEXT` on each change).
     last_faults: u16,
     /// Where accepted parameters are saved.
@@ -175,7 +189,6 @@ impl Topside {
         let wall0 = Instant::now();
         let mut k: u64 = 0;
         let per_second = (1.0 / self.v.period_s).round().max(1.0) as u64;
-        let per_tenth = (per_second / 10).max(1);
         loop {
             if let Some(d) = a.duration {
                 if self.v.t_s >= d {
@@ -229,11 +242,9 @@ impl Topside {
 
             self.missions
                 .tick(&mut self.gcs, &self.v.tel, k.is_multiple_of(per_second))?;
-            if k.is_multiple_of(per_second) {
-                telemetry::send_heartbeat(&mut self.gcs, &self.v, self.guided)?;
-            }
-            if k.is_multiple_of(per_tenth) {
-                telemetry::send_state(&mut self.gcs, &self.v)?;
+            self.send_streams(k)?;
+            if self.guided && k.is_multiple_of(per_second) {
+                self.send_position_target()?;
             }
             k += 1;
             self.gcs.flush()?;
@@ -286,6 +297,8 @@ impl Topside {
 
     /// One message from `station`: ignored if addressed to another system or component,
     /// else arbitrated, then handled.
+    // (The deprecated MISSION_ITEM is still sent by ground stations.)
+    #[allow(deprecated)]
     fn on_message(
         &mut self,
         station: StationId,
@@ -313,6 +326,17 @@ impl Topside {
             if sticks_centred(&manual_thrust(m.x, m.z, m.r)) {
                 self.sticks_seen_centred = true;
             }
+        }
+        // A guided mission item (MAVProxy's `guided`, `current` = 2) is a go-to, not a
+        // mission upload.
+        match &msg {
+            MavMessage::MISSION_ITEM_INT(i) if i.current == 2 => {
+                return self.guided_item(station, peer_of(header), i)
+            }
+            MavMessage::MISSION_ITEM(i) if i.current == 2 => {
+                return self.guided_item(station, peer_of(header), &missions::int_item(i))
+            }
+            _ => {}
         }
         if !self.missions.handle(
             &mut self.gcs,
@@ -453,69 +477,10 @@ impl Topside {
                     )?,
                 }
             }
-            MavMessage::SET_POSITION_TARGET_LOCAL_NED(p) => {
-                self.gcs.stats.handled += 1;
-                if !self.guided {
-                    self.gcs
-                        .text_to(station, warn, "Position target ignored: not in GUIDED")?;
-                    return Ok(());
-                }
-                if let Err(why) = guided_target(&p) {
-                    return self
-                        .gcs
-                        .text_to(station, warn, &format!("Target refused: {why}"));
-                }
-                if let Err(why) = self.v.command(&Command::SetReference {
-                    reference: Reference::Hold {
-                        pos_m: [p.x, p.y, p.z],
-                    },
-                    start_us: None,
-                })? {
-                    self.gcs
-                        .text_to(station, warn, &format!("Target refused: {why}"))?;
-                }
-            }
+            MavMessage::SET_POSITION_TARGET_LOCAL_NED(p) => self.target_local(station, &p)?,
+            MavMessage::SET_POSITION_TARGET_GLOBAL_INT(p) => self.target_global(station, &p)?,
             _ => self.gcs.stats.ignored += 1,
         }
         Ok(())
     }
-}
-
-/// A GUIDED position target's checks at the surface: a position in `MAV_FRAME_LOCAL_NED`
-/// (not ignored by its type mask), finite, from the surface down to the deepest waypoint a
-/// mission may have, and within a mission's range of the origin. The vehicle checks again.
-pub fn guided_target(
-    p: &mavlink::dialects::ardupilotmega::SET_POSITION_TARGET_LOCAL_NED_DATA,
-) -> std::result::Result<(), String> {
-    use mavlink::dialects::ardupilotmega::{MavFrame, PositionTargetTypemask as M};
-    if p.coordinate_frame != MavFrame::MAV_FRAME_LOCAL_NED {
-        return Err(format!(
-            "frame {:?}, only MAV_FRAME_LOCAL_NED",
-            p.coordinate_frame
-        ));
-    }
-    let ignored = M::POSITION_TARGET_TYPEMASK_X_IGNORE
-        | M::POSITION_TARGET_TYPEMASK_Y_IGNORE
-        | M::POSITION_TARGET_TYPEMASK_Z_IGNORE;
-    if p.type_mask.intersects(ignored) {
-        return Err("only position targets (the type mask ignores the position)".into());
-    }
-    if ![p.x, p.y, p.z].iter().all(|v| v.is_finite()) {
-        return Err("not finite".into());
-    }
-    let max_depth = protocol::limits::MAX_MISSION_DEPTH_M;
-    if !(0.0..=max_depth).contains(&p.z) {
-        return Err(format!(
-            "depth {} m is outside 0 (the surface) to {max_depth} m",
-            p.z
-        ));
-    }
-    let range = p.x.hypot(p.y);
-    let max_range = protocol::limits::MAX_MISSION_RANGE_M;
-    if range > max_range {
-        return Err(format!(
-            "{range:.0} m from the origin, at most {max_range} m"
-        ));
-    }
-    Ok(())
 }

@@ -292,6 +292,8 @@ fn run_topside(
         manual: ManualThrust::default(),
         manual_at: None,
         guided: false,
+        guided_target: None,
+        streams: Default::default(),
         last_faults: 0,
         mag_cal: None,
         params_file: a.params.clone(),
