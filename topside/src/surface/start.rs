@@ -215,8 +215,14 @@ fn run_topside(
     let mut pending = Pending::default();
     // The vehicle flown: `--vehicle` wins over a saved description (said), else the saved
     // file's, else the vehicle's own.
+    // The files by name in the ground stations' texts (50 characters a message), by path in
+    // the log.
+    let name = |p: &Path| {
+        p.file_name()
+            .map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().to_string())
+    };
     let mut flown = match &a.vehicle {
-        Some(path) => format!("the vehicle of {}", path.display()),
+        Some(path) => format!("the vehicle of {}", name(path)),
         None => "the vehicle's own description".to_string(),
     };
     let params_used;
@@ -226,7 +232,7 @@ fn run_topside(
                 let text = format!("Saved parameters not used: {e:#}");
                 eprintln!("topside: {text}");
                 gcs.text(MavSeverity::MAV_SEVERITY_WARNING, &text)?;
-                params_used = format!("{} (not used: refused)", a.params.display());
+                params_used = format!("{} (not used: refused)", name(&a.params));
             }
             Ok(saved) => {
                 // Only what differs is sent; what the vehicle refuses now waits.
@@ -238,8 +244,8 @@ fn run_topside(
                     groups.retain(|&g| g != Group::Vehicle);
                     let text = format!(
                         "--vehicle {} is flown: the saved VEH_* of {} not restored",
-                        a.vehicle.as_deref().unwrap_or(Path::new("")).display(),
-                        a.params.display()
+                        name(a.vehicle.as_deref().unwrap_or(Path::new(""))),
+                        name(&a.params)
                     );
                     eprintln!("topside: {text}");
                     gcs.text(MavSeverity::MAV_SEVERITY_INFO, &text)?;
@@ -249,11 +255,11 @@ fn run_topside(
                 pending.saved = Some(saved);
                 pending.retry(&mut v, &mut gcs)?;
                 if saved_vehicle && !pending.groups.contains(&Group::Vehicle) {
-                    flown = format!("the vehicle saved in {}", a.params.display());
+                    flown = format!("the vehicle saved in {}", name(&a.params));
                 }
                 params_used = format!(
                     "{} (restored{})",
-                    a.params.display(),
+                    name(&a.params),
                     if pending.groups.is_empty() {
                         String::new()
                     } else {
@@ -268,7 +274,7 @@ fn run_topside(
     } else {
         params_used = format!(
             "{} (none saved yet: the vehicle's values)",
-            a.params.display()
+            name(&a.params)
         );
     }
     let mass = v.settings.vehicle.mass_kg;
@@ -276,7 +282,7 @@ fn run_topside(
         "Flying {flown} (VEH_MASS {} kg); parameters {params_used}",
         params::show(mass)
     );
-    eprintln!("topside: {text}");
+    eprintln!("topside: {text} ({})", a.params.display());
     gcs.text(MavSeverity::MAV_SEVERITY_INFO, &text)?;
     eprintln!(
         "topside: {what}, MAVLink on {}, tlog {}, tether log {}",
