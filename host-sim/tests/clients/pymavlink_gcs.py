@@ -150,23 +150,25 @@ def connection(m):
     bat = recv(m, "BATTERY_STATUS", 5)
     expect(bat is not None, f"BATTERY_STATUS: {bat.voltages[0] if bat else None} mV")
 
-    # SET_MESSAGE_INTERVAL honoured: ATTITUDE every 40 ms of the vehicle's clock, then off,
-    # then back to the default 100 ms.
+    # SET_MESSAGE_INTERVAL honoured: ATTITUDE every 40 ms, then off, then back to the
+    # default 100 ms. The surface counts its own control periods (the wall clock in front of
+    # a vehicle on its own clock); the mean interval of the messages received over 3 s.
     def attitude_interval_ms(seconds):
         stamps = []
         end = time.time() + seconds
         while time.time() < end:
             a = recv(m, "ATTITUDE", 0.5)
             if a is not None:
-                stamps.append(a.time_boot_ms)
-        gaps = sorted(b - a for a, b in zip(stamps, stamps[1:]))
-        return gaps[len(gaps) // 2] if gaps else None
+                stamps.append(time.time())
+        if len(stamps) < 3:
+            return None
+        return 1e3 * (stamps[-1] - stamps[0]) / (len(stamps) - 1)
 
     a = command(m, mav.MAV_CMD_SET_MESSAGE_INTERVAL, 30, 40000)
     drain(m, 0.3)
-    ms = attitude_interval_ms(2.0)
+    ms = attitude_interval_ms(3.0)
     expect(a is not None and a.result == mav.MAV_RESULT_ACCEPTED and ms is not None
-           and 30 <= ms <= 50, f"ATTITUDE at 40 ms asked: every {ms} ms (vehicle clock)")
+           and 32 <= ms <= 55, f"ATTITUDE at 40 ms asked: every {ms:.1f} ms")
     a = command(m, mav.MAV_CMD_GET_MESSAGE_INTERVAL, 30)
     mi = recv(m, "MESSAGE_INTERVAL", 5)
     expect(mi is not None and mi.interval_us == 40000, "GET_MESSAGE_INTERVAL says 40000 us")
@@ -175,8 +177,9 @@ def connection(m):
     expect(recv(m, "ATTITUDE", 1.5) is None, "ATTITUDE off (-1): none in 1.5 s")
     command(m, mav.MAV_CMD_SET_MESSAGE_INTERVAL, 30, 0)
     drain(m, 0.3)
-    ms = attitude_interval_ms(2.0)
-    expect(ms is not None and 90 <= ms <= 110, f"ATTITUDE back to the default: every {ms} ms")
+    ms = attitude_interval_ms(3.0)
+    expect(ms is not None and 85 <= ms <= 125,
+           f"ATTITUDE back to the default: every {ms:.1f} ms")
     a = command(m, mav.MAV_CMD_SET_MESSAGE_INTERVAL, 30, float("nan"))
     expect(a is not None and a.result == mav.MAV_RESULT_DENIED
            and said(m, "interval refused"), "a NaN interval refused in words")
@@ -187,7 +190,7 @@ def refusals(m):
     sent()
     m.mav.param_set_send(m.target_system, m.target_component, b"TRK_XY_KP", 5000,
                          mav.MAV_PARAM_TYPE_REAL32)
-    expect(said(m, r"TRK_XY_KP 5000 refused: allowed [0-9.]+-[0-9.]+"),
+    expect(said(m, r"TRK_XY_KP 5000 refused: allowed [0-9.]+ to [0-9.]+"),
            "TRK_XY_KP 5000 refused with the range allowed")
     sent()
     m.mav.param_set_send(m.target_system, m.target_component, b"FS_HB_NEUTRAL", float("nan"),

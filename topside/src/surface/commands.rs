@@ -2,7 +2,7 @@
 //! `PARAM_SET`): arming, modes, parameters and the rest, each answered (`COMMAND_ACK`,
 //! `PARAM_VALUE`) and every refusal said in words with what is needed.
 
-use super::params::{self, PARAMS};
+use super::params;
 use super::{ardusub_mode, telemetry, StationId, Topside};
 use anyhow::Result;
 use controller_core::controller::ControlMode;
@@ -216,7 +216,7 @@ impl Topside {
                 warn,
                 &format!(
                     "{name} refused: no such parameter ({} parameters listed)",
-                    PARAMS.len()
+                    params::count()
                 ),
             );
         };
@@ -262,14 +262,17 @@ pub fn refused_param(
     let name = param.name;
     let reason = format!("{e:#}").replacen(&format!("{name} "), "", 1);
     let generic = reason.contains("is out of range") || reason.contains("is not finite");
-    match params::allowed_range(settings, param) {
+    // A range of one value (a whole-number parameter, stepped from by fractions) says
+    // nothing: the check's own reason then.
+    let range = params::allowed_range(settings, param).filter(|(lo, hi)| hi > lo);
+    match range {
         Some((lo, hi)) if generic => format!(
-            "{name} {value} refused: allowed {}-{} (with the other parameters as they are)",
+            "{name} {value} refused: allowed {} to {} (with the other parameters as they are)",
             params::show(lo),
             params::show(hi)
         ),
         Some((lo, hi)) => format!(
-            "{name} {value} refused: allowed {}-{}; {reason}",
+            "{name} {value} refused: allowed {} to {}; {reason}",
             params::show(lo),
             params::show(hi)
         ),
@@ -287,7 +290,7 @@ mod tests {
     fn param_refusals() -> Vec<String> {
         let settings = params::Settings::new(VehicleParams::OBSERVER);
         let mut texts = Vec::new();
-        for p in PARAMS {
+        for p in params::all() {
             for bad in [5000.0, -5000.0, 1e9, -1e9, f32::NAN, 0.0] {
                 let mut s = settings;
                 (p.set)(&mut s, bad);
@@ -311,12 +314,10 @@ mod tests {
             .iter()
             .find(|t| t.starts_with("TRK_XY_KP 5000 "))
             .expect("TRK_XY_KP 5000 refused");
-        // "allowed LO-HI": the default gain inside, 5000 outside.
-        let range = kp
-            .split("allowed ")
-            .nth(1)
-            .and_then(|r| r.split(' ').next());
-        let (lo, hi) = range.and_then(|r| r.split_once('-')).expect("a range");
+        // "allowed LO to HI": the default gain inside, 5000 outside.
+        let range = kp.split("allowed ").nth(1);
+        let (lo, hi) = range.and_then(|r| r.split_once(" to ")).expect("a range");
+        let hi = hi.split(' ').next().unwrap_or_default();
         let (lo, hi): (f32, f32) = (lo.parse().unwrap(), hi.parse().unwrap());
         let kp0 = controller_core::controller::Gains::default().tracking.xy_kp;
         assert!(lo < kp0 && kp0 < hi && hi < 5000.0, "{kp}");

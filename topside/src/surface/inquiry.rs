@@ -212,13 +212,15 @@ impl Topside {
                             &format!("Message interval refused: {why}"),
                         )
                     }
-                    None => return self.refuse(
-                        station,
-                        command,
-                        &format!(
+                    None => {
+                        return self.refuse(
+                            station,
+                            command,
+                            &format!(
                             "Message interval refused: message id {param1} is not a whole number"
                         ),
-                    ),
+                        )
+                    }
                 }
             }
             MavCmd::MAV_CMD_GET_MESSAGE_INTERVAL => match id {

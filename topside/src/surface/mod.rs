@@ -86,7 +86,6 @@ use mavlink::dialects::ardupilotmega::{
 };
 use mavlink::MavHeader;
 use missions::Missions;
-use params::PARAMS;
 use protocol::{fault, Command, ManualThrust, Mode};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -424,14 +423,14 @@ impl Topside {
         match msg {
             MavMessage::PARAM_REQUEST_LIST(_) => {
                 self.gcs.stats.handled += 1;
-                for i in 0..PARAMS.len() {
+                for i in 0..params::count() {
                     telemetry::send_param(&mut self.gcs, &self.v.settings, i, Some(station))?;
                 }
             }
             MavMessage::PARAM_REQUEST_READ(r) => {
                 self.gcs.stats.handled += 1;
                 let index = if r.param_index >= 0 {
-                    Some(r.param_index as usize).filter(|&i| i < PARAMS.len())
+                    Some(r.param_index as usize).filter(|&i| i < params::count())
                 } else {
                     params::find(telemetry::param_name(&r.param_id).as_str()).map(|(i, _)| i)
                 };

@@ -450,14 +450,39 @@ pub const PARAMS: &[Param] = params![
     "COMPASS_DEV_SIN" => compass.sin_deg,
     "COMPASS_DEV_COS" => compass.cos_deg,
     "CTRL_PASSKEY" => control_passkey,
+    // ArduSub's names where the meaning is the same: the same settings.
+    "FS_PILOT_TIMEOUT" => failsafe.pilot_stale_s,
+];
+
+/// ArduSub's parameters whose meaning here is the same, under their own names: the same
+/// settings as the project's (`FS_PILOT_TIMEOUT` is `FS_PILOT_STALE`; `WPNAV_SPEED` is
+/// `MIS_SPEED` in cm/s), and `ARMING_CHECK`, read-only 1: the vehicle's pre-arm checks
+/// always run (ground stations warn "Arming checks disabled" without it).
+pub const ARDUSUB: &[Param] = &[
+    Param {
+        name: "WPNAV_SPEED",
+        get: |s| s.mission_speed_m_s * 100.0,
+        set: |s, v| s.mission_speed_m_s = v / 100.0,
+    },
+    Param {
+        name: "ARMING_CHECK",
+        get: |_| 1.0,
+        set: |_, _| {},
+    },
 ];
 
 /// Parameters shown but not settable, with the reason: the ESCs' neutral pulse is
 /// the ESC's constant, not part of a description a ground station may move.
-pub const READ_ONLY: &[(&str, &str)] = &[(
-    "VEH_PWM_NEUTRAL",
-    "neutral is the ESC's constant, not a setting",
-)];
+pub const READ_ONLY: &[(&str, &str)] = &[
+    (
+        "VEH_PWM_NEUTRAL",
+        "neutral is the ESC's constant, not a setting",
+    ),
+    (
+        "ARMING_CHECK",
+        "the vehicle's pre-arm checks always run (1: all)",
+    ),
+];
 
 /// Why a parameter is read-only, if it is.
 pub fn read_only(name: &str) -> Option<&'static str> {
@@ -467,9 +492,24 @@ pub fn read_only(name: &str) -> Option<&'static str> {
         .map(|(_, why)| *why)
 }
 
+/// Every parameter listed: the project's, then ArduSub's names.
+pub fn all() -> impl Iterator<Item = &'static Param> {
+    PARAMS.iter().chain(ARDUSUB)
+}
+
+/// How many parameters are listed.
+pub fn count() -> usize {
+    PARAMS.len() + ARDUSUB.len()
+}
+
+/// Parameter `index` of the list.
+pub fn at(index: usize) -> Option<&'static Param> {
+    all().nth(index)
+}
+
 /// A parameter by name, with its index.
 pub fn find(name: &str) -> Option<(usize, &'static Param)> {
-    PARAMS.iter().enumerate().find(|(_, p)| p.name == name)
+    all().enumerate().find(|(_, p)| p.name == name)
 }
 
 /// The tether command group of a parameter.
@@ -480,12 +520,13 @@ pub fn group(p: &Param) -> Group {
         Some("VEH") => Group::Vehicle,
         Some("MIS") => Group::Mission,
         Some("COMPASS") => Group::Compass,
-        Some("CTRL") => Group::Control,
+        Some("CTRL") | Some("ARMING") => Group::Control,
+        Some("WPNAV") => Group::Mission,
         _ => Group::Paper,
     }
 }
 
-/// The settings as a name -> value map (the saved file).
+/// The settings as a name -> value map (the saved file: the project's names only).
 pub fn to_map(s: &Settings) -> BTreeMap<String, f32> {
     PARAMS
         .iter()
@@ -588,12 +629,31 @@ mod tests {
     }
 
     #[test]
+    fn ardusubs_names_are_the_same_settings() {
+        let mut s = Settings::new(VehicleParams::OBSERVER);
+        let (_, wpnav) = find("WPNAV_SPEED").unwrap();
+        (wpnav.set)(&mut s, 35.0);
+        assert!((s.mission_speed_m_s - 0.35).abs() < 1e-6);
+        assert_eq!(group(wpnav), Group::Mission);
+        let (_, fs) = find("FS_PILOT_TIMEOUT").unwrap();
+        (fs.set)(&mut s, 0.8);
+        assert_eq!(s.failsafe.pilot_stale_s, 0.8);
+        assert!(read_only("ARMING_CHECK").is_some());
+        assert_eq!(count(), all().count());
+        assert!(all().all(|p| p.name.len() <= 16));
+    }
+
+    #[test]
     fn every_parameter_reads_back_what_was_written() {
         let mut g = Settings::new(VehicleParams::OBSERVER);
         for (i, p) in PARAMS.iter().enumerate() {
             (p.set)(&mut g, 100.0 + i as f32);
         }
         for (i, p) in PARAMS.iter().enumerate() {
+            // An ArduSub name of the same setting reads the latest write.
+            if PARAMS[i + 1..].iter().any(|q| (q.get)(&g) == (p.get)(&g)) {
+                continue;
+            }
             assert_eq!((p.get)(&g), 100.0 + i as f32, "{}", p.name);
         }
     }
@@ -622,5 +682,25 @@ mod tests {
             assert!(e.contains("refused"), "{bad}: {e}");
         }
         let _ = std::fs::remove_dir_all(dir);
+    }
+}
+
+#[cfg(test)]
+mod table {
+    use super::*;
+
+    #[test]
+    #[ignore = "prints the table of docs/parameters.md"]
+    fn print_table() {
+        let s = Settings::new(VehicleParams::OBSERVER);
+        for p in all() {
+            let r = allowed_range(&s, p).map(|(a, b)| format!("{}-{}", show(a), show(b)));
+            println!(
+                "ROW|{}|{}|{}",
+                p.name,
+                show((p.get)(&s)),
+                r.unwrap_or_default()
+            );
+        }
     }
 }

@@ -218,8 +218,10 @@ fn run_topside(
     // The files by name in the ground stations' texts (50 characters a message), by path in
     // the log.
     let name = |p: &Path| {
-        p.file_name()
-            .map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().to_string())
+        p.file_name().map_or_else(
+            || p.display().to_string(),
+            |n| n.to_string_lossy().to_string(),
+        )
     };
     let mut flown = match &a.vehicle {
         Some(path) => format!("the vehicle of {}", name(path)),
@@ -272,10 +274,7 @@ fn run_topside(
             }
         }
     } else {
-        params_used = format!(
-            "{} (none saved yet: the vehicle's values)",
-            name(&a.params)
-        );
+        params_used = format!("{} (none saved yet: the vehicle's values)", name(&a.params));
     }
     let mass = v.settings.vehicle.mass_kg;
     let text = format!(

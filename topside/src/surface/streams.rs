@@ -1,7 +1,7 @@
 //! The messages streamed to the ground stations and how often, each station's own rate
 //! where it set one (`MAV_CMD_SET_MESSAGE_INTERVAL`, per station as ArduPilot keeps it per
-//! link): counted in control periods of the vehicle's clock, so that a vehicle served
-//! faster than real time streams as fast on its own clock.
+//! link): counted in the surface's control periods (the wall clock in front of a vehicle
+//! on its own clock, the simulated one in lock-step).
 
 use super::StationId;
 use std::collections::HashMap;

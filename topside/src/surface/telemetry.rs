@@ -5,7 +5,7 @@ use super::geodesy::GlobalOrigin;
 use super::transport::Gcs;
 use super::vehicle::Vehicle;
 use super::{custom_mode_of, StationId};
-use crate::surface::params::{Settings, PARAMS};
+use crate::surface::params::{self, Settings};
 use anyhow::Result;
 use mavlink::dialects::ardupilotmega::{
     MavAutopilot, MavMessage, MavModeFlag, MavParamType, MavState, MavSysStatusSensor, MavType,
@@ -29,12 +29,12 @@ pub(super) fn send_param(
     index: usize,
     to: Option<StationId>,
 ) -> Result<()> {
-    let Some(p) = PARAMS.get(index) else {
+    let Some(p) = params::at(index) else {
         return Ok(());
     };
     let msg = MavMessage::PARAM_VALUE(PARAM_VALUE_DATA {
         param_value: (p.get)(settings),
-        param_count: PARAMS.len() as u16,
+        param_count: params::count() as u16,
         param_index: index as u16,
         param_id: p.name.into(),
         param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
