@@ -355,4 +355,20 @@ mod tests {
         assert_eq!(custom_mode_of_param(f32::NAN), None);
         assert_eq!(custom_mode_of_param(4.0), Some(4));
     }
+
+    #[test]
+    #[ignore = "prints the rows of docs/parameters.md"]
+    fn print_parameter_table() {
+        let s = params::Settings::new(VehicleParams::OBSERVER);
+        for p in params::all() {
+            let r = params::allowed_range(&s, p)
+                .map(|(a, b)| format!("{} to {}", params::show(a), params::show(b)));
+            println!(
+                "| `{}` | {} | {} |",
+                p.name,
+                r.unwrap_or_default(),
+                params::show((p.get)(&s))
+            );
+        }
+    }
 }

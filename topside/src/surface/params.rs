@@ -684,23 +684,3 @@ mod tests {
         let _ = std::fs::remove_dir_all(dir);
     }
 }
-
-#[cfg(test)]
-mod table {
-    use super::*;
-
-    #[test]
-    #[ignore = "prints the table of docs/parameters.md"]
-    fn print_table() {
-        let s = Settings::new(VehicleParams::OBSERVER);
-        for p in all() {
-            let r = allowed_range(&s, p).map(|(a, b)| format!("{}-{}", show(a), show(b)));
-            println!(
-                "ROW|{}|{}|{}",
-                p.name,
-                show((p.get)(&s)),
-                r.unwrap_or_default()
-            );
-        }
-    }
-}
