@@ -190,12 +190,12 @@ def refusals(m):
     sent()
     m.mav.param_set_send(m.target_system, m.target_component, b"TRK_XY_KP", 5000,
                          mav.MAV_PARAM_TYPE_REAL32)
-    expect(said(m, r"TRK_XY_KP 5000 refused: allowed [0-9.]+ to [0-9.]+"),
+    expect(said(m, r"TRK_XY_KP refused: 5000 is outside the allowed [0-9.]+ to [0-9.]+"),
            "TRK_XY_KP 5000 refused with the range allowed")
     sent()
     m.mav.param_set_send(m.target_system, m.target_component, b"FS_HB_NEUTRAL", float("nan"),
                          mav.MAV_PARAM_TYPE_REAL32)
-    expect(said(m, r"FS_HB_NEUTRAL NaN refused"), "FS_HB_NEUTRAL NaN refused")
+    expect(said(m, r"FS_HB_NEUTRAL refused: NaN"), "FS_HB_NEUTRAL NaN refused")
     sent()
     m.mav.param_set_send(m.target_system, m.target_component, b"NO_SUCH", 1,
                          mav.MAV_PARAM_TYPE_REAL32)
@@ -212,11 +212,11 @@ def refusals(m):
     expect(a is not None and a.result == mav.MAV_RESULT_DENIED and said(m, "must be 1"),
            "arming with 0.5 refused")
     target_local(m, mav.MAV_FRAME_LOCAL_NED, 1, 1, 1)
-    expect(said(m, "Position target refused: not in GUIDED"), "a target outside GUIDED refused")
+    expect(said(m, "Target refused: not in GUIDED"), "a target outside GUIDED refused")
     a = set_mode(m, GUIDED)
     expect(a is not None and a.result == mav.MAV_RESULT_ACCEPTED, "GUIDED accepted, disarmed")
     target_local(m, mav.MAV_FRAME_LOCAL_NED, 2, 2, 1)
-    expect(said(m, "Position target refused: the vehicle is disarmed"),
+    expect(said(m, "Target refused: the vehicle is disarmed"),
            "a target while disarmed refused (never flown after arming)")
     a = command(m, mav.MAV_CMD_DO_REPOSITION, -1, 1, 0, 0, ORIGIN[0], ORIGIN[1], -1)
     expect(a is not None and a.result == mav.MAV_RESULT_DENIED and said(m, "disarmed"),

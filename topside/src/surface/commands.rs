@@ -222,7 +222,7 @@ impl Topside {
         };
         let value = params::show(p.param_value);
         let refusal = if let Some(why) = params::read_only(&name) {
-            Some(format!("{name} {value} refused: read-only, {why}"))
+            Some(format!("{name} refused: {value} is read-only, {why}"))
         } else {
             let mut proposed = self.v.settings;
             (param.set)(&mut proposed, p.param_value);
@@ -232,7 +232,7 @@ impl Topside {
                 Err(e) => Some(refused_param(&self.v.settings, param, &value, &e)),
                 Ok(()) => match self.v.apply(proposed, group)? {
                     Ok(()) => None,
-                    Err(why) => Some(format!("{name} {value} refused by the vehicle: {why}")),
+                    Err(why) => Some(format!("{name} refused by the vehicle: {value}: {why}")),
                 },
             }
         };
@@ -267,16 +267,16 @@ pub fn refused_param(
     let range = params::allowed_range(settings, param).filter(|(lo, hi)| hi > lo);
     match range {
         Some((lo, hi)) if generic => format!(
-            "{name} {value} refused: allowed {} to {} (with the other parameters as they are)",
+            "{name} refused: {value} is outside the allowed {} to {} (with the other parameters as they are)",
             params::show(lo),
             params::show(hi)
         ),
         Some((lo, hi)) => format!(
-            "{name} {value} refused: allowed {} to {}; {reason}",
+            "{name} refused: {value} is outside the allowed {} to {}; {reason}",
             params::show(lo),
             params::show(hi)
         ),
-        None => format!("{name} {value} refused: {reason}"),
+        None => format!("{name} refused: {value}: {reason}"),
     }
 }
 
@@ -312,8 +312,8 @@ mod tests {
         }
         let kp = texts
             .iter()
-            .find(|t| t.starts_with("TRK_XY_KP 5000 "))
-            .expect("TRK_XY_KP 5000 refused");
+            .find(|t| t.starts_with("TRK_XY_KP refused: 5000 "))
+            .expect("TRK_XY_KP refused: 5000");
         // "allowed LO to HI": the default gain inside, 5000 outside.
         let range = kp.split("allowed ").nth(1);
         let (lo, hi) = range.and_then(|r| r.split_once(" to ")).expect("a range");

@@ -201,7 +201,7 @@ impl Topside {
         p: &SET_POSITION_TARGET_LOCAL_NED_DATA,
     ) -> Result<()> {
         self.gcs.stats.handled += 1;
-        let what = "Position target";
+        let what = "Target";
         if let Some(why) = self.goto_state() {
             return self.goto_refused(station, what, why);
         }
@@ -222,7 +222,7 @@ impl Topside {
         p: &SET_POSITION_TARGET_GLOBAL_INT_DATA,
     ) -> Result<()> {
         self.gcs.stats.handled += 1;
-        let what = "Global position target";
+        let what = "Global target";
         if let Some(why) = self.goto_state() {
             return self.goto_refused(station, what, why);
         }
