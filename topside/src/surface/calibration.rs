@@ -41,11 +41,7 @@ impl Topside {
                 )?;
                 self.gcs.ack(station, cmd, MavResult::MAV_RESULT_ACCEPTED)
             }
-            Err(why) => self.refuse(
-                station,
-                cmd,
-                &format!("Compass calibration refused: {why:?}"),
-            ),
+            Err(why) => self.refuse(station, cmd, &format!("Compass calibration refused: {why}")),
         }
     }
 
@@ -86,7 +82,10 @@ impl Topside {
             }
             SwingOutcome::Refused(why) => self.gcs.text(
                 MavSeverity::MAV_SEVERITY_WARNING,
-                &format!("Compass calibration refused: {why:?}; the old calibration stays"),
+                &format!(
+                    "Compass calibration refused: {}; the old calibration stays",
+                    super::words::compass(why)
+                ),
             ),
             _ => self.gcs.text(
                 MavSeverity::MAV_SEVERITY_WARNING,

@@ -27,7 +27,8 @@
 use super::transport::{Gcs, StationId};
 use anyhow::Result;
 use mavlink::dialects::ardupilotmega::{
-    MavCmd, MavMessage, MavSeverity, CHANGE_OPERATOR_CONTROL_ACK_DATA,
+    MavCmd, MavMessage, MavSeverity, CHANGE_OPERATOR_CONTROL_ACK_DATA, COMMAND_INT_DATA,
+    COMMAND_LONG_DATA,
 };
 use mavlink::MavHeader;
 use std::time::{Duration, Instant};
@@ -71,9 +72,12 @@ pub struct Commander {
 pub fn is_command(msg: &MavMessage) -> bool {
     matches!(
         msg,
-        MavMessage::COMMAND_LONG(_)
-            | MavMessage::COMMAND_INT(_)
-            | MavMessage::SET_MODE(_)
+        MavMessage::COMMAND_LONG(COMMAND_LONG_DATA { command, .. })
+            | MavMessage::COMMAND_INT(COMMAND_INT_DATA { command, .. })
+            if !super::inquiry::is_query(*command)
+    ) || matches!(
+        msg,
+        MavMessage::SET_MODE(_)
             | MavMessage::MANUAL_CONTROL(_)
             | MavMessage::SET_POSITION_TARGET_LOCAL_NED(_)
             | MavMessage::SET_POSITION_TARGET_GLOBAL_INT(_)

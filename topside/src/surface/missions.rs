@@ -36,8 +36,10 @@ pub const MISSION_MAX_ITEMS: usize = protocol::limits::MAX_MISSION_ITEMS;
 /// An upload that waits this long for the next item asks again (5 times, then gives up).
 const MISSION_RETRY: Duration = Duration::from_secs(1);
 
-/// A mission item as the ground station sent it, and its waypoint in the local frame.
-type ReceivedItem = (MISSION_ITEM_INT_DATA, [f32; 3]);
+/// A mission item as the ground station sent it (as `MISSION_ITEM_INT`: a float
+/// `MISSION_ITEM` is converted to the spec's scaling), its waypoint in the local frame, and
+/// whether it came as the float form.
+type ReceivedItem = (MISSION_ITEM_INT_DATA, [f32; 3], bool);
 
 /// The mission protocol at the surface: uploads item by item to the vehicle, the mission in
 /// use for downloads, and the progress reported in AUTO.
@@ -48,6 +50,11 @@ pub(super) struct Missions {
     upload: Option<(Vec<ReceivedItem>, u16, Instant, u32, Peer)>,
     /// The mission the vehicle holds, as the ground station sent it.
     items: Vec<MISSION_ITEM_INT_DATA>,
+    /// Its local-frame items carry metres x 1e7 (MAVProxy's and ArduPilot's scaling of
+    /// `MISSION_ITEM_INT` in every frame), not the MAVLink spec's x 1e4.
+    local_e7: bool,
+    /// The station that uploaded it: its downloads come back exactly as it sent them.
+    uploader: Option<StationId>,
     /// Waypoints reported reached in the current AUTO run.
     reached: u16,
     /// The ground station of the latest mission exchange (station, system, component):
@@ -64,7 +71,91 @@ const FENCE: u8 = 1;
 const RALLY: u8 = 2;
 const ALL: u8 = 255;
 
+/// The largest local coordinate at the spec's x 1e4 within the vehicle's range.
+const LOCAL_E4_MAX: f64 = protocol::limits::MAX_MISSION_RANGE_M as f64 * 1e4;
+
+/// An item in the float form (`MISSION_ITEM`): x, y in metres (local frames) or degrees
+/// (global), from an integer item carrying local metres x 1e7 (`local_e7`) or x 1e4.
+#[allow(deprecated)]
+pub(super) fn float_item(
+    i: &MISSION_ITEM_INT_DATA,
+    local_e7: bool,
+) -> mavlink::dialects::ardupilotmega::MISSION_ITEM_DATA {
+    let scale = if i.frame == MavFrame::MAV_FRAME_LOCAL_NED && !local_e7 {
+        1e-4
+    } else {
+        1e-7
+    };
+    mavlink::dialects::ardupilotmega::MISSION_ITEM_DATA {
+        param1: i.param1,
+        param2: i.param2,
+        param3: i.param3,
+        param4: i.param4,
+        x: (f64::from(i.x) * scale) as f32,
+        y: (f64::from(i.y) * scale) as f32,
+        z: i.z,
+        seq: i.seq,
+        command: i.command,
+        target_system: i.target_system,
+        target_component: i.target_component,
+        frame: i.frame,
+        current: i.current,
+        autocontinue: i.autocontinue,
+    }
+}
+
+/// A float `MISSION_ITEM` as `MISSION_ITEM_INT` in the spec's scaling: local x, y in metres
+/// x 1e4, global degrees x 1e7 (a value beyond `i32` saturates and is refused by range).
+#[allow(deprecated)]
+pub(super) fn int_item(
+    i: &mavlink::dialects::ardupilotmega::MISSION_ITEM_DATA,
+) -> MISSION_ITEM_INT_DATA {
+    let scale = if i.frame == MavFrame::MAV_FRAME_LOCAL_NED {
+        1e4
+    } else {
+        1e7
+    };
+    let as_int = |m: f32| {
+        let v = (f64::from(m) * scale).round();
+        if v.is_finite() {
+            v.clamp(f64::from(i32::MIN), f64::from(i32::MAX)) as i32
+        } else {
+            i32::MAX
+        }
+    };
+    MISSION_ITEM_INT_DATA {
+        param1: i.param1,
+        param2: i.param2,
+        param3: i.param3,
+        param4: i.param4,
+        x: as_int(i.x),
+        y: as_int(i.y),
+        z: i.z,
+        seq: i.seq,
+        command: i.command,
+        target_system: i.target_system,
+        target_component: i.target_component,
+        frame: i.frame,
+        current: i.current,
+        autocontinue: i.autocontinue,
+    }
+}
+
 impl Missions {
+    /// Item `seq` of the mission for a download by `station`: as its uploader sent it, to
+    /// others (and with `None`) local x, y in the spec's metres x 1e4.
+    fn download_item(&self, station: Option<StationId>, seq: u16) -> Option<MISSION_ITEM_INT_DATA> {
+        let mut item = self.items.get(usize::from(seq))?.clone();
+        if self.local_e7 && item.frame == MavFrame::MAV_FRAME_LOCAL_NED {
+            if station.is_some() && self.uploader == station {
+                return Some(item);
+            }
+            item.x /= 1000;
+            item.y /= 1000;
+        }
+        Some(item)
+    }
+
     fn request(peer: Peer, gcs: &mut Gcs, seq: u16) -> Result<()> {
         gcs.send_to(
             peer.0,
@@ -288,42 +379,11 @@ impl Missions {
                 self.upload = Some((Vec::new(), c.count, Instant::now(), 1, sender));
                 Self::request(self.peer, gcs, 0)?;
             }
-            MavMessage::MISSION_ITEM_INT(item) => self.item(gcs, v, sender, item)?,
+            MavMessage::MISSION_ITEM_INT(item) => self.item(gcs, v, sender, item, false)?,
             // The float form, which MAVProxy sends to a vehicle that does not announce
             // MISSION_INT in AUTOPILOT_VERSION: the same item, x and y in metres (local) or
             // degrees (global).
-            MavMessage::MISSION_ITEM(i) => {
-                let scale = if i.frame == MavFrame::MAV_FRAME_LOCAL_NED {
-                    1e4
-                } else {
-                    1e7
-                };
-                let as_int = |m: f32| {
-                    let v = (f64::from(m) * scale).round();
-                    if v.is_finite() {
-                        v.clamp(f64::from(i32::MIN), f64::from(i32::MAX)) as i32
-                    } else {
-                        i32::MAX
-                    }
-                };
-                let item = MISSION_ITEM_INT_DATA {
-                    param1: i.param1,
-                    param2: i.param2,
-                    param3: i.param3,
-                    param4: i.param4,
-                    x: as_int(i.x),
-                    y: as_int(i.y),
-                    z: i.z,
-                    seq: i.seq,
-                    command: i.command,
-                    target_system: i.target_system,
-                    target_component: i.target_component,
-                    frame: i.frame,
-                    current: i.current,
-                    autocontinue: i.autocontinue,
-                };
-                self.item(gcs, v, sender, &item)?
-            }
+            MavMessage::MISSION_ITEM(i) => self.item(gcs, v, sender, &int_item(i), true)?,
             MavMessage::MISSION_REQUEST_LIST(_) => {
                 gcs.send_to(
                     station,
@@ -334,11 +394,18 @@ impl Missions {
                     }),
                 )?;
             }
-            MavMessage::MISSION_REQUEST_INT(MISSION_REQUEST_INT_DATA { seq, .. })
-            | MavMessage::MISSION_REQUEST(
-                mavlink::dialects::ardupilotmega::MISSION_REQUEST_DATA { seq, .. },
-            ) => match self.items.get(usize::from(*seq)) {
-                Some(item) => gcs.send_to(station, MavMessage::MISSION_ITEM_INT(item.clone()))?,
+            // Each item in the form asked for: `MISSION_ITEM_INT` for `MISSION_REQUEST_INT`,
+            // the float `MISSION_ITEM` for `MISSION_REQUEST`.
+            MavMessage::MISSION_REQUEST_INT(MISSION_REQUEST_INT_DATA { seq, .. }) => {
+                match self.download_item(Some(station), *seq) {
+                    Some(item) => gcs.send_to(station, MavMessage::MISSION_ITEM_INT(item))?,
+                    None => Self::ack(sender, gcs, MavMissionResult::MAV_MISSION_INVALID_SEQUENCE)?,
+                }
+            }
+            MavMessage::MISSION_REQUEST(r) => match self.download_item(None, r.seq) {
+                Some(item) => {
+                    gcs.send_to(station, MavMessage::MISSION_ITEM(float_item(&item, false)))?
+                }
                 None => Self::ack(sender, gcs, MavMissionResult::MAV_MISSION_INVALID_SEQUENCE)?,
             },
             MavMessage::MISSION_CLEAR_ALL(_) => self.clear(gcs, v, MISSION)?,
@@ -365,7 +432,7 @@ impl Missions {
             Err(why) => {
                 gcs.text(
                     MavSeverity::MAV_SEVERITY_WARNING,
-                    &format!("Mission not cleared: {why:?} (leave AUTO first)"),
+                    &format!("Mission not cleared: {why} (leave AUTO first)"),
                 )?;
                 Self::ack_typed(
                     self.peer,
@@ -384,6 +451,7 @@ impl Missions {
         v: &mut Vehicle,
         sender: Peer,
         item: &MISSION_ITEM_INT_DATA,
+        float: bool,
     ) -> Result<()> {
         let Some((items, count, at, tries, peer)) = self.upload.as_mut() else {
             let why = format!("item {} with no upload in progress", item.seq);
@@ -428,15 +496,36 @@ impl Missions {
             );
             return self.refuse(gcs, R::MAV_MISSION_INVALID_PARAM7, &why);
         }
-        items.push((item.clone(), pos_m));
+        items.push((item.clone(), pos_m, float));
         if items.len() < usize::from(count) {
             *at = Instant::now();
             *tries = 1;
             return Self::request(peer, gcs, items.len() as u16);
         }
         // Complete: to the vehicle, which replaces its mission only when the last one is in.
-        let items = std::mem::take(items);
-        for (i, (_, pos_m)) in items.iter().enumerate() {
+        let mut items = std::mem::take(items);
+        // A local coordinate beyond the vehicle's range at the spec's x 1e4 is MAVProxy's
+        // x 1e7 (the same numbers read at 1e4 would be over 1 km away): the whole upload is
+        // read at 1e7. (MAVProxy's local points within 1 m of the origin cannot be told from
+        // the spec's within 1 km; they are read as the spec says.)
+        let local_e7 = items.iter().any(|(i, _, float)| {
+            !float
+                && i.frame == MavFrame::MAV_FRAME_LOCAL_NED
+                && f64::from(i.x).hypot(f64::from(i.y)) > LOCAL_E4_MAX
+        });
+        if local_e7 {
+            for (item, pos_m, float) in items.iter_mut() {
+                if item.frame == MavFrame::MAV_FRAME_LOCAL_NED && !*float {
+                    pos_m[0] *= 1e-3;
+                    pos_m[1] *= 1e-3;
+                }
+            }
+            gcs.text(
+                MavSeverity::MAV_SEVERITY_INFO,
+                "Mission: local x, y read as metres x 1e7 (MAVProxy's scaling), not x 1e4",
+            )?;
+        }
+        for (i, (_, pos_m, _)) in items.iter().enumerate() {
             let cmd = Command::MissionItem {
                 index: i as u16,
                 count,
@@ -444,12 +533,24 @@ impl Missions {
                 speed_m_s: v.settings.mission_speed_m_s,
             };
             if let Err(why) = v.command(&cmd)? {
-                let why = format!("item {i} refused by the vehicle: {why:?}");
+                let why = format!("item {i} refused by the vehicle: {why}");
                 return self.refuse(gcs, R::MAV_MISSION_INVALID, &why);
             }
         }
         self.upload = None;
-        self.items = items.into_iter().map(|(item, _)| item).collect();
+        // Kept at one scale: a float item among x 1e7 ones is brought to x 1e7.
+        self.items = items
+            .into_iter()
+            .map(|(mut item, _, float)| {
+                if local_e7 && float && item.frame == MavFrame::MAV_FRAME_LOCAL_NED {
+                    item.x = item.x.saturating_mul(1000);
+                    item.y = item.y.saturating_mul(1000);
+                }
+                item
+            })
+            .collect();
+        self.local_e7 = local_e7;
+        self.uploader = Some(peer.0);
         gcs.text(
             MavSeverity::MAV_SEVERITY_INFO,
             &format!("Mission of {count} waypoints accepted"),

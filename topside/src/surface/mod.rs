@@ -51,20 +51,26 @@
 
 mod calibration;
 mod commander;
+mod commands;
 mod faults;
 mod frames;
 mod geodesy;
+mod goto;
 mod guard;
+mod inquiry;
 mod logs;
 mod missions;
 pub mod navigation;
 pub mod params;
 mod start;
+mod streams;
 mod telemetry;
 mod transport;
 mod vehicle;
+pub mod words;
 
 pub use commander::{Commander, Verdict, COMMANDER_SILENCE};
+pub use commands::{custom_mode_of_param, mode_name, refused_param};
 pub use frames::split_text;
 pub use geodesy::{item_position, GlobalOrigin};
 pub use guard::{sticks_centred, STICK_CENTRED};
@@ -75,14 +81,11 @@ pub use transport::{take_frames, GcsStats, StationId, POLL_LIMIT};
 pub use vehicle::{check_telemetry, Vehicle, VehicleEnd, TETHER_TIMEOUT, VEHICLE_SILENCE};
 
 use anyhow::Result;
-use controller_core::controller::ControlMode;
-use controller_core::reference::Reference;
 use mavlink::dialects::ardupilotmega::{
     MavCmd, MavMessage, MavMissionResult, MavResult, MavSeverity, GPS_GLOBAL_ORIGIN_DATA,
 };
 use mavlink::MavHeader;
 use missions::Missions;
-use params::PARAMS;
 use protocol::{fault, Command, ManualThrust, Mode};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -136,6 +139,14 @@ pub fn manual_thrust(x: i16, z: i16, r: i16) -> ManualThrust {
     }
 }
 
+/// A sender's MAVLink system and component ids (8 bits on the wire).
+fn peer_of(header: MavHeader) -> (u8, u8) {
+    (
+        u8::try_from(header.system_id).unwrap_or(u8::MAX),
+        header.component_id,
+    )
+}
+
 /// The topside's state: the ground stations, the vehicle behind the tether, who commands,
 /// the missions, the pilot's sticks and the mode shown.
 struct Topside {
@@ -149,6 +160,10 @@ struct Topside {
     manual_at: Option<Instant>,
     /// GUIDED is shown (the vehicle's `Track` mode entered through GUIDED).
     guided: bool,
+    /// The point GUIDED holds or goes to (`POSITION_TARGET_LOCAL_NED`).
+    guided_target: Option<[f32; 3]>,
+    /// The streamed messages' rates, each station's own where it set one.
+    streams: streams::Streams,
     /// The faults last reported (`STATUSTEXT` on each change).
     last_faults: u16,
     /// Where accepted parameters are saved.
@@ -173,7 +188,6 @@ impl Topside {
         let wall0 = Instant::now();
         let mut k: u64 = 0;
         let per_second = (1.0 / self.v.period_s).round().max(1.0) as u64;
-        let per_tenth = (per_second / 10).max(1);
         loop {
             if let Some(d) = a.duration {
                 if self.v.t_s >= d {
@@ -227,11 +241,9 @@ impl Topside {
 
             self.missions
                 .tick(&mut self.gcs, &self.v.tel, k.is_multiple_of(per_second))?;
-            if k.is_multiple_of(per_second) {
-                telemetry::send_heartbeat(&mut self.gcs, &self.v, self.guided)?;
-            }
-            if k.is_multiple_of(per_tenth) {
-                telemetry::send_state(&mut self.gcs, &self.v)?;
+            self.send_streams(k)?;
+            if self.guided && k.is_multiple_of(per_second) {
+                self.send_position_target()?;
             }
             k += 1;
             self.gcs.flush()?;
@@ -284,6 +296,8 @@ impl Topside {
 
     /// One message from `station`: ignored if addressed to another system or component,
     /// else arbitrated, then handled.
+    // (The deprecated MISSION_ITEM is still sent by ground stations.)
+    #[allow(deprecated)]
     fn on_message(
         &mut self,
         station: StationId,
@@ -311,6 +325,17 @@ impl Topside {
             if sticks_centred(&manual_thrust(m.x, m.z, m.r)) {
                 self.sticks_seen_centred = true;
             }
+        }
+        // A guided mission item (MAVProxy's `guided`, `current` = 2) is a go-to, not a
+        // mission upload.
+        match &msg {
+            MavMessage::MISSION_ITEM_INT(i) if i.current == 2 => {
+                return self.guided_item(station, peer_of(header), i)
+            }
+            MavMessage::MISSION_ITEM(i) if i.current == 2 => {
+                return self.guided_item(station, peer_of(header), &missions::int_item(i))
+            }
+            _ => {}
         }
         if !self.missions.handle(
             &mut self.gcs,
@@ -390,44 +415,6 @@ impl Topside {
         self.gcs.ack(station, cmd, MavResult::MAV_RESULT_DENIED)
     }
 
-    fn set_mode(&mut self, station: StationId, custom: u32) -> Result<()> {
-        let cmd = MavCmd::MAV_CMD_DO_SET_MODE;
-        let v = &mut self.v;
-        let (firmware_mode, reference) = match custom {
-            ardusub_mode::MANUAL => (Mode::Manual, None),
-            ardusub_mode::STABILIZE => (Mode::Stabilize, None),
-            ardusub_mode::ALT_HOLD => (Mode::DepthHold, None),
-            ardusub_mode::POSHOLD => (Mode::Hold, None),
-            ardusub_mode::GUIDED => (
-                Mode::from(ControlMode::Tracking3d),
-                Some(Reference::Hold {
-                    pos_m: [v.state.x_m, v.state.y_m, v.state.z_m],
-                }),
-            ),
-            ardusub_mode::AUTO => (Mode::Auto, None),
-            other => return self.refuse(station, cmd, &format!("Unknown mode {other}")),
-        };
-        if let Some(reference) = reference {
-            if let Err(why) = v.command(&Command::SetReference {
-                reference,
-                start_us: None,
-            })? {
-                return self.refuse(station, cmd, &format!("Reference refused: {why:?}"));
-            }
-        }
-        match v.command(&Command::SetMode(firmware_mode))? {
-            Ok(()) => {
-                // The vehicle took it: shown (and judged, e.g. a mission upload in AUTO) now,
-                // not at its next telemetry.
-                v.tel.mode = firmware_mode;
-                self.guided = custom == ardusub_mode::GUIDED;
-                self.sticks_seen_centred = false;
-                self.gcs.ack(station, cmd, MavResult::MAV_RESULT_ACCEPTED)
-            }
-            Err(why) => self.refuse(station, cmd, &format!("Mode refused: {why:?}")),
-        }
-    }
-
     // `SET_MODE` is deprecated in favour of `MAV_CMD_DO_SET_MODE`, but pymavlink's
     // `set_mode` and MAVProxy's `mode` still send it, so both are obeyed.
     #[allow(deprecated)]
@@ -436,14 +423,14 @@ impl Topside {
         match msg {
             MavMessage::PARAM_REQUEST_LIST(_) => {
                 self.gcs.stats.handled += 1;
-                for i in 0..PARAMS.len() {
+                for i in 0..params::count() {
                     telemetry::send_param(&mut self.gcs, &self.v.settings, i, Some(station))?;
                 }
             }
             MavMessage::PARAM_REQUEST_READ(r) => {
                 self.gcs.stats.handled += 1;
                 let index = if r.param_index >= 0 {
-                    Some(r.param_index as usize).filter(|&i| i < PARAMS.len())
+                    Some(r.param_index as usize).filter(|&i| i < params::count())
                 } else {
                     params::find(telemetry::param_name(&r.param_id).as_str()).map(|(i, _)| i)
                 };
@@ -455,79 +442,8 @@ impl Topside {
                 }
             }
             MavMessage::PARAM_SET(p) => self.param_set(station, &p)?,
-            MavMessage::COMMAND_LONG(c) => {
-                self.gcs.stats.handled += 1;
-                match c.command {
-                    MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => {
-                        // MAVLink: 1 arms, 0 disarms; anything else (NaN, 0.5, -1) is refused
-                        // rather than read as one of them (ArduPilot's rule too).
-                        let cmd = if c.param1 == 1.0 {
-                            Command::Arm
-                        } else if c.param1 == 0.0 {
-                            Command::Disarm
-                        } else {
-                            let why = format!(
-                                "Arming refused: param1 must be 1 (arm) or 0 (disarm), not {}",
-                                c.param1
-                            );
-                            return self.refuse(station, c.command, &why);
-                        };
-                        if cmd == Command::Arm {
-                            if let Some(why) = self.sticks_refuse_arming()? {
-                                return self.refuse(station, c.command, &why);
-                            }
-                        }
-                        match self.v.command(&cmd)? {
-                            Ok(()) => {
-                                // Shown now, not at the vehicle's next telemetry.
-                                self.v.tel.armed = cmd == Command::Arm;
-                                if cmd == Command::Arm {
-                                    self.sticks_seen_centred = false;
-                                }
-                                self.gcs
-                                    .ack(station, c.command, MavResult::MAV_RESULT_ACCEPTED)?
-                            }
-                            Err(why) => self.refuse(
-                                station,
-                                c.command,
-                                &format!("Arming refused: {why:?}"),
-                            )?,
-                        }
-                    }
-                    MavCmd::MAV_CMD_DO_SET_MODE => match custom_mode_of_param(c.param2) {
-                        Some(custom) => self.set_mode(station, custom)?,
-                        None => {
-                            let why = format!(
-                                "Mode refused: param2 must be a custom mode number, not {}",
-                                c.param2
-                            );
-                            self.refuse(station, c.command, &why)?
-                        }
-                    },
-                    MavCmd::MAV_CMD_DO_START_MAG_CAL => self.start_mag_cal(station)?,
-                    // The vehicle's estimator restarted at the latest USBL fix (param1 = 1).
-                    MavCmd::MAV_CMD_USER_1 if c.param1 == 1.0 => {
-                        match self.nav.start(&mut self.v, true)? {
-                            Some(text) if text.starts_with("Navigation restarted") => {
-                                eprintln!("topside: {text}");
-                                self.gcs.text(MavSeverity::MAV_SEVERITY_INFO, &text)?;
-                                self.gcs
-                                    .ack(station, c.command, MavResult::MAV_RESULT_ACCEPTED)?
-                            }
-                            other => {
-                                let why = other.unwrap_or_else(|| {
-                                    "Navigation restart refused: the vehicle's clock is not known yet".into()
-                                });
-                                self.refuse(station, c.command, &why)?
-                            }
-                        }
-                    }
-                    other => {
-                        self.gcs
-                            .ack(station, other, MavResult::MAV_RESULT_UNSUPPORTED)?;
-                    }
-                }
-            }
+            MavMessage::COMMAND_LONG(c) => self.command_long(station, c)?,
+            MavMessage::COMMAND_INT(c) => self.command_int(station, c)?,
             MavMessage::SET_MODE(m) => {
                 self.gcs.stats.handled += 1;
                 self.set_mode(station, m.custom_mode)?;
@@ -560,123 +476,10 @@ impl Topside {
                     )?,
                 }
             }
-            MavMessage::SET_POSITION_TARGET_LOCAL_NED(p) => {
-                self.gcs.stats.handled += 1;
-                if !self.guided {
-                    self.gcs
-                        .text_to(station, warn, "Position target ignored: not in GUIDED")?;
-                    return Ok(());
-                }
-                if let Err(why) = guided_target(&p) {
-                    return self
-                        .gcs
-                        .text_to(station, warn, &format!("Target refused: {why}"));
-                }
-                if let Err(why) = self.v.command(&Command::SetReference {
-                    reference: Reference::Hold {
-                        pos_m: [p.x, p.y, p.z],
-                    },
-                    start_us: None,
-                })? {
-                    self.gcs
-                        .text_to(station, warn, &format!("Target refused: {why:?}"))?;
-                }
-            }
+            MavMessage::SET_POSITION_TARGET_LOCAL_NED(p) => self.target_local(station, &p)?,
+            MavMessage::SET_POSITION_TARGET_GLOBAL_INT(p) => self.target_global(station, &p)?,
             _ => self.gcs.stats.ignored += 1,
         }
         Ok(())
     }
-
-    fn param_set(
-        &mut self,
-        station: StationId,
-        p: &mavlink::dialects::ardupilotmega::PARAM_SET_DATA,
-    ) -> Result<()> {
-        self.gcs.stats.handled += 1;
-        let warn = MavSeverity::MAV_SEVERITY_WARNING;
-        let name = telemetry::param_name(&p.param_id);
-        let Some((i, param)) = params::find(&name) else {
-            return self
-                .gcs
-                .text_to(station, warn, &format!("No parameter {name}"));
-        };
-        let refusal = if let Some(why) = params::read_only(&name) {
-            Some(format!("{name} refused: read-only, {why}"))
-        } else {
-            let mut proposed = self.v.settings;
-            (param.set)(&mut proposed, p.param_value);
-            let group = params::group(param);
-            // The checks the vehicle makes, here first (a clear reason), then the vehicle's.
-            match proposed.check(group) {
-                // The reason without the name said twice.
-                Err(e) => Some(format!(
-                    "{name} refused: {}",
-                    format!("{e:#}").replacen(&format!("{name} "), "", 1)
-                )),
-                Ok(()) => match self.v.apply(proposed, group)? {
-                    Ok(()) => None,
-                    Err(why) => Some(format!("{name} refused by the vehicle: {why:?}")),
-                },
-            }
-        };
-        match refusal {
-            Some(text) => self.gcs.text_to(station, warn, &text)?,
-            None => {
-                // The operator's value wins over a saved one still waiting.
-                let group = params::group(param);
-                self.pending.forget(group);
-                params::save(&self.params_file, &self.pending.merged(&self.v.settings))?
-            }
-        }
-        // The answer is the value in force (the new one, or the old one on a refusal), to
-        // every station: all see what the vehicle holds.
-        telemetry::send_param(&mut self.gcs, &self.v.settings, i, None)
-    }
-}
-
-/// `MAV_CMD_DO_SET_MODE`'s param2 as a custom mode number: a whole number from 0 to
-/// `u32::MAX`; NaN, a fraction or a negative is no mode (a plain `as u32` would read NaN and
-/// -5 as 0, STABILIZE).
-pub fn custom_mode_of_param(param2: f32) -> Option<u32> {
-    (param2.is_finite() && param2.fract() == 0.0 && (0.0..=u32::MAX as f32).contains(&param2))
-        .then_some(param2 as u32)
-}
-
-/// A GUIDED position target's checks at the surface: a position in `MAV_FRAME_LOCAL_NED`
-/// (not ignored by its type mask), finite, from the surface down to the deepest waypoint a
-/// mission may have, and within a mission's range of the origin. The vehicle checks again.
-pub fn guided_target(
-    p: &mavlink::dialects::ardupilotmega::SET_POSITION_TARGET_LOCAL_NED_DATA,
-) -> std::result::Result<(), String> {
-    use mavlink::dialects::ardupilotmega::{MavFrame, PositionTargetTypemask as M};
-    if p.coordinate_frame != MavFrame::MAV_FRAME_LOCAL_NED {
-        return Err(format!(
-            "frame {:?}, only MAV_FRAME_LOCAL_NED",
-            p.coordinate_frame
-        ));
-    }
-    let ignored = M::POSITION_TARGET_TYPEMASK_X_IGNORE
-        | M::POSITION_TARGET_TYPEMASK_Y_IGNORE
-        | M::POSITION_TARGET_TYPEMASK_Z_IGNORE;
-    if p.type_mask.intersects(ignored) {
-        return Err("only position targets (the type mask ignores the position)".into());
-    }
-    if ![p.x, p.y, p.z].iter().all(|v| v.is_finite()) {
-        return Err("not finite".into());
-    }
-    let max_depth = protocol::limits::MAX_MISSION_DEPTH_M;
-    if !(0.0..=max_depth).contains(&p.z) {
-        return Err(format!(
-            "depth {} m is outside 0 (the surface) to {max_depth} m",
-            p.z
-        ));
-    }
-    let range = p.x.hypot(p.y);
-    let max_range = protocol::limits::MAX_MISSION_RANGE_M;
-    if range > max_range {
-        return Err(format!(
-            "{range:.0} m from the origin, at most {max_range} m"
-        ));
-    }
-    Ok(())
 }

@@ -473,7 +473,7 @@ impl SurfaceNav {
             Err(why) => {
                 let first = self.start_refused_at.is_none();
                 self.start_refused_at = Some(Instant::now());
-                Ok(first.then(|| format!("Navigation start refused by the vehicle: {why:?}")))
+                Ok(first.then(|| format!("Navigation start refused by the vehicle: {why}")))
             }
         }
     }

@@ -90,7 +90,7 @@ impl FailsafeSeconds {
         }
         // The firmware's own rule, in case the two ever differ.
         f.validate()
-            .map_err(|why| anyhow!("the firmware's check: {why:?}"))?;
+            .map_err(|why| anyhow!("the firmware's check: {}", super::words::nack(why)))?;
         Ok(f)
     }
 }
@@ -192,7 +192,10 @@ impl Settings {
                         "COMPASS_DEV_SIN, COMPASS_DEV_COS: deviation {:.1} deg is over {max_deg:.0} deg",
                         c.sin_deg.hypot(c.cos_deg)
                     ),
-                    Err(why) => bail!("COMPASS_DEV_SIN, COMPASS_DEV_COS: {why:?}"),
+                    Err(why) => bail!(
+                        "COMPASS_DEV_SIN, COMPASS_DEV_COS: {}",
+                        super::words::compass(why)
+                    ),
                 }
             }
         }
@@ -240,6 +243,93 @@ pub const GROUPS: [Group; 7] = [
     Group::Mission,
     Group::Control,
 ];
+
+impl Group {
+    /// The parameters of this group as a ground station lists them.
+    pub fn names(self) -> &'static str {
+        match self {
+            Group::Tracking => "TRK_*",
+            Group::Paper => "PXZ_*, PXY_*",
+            Group::Failsafe => "FS_*",
+            Group::Vehicle => "VEH_*",
+            Group::Mission => "MIS_SPEED",
+            Group::Compass => "COMPASS_DEV_*",
+            Group::Control => "CTRL_PASSKEY",
+        }
+    }
+}
+
+/// Several groups' parameters, as a ground station lists them.
+pub fn group_names(groups: &[Group]) -> String {
+    groups
+        .iter()
+        .map(|g| g.names())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The values of `param` the checks take with every other parameter as in `settings`: the
+/// interval around its value in force, found by search (the checks are the firmware's, so
+/// the bounds are what the vehicle takes, not a copy of them). `None` when the value in
+/// force itself is refused.
+pub fn allowed_range(settings: &Settings, param: &Param) -> Option<(f32, f32)> {
+    let group = group(param);
+    let ok = |v: f32| {
+        let mut s = *settings;
+        (param.set)(&mut s, v);
+        s.check(group).is_ok()
+    };
+    let v0 = (param.get)(settings);
+    if !ok(v0) {
+        return None;
+    }
+    // Out from the value in force by doubling steps to the first value refused (or the
+    // search's end), then halving the gap between the last taken and the first refused.
+    let edge = |dir: f32| -> f32 {
+        const FARTHEST: f32 = 1.0e9;
+        let mut taken = v0;
+        let mut step = v0.abs().max(1.0) * 1e-3;
+        let refused = loop {
+            let next = v0 + dir * step;
+            if next.abs() > FARTHEST {
+                return dir * FARTHEST;
+            }
+            if !ok(next) {
+                break next;
+            }
+            taken = next;
+            step *= 2.0;
+        };
+        let (mut a, mut b) = (taken, refused);
+        for _ in 0..48 {
+            let mid = 0.5 * (a + b);
+            if mid == a || mid == b {
+                break;
+            }
+            if ok(mid) {
+                a = mid;
+            } else {
+                b = mid;
+            }
+        }
+        a
+    };
+    Some((edge(-1.0), edge(1.0)))
+}
+
+/// A number as an operator reads it: up to 4 significant digits, no trailing zeros.
+pub fn show(v: f32) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let digits = (3 - v.abs().log10().floor() as i32).clamp(0, 6) as usize;
+    let s = format!("{v:.digits$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
 
 /// Largest `CTRL_PASSKEY` (six digits: exact in the parameter's 32-bit float).
 pub const MAX_PASSKEY: f32 = 999_999.0;
@@ -360,14 +450,39 @@ pub const PARAMS: &[Param] = params![
     "COMPASS_DEV_SIN" => compass.sin_deg,
     "COMPASS_DEV_COS" => compass.cos_deg,
     "CTRL_PASSKEY" => control_passkey,
+    // ArduSub's names where the meaning is the same: the same settings.
+    "FS_PILOT_TIMEOUT" => failsafe.pilot_stale_s,
+];
+
+/// ArduSub's parameters whose meaning here is the same, under their own names: the same
+/// settings as the project's (`FS_PILOT_TIMEOUT` is `FS_PILOT_STALE`; `WPNAV_SPEED` is
+/// `MIS_SPEED` in cm/s), and `ARMING_CHECK`, read-only 1: the vehicle's pre-arm checks
+/// always run (ground stations warn "Arming checks disabled" without it).
+pub const ARDUSUB: &[Param] = &[
+    Param {
+        name: "WPNAV_SPEED",
+        get: |s| s.mission_speed_m_s * 100.0,
+        set: |s, v| s.mission_speed_m_s = v / 100.0,
+    },
+    Param {
+        name: "ARMING_CHECK",
+        get: |_| 1.0,
+        set: |_, _| {},
+    },
 ];
 
 /// Parameters shown but not settable, with the reason: the ESCs' neutral pulse is
 /// the ESC's constant, not part of a description a ground station may move.
-pub const READ_ONLY: &[(&str, &str)] = &[(
-    "VEH_PWM_NEUTRAL",
-    "neutral is the ESC's constant, not a setting",
-)];
+pub const READ_ONLY: &[(&str, &str)] = &[
+    (
+        "VEH_PWM_NEUTRAL",
+        "neutral is the ESC's constant, not a setting",
+    ),
+    (
+        "ARMING_CHECK",
+        "the vehicle's pre-arm checks always run (1: all)",
+    ),
+];
 
 /// Why a parameter is read-only, if it is.
 pub fn read_only(name: &str) -> Option<&'static str> {
@@ -377,9 +492,24 @@ pub fn read_only(name: &str) -> Option<&'static str> {
         .map(|(_, why)| *why)
 }
 
+/// Every parameter listed: the project's, then ArduSub's names.
+pub fn all() -> impl Iterator<Item = &'static Param> {
+    PARAMS.iter().chain(ARDUSUB)
+}
+
+/// How many parameters are listed.
+pub fn count() -> usize {
+    PARAMS.len() + ARDUSUB.len()
+}
+
+/// Parameter `index` of the list.
+pub fn at(index: usize) -> Option<&'static Param> {
+    all().nth(index)
+}
+
 /// A parameter by name, with its index.
 pub fn find(name: &str) -> Option<(usize, &'static Param)> {
-    PARAMS.iter().enumerate().find(|(_, p)| p.name == name)
+    all().enumerate().find(|(_, p)| p.name == name)
 }
 
 /// The tether command group of a parameter.
@@ -390,12 +520,13 @@ pub fn group(p: &Param) -> Group {
         Some("VEH") => Group::Vehicle,
         Some("MIS") => Group::Mission,
         Some("COMPASS") => Group::Compass,
-        Some("CTRL") => Group::Control,
+        Some("CTRL") | Some("ARMING") => Group::Control,
+        Some("WPNAV") => Group::Mission,
         _ => Group::Paper,
     }
 }
 
-/// The settings as a name -> value map (the saved file).
+/// The settings as a name -> value map (the saved file: the project's names only).
 pub fn to_map(s: &Settings) -> BTreeMap<String, f32> {
     PARAMS
         .iter()
@@ -498,12 +629,31 @@ mod tests {
     }
 
     #[test]
+    fn ardusubs_names_are_the_same_settings() {
+        let mut s = Settings::new(VehicleParams::OBSERVER);
+        let (_, wpnav) = find("WPNAV_SPEED").unwrap();
+        (wpnav.set)(&mut s, 35.0);
+        assert!((s.mission_speed_m_s - 0.35).abs() < 1e-6);
+        assert_eq!(group(wpnav), Group::Mission);
+        let (_, fs) = find("FS_PILOT_TIMEOUT").unwrap();
+        (fs.set)(&mut s, 0.8);
+        assert_eq!(s.failsafe.pilot_stale_s, 0.8);
+        assert!(read_only("ARMING_CHECK").is_some());
+        assert_eq!(count(), all().count());
+        assert!(all().all(|p| p.name.len() <= 16));
+    }
+
+    #[test]
     fn every_parameter_reads_back_what_was_written() {
         let mut g = Settings::new(VehicleParams::OBSERVER);
         for (i, p) in PARAMS.iter().enumerate() {
             (p.set)(&mut g, 100.0 + i as f32);
         }
         for (i, p) in PARAMS.iter().enumerate() {
+            // An ArduSub name of the same setting reads the latest write.
+            if PARAMS[i + 1..].iter().any(|q| (q.get)(&g) == (p.get)(&g)) {
+                continue;
+            }
             assert_eq!((p.get)(&g), 100.0 + i as f32, "{}", p.name);
         }
     }

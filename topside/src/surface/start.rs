@@ -68,7 +68,7 @@ impl Pending {
         for g in std::mem::take(&mut self.groups) {
             match v.apply(saved, g)? {
                 Ok(()) => {
-                    let text = format!("Saved {g:?} parameters applied");
+                    let text = format!("Saved {} parameters applied", g.names());
                     eprintln!("topside: {text}");
                     gcs.text(MavSeverity::MAV_SEVERITY_INFO, &text)?;
                 }
@@ -83,9 +83,9 @@ impl Pending {
             if self.said_at.is_none_or(|t| t.elapsed() >= PENDING_REMINDER) {
                 self.said_at = Some(Instant::now());
                 let text = format!(
-                    "Saved {:?} parameters wait: the vehicle refuses them now ({why:?}); \
+                    "Saved {} parameters wait: the vehicle refuses them now ({why}); \
                      applied when it takes them",
-                    self.groups
+                    params::group_names(&self.groups)
                 );
                 eprintln!("topside: {text}");
                 gcs.text(MavSeverity::MAV_SEVERITY_WARNING, &text)?;
@@ -213,33 +213,76 @@ fn run_topside(
     nav: super::navigation::SurfaceNav,
 ) -> Result<()> {
     let mut pending = Pending::default();
+    // The vehicle flown: `--vehicle` wins over a saved description (said), else the saved
+    // file's, else the vehicle's own.
+    // The files by name in the ground stations' texts (50 characters a message), by path in
+    // the log.
+    let name = |p: &Path| {
+        p.file_name().map_or_else(
+            || p.display().to_string(),
+            |n| n.to_string_lossy().to_string(),
+        )
+    };
+    let mut flown = match &a.vehicle {
+        Some(path) => format!("the vehicle of {}", name(path)),
+        None => "the vehicle's own description".to_string(),
+    };
+    let params_used;
     if a.params.exists() {
         match params::load(&a.params, v.settings) {
             Err(e) => {
                 let text = format!("Saved parameters not used: {e:#}");
                 eprintln!("topside: {text}");
                 gcs.text(MavSeverity::MAV_SEVERITY_WARNING, &text)?;
+                params_used = format!("{} (not used: refused)", name(&a.params));
             }
             Ok(saved) => {
                 // Only what differs is sent; what the vehicle refuses now waits.
-                pending.groups = params::GROUPS
+                let mut groups: Vec<Group> = params::GROUPS
                     .into_iter()
                     .filter(|&g| !v.settings.same_group(&saved, g))
                     .collect();
+                if a.vehicle.is_some() && groups.contains(&Group::Vehicle) {
+                    groups.retain(|&g| g != Group::Vehicle);
+                    let text = format!(
+                        "--vehicle {} is flown: the saved VEH_* of {} not restored",
+                        name(a.vehicle.as_deref().unwrap_or(Path::new(""))),
+                        name(&a.params)
+                    );
+                    eprintln!("topside: {text}");
+                    gcs.text(MavSeverity::MAV_SEVERITY_INFO, &text)?;
+                }
+                let saved_vehicle = groups.contains(&Group::Vehicle);
+                pending.groups = groups;
                 pending.saved = Some(saved);
                 pending.retry(&mut v, &mut gcs)?;
-                eprintln!(
-                    "topside: parameters restored from {}{}",
-                    a.params.display(),
+                if saved_vehicle && !pending.groups.contains(&Group::Vehicle) {
+                    flown = format!("the vehicle saved in {}", name(&a.params));
+                }
+                params_used = format!(
+                    "{} (restored{})",
+                    name(&a.params),
                     if pending.groups.is_empty() {
                         String::new()
                     } else {
-                        format!(" except {:?} (waiting for the vehicle)", pending.groups)
+                        format!(
+                            " except {}, waiting for the vehicle",
+                            params::group_names(&pending.groups)
+                        )
                     }
                 );
             }
         }
+    } else {
+        params_used = format!("{} (none saved yet: the vehicle's values)", name(&a.params));
     }
+    let mass = v.settings.vehicle.mass_kg;
+    let text = format!(
+        "Flying {flown} (VEH_MASS {} kg); parameters {params_used}",
+        params::show(mass)
+    );
+    eprintln!("topside: {text} ({})", a.params.display());
+    gcs.text(MavSeverity::MAV_SEVERITY_INFO, &text)?;
     eprintln!(
         "topside: {what}, MAVLink on {}, tlog {}, tether log {}",
         a.mavlink.join(", "),
@@ -254,6 +297,8 @@ fn run_topside(
         manual: ManualThrust::default(),
         manual_at: None,
         guided: false,
+        guided_target: None,
+        streams: Default::default(),
         last_faults: 0,
         mag_cal: None,
         params_file: a.params.clone(),

@@ -1,10 +1,11 @@
 //! What the ground stations are sent every period: `HEARTBEAT` and `SYS_STATUS` at 1 Hz,
 //! the state streams at 10 Hz, parameters on request.
 
+use super::geodesy::GlobalOrigin;
 use super::transport::Gcs;
 use super::vehicle::Vehicle;
 use super::{custom_mode_of, StationId};
-use crate::surface::params::{Settings, PARAMS};
+use crate::surface::params::{self, Settings};
 use anyhow::Result;
 use mavlink::dialects::ardupilotmega::{
     MavAutopilot, MavMessage, MavModeFlag, MavParamType, MavState, MavSysStatusSensor, MavType,
@@ -28,12 +29,12 @@ pub(super) fn send_param(
     index: usize,
     to: Option<StationId>,
 ) -> Result<()> {
-    let Some(p) = PARAMS.get(index) else {
+    let Some(p) = params::at(index) else {
         return Ok(());
     };
     let msg = MavMessage::PARAM_VALUE(PARAM_VALUE_DATA {
         param_value: (p.get)(settings),
-        param_count: PARAMS.len() as u16,
+        param_count: params::count() as u16,
         param_index: index as u16,
         param_id: p.name.into(),
         param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
@@ -56,12 +57,13 @@ const FAILSAFES: u16 = fault::HEARTBEAT_LOST
     | fault::LEAK
     | link_fault::NODE_LINK_LOST;
 
-pub(super) fn send_heartbeat(gcs: &mut Gcs, v: &Vehicle, guided: bool) -> Result<()> {
+/// `HEARTBEAT`: ArduSub's type and autopilot, the armed flag, the mode.
+pub(super) fn heartbeat(v: &Vehicle, guided: bool) -> MavMessage {
     let mut base = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
     if v.tel.armed {
         base |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
     }
-    gcs.send(MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
         custom_mode: custom_mode_of(v.tel.mode, guided),
         mavtype: MavType::MAV_TYPE_SUBMARINE,
         autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
@@ -75,7 +77,11 @@ pub(super) fn send_heartbeat(gcs: &mut Gcs, v: &Vehicle, guided: bool) -> Result
             MavState::MAV_STATE_STANDBY
         },
         mavlink_version: 3,
-    }))?;
+    })
+}
+
+/// `SYS_STATUS`: the sensors' health, the link's errors, the battery.
+pub(super) fn sys_status(v: &Vehicle, not_ours: u64) -> MavMessage {
     let sensors = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO
         | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_ACCEL
         | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_MAG
@@ -102,7 +108,7 @@ pub(super) fn send_heartbeat(gcs: &mut Gcs, v: &Vehicle, guided: bool) -> Result
     }
     let drops = v.frames_dropped().min(u64::from(u16::MAX)) as u16;
     let b = &v.battery;
-    gcs.send(MavMessage::SYS_STATUS(SYS_STATUS_DATA {
+    MavMessage::SYS_STATUS(SYS_STATUS_DATA {
         onboard_control_sensors_present: sensors,
         onboard_control_sensors_enabled: sensors,
         onboard_control_sensors_health: healthy,
@@ -110,7 +116,7 @@ pub(super) fn send_heartbeat(gcs: &mut Gcs, v: &Vehicle, guided: bool) -> Result
         // Vehicle frames refused as out of range, and MAVLink messages addressed to another
         // system or component (ignored).
         errors_count1: v.frames_refused.min(u64::from(u16::MAX)) as u16,
-        errors_count2: gcs.stats.not_ours.min(u64::from(u16::MAX)) as u16,
+        errors_count2: not_ours.min(u64::from(u16::MAX)) as u16,
         // The vehicle's battery monitor (`Status.battery`): millivolts, centiamperes, %;
         // MAVLink's "not measured" where it measures nothing.
         voltage_battery: if b.voltage_v > 0.0 {
@@ -129,69 +135,79 @@ pub(super) fn send_heartbeat(gcs: &mut Gcs, v: &Vehicle, guided: bool) -> Result
             -1
         },
         ..Default::default()
-    }))
+    })
 }
 
-pub(super) fn send_state(gcs: &mut Gcs, v: &Vehicle) -> Result<()> {
+/// The state messages (`ATTITUDE`, `LOCAL_POSITION_NED`, `VFR_HUD`, `GLOBAL_POSITION_INT`
+/// once an origin is set, `SERVO_OUTPUT_RAW`) by MAVLink id.
+pub(super) fn state(id: u32, v: &Vehicle, origin: Option<&GlobalOrigin>) -> Option<MavMessage> {
+    use super::streams as ids;
     let s = &v.state;
     // The vehicle's own clock, as an autopilot stamps its messages.
     let time_boot_ms = (v.tel.t_us / 1000) as u32;
     let (sp, cp) = s.yaw_rad.sin_cos();
     let vn = cp * s.u_m_s - sp * s.v_m_s;
     let ve = sp * s.u_m_s + cp * s.v_m_s;
-    gcs.send(MavMessage::ATTITUDE(ATTITUDE_DATA {
-        time_boot_ms,
-        roll: s.roll_rad,
-        pitch: s.pitch_rad,
-        yaw: s.yaw_rad,
-        rollspeed: s.p_rad_s,
-        pitchspeed: s.q_rad_s,
-        yawspeed: s.r_rad_s,
-    }))?;
-    gcs.send(MavMessage::LOCAL_POSITION_NED(LOCAL_POSITION_NED_DATA {
-        time_boot_ms,
-        x: s.x_m,
-        y: s.y_m,
-        z: s.z_m,
-        vx: vn,
-        vy: ve,
-        vz: s.w_m_s,
-    }))?;
     let heading_deg = s.yaw_rad.to_degrees().rem_euclid(360.0);
-    gcs.send(MavMessage::VFR_HUD(VFR_HUD_DATA {
-        airspeed: s.u_m_s.abs(),
-        groundspeed: (vn * vn + ve * ve).sqrt(),
-        alt: -s.z_m,
-        climb: -s.w_m_s,
-        heading: heading_deg.round() as i16,
-        throttle: 0,
-    }))?;
-    if let Some(o) = &gcs.origin {
-        // On the map: the local position on the globe, depth as negative altitude.
-        let [lat, lon] = o.to_global(f64::from(s.x_m), f64::from(s.y_m));
-        gcs.send(MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
+    Some(match id {
+        ids::ATTITUDE => MavMessage::ATTITUDE(ATTITUDE_DATA {
             time_boot_ms,
-            lat: (lat * 1e7).round() as i32,
-            lon: (lon * 1e7).round() as i32,
-            alt: ((o.alt_m - f64::from(s.z_m)) * 1e3).round() as i32,
-            relative_alt: (-s.z_m * 1e3).round() as i32,
-            vx: (vn * 100.0).round() as i16,
-            vy: (ve * 100.0).round() as i16,
-            vz: (s.w_m_s * 100.0).round() as i16,
-            hdg: (heading_deg * 100.0).round() as u16 % 36000,
-        }))?;
-    }
-    // The pulse widths of a frame the vehicle may have sent before its latest accepted
-    // command (an arm, a mode change) or change of commander are not what its ESCs see now.
-    if v.frames_before_pulses > 0 {
-        return Ok(());
-    }
-    let [p1, p2, p3] = v.tel.pulse_us;
-    gcs.send(MavMessage::SERVO_OUTPUT_RAW(SERVO_OUTPUT_RAW_DATA {
-        time_usec: v.tel.t_us as u32,
-        servo1_raw: p1,
-        servo2_raw: p2,
-        servo3_raw: p3,
-        ..Default::default()
-    }))
+            roll: s.roll_rad,
+            pitch: s.pitch_rad,
+            yaw: s.yaw_rad,
+            rollspeed: s.p_rad_s,
+            pitchspeed: s.q_rad_s,
+            yawspeed: s.r_rad_s,
+        }),
+        ids::LOCAL_POSITION_NED => MavMessage::LOCAL_POSITION_NED(LOCAL_POSITION_NED_DATA {
+            time_boot_ms,
+            x: s.x_m,
+            y: s.y_m,
+            z: s.z_m,
+            vx: vn,
+            vy: ve,
+            vz: s.w_m_s,
+        }),
+        ids::VFR_HUD => MavMessage::VFR_HUD(VFR_HUD_DATA {
+            airspeed: s.u_m_s.abs(),
+            groundspeed: (vn * vn + ve * ve).sqrt(),
+            alt: -s.z_m,
+            climb: -s.w_m_s,
+            heading: heading_deg.round() as i16,
+            throttle: 0,
+        }),
+        ids::GLOBAL_POSITION_INT => {
+            // On the map: the local position on the globe, depth as negative altitude.
+            let o = origin?;
+            let [lat, lon] = o.to_global(f64::from(s.x_m), f64::from(s.y_m));
+            MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
+                time_boot_ms,
+                lat: (lat * 1e7).round() as i32,
+                lon: (lon * 1e7).round() as i32,
+                alt: ((o.alt_m - f64::from(s.z_m)) * 1e3).round() as i32,
+                relative_alt: (-s.z_m * 1e3).round() as i32,
+                vx: (vn * 100.0).round() as i16,
+                vy: (ve * 100.0).round() as i16,
+                vz: (s.w_m_s * 100.0).round() as i16,
+                hdg: (heading_deg * 100.0).round() as u16 % 36000,
+            })
+        }
+        ids::SERVO_OUTPUT_RAW => {
+            // The pulse widths of a frame the vehicle may have sent before its latest
+            // accepted command (an arm, a mode change) or change of commander are not what
+            // its ESCs see now.
+            if v.frames_before_pulses > 0 {
+                return None;
+            }
+            let [p1, p2, p3] = v.tel.pulse_us;
+            MavMessage::SERVO_OUTPUT_RAW(SERVO_OUTPUT_RAW_DATA {
+                time_usec: v.tel.t_us as u32,
+                servo1_raw: p1,
+                servo2_raw: p2,
+                servo3_raw: p3,
+                ..Default::default()
+            })
+        }
+        _ => return None,
+    })
 }

@@ -352,6 +352,14 @@ impl Gcs {
         self.send_where(msg, None)
     }
 
+    /// To the stations `to` takes (the streams, each station at its own rate).
+    pub fn send_filtered(&mut self, msg: MavMessage, to: impl Fn(StationId) -> bool) -> Result<()> {
+        let frame = self.frame(&msg)?;
+        let sent: u64 = self.conns.iter_mut().map(|c| c.send(&frame, &to)).sum();
+        self.stats.sent += sent;
+        Ok(())
+    }
+
     /// To one station only (the answers of a protocol exchange: acknowledgements, mission
     /// requests, refusals of its commands).
     pub fn send_to(&mut self, station: StationId, msg: MavMessage) -> Result<()> {

@@ -25,7 +25,7 @@ use std::time::{Duration, Instant};
 pub const VEHICLE_SILENCE: Duration = Duration::from_secs(1);
 
 /// Why the vehicle did not take a command: its `Nack`, or no answer at all. Shown in the
-/// refusals' words (`{:?}`): the reason's name, or that the vehicle is silent.
+/// refusals' words ([`words::nack`](super::words::nack)), never as an internal name.
 #[derive(Clone, Copy, PartialEq, Eq)]
 pub(super) enum Refusal {
     /// The vehicle refused it.
@@ -34,15 +34,19 @@ pub(super) enum Refusal {
     Silent,
 }
 
-impl std::fmt::Debug for Refusal {
+impl std::fmt::Display for Refusal {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            Refusal::Nack(NackReason::SticksNotCentred) => {
-                f.write_str("the vehicle saw a stick off centre (centre the sticks)")
-            }
-            Refusal::Nack(r) => write!(f, "{r:?}"),
+            Refusal::Nack(r) => f.write_str(&super::words::nack(*r)),
             Refusal::Silent => f.write_str("no answer from the vehicle (silent)"),
         }
+    }
+}
+
+// The same words wherever a refusal is shown.
+impl std::fmt::Debug for Refusal {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        std::fmt::Display::fmt(self, f)
     }
 }
 
@@ -266,7 +270,10 @@ impl Vehicle {
             )?
             .ok_or_else(|| anyhow!("no answer from a vehicle on the serial port within 2 s"))?;
         if let Err(why) = first {
-            bail!("the vehicle refused our heartbeat: {why:?} (another protocol version?)");
+            bail!(
+                "the vehicle refused our heartbeat: {}",
+                super::words::nack(why)
+            );
         }
         let mut v = Self {
             end: Box::new(Real {
@@ -290,7 +297,7 @@ impl Vehicle {
         if vehicle.is_some() {
             let s = v.settings;
             if let Err(why) = v.apply(s, Group::Vehicle)? {
-                bail!("the vehicle refused the vehicle description: {why:?}");
+                bail!("the vehicle refused the vehicle description: {why}");
             }
         }
         Ok(v)
