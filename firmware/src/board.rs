@@ -29,6 +29,7 @@
 
 pub mod dvl_uart;
 pub mod health_pins;
+mod rx_ring;
 
 use crate::app::{App, Config, Monotonic, Timing};
 use crate::health::{HarnessHealth, NoEnclosure, WithHealth};
@@ -42,7 +43,7 @@ use core::cell::RefCell;
 use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::interrupt::Mutex;
 use dvl_uart::{start_dvl_uart, DVL_US_PER_BYTE};
-use health_pins::{AdcPowerSense, PolledRx};
+use health_pins::{AdcPowerSense, HealthUart};
 use heapless::Deque;
 use sensor_drivers::icm42688::{self, Icm42688};
 use sensor_drivers::ms5837::{Ms5837, Osr};
@@ -401,7 +402,7 @@ pub fn run(variant: Variant) -> ! {
         Variant::Qemu => {
             // Default clocks: the timer clock is 16 MHz, so the prescaler is 0.
             let clock = Tim2Clock::start(dp.TIM2.counter::<16_000_000>(&mut rcc));
-            // The health inputs from the host on USART3 (polled).
+            // The health inputs from the host on USART3.
             let Ok(health) = dp
                 .USART3
                 .serial::<u8>((gpiob.pb10, gpiob.pb11), BAUD.bps(), &mut rcc)
@@ -414,7 +415,7 @@ pub fn run(variant: Variant) -> ! {
                     inner: NoSensors,
                     dvl,
                 },
-                PolledRx(health_rx),
+                HealthUart::start(health_rx),
             );
             main_loop(pwm, tether, clock, config, sensors, watchdog)
         }

@@ -10,8 +10,8 @@
 //! with the pull-down on, so that an unplugged probe reads dry.
 //!
 //! The emulated board (QEMU models no GPIO a host drives and no ADC a host sets): the host
-//! sends the same readings on USART3 (PB10 / PB11, QEMU `-serial` 2), polled
-//! ([`crate::health::HarnessHealth`]).
+//! sends the same readings on USART3 (PB10 / PB11, QEMU `-serial` 2), received by its
+//! interrupt into a ring ([`HealthUart`]) and decoded by [`crate::health::HarnessHealth`].
 
 use crate::health::PowerSense;
 use stm32f4xx_hal::{
@@ -20,9 +20,10 @@ use stm32f4xx_hal::{
         Adc,
     },
     gpio::{Analog, PC0, PC1},
-    pac::{ADC1, USART3},
-    serial::Rx,
+    pac::ADC1,
 };
+
+use super::rx_ring::interrupt_rx_ring;
 
 /// The power-sense module on ADC1.
 pub struct AdcPowerSense {
@@ -59,34 +60,4 @@ impl PowerSense for AdcPowerSense {
     }
 }
 
-/// USART3's receiver, polled, as an `embedded-io` reader (QEMU's USART hands over the next
-/// byte only once the data register has been read, so polling loses none).
-pub struct PolledRx(pub Rx<USART3>);
-
-impl embedded_io::ErrorType for PolledRx {
-    type Error = core::convert::Infallible;
-}
-
-impl embedded_io::ReadReady for PolledRx {
-    fn read_ready(&mut self) -> Result<bool, Self::Error> {
-        Ok(true)
-    }
-}
-
-impl embedded_io::Read for PolledRx {
-    /// What is there now (0 bytes when nothing waits); an overrun or framing error ends the
-    /// read (the frame it hit is dropped by its CRC).
-    fn read(&mut self, buf: &mut [u8]) -> Result<usize, Self::Error> {
-        let mut n = 0;
-        for b in buf.iter_mut() {
-            match embedded_hal_nb::serial::Read::read(&mut self.0) {
-                Ok(x) => {
-                    *b = x;
-                    n += 1;
-                }
-                Err(_) => break,
-            }
-        }
-        Ok(n)
-    }
-}
+interrupt_rx_ring!(HealthUart, USART3, 256, HEALTH_RX_LOST);
