@@ -4,7 +4,8 @@
 //! A50 reports on its USART2, parsed and gated on the board.
 //!
 //! - a leak: SURFACE starts <= 0.5 s after the probe reads wet, and the vehicle rises;
-//! - the battery's charge: SURFACE within 1 s of the simulated truth crossing `BATT_CRT_MAH`;
+//! - the battery's charge: SURFACE within 1 s of the simulated truth crossing `BATT_CRT_MAH`
+//!   (the vehicle counts from a full battery at boot);
 //! - `nav-circle-3d` with the DVL through its wire format: the true tracking and estimation
 //!   RMS within 10 % + 1 cm of `host-sim run`, every DVL report fused.
 //!
@@ -118,12 +119,13 @@ fn a_leak_on_the_emulated_board_surfaces_within_half_a_second() {
 
 #[test]
 fn a_critical_battery_charge_on_the_emulated_board_surfaces_within_a_second() {
-    // 500 mAh left at the start; critical at 490 mAh left: crossed after ~10 mAh of a
-    // circle's draw (the hotel load and the thrusters).
+    // The vehicle counts from a full battery at boot (as ArduPilot does): a 200 mAh pack,
+    // critical at 195 mAh left, crossed after 5 mAh of a circle's draw (the hotel load and
+    // the thrusters, about 1 A).
     let sc = circle(
-        "[battery]\ncapacity_mah = 2000.0\ninitial_pct = 25.0\n\n[health]\n\
-         batt_crt_mah = 490.0\nbatt_fs_crt_act = 3\n",
-        40.0,
+        "[battery]\ncapacity_mah = 200.0\n\n[health]\nbatt_low_mah = 198.0\n\
+         batt_crt_mah = 195.0\nbatt_fs_crt_act = 3\n",
+        30.0,
     );
     let Some(out) = on_the_board(&sc) else {
         return;
@@ -141,17 +143,17 @@ fn a_critical_battery_charge_on_the_emulated_board_surfaces_within_a_second() {
     let mut t_truth = None;
     for r in &out.telemetry {
         e.advance(us(r.t_s), r.pulse_us.map(f32::from));
-        if t_truth.is_none() && e.battery().left_mah() < 490.0 {
+        if t_truth.is_none() && e.battery().left_mah() < 195.0 {
             t_truth = Some(r.t_s);
         }
     }
-    let t_truth = t_truth.expect("the charge never crossed 490 mAh");
+    let t_truth = t_truth.expect("the charge never crossed 195 mAh");
     let t_surface = first_row(&out, 0.0, |r| r.telemetry.mode == Mode::Surface)
         .expect("SURFACE never entered");
     let t_fault =
         first_row(&out, 0.0, |r| r.telemetry.faults & fault::BATTERY_CRITICAL != 0).unwrap();
     println!(
-        "true crossing of 490 mAh at {t_truth:.2} s: SURFACE at {t_surface:.2} s ({:+.2} s), \
+        "true crossing of 195 mAh at {t_truth:.2} s: SURFACE at {t_surface:.2} s ({:+.2} s), \
          BATTERY_CRITICAL at {t_fault:.2} s",
         t_surface - t_truth
     );

@@ -4,9 +4,10 @@ estimate is ready, then the survey's waypoints as a mission in AUTO. It prints e
 LOCAL_POSITION_NED it sees, for the test to hold against the served vehicle's truth log.
 
 Usage: pymavlink_survey.py PORT SECONDS N,E,D [N,E,D ...]. Listens on udpin:127.0.0.1:PORT for
-the surface program; flies the waypoints (local NED, m), then holds the last one until the
-vehicle's clock reads SECONDS. Prints PASS lines and one `POS time_boot_ms x y z` line per
-LOCAL_POSITION_NED; exits 0, or raises.
+the surface program; flies the waypoints (local NED, m), then holds the last one until SECONDS
+of the vehicle's clock have passed since AUTO was taken. Prints PASS lines, `START
+time_boot_ms` (the vehicle's clock when AUTO was taken) and one `POS time_boot_ms x y z` line
+per LOCAL_POSITION_NED; exits 0, or raises.
 """
 import sys
 import time
@@ -38,11 +39,15 @@ def main():
     r = upload(m, pts)
     expect(r == mav.MAV_MISSION_ACCEPTED, f"a {len(pts)}-waypoint survey is accepted ({r})")
     arm_and_auto(m)
+    p = wait(m, "LOCAL_POSITION_NED", 5)
+    expect(p is not None, "LOCAL_POSITION_NED streams in AUTO")
+    start_ms = p.time_boot_ms
+    print(f"START {start_ms}", flush=True)
     reached = []
     n = 0
-    t_ms = 0
-    end = time.time() + 600
-    while t_ms < 1000 * seconds and time.time() < end:
+    t_ms = start_ms
+    end = time.time() + 900
+    while t_ms < start_ms + 1000 * seconds and time.time() < end:
         msg = m.recv_match(type=["MISSION_ITEM_REACHED", "LOCAL_POSITION_NED"], blocking=True,
                            timeout=1)
         if msg is None:
@@ -53,7 +58,8 @@ def main():
             print(f"POS {msg.time_boot_ms} {msg.x:.5f} {msg.y:.5f} {msg.z:.5f}")
         else:
             reached.append(msg.seq)
-    expect(t_ms >= 1000 * seconds, f"flown until {seconds:.0f} s on the vehicle's clock")
+    expect(t_ms >= start_ms + 1000 * seconds,
+           f"flown for {seconds:.0f} s of the vehicle's clock from AUTO")
     expect(reached == list(range(len(pts))), f"every waypoint reached on the estimate ({reached})")
     expect(n >= 100, f"LOCAL_POSITION_NED streamed in AUTO ({n})")
 
