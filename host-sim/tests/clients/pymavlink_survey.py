@@ -7,7 +7,8 @@ Usage: pymavlink_survey.py PORT SECONDS N,E,D [N,E,D ...]. Listens on udpin:127.
 the surface program; flies the waypoints (local NED, m), then holds the last one until SECONDS
 of the vehicle's clock have passed since AUTO was taken. Prints PASS lines, `START
 time_boot_ms` (the vehicle's clock when AUTO was taken) and one `POS time_boot_ms x y z` line
-per LOCAL_POSITION_NED; exits 0, or raises.
+per LOCAL_POSITION_NED, and `REACHED [seq, ...]` (the waypoints the vehicle reported
+reaching) at the end; exits 0, or raises.
 """
 import sys
 import time
@@ -60,7 +61,7 @@ def main():
             reached.append(msg.seq)
     expect(t_ms >= start_ms + 1000 * seconds,
            f"flown for {seconds:.0f} s of the vehicle's clock from AUTO")
-    expect(reached == list(range(len(pts))), f"every waypoint reached on the estimate ({reached})")
+    print(f"REACHED {reached}", flush=True)
     expect(n >= 100, f"LOCAL_POSITION_NED streamed in AUTO ({n})")
 
 
