@@ -103,8 +103,8 @@ fn a_leak_on_the_emulated_board_surfaces_within_half_a_second() {
         first_row(&out, 0.0, |r| r.telemetry.mode == Mode::Surface).unwrap() >= leak_at_s,
         "SURFACE before the leak"
     );
-    let t_surface = first_row(&out, 0.0, |r| r.telemetry.mode == Mode::Surface)
-        .expect("SURFACE never entered");
+    let t_surface =
+        first_row(&out, 0.0, |r| r.telemetry.mode == Mode::Surface).expect("SURFACE never entered");
     let t_fault = first_row(&out, 0.0, |r| r.telemetry.faults & fault::LEAK != 0).unwrap();
     let (z_leak, z_end) = (depth_at(&out, t_surface), depth_at(&out, 15.9));
     println!(
@@ -148,10 +148,12 @@ fn a_critical_battery_charge_on_the_emulated_board_surfaces_within_a_second() {
         }
     }
     let t_truth = t_truth.expect("the charge never crossed 195 mAh");
-    let t_surface = first_row(&out, 0.0, |r| r.telemetry.mode == Mode::Surface)
-        .expect("SURFACE never entered");
-    let t_fault =
-        first_row(&out, 0.0, |r| r.telemetry.faults & fault::BATTERY_CRITICAL != 0).unwrap();
+    let t_surface =
+        first_row(&out, 0.0, |r| r.telemetry.mode == Mode::Surface).expect("SURFACE never entered");
+    let t_fault = first_row(&out, 0.0, |r| {
+        r.telemetry.faults & fault::BATTERY_CRITICAL != 0
+    })
+    .unwrap();
     println!(
         "true crossing of 195 mAh at {t_truth:.2} s: SURFACE at {t_surface:.2} s ({:+.2} s), \
          BATTERY_CRITICAL at {t_fault:.2} s",
@@ -168,7 +170,10 @@ fn nav_circle_with_the_dvl_on_its_uart_on_the_emulated_board_matches_software() 
     };
     let sw = run(&sc.resolve().unwrap(), &RunOptions::default()).unwrap();
     let (hs, ss) = (&h.run.summary, &sw.summary);
-    let health = h.report.nav_health.expect("the board's navigation counters");
+    let health = h
+        .report
+        .nav_health
+        .expect("the board's navigation counters");
     // The simulated DVL's reports: 5 Hz over the run.
     let dvl_reports = (hs.simulated_s * 5.0).floor() as u32;
     println!(

@@ -6,11 +6,11 @@ use crate::closed_loop::{run_closed_loop, RunOptions};
 use crate::output::write_run;
 use crate::scenario::deployment::Control;
 use crate::scenario::{RunSetup, Scenario};
+use crate::tether::board_wires::BoardWires;
 pub use crate::tether::endpoint::{
     HilOptions, HilOutput, HilReport, HilTarget, TelemetryRow, TetherEndpoint,
     DEFAULT_NAV_READY_LIMIT_S, MAX_REPLY_WAIT,
 };
-use crate::tether::board_wires::BoardWires;
 use crate::tether::in_process::InProcessFirmware;
 use crate::tether::link::{open, Link, NoiseSpec, Port};
 use crate::tether::qemu::{

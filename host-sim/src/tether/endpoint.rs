@@ -33,10 +33,10 @@
 use crate::clock::us;
 use crate::closed_loop::{ratio, ControllerEndpoint, StepReply};
 use crate::scenario::RunSetup;
+use crate::tether::board_wires::BoardWires;
 use crate::tether::link::{Endpoint, HostLinkStats, Link, Noise, NoiseSpec};
 pub use crate::tether::report::{HilOutput, HilReport, TelemetryRow};
 use crate::world::sensors::NavSource;
-use crate::tether::board_wires::BoardWires;
 use crate::world::sensors::{DvlWire, Measurement};
 use anyhow::{anyhow, bail, Result};
 use controller_core::alloc::PwmMap;

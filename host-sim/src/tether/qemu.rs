@@ -340,7 +340,12 @@ pub fn start_qemu_board(
     elf: &Path,
     log: Option<&Path>,
     monitor: bool,
-) -> Result<(QemuChild, Box<dyn Port>, std::net::TcpStream, std::net::TcpStream)> {
+) -> Result<(
+    QemuChild,
+    Box<dyn Port>,
+    std::net::TcpStream,
+    std::net::TcpStream,
+)> {
     let listeners = (0..3)
         .map(|_| TcpListener::bind("127.0.0.1:0").context("cannot bind 127.0.0.1:0"))
         .collect::<Result<Vec<_>>>()?;
@@ -356,7 +361,9 @@ pub fn start_qemu_board(
     }
     let mut it = streams.into_iter();
     match (it.next(), it.next(), it.next()) {
-        (Some(tether), Some(dvl), Some(health)) => Ok((q, Box::new(tcp_port(tether)?), dvl, health)),
+        (Some(tether), Some(dvl), Some(health)) => {
+            Ok((q, Box::new(tcp_port(tether)?), dvl, health))
+        }
         _ => bail!("QEMU did not connect its three serial ports"),
     }
 }
