@@ -114,8 +114,8 @@ pub struct HilOptions {
     /// AUTO): the longest simulated time to wait, armed and neutral, for the vehicle's
     /// estimate to be ready (an unknown start) before the run fails (s).
     pub nav_ready_limit_s: f64,
-    /// In process: the DVL's fixes reach the firmware as the DVL's serial reports on its
-    /// DVL port (true), or as `DvlFix` commands over the tether (false).
+    /// In process and on the emulated board: the DVL's fixes reach the firmware as the DVL's
+    /// serial reports on its DVL port (true), or as `DvlFix` commands over the tether (false).
     pub dvl_on_uart: bool,
 }
 
