@@ -166,7 +166,7 @@ fn a_critical_battery_charge_on_the_emulated_board_surfaces_within_a_second() {
 
 #[test]
 fn nav_circle_with_the_dvl_on_its_uart_on_the_emulated_board_matches_software() {
-    if !std::env::var_os("ROV_LONG").is_some_and(|v| v != "0") {
+    if std::env::var_os("ROV_LONG").is_none_or(|v| v == "0") {
         // Written to the stream itself: the harness captures only `print!` / `eprint!`.
         let _ = writeln!(
             std::io::stderr(),
