@@ -15,14 +15,26 @@
 //! does not answer at boot is left out (logged); one that stops answering or reads out of
 //! range gives no sample, and the estimator's timeouts raise `SENSOR_LOST` (neutral).
 //!
+//! The DVL (both): a Water Linked A50 on USART2 (PA2 / PA3, QEMU `-serial` 1) at 115,200 Bd,
+//! its `wrz` reports parsed and gated on board ([`dvl_uart`], `sensors::dvl`). Health: on
+//! the real board the power-sense module on ADC1 (PC0 voltage, PC1 current) and the leak
+//! probe on PC2; on the emulated board the same readings from the host on USART3
+//! ([`health_pins`]).
+//!
 //! Pins (both): TIM3 CH1/CH2/CH3 on PA6/PA7/PB0 drive the three ESCs (`F1x`, `F2x`, `F3z`);
 //! USART1 on PA9 (TX) / PA10 (RX) at 115 200 Bd is the tether (QEMU `-serial` 0). Both ways
 //! are interrupt-driven: receive into a 1 KiB ring, transmit from a 256-byte ring that the
 //! application's frame queue fills as it empties (the loop never waits on the port).
 #![allow(unsafe_code)]
 
+pub mod dvl_uart;
+pub mod health_pins;
+mod rx_ring;
+
 use crate::app::{App, Config, Monotonic, Timing};
+use crate::health::{HarnessHealth, NoEnclosure, WithHealth};
 use crate::protocol::Board;
+use crate::sensors::dvl::{a50::VelocityGate, DvlPort, WithDvl};
 use crate::sensors::{BusSensors, NoSensors, Sensors};
 use crate::startup::{loop_pass, start_outputs, EscOutput, Watchdog};
 use controller_core::controller::{Controller, Gains};
@@ -30,6 +42,8 @@ use controller_core::params::Vehicle;
 use core::cell::RefCell;
 use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::interrupt::Mutex;
+use dvl_uart::{start_dvl_uart, DVL_US_PER_BYTE};
+use health_pins::{AdcPowerSense, HealthUart};
 use heapless::Deque;
 use sensor_drivers::icm42688::{self, Icm42688};
 use sensor_drivers::ms5837::{Ms5837, Osr};
@@ -336,6 +350,11 @@ pub fn run(variant: Variant) -> ! {
     unsafe { cortex_m::peripheral::NVIC::unmask(pac::Interrupt::USART1) };
     let tether = Tether;
 
+    // The DVL on USART2, on both boards.
+    let (dvl_uart, dvl_ok) = start_dvl_uart(dp.USART2, (gpioa.pa2, gpioa.pa3), &mut rcc);
+    defmt::info!("DVL port {}", dvl_ok);
+    let dvl = DvlPort::new(dvl_uart, VelocityGate::default(), DVL_US_PER_BYTE);
+
     match variant {
         Variant::Stm32f4 => {
             // The sensors: SPI2 + PB12 chip select for the IMU, I2C1 for the pressure sensor;
@@ -360,14 +379,45 @@ pub fn run(variant: Variant) -> ! {
                 imu.is_some(),
                 baro.is_some()
             );
-            let sensors = BusSensors::new(imu, baro);
+            let gpioc = dp.GPIOC.split(&mut rcc);
+            let power = AdcPowerSense::new(
+                dp.ADC1,
+                gpioc.pc0.into_analog(),
+                gpioc.pc1.into_analog(),
+                &mut rcc,
+            );
+            let leak = gpioc.pc2.into_pull_down_input();
+            let sensors = WithHealth::new(
+                WithDvl {
+                    inner: BusSensors::new(imu, baro),
+                    dvl,
+                },
+                power,
+                Some(leak),
+                NoEnclosure,
+            );
             let clock = Tim2Clock::start(dp.TIM2.counter::<1_000_000>(&mut rcc));
             main_loop(pwm, tether, clock, config, sensors, watchdog)
         }
         Variant::Qemu => {
             // Default clocks: the timer clock is 16 MHz, so the prescaler is 0.
             let clock = Tim2Clock::start(dp.TIM2.counter::<16_000_000>(&mut rcc));
-            main_loop(pwm, tether, clock, config, NoSensors, watchdog)
+            // The health inputs from the host on USART3.
+            let Ok(health) = dp
+                .USART3
+                .serial::<u8>((gpiob.pb10, gpiob.pb11), BAUD.bps(), &mut rcc)
+            else {
+                halt()
+            };
+            let (_tx, health_rx) = health.split();
+            let sensors = HarnessHealth::new(
+                WithDvl {
+                    inner: NoSensors,
+                    dvl,
+                },
+                HealthUart::start(health_rx),
+            );
+            main_loop(pwm, tether, clock, config, sensors, watchdog)
         }
     }
 }

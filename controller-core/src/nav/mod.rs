@@ -66,7 +66,6 @@ use vertical::Vertical;
 pub use config::{NavConfig, GRAVITY_M_S2};
 pub use horizontal::{CLUSTER_MIN, CLUSTER_WINDOW_US, HISTORY_LEN, HISTORY_STEP_US};
 
-
 /// Longest IMU interval the prediction integrates (s); a longer gap is refused.
 pub const MAX_PREDICT_DT_S: f32 = 0.25;
 

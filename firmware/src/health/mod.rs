@@ -11,12 +11,14 @@
 mod battery;
 mod confirm;
 pub mod depth_limit;
+pub mod harness_inputs;
 mod leak;
 pub mod sensing;
 
 pub use battery::{BatteryLevel, BatteryMonitor, BatteryState};
 pub use confirm::Confirm;
 pub use depth_limit::DepthLimit;
+pub use harness_inputs::HarnessHealth;
 pub use leak::LeakDebounce;
 pub use sensing::{EnclosureSense, NoEnclosure, PowerSense, WithHealth};
 

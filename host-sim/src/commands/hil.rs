@@ -7,6 +7,7 @@ use crate::output::write_run;
 use crate::scenario::deployment::Control;
 use crate::scenario::setup::RunSetup;
 use crate::scenario::Scenario;
+use crate::tether::board_wires::BoardWires;
 pub use crate::tether::endpoint::{
     HilOptions, HilOutput, HilReport, HilTarget, TelemetryRow, TetherEndpoint,
     DEFAULT_NAV_READY_LIMIT_S, MAX_REPLY_WAIT,
@@ -14,7 +15,7 @@ pub use crate::tether::endpoint::{
 use crate::tether::in_process::InProcessFirmware;
 use crate::tether::link::{open, Link, NoiseSpec, Port};
 use crate::tether::qemu::{
-    qemu_firmware_image, qemu_layout_images, start_qemu_link, workspace_root, FirmwareImage,
+    qemu_firmware_image, qemu_layout_images, start_qemu_board, workspace_root, FirmwareImage,
     LayoutImages,
 };
 use crate::tether::topside_layout;
@@ -28,11 +29,14 @@ use std::time::Duration;
 pub fn run_hil(sc: &RunSetup, opts: &HilOptions, qemu_log: Option<&Path>) -> Result<HilOutput> {
     let mut qemu_guard = None;
     let mut dvl_wire = None;
+    let mut board_wires = None;
     let (port, target_name, hello_wait, hello_required): (Box<dyn Port>, _, _, _) =
         match &opts.target {
             HilTarget::Qemu { elf } => {
-                let (q, p) = start_qemu_link(&opts.qemu, elf, qemu_log, opts.ram_dump.is_some())?;
+                let (q, p, dvl, health) =
+                    start_qemu_board(&opts.qemu, elf, qemu_log, opts.ram_dump.is_some())?;
                 qemu_guard = Some(q);
+                board_wires = Some(BoardWires::new(sc, dvl, health)?);
                 (
                     p,
                     "qemu netduinoplus2".to_string(),
@@ -61,6 +65,9 @@ pub fn run_hil(sc: &RunSetup, opts: &HilOptions, qemu_log: Option<&Path>) -> Res
         TetherEndpoint::connect(link, sc, opts, target_name, hello_wait, hello_required)?;
     if let Some(wire) = dvl_wire {
         endpoint.set_dvl_wire(wire);
+    }
+    if let Some(wires) = board_wires {
+        endpoint.set_board_wires(wires, opts.dvl_on_uart);
     }
     let mut nav = crate::closed_loop::estimator_nav::navigation_for_vehicle(sc);
     let run_opts = RunOptions {

@@ -18,7 +18,7 @@ use crate::closed_loop::{ControllerEndpoint, StepReply};
 use crate::scenario::setup::RunSetup;
 use crate::tether::in_process::{SimPwm, SimSerial};
 use crate::world::battery::{HealthWire, VehicleElectrics};
-use crate::world::sensors::{Measurement, NavSource};
+use crate::world::sensors::{DvlWire, Measurement, NavSource};
 use anyhow::{anyhow, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::controller::{Controller, Gains};
@@ -26,6 +26,7 @@ use controller_core::nav::{DvlFix, ImuSample};
 use controller_core::reference::RefSample;
 use controller_core::state::NavState;
 use firmware::protocol::{Board, Command, NavSample};
+use firmware::sensors::dvl::{a50::VelocityGate, DvlPort};
 use firmware::{App, Config, Monotonic, Sensors, Timing};
 use std::cell::{Cell, RefCell};
 use std::collections::VecDeque;
@@ -48,6 +49,8 @@ struct Feed {
     current_imu: Option<ImuSample>,
     pressure: VecDeque<(u64, f32)>,
     dvl: VecDeque<DvlFix>,
+    /// The DVL's UART: its fixes as the A50's reports, parsed and gated as on a board.
+    dvl_uart: DvlUart,
     /// The power-sense module, leak probe and enclosure sensor.
     health: Option<HealthWire>,
 }
@@ -78,18 +81,44 @@ impl Sensors for PlantBus {
         latest
     }
 
-    /// The latest DVL velocity of its time or before (the older ones are superseded).
+    /// The DVL's reports of their time or before, sent on its UART; the newest admitted
+    /// (the older ones are superseded).
     fn dvl(&mut self, now_us: u64) -> Option<DvlFix> {
-        let mut f = self.0.borrow_mut();
-        let mut latest = None;
+        let f = &mut *self.0.borrow_mut();
         while f.dvl.front().is_some_and(|d| d.t_us <= now_us) {
-            latest = f.dvl.pop_front();
+            if let Some(d) = f.dvl.pop_front() {
+                f.dvl_uart.wire.send_wrz(&d);
+            }
         }
-        latest
+        f.dvl_uart.port.poll(now_us)
     }
 
     fn health(&mut self, _now_us: u64) -> Option<firmware::health::HealthSample> {
         self.0.borrow_mut().health.as_mut().map(HealthWire::sample)
+    }
+}
+
+/// The DVL on its UART: the in-memory line (no time per byte) and the board's port on it.
+struct DvlUart {
+    wire: DvlWire,
+    port: DvlPort<DvlWire>,
+}
+
+impl Default for DvlUart {
+    fn default() -> Self {
+        let wire = DvlWire::default();
+        Self {
+            port: DvlPort::new(wire.clone(), VelocityGate::default(), 0),
+            wire,
+        }
+    }
+}
+
+impl std::fmt::Debug for DvlUart {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("DvlUart")
+            .field("stats", &self.port.stats())
+            .finish()
     }
 }
 

@@ -33,6 +33,7 @@
 use crate::clock::us;
 use crate::closed_loop::{ratio, ControllerEndpoint, StepReply};
 use crate::scenario::setup::RunSetup;
+use crate::tether::board_wires::BoardWires;
 use crate::tether::link::{Endpoint, Link, Noise, NoiseSpec};
 pub use crate::tether::report::{HilOutput, HilReport, TelemetryRow};
 use crate::world::sensors::NavSource;
@@ -109,8 +110,8 @@ pub struct HilOptions {
     /// AUTO): the longest simulated time to wait, armed and neutral, for the vehicle's
     /// estimate to be ready (an unknown start) before the run fails (s).
     pub nav_ready_limit_s: f64,
-    /// In process: the DVL's fixes reach the firmware as the DVL's serial reports on its
-    /// DVL port (true), or as `DvlFix` commands over the tether (false).
+    /// In process and on the emulated board: the DVL's fixes reach the firmware as the DVL's
+    /// serial reports on its DVL port (true), or as `DvlFix` commands over the tether (false).
     pub dvl_on_uart: bool,
     /// Write the raw tether log (`rov-topside`'s format) here.
     pub tether_log: Option<PathBuf>,
@@ -186,6 +187,8 @@ pub struct TetherEndpoint {
     /// The firmware's DVL port, when it has one: the DVL's fixes go there as the DVL's
     /// serial reports instead of as `DvlFix` commands.
     dvl_wire: Option<DvlWire>,
+    /// The emulated board's DVL and health wires (sent before each step).
+    board_wires: Option<BoardWires>,
 }
 
 impl TetherEndpoint {
@@ -268,12 +271,28 @@ impl TetherEndpoint {
                 .map(|i| (i.radius_m as f32, i.depth_band_m as f32)),
             reference_start_s: 0.0,
             dvl_wire: None,
+            board_wires: None,
         })
     }
 
     /// Send the DVL's fixes on `wire` (the firmware's DVL port) as the DVL's serial reports.
     pub fn set_dvl_wire(&mut self, wire: DvlWire) {
         self.dvl_wire = Some(wire);
+    }
+
+    /// The emulated board's DVL and health wires: the scenario's health parameters are
+    /// given to the vehicle at the start, the health inputs sent before each step, and with
+    /// `dvl_on_uart` the DVL's fixes go on its UART as its reports.
+    pub fn set_board_wires(&mut self, wires: BoardWires, dvl_on_uart: bool) {
+        if dvl_on_uart {
+            self.dvl_wire = Some(wires.dvl_wire());
+        }
+        self.board_wires = Some(wires);
+    }
+
+    /// The emulated board's wires, if any (the simulated battery's truth).
+    pub fn board_wires(&self) -> Option<&BoardWires> {
+        self.board_wires.as_ref()
     }
 
     /// After the run: ask the firmware for its counters (the answer to one more heartbeat
@@ -308,6 +327,9 @@ impl TetherEndpoint {
     /// One lock-step exchange at `t_s`, resent until answered.
     fn exchange(&mut self, t_s: f64, nav: &NavState) -> Result<Telemetry> {
         let t_us = us(t_s);
+        if let Some(w) = self.board_wires.as_mut() {
+            w.send()?;
+        }
         let heartbeats = self.report.heartbeat_stop_s.is_none_or(|stop| t_s < stop);
         let nav_cmd = match self.onboard {
             Some(_) => Command::Step { t_us },
@@ -533,6 +555,12 @@ impl ControllerEndpoint for TetherEndpoint {
         if let Err(reason) = self.link.command(&set_vehicle, tmo, 5, |_| {})? {
             bail!("the firmware refused the scenario's vehicle: {reason:?}");
         }
+        if let Some(params) = self.board_wires.as_ref().map(BoardWires::health_params) {
+            let set_health = Command::SetHealth(params);
+            if let Err(reason) = self.link.command(&set_health, tmo, 5, |_| {})? {
+                bail!("the firmware refused the scenario's health parameters: {reason:?}");
+            }
+        }
         if let Some(config) = self.onboard {
             // The estimator starts at the launch point; its sensors count as fresh from now.
             let start = Command::StartNav {
@@ -614,6 +642,9 @@ impl ControllerEndpoint for TetherEndpoint {
         }
         let tel = self.exchange(t_s, nav)?;
         self.report.steps += 1;
+        if let Some(w) = self.board_wires.as_mut() {
+            w.advance(us(t_s), tel.pulse_us);
+        }
         // Thrust the plant gets: from the pulse widths the ESCs see, or the commands.
         let applied = if self.apply_pulses {
             tel.pulse_us

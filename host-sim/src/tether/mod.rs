@@ -1,7 +1,8 @@
 //! The tether to the vehicle: a byte [`port`], the framed [`link`], the firmware as the
 //! loop's controller end ([`endpoint`]), the firmware library in process ([`in_process`]) and
-//! the firmware image in QEMU ([`qemu`]), and the raw tether log ([`tether_log`]).
+//! the firmware image in QEMU ([`qemu`]) with its DVL and health wires ([`board_wires`]), and the raw tether log ([`tether_log`]).
 
+pub mod board_wires;
 pub mod endpoint;
 pub mod in_process;
 pub mod qemu;

@@ -331,6 +331,43 @@ pub fn start_qemu_link(
     Ok((q, Box::new(tcp_port(stream)?)))
 }
 
+/// The onboard image's three serial ports on sockets of 127.0.0.1 bound here first: the
+/// tether (USART1) as a [`Port`], the DVL's UART (USART2) and the health inputs' UART
+/// (USART3) as streams the host writes (`board_wires`). The child is killed when the guard
+/// is dropped.
+pub fn start_qemu_board(
+    qemu: &str,
+    elf: &Path,
+    log: Option<&Path>,
+    monitor: bool,
+) -> Result<(
+    QemuChild,
+    Box<dyn Port>,
+    std::net::TcpStream,
+    std::net::TcpStream,
+)> {
+    let listeners = (0..3)
+        .map(|_| TcpListener::bind("127.0.0.1:0").context("cannot bind 127.0.0.1:0"))
+        .collect::<Result<Vec<_>>>()?;
+    let ports = listeners
+        .iter()
+        .map(|l| Ok(l.local_addr()?.port()))
+        .collect::<Result<Vec<_>>>()?;
+    let mut q = QemuChild::start_serials(qemu, elf, &ports, log, monitor)?;
+    let deadline = Instant::now() + Duration::from_secs(30);
+    let mut streams = Vec::new();
+    for (l, &port) in listeners.iter().zip(&ports) {
+        streams.push(accept_from(&mut q, l, port, deadline)?);
+    }
+    let mut it = streams.into_iter();
+    match (it.next(), it.next(), it.next()) {
+        (Some(tether), Some(dvl), Some(health)) => {
+            Ok((q, Box::new(tcp_port(tether)?), dvl, health))
+        }
+        _ => bail!("QEMU did not connect its three serial ports"),
+    }
+}
+
 /// The connection QEMU makes to `listener` (on `port`), by `deadline`; an error as soon as
 /// the emulator exits. The stream is blocking.
 fn accept_from(
