@@ -240,6 +240,9 @@ fn hil_estimator_on_the_mcu_matches_software_within_a_few_percent() {
             o.duration_s = Some(duration);
             // The thrust the law commands, as in software (not that of the ESC pulses).
             o.apply_pulses = false;
+            // The DVL's fixes over the tether, as the software run takes them (its wire
+            // format on the board's UART is `emulated_instruments.rs`'s).
+            o.dvl_on_uart = false;
         },
         "hil-nav-circle-3d",
     ) else {
