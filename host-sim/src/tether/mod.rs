@@ -5,6 +5,7 @@
 pub mod board_wires;
 pub mod endpoint;
 pub mod in_process;
+pub mod options;
 pub mod qemu;
 pub mod report;
 pub mod topside_layout;
