@@ -346,19 +346,7 @@ pub fn start_qemu_board(
     std::net::TcpStream,
     std::net::TcpStream,
 )> {
-    let listeners = (0..3)
-        .map(|_| TcpListener::bind("127.0.0.1:0").context("cannot bind 127.0.0.1:0"))
-        .collect::<Result<Vec<_>>>()?;
-    let ports = listeners
-        .iter()
-        .map(|l| Ok(l.local_addr()?.port()))
-        .collect::<Result<Vec<_>>>()?;
-    let mut q = QemuChild::start_serials(qemu, elf, &ports, log, monitor)?;
-    let deadline = Instant::now() + Duration::from_secs(30);
-    let mut streams = Vec::new();
-    for (l, &port) in listeners.iter().zip(&ports) {
-        streams.push(accept_from(&mut q, l, port, deadline)?);
-    }
+    let (q, streams) = connected_serials(qemu, elf, 3, log, monitor)?;
     let mut it = streams.into_iter();
     match (it.next(), it.next(), it.next()) {
         (Some(tether), Some(dvl), Some(health)) => {
@@ -407,21 +395,35 @@ pub fn start_qemu_serials(
     log: Option<&Path>,
     read_timeout: Duration,
 ) -> Result<(QemuChild, Vec<std::net::TcpStream>)> {
-    let listeners = (0..serials)
+    let (q, streams) = connected_serials(qemu, elf, serials, log, false)?;
+    for stream in &streams {
+        stream.set_nodelay(true)?;
+        stream.set_read_timeout(Some(read_timeout))?;
+    }
+    Ok((q, streams))
+}
+
+/// Start QEMU with `elf` and `count` serial ports, each on a port of 127.0.0.1 bound here
+/// first, and accept QEMU's connection to each (blocking streams, in `-serial` order).
+fn connected_serials(
+    qemu: &str,
+    elf: &Path,
+    count: usize,
+    log: Option<&Path>,
+    monitor: bool,
+) -> Result<(QemuChild, Vec<std::net::TcpStream>)> {
+    let listeners = (0..count)
         .map(|_| TcpListener::bind("127.0.0.1:0").context("cannot bind 127.0.0.1:0"))
         .collect::<Result<Vec<_>>>()?;
     let ports = listeners
         .iter()
         .map(|l| Ok(l.local_addr()?.port()))
         .collect::<Result<Vec<_>>>()?;
-    let mut q = QemuChild::start_serials(qemu, elf, &ports, log, false)?;
+    let mut q = QemuChild::start_serials(qemu, elf, &ports, log, monitor)?;
     let deadline = Instant::now() + Duration::from_secs(30);
     let mut streams = Vec::new();
     for (l, &port) in listeners.iter().zip(&ports) {
-        let stream = accept_from(&mut q, l, port, deadline)?;
-        stream.set_nodelay(true)?;
-        stream.set_read_timeout(Some(read_timeout))?;
-        streams.push(stream);
+        streams.push(accept_from(&mut q, l, port, deadline)?);
     }
     Ok((q, streams))
 }
