@@ -13,14 +13,18 @@
 //!   step at once and is answered by a `Telemetry` that carries the thruster commands. The
 //!   failsafes then run in simulated time, deterministically.
 
+mod duty;
 mod pwm;
+mod serial_fault;
 mod session;
+mod stamp;
 mod telemetry;
 
-use pwm::set_duties;
-pub use pwm::{duty_for_pulse, pulse_for_duty};
-use session::Stamp;
-use telemetry::serial_ok;
+use duty::set_duties;
+pub use duty::{duty_for_pulse, pulse_for_duty};
+use serial_fault::serial_ok;
+use stamp::Stamp;
+pub use stamp::STAMP_AHEAD_TOLERANCE_US;
 
 use crate::autopilot::{Autopilot, Failsafe, StepOutput};
 use crate::protocol::{
@@ -39,12 +43,6 @@ const RX_CHUNK: usize = 64;
 
 /// Replies waiting for the serial port behind the frame being sent.
 pub const TX_QUEUE_LEN: usize = 4;
-
-/// Fixed-rate mode: how far a surface time stamp (`Nav`, `Imu`, `Pressure`) may run ahead
-/// of the previous one of its kind beyond the time that passed on the vehicle's clock
-/// (0.5 s: the tether's jitter and the clocks' drift are milliseconds). One frame stamped
-/// far ahead is refused `ClockAhead` and moves nothing.
-pub const STAMP_AHEAD_TOLERANCE_US: u64 = 500_000;
 
 /// Lock-step mode: the largest step of the host's clock one frame may make (1 s; the
 /// simulation steps 20 ms). A frame stamped further ahead is refused `ClockAhead`, so one

@@ -21,10 +21,7 @@ pub mod harness;
 pub mod health;
 pub mod node;
 pub mod node_link;
-/// The tether protocol (the `protocol` crate), under the name the firmware's modules use.
-pub mod protocol {
-    pub use ::protocol::*;
-}
+pub mod protocol;
 pub mod sensors;
 pub mod startup;
 pub mod topside_link;

@@ -3,7 +3,7 @@
 //! reported in `Status` ([`BatteryStatus`]). The health fault bits are in
 //! [`fault`](crate::fault) with the others.
 
-use crate::NackReason;
+use crate::nack::NackReason;
 use serde::{Deserialize, Serialize};
 
 /// What a failsafe does (ArduSub's numbering for the battery's actions: 0 none, 1 warn,

@@ -36,6 +36,7 @@ pub mod framing;
 pub mod health;
 pub mod limits;
 pub mod messages;
+pub mod nack;
 
 pub use client::{Answer, Client, ClientConfig, Event, Frame, SendError, Sent};
 pub use decoder::{decode_frame, Decoded, DropCounters, DropReason, FrameDecoder};

@@ -29,8 +29,9 @@
 //! distance run, across the track, which the USBL fixes see. The turns of a survey make the
 //! two apart (the error's direction turns with the track, a current's does not).
 
+use super::config::NavConfig;
 use super::kf::{nis2, unit, within_gate, Kf, Mat};
-use super::{NavConfig, Refusal, GATE_CHI2_1DOF, GATE_CHI2_2DOF};
+use super::refusal::{Refusal, GATE_CHI2_1DOF, GATE_CHI2_2DOF};
 use crate::math::{max, sin_cos, wrap_angle};
 use crate::model::xy;
 use crate::params::Vehicle;

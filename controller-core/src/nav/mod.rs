@@ -52,6 +52,7 @@ mod horizontal;
 pub mod kf;
 pub mod onboard;
 pub mod predict;
+mod refusal;
 mod vertical;
 
 use crate::error::Error;
@@ -65,14 +66,10 @@ use vertical::Vertical;
 
 pub use config::{NavConfig, GRAVITY_M_S2};
 pub use horizontal::{CLUSTER_MIN, CLUSTER_WINDOW_US, HISTORY_LEN, HISTORY_STEP_US};
+pub use refusal::{Refusal, GATE_CHI2_1DOF, GATE_CHI2_2DOF};
 
 /// Longest IMU interval the prediction integrates (s); a longer gap is refused.
 pub const MAX_PREDICT_DT_S: f32 = 0.25;
-
-/// Chi-square gate of a 1-D innovation (99.9 %).
-pub const GATE_CHI2_1DOF: f32 = 10.83;
-/// Chi-square gate of a 2-D innovation (99.9 %).
-pub const GATE_CHI2_2DOF: f32 = 13.82;
 
 /// One IMU sample: body-axis angular rate and specific force, at `t_us`.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -134,27 +131,6 @@ pub struct PositionFix {
     pub east_m: f32,
     /// Standard deviation of each horizontal component (m).
     pub std_m: f32,
-}
-
-/// Why a measurement was not fused. The estimator's state is unchanged.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[non_exhaustive]
-pub enum Refusal {
-    /// A value is NaN or infinite.
-    NonFinite,
-    /// A value is outside what the vehicle or the sensor can produce.
-    OutOfRange,
-    /// The standard deviation is not positive.
-    BadAccuracy,
-    /// The time of validity is after the estimator's time.
-    InFuture,
-    /// The time of validity is older than the history (or, for the IMU, goes backwards).
-    TooOld,
-    /// The IMU interval is longer than [`MAX_PREDICT_DT_S`].
-    ImuGap,
-    /// The innovation failed the chi-square gate: an outlier.
-    Outlier,
 }
 
 /// Largest horizontal position standard deviation (m, each axis) at which the estimate is

@@ -2,8 +2,9 @@
 //! the pressure depth. `b_a` is the bias of the vertical acceleration (the accelerometer's
 //! z bias, seen through a small tilt).
 
+use super::config::{NavConfig, GRAVITY_M_S2};
 use super::kf::{unit, Kf};
-use super::{NavConfig, Refusal, GATE_CHI2_1DOF, GRAVITY_M_S2};
+use super::refusal::{Refusal, GATE_CHI2_1DOF};
 use crate::math::sin_cos;
 use crate::state::NavState;
 

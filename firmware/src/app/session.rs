@@ -1,7 +1,8 @@
 //! The session gate and the clock gate: which frames belong to the session in force, and
 //! which surface time stamps may move the vehicle's idea of time.
 
-use super::{App, Monotonic, STAMP_AHEAD_TOLERANCE_US};
+use super::stamp::Stamp;
+use super::{App, Monotonic};
 use crate::protocol::{Command, NackReason, Reply};
 use crate::sensors::Sensors;
 use embedded_hal::pwm::SetDutyCycle;
@@ -9,34 +10,6 @@ use embedded_io::{Read, ReadReady, Write, WriteReady};
 
 /// Session numbers are 14 bits (1..=16383).
 pub(super) const SESSION_MASK: u32 = 0x3FFF;
-
-/// The latest accepted surface time stamp of one kind and the vehicle's time it came at.
-#[derive(Debug, Clone, Copy, Default)]
-pub(super) struct Stamp {
-    /// `(stamp, vehicle time)`; `None` before the first of the session.
-    last: Option<(u64, u64)>,
-}
-
-impl Stamp {
-    /// The surface clock now, as projected from the latest stamp by the vehicle's clock.
-    pub(super) fn projected(&self, now_us: u64) -> Option<u64> {
-        self.last
-            .map(|(t, rx)| t.saturating_add(now_us.saturating_sub(rx)))
-    }
-
-    /// True when `t_us` is not too far ahead of the projection (the first stamp of a session
-    /// sets it).
-    pub(super) fn ok(&self, t_us: u64, now_us: u64) -> bool {
-        self.projected(now_us)
-            .is_none_or(|p| t_us <= p.saturating_add(STAMP_AHEAD_TOLERANCE_US))
-    }
-
-    /// Take `t_us` (accepted) at `now_us`.
-    pub(super) fn take(&mut self, t_us: u64, now_us: u64) {
-        let p = self.projected(now_us).unwrap_or(t_us);
-        self.last = Some((t_us.max(p), now_us));
-    }
-}
 
 impl<P, S, C, N> App<P, S, C, N>
 where

@@ -1,7 +1,9 @@
 //! What the vehicle tells the surface: telemetry, status and nacks, queued behind the frame
 //! being sent and handed to the port as it takes them.
 
-use super::{pulse_for_duty, App, Monotonic};
+use super::duty::pulse_for_duty;
+use super::serial_fault::serial_ok;
+use super::{App, Monotonic};
 use crate::protocol::{encode, fault, NackReason, Reply, Status, Telemetry};
 use crate::sensors::Sensors;
 use embedded_hal::pwm::SetDutyCycle;
@@ -127,9 +129,4 @@ where
             }
         }
     }
-}
-
-/// `r`'s value, or `None` with [`fault::SERIAL_ERROR`] raised in `faults`.
-pub(super) fn serial_ok<T, E>(faults: &mut u16, r: Result<T, E>) -> Option<T> {
-    r.map_err(|_| *faults |= fault::SERIAL_ERROR).ok()
 }
