@@ -4,8 +4,8 @@
 
 use controller_core::params::VehicleParams;
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use host_sim::world::plant::six_dof::SixDof;
-use host_sim::world::plant::{Environment, Plant, PlantState};
+use sim_world::plant::six_dof::SixDof;
+use sim_world::plant::{Environment, Plant, PlantState};
 use std::hint::black_box;
 
 fn bench(c: &mut Criterion) {

@@ -3,9 +3,9 @@
 //! figures) and the command line's commands. Each layer uses only the ones listed before it
 //! (docs/host-sim.md, "Where things are"):
 //!
-//! - [`checks`], [`clock`]: the number checks every user input goes through; simulated time
-//!   as microsecond stamps.
-//! - [`world`]: the plants (rigid body, thrusters, water), frames, sensors and noise.
+//! - the world (crate `sim-world`): the plants (rigid body, thrusters, water), frames, sensors
+//!   and noise, the battery, the tether's wires, the number checks and simulated time.
+//! - [`checks`]: a refused input (the error a bad scenario, option or file gets).
 //! - [`scenario`]: what to run: TOML scenarios (built-ins embedded from `scenarios/`), the
 //!   reference, vehicle files.
 //! - [`closed_loop`]: the one closed loop (plant, navigation stage, a controller endpoint,
@@ -18,11 +18,9 @@
 //! - [`commands`]: one file per command of the command line.
 
 pub mod checks;
-pub mod clock;
 pub mod closed_loop;
 pub mod commands;
 pub mod output;
 pub mod scenario;
 pub mod served;
 pub mod tether;
-pub mod world;

@@ -24,12 +24,12 @@
 
 use controller_core::alloc::PwmMap;
 use firmware::protocol::{fault, Mode};
-use host_sim::clock::us;
 use host_sim::closed_loop::runner::{run, RunOptions};
 use host_sim::commands::hil::{run_hil, HilOptions, HilOutput, HilTarget};
 use host_sim::scenario::Scenario;
 use host_sim::tether::qemu::image_or_skip;
-use host_sim::world::battery::VehicleElectrics;
+use sim_world::battery::VehicleElectrics;
+use sim_world::clock::us;
 use std::io::Write;
 use std::time::Duration;
 

@@ -32,9 +32,9 @@ use firmware::Config;
 use host_sim::closed_loop::navigation::to_nav;
 use host_sim::scenario::health::{HealthSpec, SurfaceEndSpec};
 use host_sim::tether::in_process::InProcessFirmware;
-use host_sim::world::battery::BatterySpec;
-use host_sim::world::plant::six_dof::SixDof;
-use host_sim::world::plant::{Environment, Plant, PlantState};
+use sim_world::battery::BatterySpec;
+use sim_world::plant::six_dof::SixDof;
+use sim_world::plant::{Environment, Plant, PlantState};
 
 /// Control period of the lock-step loop, s.
 const DT_S: f64 = 0.02;

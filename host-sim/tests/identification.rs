@@ -12,11 +12,11 @@ use host_sim::commands::hil::{run_hil, HilOptions, HilTarget};
 use host_sim::commands::identify::read_log;
 use host_sim::output::write_csv;
 use host_sim::scenario::{vehicle, IdentificationSpec, Scenario};
-use host_sim::world::noise::gauss;
 use identify::fit::MODEL_NAMES;
 use identify::{identify, Anchor, Outcome, Record};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use sim_world::noise::gauss;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 

@@ -28,13 +28,13 @@ use host_sim::tether::in_process::{SimPwm, SimSerial};
 use host_sim::tether::topside_layout::{
     layout_scenario, FALLBACK_PERIOD_US, NODE_IMU_PERIOD_US, PASS_US,
 };
-use host_sim::world::sensors::Measurement;
-use host_sim::world::tether_wire::Duplex;
 use mavlink::dialects::ardupilotmega::{
     MavMessage, MavParamType, MavSysStatusSensor, MavType, PARAM_SET_DATA,
 };
 use mavlink::{MavConnection, MavHeader};
 use serialport::{SerialPort, TTYPort};
+use sim_world::sensors::Measurement;
+use sim_world::tether_wire::Duplex;
 use std::cell::{Cell, RefCell};
 use std::collections::VecDeque;
 use std::convert::Infallible;

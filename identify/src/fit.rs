@@ -581,7 +581,7 @@ pub fn physical(axes: AxisFits, anchor: Anchor) -> Identified {
 }
 
 /// Standard normal draw (Box-Muller; one of the pair is dropped), the simulator's own draw
-/// (`host_sim::world::noise::gauss`), so that a seed gives the same fit there and here.
+/// (`sim_world::noise::gauss`), so that a seed gives the same fit there and here.
 fn gauss(rng: &mut ChaCha8Rng) -> f64 {
     let u1: f64 = rng.random::<f64>().max(1e-300);
     let u2: f64 = rng.random::<f64>();

@@ -2,13 +2,13 @@
 //! ([`CoreEndpoint`]).
 
 use crate::scenario::setup::RunSetup;
-use crate::world::sensors::Measurement;
 use anyhow::{anyhow, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::controller::{ControlMode, Controller, Gains};
 use controller_core::reference::RefSample;
 use controller_core::state::{BodyForces, NavState, TrackingErrors};
 use protocol::{fault, Telemetry};
+use sim_world::sensors::Measurement;
 
 /// What the controller end answered for one control tick.
 #[derive(Debug, Clone, Copy, Default)]

@@ -1,5 +1,5 @@
 //! The navigation stage of `[navigation] source = "estimator"`: the scenario's simulated
-//! sensors ([`crate::world::sensors`]) feed the core's [`OnboardNav`] - the estimator as the vehicle
+//! sensors ([`sim_world::sensors`]) feed the core's [`OnboardNav`] - the estimator as the vehicle
 //! runs it, through its entry points, one per sensor (as PX4's EKF2 has its `set*Data`) - and
 //! the laws see only its output. Measurements reach the estimator when they *arrive* (a USBL fix `latency_s` after
 //! its ping), in arrival order, at the control tick; the IMU samples drive the prediction
@@ -8,20 +8,20 @@
 //! At every control tick the estimate is compared with the truth for the summary: the
 //! position NEES `e^T P^-1 e` on the plane's axes against the 95 % chi-square bound.
 
-use crate::clock::us;
 use crate::closed_loop::floor::{FloorNoise, FloorRecorder};
 use crate::closed_loop::navigation::{to_nav, FixRecord, Navigation, TruthNav};
 use crate::closed_loop::report::NavReport;
 use crate::scenario::setup::RunSetup;
 use crate::scenario::Scenario;
-use crate::world::plant::PlantState;
-use crate::world::sensor_sim::SensorSuite;
-use crate::world::sensors::{Measurement, NavSource, SensorsSpec};
 use anyhow::{anyhow, Result};
 use controller_core::nav::compass_cal::CompassCalibration;
 use controller_core::nav::onboard::{OnboardConfig, OnboardNav, PressureDepth};
 use controller_core::nav::{Estimator, HeadingFix, NavConfig};
 use controller_core::state::NavState;
+use sim_world::clock::us;
+use sim_world::plant::PlantState;
+use sim_world::sensor_sim::SensorSuite;
+use sim_world::sensors::{Measurement, NavSource, SensorsSpec};
 
 /// 95 % quantile of the chi-square distribution with 1, 2 and 3 degrees of freedom.
 pub const CHI2_95: [f64; 3] = [3.841, 5.991, 7.815];

@@ -570,7 +570,7 @@ fn nu1(v: f64) -> SVector<f64, 1> {
 }
 
 /// An angle in (-pi, pi].
-fn wrap(a: f64) -> f64 {
+pub fn wrap(a: f64) -> f64 {
     let w = a.rem_euclid(std::f64::consts::TAU);
     if w > std::f64::consts::PI {
         w - std::f64::consts::TAU
@@ -604,17 +604,4 @@ fn update<const M: usize>(
     let pp = i_kh * *p * i_kh.transpose() + k * r * k.transpose();
     *p = 0.5 * (pp + pp.transpose());
     true
-}
-
-#[cfg(test)]
-mod tests {
-    use super::wrap;
-
-    #[test]
-    fn angles_wrap_into_the_half_open_circle() {
-        let pi = std::f64::consts::PI;
-        assert!((wrap(3.0 * pi) - pi).abs() < 1e-12);
-        assert!((wrap(-0.5) + 0.5).abs() < 1e-12);
-        assert!((wrap(2.0 * pi + 0.25) - 0.25).abs() < 1e-12);
-    }
 }

@@ -4,12 +4,12 @@
 use super::report::NavReport;
 use crate::scenario::setup::RunSetup;
 use crate::scenario::NoiseStd;
-use crate::world::noise::gauss;
-use crate::world::plant::PlantState;
-use crate::world::sensors::Measurement;
 use controller_core::state::NavState;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use sim_world::noise::gauss;
+use sim_world::plant::PlantState;
+use sim_world::sensors::Measurement;
 use std::collections::VecDeque;
 
 /// One USBL fix as the estimator saw it, for plots and logs.

@@ -6,7 +6,7 @@
 
 use super::estimator_nav::CHI2_95;
 use super::report::{len, ratio, Rule, Summary};
-use crate::world::plant::PlantState;
+use sim_world::plant::PlantState;
 
 /// The control lost, judged at the end of a run that completed: `first_half` is the largest
 /// error of the first half, `tail_min` the smallest of the last 20 %. The error still
@@ -224,26 +224,29 @@ pub(super) fn lost_control(s: &Summary, m: &EndFigures) -> Option<Rule> {
 /// around the start point, not along the scenario's reference, so such a run is judged by
 /// the room the manoeuvre was given (`[identification] radius_m`, `depth_band_m`).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) struct IdentRoom {
+pub struct IdentRoom {
     /// Start position `[x, y, z]` (m).
     pub start_m: [f64; 3],
-    /// The room: radius (m) and half-height of the depth band (m).
+    /// The room's radius (m).
     pub radius_m: f64,
+    /// The half-height of the room's depth band (m).
     pub depth_band_m: f64,
-    /// Farthest horizontal distance and depth offset from the start seen (m).
+    /// Farthest horizontal distance from the start seen (m).
     pub max_horizontal_m: f64,
+    /// Largest depth offset from the start seen (m).
     pub max_depth_off_m: f64,
 }
 
 impl IdentRoom {
-    pub(super) fn update(&mut self, eta: &[f64; 6]) {
+    /// Take the vehicle's pose `eta` (`[x, y, z, roll, pitch, yaw]`) into the extremes seen.
+    pub fn update(&mut self, eta: &[f64; 6]) {
         let [x0, y0, z0] = self.start_m;
         self.max_horizontal_m = self.max_horizontal_m.max((eta[0] - x0).hypot(eta[1] - y0));
         self.max_depth_off_m = self.max_depth_off_m.max((eta[2] - z0).abs());
     }
 
     /// The rule an identification run broke: it left its room (horizontally or in depth).
-    pub(super) fn left(&self) -> Option<Rule> {
+    pub fn left(&self) -> Option<Rule> {
         let rule = |name: &str, figure: f64, threshold: f64, what: &str| Rule {
             name: name.into(),
             figure,
@@ -272,34 +275,5 @@ impl IdentRoom {
                 &format!("{} in depth", len(self.depth_band_m)),
             )
         })
-    }
-}
-
-#[cfg(test)]
-mod ident_room_tests {
-    use super::IdentRoom;
-
-    #[test]
-    fn an_identification_run_is_judged_by_its_room() {
-        let mut room = IdentRoom {
-            start_m: [0.0, 5.0, 10.0],
-            radius_m: 30.0,
-            depth_band_m: 6.0,
-            max_horizontal_m: 0.0,
-            max_depth_off_m: 0.0,
-        };
-        room.update(&[20.0, 5.0, 14.0, 0.0, 0.0, 0.0]);
-        assert!(room.left().is_none());
-        room.update(&[0.0, 5.0, 16.5, 0.0, 0.0, 0.0]);
-        let r = room.left().unwrap();
-        assert_eq!(r.name, "ident_depth_band");
-        assert!(
-            (r.figure - 6.5).abs() < 1e-12 && r.threshold == 6.0,
-            "{r:?}"
-        );
-        room.update(&[0.0, 36.0, 10.0, 0.0, 0.0, 0.0]);
-        let r = room.left().unwrap();
-        assert_eq!(r.name, "ident_room");
-        assert!(r.text.contains("identification"), "{}", r.text);
     }
 }

@@ -16,7 +16,7 @@ use anyhow::{bail, Result};
 pub use crate::closed_loop::{
     make_plant, nominal_plant_params, to_nav, verdict, RunOptions, RunOutput, Sample, Summary,
 };
-pub use crate::world::frames::body_to_inertial;
+pub use sim_world::frames::body_to_inertial;
 
 /// Run one resolved scenario ([`crate::scenario::Scenario::resolve`]) with the core
 /// controller in process.

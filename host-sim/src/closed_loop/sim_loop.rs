@@ -36,17 +36,17 @@ use super::report::{judge, meets_tracking_figures, missed_rule, ratio, verdict, 
 use super::rules::{divergence, lost_control, DiagonalNees, EndFigures, IdentRoom, Turns};
 use crate::scenario::setup::RunSetup;
 use crate::scenario::{ExpectSpec, Plane, Scenario, MAX_CONTROL_TICKS};
-use crate::world::frames::body_to_inertial;
-use crate::world::plant::six_dof::SixDof;
-use crate::world::plant::water::WaterSpec;
-use crate::world::plant::xy::XyPlant;
-use crate::world::plant::xz::XzPlant;
-use crate::world::plant::{Environment, Plant, PlantState};
 use anyhow::{anyhow, Result};
 use controller_core::params::VehicleParams;
 use controller_core::reference::{RefSample, Reference};
 use controller_core::state::{BodyForces, TrackingErrors};
 use serde::Serialize;
+use sim_world::frames::body_to_inertial;
+use sim_world::plant::six_dof::SixDof;
+use sim_world::plant::water::WaterSpec;
+use sim_world::plant::xy::XyPlant;
+use sim_world::plant::xz::XzPlant;
+use sim_world::plant::{Environment, Plant, PlantState};
 use std::time::Instant;
 
 /// The result of one run.
@@ -539,10 +539,10 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
         if self.s.boundary_contact.is_none() {
             let t_end = t + self.tc;
             self.s.boundary_contact = self.plant.contact().map(|b| match b {
-                crate::world::plant::Boundary::Surface => {
+                sim_world::plant::Boundary::Surface => {
                     format!("hit the surface at t = {t_end:.3} s")
                 }
-                crate::world::plant::Boundary::Seabed => {
+                sim_world::plant::Boundary::Seabed => {
                     format!("hit the seabed at t = {t_end:.3} s")
                 }
             });

@@ -1,6 +1,6 @@
 //! `host-sim deployment`: the measurements of the topside layout against the onboard one
 //!, with the firmware library's two roles in process over the byte-level tether
-//! model ([`crate::tether::topside_layout`], [`crate::world::tether_wire`]).
+//! model ([`crate::tether::topside_layout`], [`sim_world::tether_wire`]).
 //!
 //! - tracking: the navigation scenarios flown both ways (true position, RMS over the last
 //!   80 %); the topside layout must be within 10 % + 1 cm of the onboard one;
@@ -20,9 +20,9 @@ use crate::scenario::Scenario;
 use crate::tether::topside_layout::{
     run_layout, told_delay_s, Control, LayoutOutput, MAX_TOLD_DELAY_S,
 };
-use crate::world::tether_wire::DEFAULT_BAUD;
 use anyhow::{bail, Result};
 use serde::Serialize;
+use sim_world::tether_wire::DEFAULT_BAUD;
 
 /// The navigation scenarios compared: full sensor suite, and USBL only.
 pub const TRACKING_SCENARIOS: [&str; 4] = [
@@ -543,7 +543,7 @@ pub struct DeploymentArgs {
 /// `host-sim deployment`: the report, and whether every bound was met.
 pub fn main(a: DeploymentArgs) -> Result<bool> {
     let check = || -> Result<()> {
-        crate::world::tether_wire::WireSpec {
+        sim_world::tether_wire::WireSpec {
             baud: a.baud,
             ..Default::default()
         }

@@ -67,10 +67,10 @@ pub const CSV_COLUMNS: &[&str; N_COLUMNS] = &[
 ];
 
 /// Number of columns of `timeseries.csv`.
-const N_COLUMNS: usize = 54;
+pub const N_COLUMNS: usize = 54;
 
 /// One row of `timeseries.csv`, in the order of [`CSV_COLUMNS`].
-fn row(s: &Sample) -> [f64; N_COLUMNS] {
+pub fn row(s: &Sample) -> [f64; N_COLUMNS] {
     let e = &s.law_errors;
     let [x, y, z, roll, pitch, yaw] = s.state.eta;
     let [u, v, w, p, q, r] = s.state.nu;
@@ -224,111 +224,4 @@ pub fn write_run_with(dir: &Path, out: &RunOutput, outputs: Outputs) -> Result<(
     csv?;
     plots?;
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn parse(field: &str) -> f64 {
-        field.parse().unwrap()
-    }
-
-    #[test]
-    fn every_value_reads_back_as_the_same_f64() {
-        let awkward = [
-            0.1 + 0.2,
-            -1.0 / 3.0,
-            f64::MIN_POSITIVE / 3.0,
-            f64::MAX,
-            -0.0,
-            1e-300,
-            123_456_789.123_456_79,
-            f64::from(0.1_f32),
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-        ];
-        let mut log = Vec::new();
-        for (i, &a) in awkward.iter().enumerate() {
-            let mut s = Sample {
-                t_s: i as f64 * 0.01,
-                saturated: i % 2 == 0,
-                nav_pos_std_m: (i % 3 != 0).then_some([a, -a, 0.5]),
-                ..Sample::default()
-            };
-            s.state.eta = [a, -a, a * 0.5, 1.0, 2.0, a];
-            s.state.nu = [a; 6];
-            s.pos_err_norm_m = a;
-            s.pulse_us = [1500.0, a, 1100.0];
-            s.law_errors.yaw_rad = 0.1;
-            log.push(s);
-        }
-        let mut bytes = Vec::new();
-        write_csv_to(&mut bytes, &log).unwrap();
-        let text = String::from_utf8(bytes).unwrap();
-        let mut lines = text.lines();
-        assert_eq!(lines.next().unwrap(), CSV_COLUMNS.join(","));
-        let mut n = 0;
-        for (line, s) in lines.zip(&log) {
-            let got: Vec<f64> = line.split(',').map(parse).collect();
-            let want = row(s);
-            assert_eq!(got.len(), N_COLUMNS);
-            for (g, w) in got.iter().zip(want) {
-                // NaN reads back as NaN; every other value bit for bit (the sign of zero too).
-                assert!(
-                    g.to_bits() == w.to_bits() || (g.is_nan() && w.is_nan()),
-                    "{g:e} != {w:e} in {line}"
-                );
-            }
-            n += 1;
-        }
-        assert_eq!(n, log.len());
-    }
-
-    #[test]
-    fn numbers_are_written_shortest() {
-        let s = Sample {
-            t_s: 0.25,
-            ..Sample::default()
-        };
-        let mut bytes = Vec::new();
-        write_csv_to(&mut bytes, &[s]).unwrap();
-        let text = String::from_utf8(bytes).unwrap();
-        let data = text.lines().nth(1).unwrap();
-        assert!(data.starts_with("0.25,0.0,0.0,"), "{data}");
-        assert!(data.ends_with(",NaN,NaN,NaN"), "{data}");
-        // Every field is short: no padding to a fixed number of digits.
-        assert!(data.len() < 6 * N_COLUMNS, "{} bytes: {data}", data.len());
-    }
-
-    #[test]
-    fn without_the_time_series_and_figures_only_the_summary_is_written() {
-        let dir = std::env::temp_dir().join(format!("host-sim-outputs-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        let out = RunOutput {
-            log: vec![Sample::default(); 3],
-            ..RunOutput::default()
-        };
-        let none = Outputs {
-            timeseries: false,
-            plots: false,
-        };
-        assert!(!none.need_log());
-        write_run_with(&dir, &out, none).unwrap();
-        let mut names: Vec<String> = std::fs::read_dir(&dir)
-            .unwrap()
-            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-            .collect();
-        names.sort();
-        assert_eq!(names, ["summary.json"]);
-        let csv_only = Outputs {
-            timeseries: true,
-            plots: false,
-        };
-        write_run_with(&dir, &out, csv_only).unwrap();
-        let text = std::fs::read_to_string(dir.join("timeseries.csv")).unwrap();
-        assert_eq!(text.lines().count(), 1 + out.log.len());
-        assert!(!dir.join("fig_errors.png").exists());
-        let _ = std::fs::remove_dir_all(&dir);
-    }
 }

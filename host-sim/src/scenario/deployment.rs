@@ -2,10 +2,10 @@
 //! link's tether for the topside layout ([`crate::tether::topside_layout`]). A module of its own,
 //! below both the scenario and the layout, so neither depends on the other through it.
 
-use crate::world::sensors::NavSource;
-use crate::world::tether_wire::{WireSpec, DEFAULT_BAUD};
 use anyhow::{anyhow, bail, Result};
 use serde::{Deserialize, Serialize};
+use sim_world::sensors::NavSource;
+use sim_world::tether_wire::{WireSpec, DEFAULT_BAUD};
 
 /// Where the control loop runs (`[deployment] control`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]

@@ -1,8 +1,8 @@
 //! The scenario's `[expect]` table: the targets its runs are judged against, and their checks.
 
-use crate::checks::{nonneg, pos};
 use anyhow::{bail, Result};
 use serde::{Deserialize, Serialize};
+use sim_world::checks::{nonneg, pos};
 
 fn d_settle() -> f64 {
     10.0

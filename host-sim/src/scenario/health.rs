@@ -24,11 +24,11 @@
 //! `BATT_CAPACITY` is the `[battery]`'s capacity; the power-sense module's scales are
 //! ArduSub's for the Blue Robotics module (the simulated module is that one).
 
-use crate::checks::fin;
-use crate::world::battery::{BatterySpec, HealthEvents};
 use anyhow::{anyhow, bail, Result};
 use firmware::protocol::{FailsafeAction, HealthParams, SurfaceEnd};
 use serde::{Deserialize, Serialize};
+use sim_world::battery::{BatterySpec, HealthEvents};
+use sim_world::checks::fin;
 
 /// `SURFACE_END` in a scenario.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]

@@ -17,13 +17,13 @@ pub use expect::ExpectSpec;
 pub use identification::IdentificationSpec;
 pub use reference::ReferenceSpec;
 
-use crate::checks::{fin, nonneg, pos, vec3};
-pub use crate::world::sensors::{NavSource, NavigationSpec, SensorsSpec};
 use anyhow::{anyhow, bail, Context, Result};
 use controller_core::controller::ControlMode;
 use controller_core::params::{Vehicle, VehicleParams};
 use controller_core::reference::{Bounds, Reference};
 use serde::{Deserialize, Serialize};
+use sim_world::checks::{fin, nonneg, pos, vec3};
+pub use sim_world::sensors::{NavSource, NavigationSpec, SensorsSpec};
 use std::path::Path;
 
 /// Which plant and which set of laws.
@@ -165,8 +165,8 @@ pub struct InitialSpec {
 
 impl InitialSpec {
     /// As a plant state.
-    pub fn to_plant(&self) -> crate::world::plant::PlantState {
-        crate::world::plant::PlantState {
+    pub fn to_plant(&self) -> sim_world::plant::PlantState {
+        sim_world::plant::PlantState {
             eta: [
                 self.x_m,
                 self.y_m,
@@ -343,7 +343,7 @@ pub struct Scenario {
     pub sensors: SensorsSpec,
     /// The seabed and a current that changes in time and with depth.
     #[serde(default)]
-    pub water: crate::world::plant::water::WaterSpec,
+    pub water: sim_world::plant::water::WaterSpec,
     /// The vehicle file (`vehicles/observer.toml`'s format); the Observer when absent. A
     /// relative path is taken from the scenario file's folder, else the working directory.
     #[serde(default)]
@@ -360,7 +360,7 @@ pub struct Scenario {
     pub calibration: Option<CalibrationSpec>,
     /// `[battery]`: the simulated battery (in-process firmware runs).
     #[serde(default)]
-    pub battery: crate::world::battery::BatterySpec,
+    pub battery: sim_world::battery::BatterySpec,
     /// `[health]`: health events and the vehicle's health parameters.
     #[serde(default)]
     pub health: health::HealthSpec,
@@ -503,13 +503,13 @@ impl Scenario {
                     c.time_limit_s
                 );
             }
-            if self.navigation.source != crate::world::sensors::NavSource::Estimator {
+            if self.navigation.source != sim_world::sensors::NavSource::Estimator {
                 bail!("calibration needs navigation.source = \"estimator\" (the turn fits the estimator's yaw rate against the compass)");
             }
         }
         if let Some(i) = &self.identification {
             i.check(self.initial.z_m, self.duration_s)?;
-            if self.navigation.source != crate::world::sensors::NavSource::Estimator {
+            if self.navigation.source != sim_world::sensors::NavSource::Estimator {
                 bail!("identification needs navigation.source = \"estimator\" (the vehicle flies it on its own estimate)");
             }
         }

@@ -5,11 +5,11 @@
 //! `Reference::validate` stays the one check of the reference (`reference.rs`).
 
 use super::Scenario;
-use crate::world::plant::PlantState;
 use anyhow::{anyhow, Context, Result};
 use controller_core::controller::ControlMode;
 use controller_core::params::Vehicle;
 use controller_core::reference::Reference;
+use sim_world::plant::PlantState;
 
 /// A checked scenario and what it resolves to. Only [`Scenario::resolve`] makes one, so
 /// holding a `RunSetup` means the scenario passed every check; it reads as the scenario

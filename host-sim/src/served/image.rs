@@ -21,18 +21,18 @@
 
 use super::bridge::TetherBridge;
 use super::endpoint::{Believed, ServedEndpoint};
-use crate::clock::us;
 use crate::closed_loop::estimator_nav::onboard_config;
 use crate::closed_loop::{ControllerEndpoint, StepReply};
 use crate::scenario::setup::RunSetup;
 use crate::tether::qemu::{start_qemu_serials, QemuChild};
-use crate::world::sensors::{Measurement, NavSource};
 use anyhow::{anyhow, bail, Context, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::nav::onboard::OnboardConfig;
 use controller_core::reference::RefSample;
 use controller_core::state::NavState;
 use firmware::protocol::{Command, Decoded, FrameDecoder, NavSample, Reply, Telemetry};
+use sim_world::clock::us;
+use sim_world::sensors::{Measurement, NavSource};
 use std::io::{ErrorKind, Read, Write};
 use std::net::TcpStream;
 use std::path::Path;

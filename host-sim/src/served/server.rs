@@ -310,7 +310,7 @@ pub fn check(o: &ServeOptions) -> Result<()> {
         bail!("--speedup must be >= 1 (got {})", o.speedup);
     }
     if let Some(d) = o.duration_s {
-        crate::checks::pos("--duration", d)?;
+        sim_world::checks::pos("--duration", d)?;
     }
     Ok(())
 }

@@ -71,32 +71,3 @@ pub fn psimssb(fix: &PositionFix, depth_m: f32, at: SystemTime) -> String {
     let cs = sensor_drivers::usbl::xor_checksum(body.as_bytes());
     format!("${body}*{cs:02X}\r\n")
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use sensor_drivers::usbl::{parse, Orientation, Sentence};
-
-    #[test]
-    fn a_fix_reads_back_through_the_surface_parser() {
-        let fix = PositionFix {
-            t_us: 12_000_000,
-            north_m: 3.25,
-            east_m: -1.5,
-            std_m: 0.3,
-        };
-        let at = UNIX_EPOCH + Duration::from_millis(86_400_000 * 3 + 45_296_789);
-        let line = psimssb(&fix, 2.5, at);
-        let Ok(Sentence::Ssb(s)) = parse(line.trim_end().as_bytes()) else {
-            panic!("{line}");
-        };
-        assert_eq!(s.orientation, Orientation::NorthUp);
-        assert!(
-            (s.time_of_day_s - 45_296.789).abs() < 1e-6,
-            "{}",
-            s.time_of_day_s
-        );
-        assert_eq!((s.x_m, s.y_m, s.depth_m), (-1.5, 3.25, 2.5));
-        assert_eq!(s.accuracy_m, Some(0.3));
-    }
-}

@@ -12,13 +12,10 @@
 
 use super::bridge::TetherBridge;
 use super::endpoint::{Believed, ServedEndpoint};
-use crate::clock::us;
 use crate::closed_loop::estimator_nav::onboard_config;
 use crate::closed_loop::{ControllerEndpoint, StepReply};
 use crate::scenario::setup::RunSetup;
 use crate::tether::in_process::{SimPwm, SimSerial};
-use crate::world::battery::{HealthWire, VehicleElectrics};
-use crate::world::sensors::{DvlWire, Measurement, NavSource};
 use anyhow::{anyhow, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::controller::{Controller, Gains};
@@ -28,6 +25,9 @@ use controller_core::state::NavState;
 use firmware::protocol::{Board, Command, NavSample};
 use firmware::sensors::dvl::{a50::VelocityGate, DvlPort};
 use firmware::{App, Config, Monotonic, Sensors, Timing};
+use sim_world::battery::{HealthWire, VehicleElectrics};
+use sim_world::clock::us;
+use sim_world::sensors::{DvlWire, Measurement, NavSource};
 use std::cell::{Cell, RefCell};
 use std::collections::VecDeque;
 use std::rc::Rc;

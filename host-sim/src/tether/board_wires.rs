@@ -7,12 +7,12 @@
 //! [`DvlWire`] and [`VehicleElectrics`] in memory (`in_process`).
 
 use crate::scenario::setup::RunSetup;
-use crate::world::battery::VehicleElectrics;
-use crate::world::sensors::DvlWire;
 use anyhow::{anyhow, Context, Result};
 use controller_core::alloc::PwmMap;
 use firmware::harness::seal;
 use firmware::protocol::{HealthParams, HealthSample, MAX_FRAME_LEN};
+use sim_world::battery::VehicleElectrics;
+use sim_world::sensors::DvlWire;
 use std::io::Write;
 use std::net::TcpStream;
 

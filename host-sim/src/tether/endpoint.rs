@@ -30,7 +30,6 @@
 //! the link statistics), `timeseries.csv` and plots as `host-sim run`, and
 //! `telemetry.csv` with what the firmware reported each step.
 
-use crate::clock::us;
 use crate::closed_loop::{ratio, ControllerEndpoint, StepReply};
 use crate::scenario::setup::RunSetup;
 use crate::tether::board_wires::BoardWires;
@@ -39,8 +38,6 @@ pub use crate::tether::options::{
     HilOptions, HilTarget, DEFAULT_NAV_READY_LIMIT_S, MAX_REPLY_WAIT,
 };
 pub use crate::tether::report::{HilOutput, HilReport, TelemetryRow};
-use crate::world::sensors::NavSource;
-use crate::world::sensors::{DvlWire, Measurement};
 use anyhow::{anyhow, bail, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::nav::onboard::OnboardConfig;
@@ -51,6 +48,9 @@ use controller_core::state::NavState;
 use firmware::protocol::{
     fault, Command, LinkStats, Mode, NackReason, NavSample, Reply, Telemetry,
 };
+use sim_world::clock::us;
+use sim_world::sensors::NavSource;
+use sim_world::sensors::{DvlWire, Measurement};
 use std::time::{Duration, Instant};
 
 /// The firmware at the other end of the tether as the loop's controller: each control tick

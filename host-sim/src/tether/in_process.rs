@@ -11,8 +11,6 @@
 
 use crate::scenario::health::HealthSpec;
 use crate::scenario::setup::RunSetup;
-use crate::world::battery::{BatterySpec, HealthWire, VehicleElectrics};
-use crate::world::sensors::DvlWire;
 use anyhow::{anyhow, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::controller::{Controller, Gains};
@@ -21,6 +19,8 @@ use firmware::health::WithHealth;
 use firmware::protocol::Board;
 use firmware::sensors::dvl::{a50::VelocityGate, DvlPort, WithDvl};
 use firmware::{App, Config, Monotonic, NoSensors};
+use sim_world::battery::{BatterySpec, HealthWire, VehicleElectrics};
+use sim_world::sensors::DvlWire;
 use std::collections::VecDeque;
 use std::convert::Infallible;
 use std::time::Instant;

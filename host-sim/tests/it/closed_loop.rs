@@ -7,7 +7,7 @@
 use host_sim::closed_loop::runner::{run, RunOptions, Summary};
 use host_sim::closed_loop::{Navigation, TruthNav};
 use host_sim::scenario::{NoiseStd, Scenario};
-use host_sim::world::plant::PlantState;
+use sim_world::plant::PlantState;
 
 fn run_builtin(name: &str) -> Summary {
     let sc = Scenario::load(name).unwrap();

@@ -92,7 +92,7 @@ fn nav_lawnmower_3d_with_the_dvl_on_its_uart() {
 fn the_simulated_dvl_line_carries_the_fix() {
     use controller_core::nav::DvlFix;
     use firmware::sensors::dvl::{a50, DvlPort};
-    use host_sim::world::sensors::DvlWire;
+    use sim_world::sensors::DvlWire;
 
     let mut wire = DvlWire::default();
     let mut port = DvlPort::new(wire.clone(), a50::VelocityGate::default(), 0);

@@ -25,6 +25,7 @@ mod exit_codes;
 mod hil_qemu;
 mod in_process;
 mod instruments;
+mod library;
 mod lost_control;
 mod modcycles;
 mod monte_carlo;

@@ -7,9 +7,9 @@
 use controller_core::nav::compass_cal::{CalRefusal, CompassCalibration, CompassSwing};
 use host_sim::closed_loop::runner::{run, RunOptions};
 use host_sim::scenario::Scenario;
-use host_sim::world::plant::PlantState;
-use host_sim::world::sensor_sim::SensorSuite;
-use host_sim::world::sensors::{CompassSpec, ImuSpec, Measurement, SensorsSpec};
+use sim_world::plant::PlantState;
+use sim_world::sensor_sim::SensorSuite;
+use sim_world::sensors::{CompassSpec, ImuSpec, Measurement, SensorsSpec};
 
 const HARD_IRON_RAD: f64 = 0.0873; // 5 deg
 const PHASE_RAD: f64 = 0.7;

@@ -260,7 +260,7 @@ const HARD_IRON_PHASE_RAD: f64 = 0.7;
 fn survey_after_the_turn(survey_s: f64) -> Scenario {
     let mut sc = Scenario::load("nav-lawnmower-3d").unwrap();
     sc.disturbance.current_m_s = [0.0, 0.2, 0.0];
-    sc.sensors.compass = Some(host_sim::world::sensors::CompassSpec {
+    sc.sensors.compass = Some(sim_world::sensors::CompassSpec {
         hard_iron_rad: HARD_IRON_RAD,
         hard_iron_phase_rad: HARD_IRON_PHASE_RAD,
         thrust_offset_rad_per_n: 0.00349,

@@ -2,9 +2,9 @@
 //! are refused with the key named.
 
 use host_sim::scenario::Scenario;
-use host_sim::world::plant::PlantState;
-use host_sim::world::sensor_sim::SensorSuite;
-use host_sim::world::sensors::{CompassSpec, DvlSpec, Measurement, SensorsSpec, UsblSpec};
+use sim_world::plant::PlantState;
+use sim_world::sensor_sim::SensorSuite;
+use sim_world::sensors::{CompassSpec, DvlSpec, Measurement, SensorsSpec, UsblSpec};
 
 fn state(psi_rad: f64, uv_m_s: [f64; 2]) -> PlantState {
     PlantState {

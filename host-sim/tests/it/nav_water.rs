@@ -5,11 +5,11 @@
 use controller_core::params::VehicleParams;
 use host_sim::closed_loop::runner::{run, RunOptions};
 use host_sim::scenario::Scenario;
-use host_sim::world::plant::six_dof::SixDof;
-use host_sim::world::plant::water::WaterSpec;
-use host_sim::world::plant::{Boundary, Environment, Plant, PlantState};
-use host_sim::world::sensor_sim::SensorSuite;
-use host_sim::world::sensors::{DvlSpec, Measurement, SensorsSpec};
+use sim_world::plant::six_dof::SixDof;
+use sim_world::plant::water::WaterSpec;
+use sim_world::plant::{Boundary, Environment, Plant, PlantState};
+use sim_world::sensor_sim::SensorSuite;
+use sim_world::sensors::{DvlSpec, Measurement, SensorsSpec};
 
 #[test]
 fn a_buoyant_vehicle_stops_at_the_surface_and_says_so() {

@@ -4,10 +4,10 @@
 use controller_core::model;
 use controller_core::params::{Vehicle, VehicleParams};
 use controller_core::state::{BodyForces, XyState, XzState};
-use host_sim::world::plant::xy::{self as pxy, XyPlant};
-use host_sim::world::plant::xz::{self as pxz, XzPlant};
-use host_sim::world::plant::{Environment, Plant, PlantParams, PlantState};
 use proptest::prelude::*;
+use sim_world::plant::xy::{self as pxy, XyPlant};
+use sim_world::plant::xz::{self as pxz, XzPlant};
+use sim_world::plant::{Environment, Plant, PlantParams, PlantState};
 
 fn params() -> PlantParams {
     PlantParams::from_vehicle(&VehicleParams::OBSERVER)

@@ -43,7 +43,7 @@ fn defaults_apply() {
     assert!(s.thrusters.saturate);
     assert_eq!(
         s.initial.to_plant(),
-        host_sim::world::plant::PlantState::default()
+        sim_world::plant::PlantState::default()
     );
     assert!(!s.disturbance.noise);
     assert_eq!(s.disturbance.delay_s, 0.0);

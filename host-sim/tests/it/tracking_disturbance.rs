@@ -10,8 +10,8 @@ use controller_core::controller::ControlMode;
 use controller_core::controller::Gains;
 use controller_core::params::VehicleParams;
 use controller_core::reference::{PaperPolynomial, Reference};
-use host_sim::world::plant::Environment;
-use host_sim::world::plant::PlantState;
+use sim_world::plant::Environment;
+use sim_world::plant::PlantState;
 use tracking_common::{at_rest, run, run_with, Metrics};
 
 fn plant(offset_n: f32) -> VehicleParams {

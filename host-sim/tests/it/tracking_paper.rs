@@ -7,7 +7,7 @@ use crate::tracking_common;
 use controller_core::controller::ControlMode;
 use controller_core::params::VehicleParams;
 use controller_core::reference::{PaperPolynomial, Reference};
-use host_sim::world::plant::Environment;
+use sim_world::plant::Environment;
 use tracking_common::{at_rest, run};
 
 #[test]

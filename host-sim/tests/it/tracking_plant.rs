@@ -3,8 +3,8 @@
 #![allow(clippy::indexing_slicing)]
 
 use controller_core::params::VehicleParams;
-use host_sim::world::plant::six_dof::SixDof;
-use host_sim::world::plant::{Environment, Plant, PlantState};
+use sim_world::plant::six_dof::SixDof;
+use sim_world::plant::{Environment, Plant, PlantState};
 
 fn p64() -> [f64; 8] {
     let p = VehicleParams::OBSERVER;

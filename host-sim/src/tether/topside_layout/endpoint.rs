@@ -3,13 +3,13 @@
 //! to the topside.
 
 use super::{ControlView, TopsideLayout, HEARTBEAT_PERIOD_US};
-use crate::clock::us;
 use crate::closed_loop::{ControllerEndpoint, StepReply};
-use crate::world::sensors::Measurement;
 use anyhow::{bail, Result};
 use controller_core::reference::RefSample;
 use controller_core::state::NavState;
 use protocol::{fault, Answer, Command, Event};
+use sim_world::clock::us;
+use sim_world::sensors::Measurement;
 
 impl ControllerEndpoint for TopsideLayout {
     /// The USBL fixes the topside's estimator refused on its gate (its `Nack`s).

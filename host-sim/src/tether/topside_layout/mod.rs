@@ -1,6 +1,6 @@
 //! The paper's layout in the closed loop: the control loop on a topside MCU, a
 //! thin node on the vehicle, the node link between them over the byte-level tether model
-//! ([`crate::world::tether_wire`]).
+//! ([`sim_world::tether_wire`]).
 //!
 //! [`TopsideLayout`] is a [`ControllerEndpoint`](crate::closed_loop::ControllerEndpoint) of [`crate::closed_loop`]'s loop: the
 //! harness (the PC on the topside's tether, the wire, the watched bytes, the report) around
@@ -49,14 +49,12 @@ mod report;
 mod roles;
 mod watch;
 
-use crate::clock::us;
 use crate::closed_loop::estimator_nav::{onboard_config, VehicleNav};
 use crate::closed_loop::{run_closed_loop, RunOptions, RunOutput};
 use crate::scenario::setup::RunSetup;
 use crate::scenario::Scenario;
 use crate::tether::in_process::{SimPwm, SimSerial};
 pub use crate::tether::qemu::LayoutElfs;
-use crate::world::tether_wire::Duplex;
 use anyhow::{anyhow, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::controller::{Controller, Gains};
@@ -74,6 +72,8 @@ pub use roles::{
     ControlView, InProcessRoles, NodePass, NodeRole, Roles, TopsideApp, TopsidePass,
     NODE_IMU_PERIOD_US, PASS_US,
 };
+use sim_world::clock::us;
+use sim_world::tether_wire::Duplex;
 
 pub use crate::scenario::deployment::{told_delay_s, Control, DeploymentSpec, MAX_TOLD_DELAY_S};
 use std::cell::Cell;

@@ -1,10 +1,10 @@
 //! What the topside layout's harness measures: the sensor-to-pulse latency histogram and
 //! the run's report (`layout.json`).
 
-use crate::world::tether_wire::WireCounters;
 use firmware::node_link::NodeCounters;
 use firmware::topside_link::TopsideCounters;
 use serde::Serialize;
+use sim_world::tether_wire::WireCounters;
 
 /// A latency histogram: 0.5 ms bins.
 #[derive(Debug, Clone, Default, Serialize)]

@@ -7,8 +7,8 @@ use controller_core::controller::{ControlMode, Controller, Gains};
 use controller_core::params::VehicleParams;
 use controller_core::reference::Reference;
 use controller_core::state::NavState;
-use host_sim::world::plant::six_dof::SixDof;
-use host_sim::world::plant::{Environment, Plant, PlantState};
+use sim_world::plant::six_dof::SixDof;
+use sim_world::plant::{Environment, Plant, PlantState};
 
 pub const PLANT_DT: f64 = 0.001;
 pub const CTRL_DT: f64 = 0.01;

@@ -1,7 +1,10 @@
 //! The simulated world: the plants (rigid body, thrusters, water), the frames, the sensors and
-//! their noise. Depends on nothing of the simulation above it.
+//! their noise, the battery and the tether's wires, plus the number checks its keys go
+//! through and simulated time as microsecond stamps. Depends on no simulator code above it.
 
 pub mod battery;
+pub mod checks;
+pub mod clock;
 pub mod frames;
 pub mod noise;
 pub mod plant;

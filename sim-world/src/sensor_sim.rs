@@ -5,7 +5,7 @@ use super::frames::{body_to_inertial, inertial_to_body};
 use super::noise::gauss;
 use super::sensors::{Measurement, SensorsSpec};
 use crate::clock::us;
-use crate::world::plant::PlantState;
+use crate::plant::PlantState;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

@@ -22,7 +22,7 @@
 //! - `dropouts_s = [[t0, t1], ...]`: no samples with `t0 <= t < t1`.
 
 use crate::checks::{fin as finite, nonneg as noise};
-use crate::world::plant::PlantState;
+use crate::plant::PlantState;
 use anyhow::{bail, Result};
 use serde::{Deserialize, Serialize};
 
