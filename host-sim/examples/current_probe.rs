@@ -16,7 +16,7 @@ use host_sim::closed_loop::{
     run_closed_loop, ControllerEndpoint, CoreEndpoint, RunOptions, StepReply,
 };
 use host_sim::commands::current_sweep::{first_course, sweep, RMS_BOUND_M};
-use host_sim::scenario::Scenario;
+use sim_scenario::Scenario;
 
 /// The core in process, recording the law's current estimate after every step.
 struct Probe {

@@ -6,8 +6,8 @@
 //! - the world (crate `sim-world`): the plants (rigid body, thrusters, water), frames, sensors
 //!   and noise, the battery, the tether's wires, the number checks and simulated time.
 //! - [`checks`]: a refused input (the error a bad scenario, option or file gets).
-//! - [`scenario`]: what to run: TOML scenarios (built-ins embedded from `scenarios/`), the
-//!   reference, vehicle files.
+//! - the scenarios (crate `sim-scenario`): what to run: TOML scenarios (built-ins embedded
+//!   from `scenarios/`), the reference, vehicle files.
 //! - [`closed_loop`]: the one closed loop (plant, navigation stage, a controller endpoint,
 //!   metrics), the navigation stages, the core in process, a software run.
 //! - [`output`]: what a run writes (summary, CSV, plots).
@@ -21,6 +21,5 @@ pub mod checks;
 pub mod closed_loop;
 pub mod commands;
 pub mod output;
-pub mod scenario;
 pub mod served;
 pub mod tether;

@@ -30,8 +30,8 @@ use firmware::protocol::{
 };
 use firmware::Config;
 use host_sim::closed_loop::navigation::to_nav;
-use host_sim::scenario::health::{HealthSpec, SurfaceEndSpec};
 use host_sim::tether::in_process::InProcessFirmware;
+use sim_scenario::health::{HealthSpec, SurfaceEndSpec};
 use sim_world::battery::BatterySpec;
 use sim_world::plant::six_dof::SixDof;
 use sim_world::plant::{Environment, Plant, PlantState};

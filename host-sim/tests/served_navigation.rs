@@ -21,7 +21,7 @@ mod gcs;
 
 use gcs::{dive, free_udp_port, pymavlink_or_skip, stop};
 use host_sim::closed_loop::runner::{run, RunOptions};
-use host_sim::scenario::Scenario;
+use sim_scenario::Scenario;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 

@@ -22,8 +22,6 @@ use firmware::topside_link::{LinkSensors, LinkThruster, NodeBridge, TopsideConfi
 use firmware::{App, Config, Monotonic, Timing};
 use host_sim::closed_loop::estimator_nav::{onboard_config, VehicleNav};
 use host_sim::closed_loop::{ClosedLoop, ControllerEndpoint, RunOptions, StepReply};
-use host_sim::scenario::deployment::Control;
-use host_sim::scenario::Scenario;
 use host_sim::tether::in_process::{SimPwm, SimSerial};
 use host_sim::tether::topside_layout::{
     layout_scenario, FALLBACK_PERIOD_US, NODE_IMU_PERIOD_US, PASS_US,
@@ -33,6 +31,8 @@ use mavlink::dialects::ardupilotmega::{
 };
 use mavlink::{MavConnection, MavHeader};
 use serialport::{SerialPort, TTYPort};
+use sim_scenario::deployment::Control;
+use sim_scenario::Scenario;
 use sim_world::sensors::Measurement;
 use sim_world::tether_wire::Duplex;
 use std::cell::{Cell, RefCell};

@@ -1,13 +1,13 @@
 //! The controller end of the loop ([`ControllerEndpoint`]) and the core in process
 //! ([`CoreEndpoint`]).
 
-use crate::scenario::setup::RunSetup;
 use anyhow::{anyhow, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::controller::{ControlMode, Controller, Gains};
 use controller_core::reference::RefSample;
 use controller_core::state::{BodyForces, NavState, TrackingErrors};
 use protocol::{fault, Telemetry};
+use sim_scenario::setup::RunSetup;
 use sim_world::sensors::Measurement;
 
 /// What the controller end answered for one control tick.

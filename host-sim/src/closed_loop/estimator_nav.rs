@@ -11,13 +11,13 @@
 use crate::closed_loop::floor::{FloorNoise, FloorRecorder};
 use crate::closed_loop::navigation::{to_nav, FixRecord, Navigation, TruthNav};
 use crate::closed_loop::report::NavReport;
-use crate::scenario::setup::RunSetup;
-use crate::scenario::Scenario;
 use anyhow::{anyhow, Result};
 use controller_core::nav::compass_cal::CompassCalibration;
 use controller_core::nav::onboard::{OnboardConfig, OnboardNav, PressureDepth};
 use controller_core::nav::{Estimator, HeadingFix, NavConfig};
 use controller_core::state::NavState;
+use sim_scenario::setup::RunSetup;
+use sim_scenario::Scenario;
 use sim_world::clock::us;
 use sim_world::plant::PlantState;
 use sim_world::sensor_sim::SensorSuite;

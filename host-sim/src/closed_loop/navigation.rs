@@ -2,11 +2,11 @@
 //! the truth path ([`TruthNav`]: the plant state `delay_s` ago with Gaussian noise).
 
 use super::report::NavReport;
-use crate::scenario::setup::RunSetup;
-use crate::scenario::NoiseStd;
 use controller_core::state::NavState;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use sim_scenario::setup::RunSetup;
+use sim_scenario::NoiseStd;
 use sim_world::noise::gauss;
 use sim_world::plant::PlantState;
 use sim_world::sensors::Measurement;

@@ -1,8 +1,8 @@
 //! What a run reports: the summary (`summary.json`), its targets (`[expect]`), the rules
 //! that judged it and its verdict.
 
-use crate::scenario::ExpectSpec;
 use serde::Serialize;
+use sim_scenario::ExpectSpec;
 
 /// Figures of the navigation stage for `summary.json` (the truth path leaves them empty).
 #[derive(Debug, Clone, Default, Serialize)]

@@ -9,16 +9,16 @@
 
 use crate::closed_loop::estimator_nav::navigation_for;
 use crate::closed_loop::{run_closed_loop, CoreEndpoint};
-use crate::scenario::deployment::Control;
-use crate::scenario::setup::RunSetup;
 use anyhow::{bail, Result};
+use sim_scenario::deployment::Control;
+use sim_scenario::setup::RunSetup;
 
 pub use crate::closed_loop::{
     make_plant, nominal_plant_params, to_nav, verdict, RunOptions, RunOutput, Sample, Summary,
 };
 pub use sim_world::frames::body_to_inertial;
 
-/// Run one resolved scenario ([`crate::scenario::Scenario::resolve`]) with the core
+/// Run one resolved scenario ([`sim_scenario::Scenario::resolve`]) with the core
 /// controller in process.
 /// A scenario whose `[deployment] control = "topside"` is refused here: the topside layout
 /// is an endpoint of the tether layer (`tether::topside_layout::run_layout`), which

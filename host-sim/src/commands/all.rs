@@ -6,10 +6,10 @@ use crate::commands::run::{print_table, run_one, OutputArgs};
 use crate::commands::EXIT_NOT_AS_EXPECTED;
 use crate::output::plots::compare_plot;
 use crate::output::Outputs;
-use crate::scenario::setup::RunSetup;
-use crate::scenario::{ControllerKind, ExpectSpec, Scenario, BUILT_IN};
 use anyhow::{bail, Result};
 use rayon::prelude::*;
+use sim_scenario::setup::RunSetup;
+use sim_scenario::{ControllerKind, ExpectSpec, Scenario, BUILT_IN};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 

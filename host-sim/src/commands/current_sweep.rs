@@ -7,11 +7,11 @@
 use crate::closed_loop::runner::run;
 use crate::closed_loop::RunOptions;
 use crate::output::plots::{init_font, FONT_NAME};
-use crate::scenario::Scenario;
 use anyhow::{anyhow, Result};
 use plotters::prelude::*;
 use rayon::prelude::*;
 use serde::Serialize;
+use sim_scenario::Scenario;
 use std::io::Write;
 use std::path::Path;
 

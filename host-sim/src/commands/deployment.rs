@@ -16,12 +16,12 @@
 //! printed all the same), 2 refused arguments, 3 a run that could not complete.
 
 use crate::closed_loop::RunOptions;
-use crate::scenario::Scenario;
 use crate::tether::topside_layout::{
     run_layout, told_delay_s, Control, LayoutOutput, MAX_TOLD_DELAY_S,
 };
 use anyhow::{bail, Result};
 use serde::Serialize;
+use sim_scenario::Scenario;
 use sim_world::tether_wire::DEFAULT_BAUD;
 
 /// The navigation scenarios compared: full sensor suite, and USBL only.

@@ -4,9 +4,6 @@
 
 use crate::closed_loop::{run_closed_loop, RunOptions};
 use crate::output::write_run;
-use crate::scenario::deployment::Control;
-use crate::scenario::setup::RunSetup;
-use crate::scenario::Scenario;
 use crate::tether::board_wires::BoardWires;
 pub use crate::tether::endpoint::{
     HilOptions, HilOutput, HilReport, HilTarget, TelemetryRow, TetherEndpoint,
@@ -20,6 +17,9 @@ use crate::tether::qemu::{
 };
 use crate::tether::topside_layout;
 use anyhow::{anyhow, bail, Result};
+use sim_scenario::deployment::Control;
+use sim_scenario::setup::RunSetup;
+use sim_scenario::Scenario;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Duration;

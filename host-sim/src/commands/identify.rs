@@ -5,9 +5,9 @@
 //! docs/identification.md describes the manoeuvre, the fit and the anchor.
 
 use crate::checks::refused;
-use crate::scenario::vehicle;
 use anyhow::{anyhow, bail, Context, Result};
 use identify::{fit::MODEL_NAMES, tether_record, Anchor, Record};
+use sim_scenario::vehicle;
 use std::path::{Path, PathBuf};
 
 /// `host-sim identify` options.

@@ -1,6 +1,6 @@
 //! `host-sim list`: the built-in scenarios, one line each.
 
-use crate::scenario::{Scenario, BUILT_IN};
+use sim_scenario::{Scenario, BUILT_IN};
 
 /// Run `host-sim list` (a built-in that does not load is listed with its reason).
 pub fn main() {

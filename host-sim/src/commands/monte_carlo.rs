@@ -18,8 +18,6 @@
 //! Kubernetes indexed Job).
 
 use crate::closed_loop::runner::{run, RunOptions};
-use crate::scenario::setup::RunSetup;
-use crate::scenario::{Plane, Scenario};
 use anyhow::{Context, Result};
 use controller_core::params::VehicleParams;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -27,6 +25,8 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use sim_scenario::setup::RunSetup;
+use sim_scenario::{Plane, Scenario};
 use std::path::Path;
 use std::time::Instant;
 

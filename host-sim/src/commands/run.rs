@@ -5,11 +5,11 @@ use crate::closed_loop::runner::{run, RunOptions, RunOutput};
 use crate::closed_loop::verdict_word;
 use crate::commands::run_code;
 use crate::output::{write_run_with, Outputs};
-use crate::scenario::deployment::Control;
-use crate::scenario::setup::RunSetup;
-use crate::scenario::{ControllerKind, Scenario};
 use crate::tether::topside_layout::run_layout;
 use anyhow::Result;
+use sim_scenario::deployment::Control;
+use sim_scenario::setup::RunSetup;
+use sim_scenario::{ControllerKind, Scenario};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 

@@ -6,9 +6,6 @@
 //! (`rov-topside --tcp HOST:PORT`), the true state to `OUT/<scenario>.truth.csv`.
 
 use crate::checks::refused;
-use crate::scenario::deployment::Control;
-use crate::scenario::setup::RunSetup;
-use crate::scenario::Scenario;
 use crate::served::endpoint::ServedEndpoint;
 use crate::served::image::ServedImage;
 use crate::served::layout::ServedLayout;
@@ -19,6 +16,9 @@ use crate::tether::qemu::{
 };
 use crate::tether::topside_layout::{layout_scenario, LayoutTarget};
 use anyhow::{anyhow, Result};
+use sim_scenario::deployment::Control;
+use sim_scenario::setup::RunSetup;
+use sim_scenario::Scenario;
 use std::net::{SocketAddr, TcpListener, ToSocketAddrs};
 use std::path::PathBuf;
 

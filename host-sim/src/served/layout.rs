@@ -13,12 +13,12 @@
 use super::bridge::TetherBridge;
 use super::endpoint::{Believed, ServedEndpoint};
 use crate::closed_loop::{ControllerEndpoint, StepReply};
-use crate::scenario::setup::RunSetup;
 use crate::tether::topside_layout::{ExternalPc, LayoutTarget, TopsideLayout};
 use anyhow::Result;
 use controller_core::reference::RefSample;
 use controller_core::state::NavState;
 use firmware::protocol::Command;
+use sim_scenario::setup::RunSetup;
 use sim_world::sensors::Measurement;
 use std::cell::RefCell;
 use std::rc::Rc;

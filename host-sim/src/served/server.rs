@@ -18,8 +18,8 @@
 use super::endpoint::ServedEndpoint;
 use crate::closed_loop::estimator_nav::navigation_for_vehicle;
 use crate::closed_loop::{ClosedLoop, Navigation, RunOptions};
-use crate::scenario::setup::RunSetup;
 use anyhow::{bail, Context, Result};
+use sim_scenario::setup::RunSetup;
 use std::fs::File;
 use std::io::{BufWriter, ErrorKind, Read, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};

@@ -6,11 +6,11 @@
 //! (`firmware::health::HarnessHealth` takes it). The in-process firmware reads the same
 //! [`DvlWire`] and [`VehicleElectrics`] in memory (`in_process`).
 
-use crate::scenario::setup::RunSetup;
 use anyhow::{anyhow, Context, Result};
 use controller_core::alloc::PwmMap;
 use firmware::harness::seal;
 use firmware::protocol::{HealthParams, HealthSample, MAX_FRAME_LEN};
+use sim_scenario::setup::RunSetup;
 use sim_world::battery::VehicleElectrics;
 use sim_world::sensors::DvlWire;
 use std::io::Write;

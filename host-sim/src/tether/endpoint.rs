@@ -31,7 +31,6 @@
 //! `telemetry.csv` with what the firmware reported each step.
 
 use crate::closed_loop::{ratio, ControllerEndpoint, StepReply};
-use crate::scenario::setup::RunSetup;
 use crate::tether::board_wires::BoardWires;
 use crate::tether::link::{Link, Noise};
 pub use crate::tether::options::{
@@ -48,6 +47,7 @@ use controller_core::state::NavState;
 use firmware::protocol::{
     fault, Command, LinkStats, Mode, NackReason, NavSample, Reply, Telemetry,
 };
+use sim_scenario::setup::RunSetup;
 use sim_world::clock::us;
 use sim_world::sensors::NavSource;
 use sim_world::sensors::{DvlWire, Measurement};

@@ -9,8 +9,6 @@
 //! same framing, state machine, failsafes and PWM quantization as the firmware image, at the
 //! speed of a software run.
 
-use crate::scenario::health::HealthSpec;
-use crate::scenario::setup::RunSetup;
 use anyhow::{anyhow, Result};
 use controller_core::alloc::PwmMap;
 use controller_core::controller::{Controller, Gains};
@@ -19,6 +17,8 @@ use firmware::health::WithHealth;
 use firmware::protocol::Board;
 use firmware::sensors::dvl::{a50::VelocityGate, DvlPort, WithDvl};
 use firmware::{App, Config, Monotonic, NoSensors};
+use sim_scenario::health::HealthSpec;
+use sim_scenario::setup::RunSetup;
 use sim_world::battery::{BatterySpec, HealthWire, VehicleElectrics};
 use sim_world::sensors::DvlWire;
 use std::collections::VecDeque;

@@ -6,7 +6,7 @@
 
 use host_sim::closed_loop::runner::{run, RunOptions, Summary};
 use host_sim::closed_loop::{Navigation, TruthNav};
-use host_sim::scenario::{NoiseStd, Scenario};
+use sim_scenario::{NoiseStd, Scenario};
 use sim_world::plant::PlantState;
 
 fn run_builtin(name: &str) -> Summary {

@@ -7,7 +7,7 @@ use host_sim::closed_loop::runner::run;
 use host_sim::closed_loop::{RunOptions, RunOutput};
 use host_sim::commands::current_sweep::{cell, sweep, RMS_BOUND_M};
 use host_sim::commands::monte_carlo::{run_batch, McConfig};
-use host_sim::scenario::Scenario;
+use sim_scenario::Scenario;
 
 fn fly(name: &str, current_m_s: Option<[f64; 3]>) -> RunOutput {
     let sc = Scenario::load(name).unwrap();

@@ -16,8 +16,8 @@ use firmware::topside_link::fault;
 use host_sim::closed_loop::estimator_nav::VehicleNav;
 use host_sim::closed_loop::{ClosedLoop, RunOptions};
 use host_sim::commands::deployment::{self, bound};
-use host_sim::scenario::Scenario;
 use host_sim::tether::topside_layout::{layout_scenario, TopsideLayout};
+use sim_scenario::Scenario;
 
 #[test]
 fn the_topside_layout_tracks_within_10_percent_plus_1_cm_of_the_onboard_one() {

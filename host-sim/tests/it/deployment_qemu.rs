@@ -17,9 +17,9 @@ use crate::long_emulated;
 
 use common::{host_sim, scratch};
 use host_sim::closed_loop::RunOptions;
-use host_sim::scenario::Scenario;
 use host_sim::tether::qemu::layout_images_or_skip;
 use host_sim::tether::topside_layout::{run_layout_on, Control, LayoutTarget};
+use sim_scenario::Scenario;
 use std::time::Instant;
 
 /// Simulated time flown each way (s).

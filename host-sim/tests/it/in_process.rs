@@ -4,7 +4,7 @@
 
 use host_sim::closed_loop::runner::{run, RunOptions};
 use host_sim::commands::hil::{run_hil, HilOptions, HilTarget};
-use host_sim::scenario::{ControllerKind, Scenario};
+use sim_scenario::{ControllerKind, Scenario};
 use std::time::Duration;
 
 fn in_process(

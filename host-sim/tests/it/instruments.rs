@@ -5,7 +5,7 @@
 use crate::long_emulated;
 
 use host_sim::commands::hil::{run_hil, HilOptions, HilOutput, HilTarget};
-use host_sim::scenario::Scenario;
+use sim_scenario::Scenario;
 use std::time::Duration;
 
 fn fly(name: &str, dvl_on_uart: bool) -> HilOutput {

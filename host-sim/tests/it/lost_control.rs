@@ -3,7 +3,7 @@
 
 use host_sim::closed_loop::runner::{nominal_plant_params, run, RunOptions};
 use host_sim::closed_loop::Summary;
-use host_sim::scenario::Scenario;
+use sim_scenario::Scenario;
 
 /// `line-3d` flown by a controller told the nominal vehicle, on a plant `heavy_n` heavier.
 fn line_3d_heavier_by(heavy_n: f32) -> Summary {

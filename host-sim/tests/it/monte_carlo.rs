@@ -5,9 +5,9 @@ use host_sim::commands::monte_carlo::{
     merge_shards, perturb_params, random_current, run_batch, shard_range, summarize, write_batch,
     McConfig, McRun,
 };
-use host_sim::scenario::{Plane, Scenario};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use sim_scenario::{Plane, Scenario};
 
 const SHORT: &str = r#"
 name = "mc-short"

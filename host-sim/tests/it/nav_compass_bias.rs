@@ -4,7 +4,7 @@
 //! Every tracking figure is the TRUE position against the reference, RMS over the last 80 %.
 
 use host_sim::closed_loop::runner::{run, RunOptions, Summary};
-use host_sim::scenario::Scenario;
+use sim_scenario::Scenario;
 
 /// `nav-lawnmower-3d` in a 0.2 m/s current across its legs (east; the legs run north).
 fn survey(bias_deg: f64) -> Scenario {

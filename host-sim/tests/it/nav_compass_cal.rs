@@ -6,7 +6,7 @@
 
 use controller_core::nav::compass_cal::{CalRefusal, CompassCalibration, CompassSwing};
 use host_sim::closed_loop::runner::{run, RunOptions};
-use host_sim::scenario::Scenario;
+use sim_scenario::Scenario;
 use sim_world::plant::PlantState;
 use sim_world::sensor_sim::SensorSuite;
 use sim_world::sensors::{CompassSpec, ImuSpec, Measurement, SensorsSpec};

@@ -10,8 +10,8 @@ use crate::nav_twins;
 use controller_core::nav::compass_cal::{CalRefusal, CompassCalibration};
 use firmware::compass_swing::SwingOutcome;
 use host_sim::commands::hil::{run_hil, HilOptions, HilOutput, HilTarget};
-use host_sim::scenario::{CalibrationSpec, Scenario};
 use nav_twins::worst_deviation_error_deg;
+use sim_scenario::{CalibrationSpec, Scenario};
 use sim_world::sensors::CompassSpec;
 
 const HARD_IRON_RAD: f64 = 0.0873; // 5 deg

@@ -5,7 +5,7 @@
 
 use host_sim::closed_loop::floor::NavFloor;
 use host_sim::closed_loop::runner::{run, RunOptions, Summary};
-use host_sim::scenario::Scenario;
+use sim_scenario::Scenario;
 
 fn load(name: &str) -> Scenario {
     Scenario::load(name).unwrap()

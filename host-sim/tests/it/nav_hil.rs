@@ -14,9 +14,9 @@ use crate::nav_twins;
 use host_sim::closed_loop::runner::{run, RunOptions};
 use host_sim::closed_loop::Sample;
 use host_sim::commands::hil::{run_hil, HilOptions, HilTarget};
-use host_sim::scenario::Scenario;
 use host_sim::tether::qemu::image_or_skip;
 use nav_twins::{rms_from, within_10_percent_plus_1_cm};
+use sim_scenario::Scenario;
 use std::time::{Duration, Instant};
 
 /// The scenario on the emulated board and in software, both recorded, with the wall time of

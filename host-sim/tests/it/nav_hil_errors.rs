@@ -20,9 +20,9 @@ use crate::nav_twins;
 use host_sim::closed_loop::runner::{run, RunOptions};
 use host_sim::closed_loop::{RunOutput, Sample};
 use host_sim::commands::hil::{run_hil, HilOptions, HilOutput, HilTarget};
-use host_sim::scenario::Scenario;
 use host_sim::tether::qemu::image_or_skip;
 use nav_twins::{drawn_run, rms_from, within_10_percent_plus_1_cm, worst_deviation_error_deg};
+use sim_scenario::Scenario;
 use std::time::{Duration, Instant};
 
 /// Longest wall time an emulated run of `simulated_s` may take: 6 s of wall per simulated
@@ -266,7 +266,7 @@ fn survey_after_the_turn(survey_s: f64) -> Scenario {
         thrust_offset_rad_per_n: 0.00349,
         ..Default::default()
     });
-    sc.calibration = Some(host_sim::scenario::CalibrationSpec {
+    sc.calibration = Some(sim_scenario::CalibrationSpec {
         yaw_rate_rad_s: 0.25,
         time_limit_s: 60.0,
     });

@@ -8,9 +8,9 @@
 use crate::nav_twins;
 
 use host_sim::closed_loop::runner::{run, RunOptions};
-use host_sim::scenario::Scenario;
 use nav_twins::drawn_run;
 use rayon::prelude::*;
+use sim_scenario::Scenario;
 
 const RUNS: u64 = 200;
 

@@ -6,7 +6,7 @@
 use host_sim::closed_loop::estimator_nav::EstimatorNav;
 use host_sim::closed_loop::runner::{run, RunOptions, Summary};
 use host_sim::closed_loop::{run_closed_loop, CoreEndpoint};
-use host_sim::scenario::Scenario;
+use sim_scenario::Scenario;
 
 /// A run with the estimator kept, for its counters.
 fn run_nav(sc: &Scenario) -> (Summary, EstimatorNav) {

@@ -1,7 +1,7 @@
 //! The sensors' real errors are simulated as specified, and implausible ones
 //! are refused with the key named.
 
-use host_sim::scenario::Scenario;
+use sim_scenario::Scenario;
 use sim_world::plant::PlantState;
 use sim_world::sensor_sim::SensorSuite;
 use sim_world::sensors::{CompassSpec, DvlSpec, Measurement, SensorsSpec, UsblSpec};

@@ -7,7 +7,7 @@ use controller_core::nav::{HEADING_READY_STD_RAD, POSITION_READY_STD_M};
 use host_sim::closed_loop::estimator_nav::EstimatorNav;
 use host_sim::closed_loop::runner::RunOptions;
 use host_sim::closed_loop::{run_closed_loop, CoreEndpoint};
-use host_sim::scenario::Scenario;
+use sim_scenario::Scenario;
 
 fn unknown_start(name: &str) -> Scenario {
     let mut sc = Scenario::load(name).unwrap();

@@ -4,7 +4,7 @@
 
 use controller_core::params::VehicleParams;
 use host_sim::closed_loop::runner::{run, RunOptions};
-use host_sim::scenario::Scenario;
+use sim_scenario::Scenario;
 use sim_world::plant::six_dof::SixDof;
 use sim_world::plant::water::WaterSpec;
 use sim_world::plant::{Boundary, Environment, Plant, PlantState};

@@ -6,7 +6,7 @@ use host_sim::closed_loop::estimator_nav::EstimatorNav;
 use host_sim::closed_loop::runner::{run, RunOptions, RunOutput, Summary};
 use host_sim::closed_loop::{run_closed_loop, CoreEndpoint};
 use host_sim::commands::monte_carlo::{run_batch, McConfig};
-use host_sim::scenario::Scenario;
+use sim_scenario::Scenario;
 
 fn load(name: &str) -> Scenario {
     Scenario::load(name).unwrap()

@@ -2,7 +2,7 @@
 //! in the run's last latency window never arrives and is not counted as injected.
 
 use host_sim::closed_loop::runner::{run, RunOptions};
-use host_sim::scenario::Scenario;
+use sim_scenario::Scenario;
 
 #[test]
 fn an_outlier_that_never_arrives_is_not_counted() {

@@ -1,6 +1,6 @@
 //! Scenario files: the built-ins parse, defaults apply, and bad files give clear errors.
 
-use host_sim::scenario::{ControllerKind, Plane, ReferenceSpec, Scenario, BUILT_IN};
+use sim_scenario::{ControllerKind, Plane, ReferenceSpec, Scenario, BUILT_IN};
 
 fn err(text: &str) -> String {
     format!("{:#}", Scenario::from_toml(text, "test.toml").unwrap_err())

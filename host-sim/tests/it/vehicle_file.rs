@@ -3,8 +3,8 @@
 
 use host_sim::closed_loop::runner::run;
 use host_sim::closed_loop::RunOptions;
-use host_sim::scenario::vehicle::OBSERVER_TOML;
-use host_sim::scenario::Scenario;
+use sim_scenario::vehicle::OBSERVER_TOML;
+use sim_scenario::Scenario;
 use std::path::PathBuf;
 
 const CIRCLE: &str = r#"

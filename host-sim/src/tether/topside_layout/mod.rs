@@ -51,8 +51,6 @@ mod watch;
 
 use crate::closed_loop::estimator_nav::{onboard_config, VehicleNav};
 use crate::closed_loop::{run_closed_loop, RunOptions, RunOutput};
-use crate::scenario::setup::RunSetup;
-use crate::scenario::Scenario;
 use crate::tether::in_process::{SimPwm, SimSerial};
 pub use crate::tether::qemu::LayoutElfs;
 use anyhow::{anyhow, Result};
@@ -72,10 +70,12 @@ pub use roles::{
     ControlView, InProcessRoles, NodePass, NodeRole, Roles, TopsideApp, TopsidePass,
     NODE_IMU_PERIOD_US, PASS_US,
 };
+use sim_scenario::setup::RunSetup;
+use sim_scenario::Scenario;
 use sim_world::clock::us;
 use sim_world::tether_wire::Duplex;
 
-pub use crate::scenario::deployment::{told_delay_s, Control, DeploymentSpec, MAX_TOLD_DELAY_S};
+pub use sim_scenario::deployment::{told_delay_s, Control, DeploymentSpec, MAX_TOLD_DELAY_S};
 use std::cell::Cell;
 use std::collections::{BTreeSet, HashMap};
 use std::rc::Rc;

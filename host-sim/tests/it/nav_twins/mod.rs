@@ -8,9 +8,9 @@
 
 use controller_core::nav::compass_cal::CompassCalibration;
 use host_sim::closed_loop::Sample;
-use host_sim::scenario::Scenario;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use sim_scenario::Scenario;
 
 /// `|hil - sw| <= 10 % of sw + 1 cm` (the bound for the emulated MCU).
 pub fn within_10_percent_plus_1_cm(what: &str, hil_m: f64, sw_m: f64) {

@@ -295,7 +295,7 @@ impl Default for DisturbanceSpec {
 /// of the time; 0.40 s: 29 cm, 39 %; on `circle-3d`: 0.30 s 2.4 mm RMS, 0.35 s 10 cm).
 pub const MAX_KNOWN_DELAY_S: f64 = 0.30;
 
-/// The most control ticks of one run (one recorded [`crate::closed_loop::Sample`] of about
+/// The most control ticks of one run (one recorded closed-loop `Sample` of about
 /// 400 B each, and one CSV row): 1,000,000 ticks, 10,000 s at 10 ms, about 0.4 GB in memory.
 pub const MAX_CONTROL_TICKS: f64 = 1.0e6;
 
@@ -353,7 +353,7 @@ pub struct Scenario {
     pub expect: Option<ExpectSpec>,
     /// Where the control loop runs and the node link's tether (`[deployment]`).
     #[serde(default)]
-    pub deployment: crate::scenario::deployment::DeploymentSpec,
+    pub deployment: crate::deployment::DeploymentSpec,
     /// `[calibration]`: first fly the compass calibration turn in `Hold`, then the scenario
     ///. Flown by the firmware (`hil`); a software `run` refuses it.
     #[serde(default)]
@@ -420,7 +420,7 @@ impl Scenario {
         if let Some(file) = &s.vehicle {
             let beside = dir.map(|d| d.join(file)).filter(|p| p.exists());
             let path = beside.unwrap_or_else(|| Path::new(file).to_path_buf());
-            s.vehicle_params = crate::scenario::vehicle::load(&path)
+            s.vehicle_params = crate::vehicle::load(&path)
                 .with_context(|| format!("scenario {origin}: key `vehicle`"))?;
         }
         if let Some(i) = s.identification.as_mut() {
@@ -432,7 +432,7 @@ impl Scenario {
 
     /// The vehicle model of the scenario (validated when the scenario was loaded).
     pub fn vehicle_model(&self) -> Result<Vehicle> {
-        crate::scenario::vehicle::check(&self.vehicle_params)
+        crate::vehicle::check(&self.vehicle_params)
     }
 
     /// A built-in by name, or a `.toml` file by path, checked.
@@ -634,7 +634,7 @@ impl Scenario {
 
     /// With thruster limits, the vehicle's net buoyancy (its own plus the scenario's offset)
     /// as the vehicle itself would take it: the vehicle description with that buoyancy through
-    /// the firmware's own check of a new vehicle ([`crate::scenario::vehicle::check`]: the
+    /// the firmware's own check of a new vehicle ([`crate::vehicle::check`]: the
     /// core's validation and `Vehicle::check_flyable`, which keeps half the smaller vertical
     /// thrust to spare for control). A vehicle it refuses is refused here, with its reason.
     fn check_buoyancy_holdable(&self) -> Result<()> {
@@ -644,7 +644,7 @@ impl Scenario {
         let mut p = self.vehicle_params;
         let net_n = f64::from(p.buoyancy_offset_n) + self.disturbance.buoyancy_offset_n;
         p.buoyancy_offset_n = net_n as f32;
-        crate::scenario::vehicle::check(&p).map_err(|e| {
+        crate::vehicle::check(&p).map_err(|e| {
             anyhow!(
                 "disturbance.buoyancy_offset_n: the net buoyancy is {net_n:.1} N ({}): the \
                  vertical thruster cannot hold the depth with room to control it; the vehicle \

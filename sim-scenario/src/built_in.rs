@@ -13,7 +13,7 @@ macro_rules! builtin {
     ($name:literal) => {
         BuiltIn {
             name: $name,
-            toml: include_str!(concat!("../../../scenarios/", $name, ".toml")),
+            toml: include_str!(concat!("../../scenarios/", $name, ".toml")),
         }
     };
 }

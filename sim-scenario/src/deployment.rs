@@ -1,5 +1,5 @@
 //! `[deployment]` of a scenario: where the control loop runs, and the node
-//! link's tether for the topside layout ([`crate::tether::topside_layout`]). A module of its own,
+//! link's tether for the topside layout (host-sim's `tether::topside_layout`). A module of its own,
 //! below both the scenario and the layout, so neither depends on the other through it.
 
 use anyhow::{anyhow, bail, Result};
