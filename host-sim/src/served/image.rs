@@ -23,6 +23,7 @@ use super::bridge::TetherBridge;
 use super::endpoint::{Believed, ServedEndpoint};
 use crate::closed_loop::estimator_nav::onboard_config;
 use crate::closed_loop::{ControllerEndpoint, StepReply};
+use crate::tether::measurement::command_of;
 use crate::tether::qemu::{start_qemu_serials, QemuChild};
 use anyhow::{anyhow, bail, Context, Result};
 use controller_core::alloc::PwmMap;
@@ -273,16 +274,7 @@ impl ControllerEndpoint for ServedImage {
             return Ok(());
         }
         for m in measurements {
-            self.own.push(match *m {
-                Measurement::Imu(s) => Command::Imu(s),
-                Measurement::Depth(d) => Command::Pressure {
-                    t_us: d.t_us,
-                    pressure_pa: self.onboard.pressure.pressure_pa(d.depth_m),
-                },
-                Measurement::Heading(h) => Command::Compass(h),
-                Measurement::Dvl(d) => Command::DvlFix(d),
-                Measurement::Position(p, _) => Command::UsblFix(p),
-            });
+            self.own.push(command_of(m, &self.onboard.pressure));
         }
         Ok(())
     }

@@ -33,6 +33,7 @@
 use crate::closed_loop::{ratio, ControllerEndpoint, StepReply};
 use crate::tether::board_wires::BoardWires;
 use crate::tether::link::{Link, Noise};
+use crate::tether::measurement::command_of;
 pub use crate::tether::options::{
     HilOptions, HilTarget, DEFAULT_NAV_READY_LIMIT_S, MAX_REPLY_WAIT,
 };
@@ -595,22 +596,11 @@ impl ControllerEndpoint for TetherEndpoint {
             return Ok(());
         };
         for m in measurements {
-            let cmd = match *m {
-                Measurement::Imu(s) => Command::Imu(s),
-                Measurement::Depth(d) => Command::Pressure {
-                    t_us: d.t_us,
-                    pressure_pa: cfg.pressure.pressure_pa(d.depth_m),
-                },
-                Measurement::Heading(h) => Command::Compass(h),
-                Measurement::Dvl(d) => match self.dvl_wire.as_mut() {
-                    Some(wire) => {
-                        wire.send_wrz(&d);
-                        continue;
-                    }
-                    None => Command::DvlFix(d),
-                },
-                Measurement::Position(p, _) => Command::UsblFix(p),
-            };
+            if let (Measurement::Dvl(d), Some(wire)) = (m, self.dvl_wire.as_mut()) {
+                wire.send_wrz(d);
+                continue;
+            }
+            let cmd = command_of(m, &cfg.pressure);
             let seq = self.link.send(&cmd)?;
             self.sent_measurements.push(seq);
         }

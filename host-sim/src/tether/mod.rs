@@ -1,10 +1,13 @@
 //! The tether to the vehicle: a byte [`port`], the framed [`link`], the firmware as the
-//! loop's controller end ([`endpoint`]), the firmware library in process ([`in_process`]) and
-//! the firmware image in QEMU ([`qemu`]) with its DVL and health wires ([`board_wires`]), and the raw tether log ([`tether_log`]).
+//! loop's controller end ([`endpoint`]) and the commands that carry the sensors' measurements
+//! to it ([`measurement`]), the firmware library in process ([`in_process`]) and the firmware
+//! image in QEMU ([`qemu`]) with its DVL and health wires ([`board_wires`]), and the raw
+//! tether log ([`tether_log`]).
 
 pub mod board_wires;
 pub mod endpoint;
 pub mod in_process;
+pub mod measurement;
 pub mod options;
 pub mod qemu;
 pub mod report;
