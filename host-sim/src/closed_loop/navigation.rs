@@ -8,7 +8,7 @@ use rand_chacha::ChaCha8Rng;
 use sim_scenario::setup::RunSetup;
 use sim_scenario::NoiseStd;
 use sim_world::noise::gauss;
-use sim_world::plant::PlantState;
+use sim_world::plant::{PlantState, RawState};
 use sim_world::sensors::Measurement;
 use std::collections::VecDeque;
 
@@ -31,6 +31,11 @@ pub struct FixRecord {
 pub trait Navigation {
     /// After every plant step: the true state at `t_s`.
     fn observe(&mut self, t_s: f64, truth: &PlantState);
+    /// [`observe`](Self::observe) with the state as the plant holds it: a stage that keeps
+    /// states and reads few converts only those it reads.
+    fn observe_raw(&mut self, t_s: f64, truth: &RawState) {
+        self.observe(t_s, &truth.state());
+    }
     /// At each control tick: the state handed to the controller. `thrust_cmd_n` is the
     /// command `[F1x, F2x, F3z]` (N) held over the period that just ended.
     fn estimate(&mut self, t_s: f64, thrust_cmd_n: [f64; 3]) -> NavState;
@@ -55,7 +60,7 @@ pub trait Navigation {
 /// steps have passed), converted to the core's `f32` [`NavState`], with Gaussian noise.
 #[derive(Debug, Clone)]
 pub struct TruthNav {
-    history: VecDeque<PlantState>,
+    history: VecDeque<RawState>,
     noise: Option<NoiseStd>,
     rng: ChaCha8Rng,
 }
@@ -71,7 +76,7 @@ impl TruthNav {
     ) -> Self {
         let mut history = VecDeque::with_capacity(delay_steps + 1);
         for _ in 0..=delay_steps {
-            history.push_back(initial);
+            history.push_back(RawState::Euler(initial));
         }
         Self {
             history,
@@ -93,7 +98,11 @@ impl TruthNav {
 
     /// The measurement now.
     pub fn measure(&mut self) -> NavState {
-        let st = self.history.front().copied().unwrap_or_default();
+        let st = self
+            .history
+            .front()
+            .map(RawState::state)
+            .unwrap_or_default();
         let mut nav = to_nav(&st);
         if let Some(ns) = self.noise {
             let rng = &mut self.rng;
@@ -117,6 +126,11 @@ impl TruthNav {
 
 impl Navigation for TruthNav {
     fn observe(&mut self, _t_s: f64, truth: &PlantState) {
+        self.history.pop_front();
+        self.history.push_back(RawState::Euler(*truth));
+    }
+
+    fn observe_raw(&mut self, _t_s: f64, truth: &RawState) {
         self.history.pop_front();
         self.history.push_back(*truth);
     }
@@ -158,6 +172,9 @@ macro_rules! forward_navigation {
         $($head)* {
             fn observe(&mut self, t_s: f64, truth: &PlantState) {
                 (**self).observe(t_s, truth)
+            }
+            fn observe_raw(&mut self, t_s: f64, truth: &RawState) {
+                (**self).observe_raw(t_s, truth)
             }
             fn estimate(&mut self, t_s: f64, thrust_cmd_n: [f64; 3]) -> NavState {
                 (**self).estimate(t_s, thrust_cmd_n)

@@ -534,7 +534,7 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
             self.plant.step(out.applied_n, self.dt);
             self.s.sim_steps += 1;
             self.nav
-                .observe(t + (i + 1) as f64 * self.dt, &self.plant.state());
+                .observe_raw(t + (i + 1) as f64 * self.dt, &self.plant.raw_state());
         }
         if self.s.boundary_contact.is_none() {
             let t_end = t + self.tc;

@@ -7,7 +7,10 @@
 //! - [`xz`]: vertical plane (`MODEL_NOTES` section 3), states `x, z, theta, u, w, q`.
 //! - [`xy`]: horizontal plane (`MODEL_NOTES` section 4), states `x, y, psi, u, v, r`.
 //! - [`six_dof`]: the full 6-DOF rigid body.
+//! - [`raw_state`]: the state before the conversion to Euler angles.
 //! - [`thrusters`]: the thruster lag and limits shared by the planar plants.
+
+pub use raw_state::RawState;
 
 /// Pose and body velocities of the plant, `f64`, SI units.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -31,6 +34,10 @@ pub trait Plant: Send {
     fn step(&mut self, thrust_cmd_n: [f64; 3], dt_s: f64);
     /// The current state.
     fn state(&self) -> PlantState;
+    /// The current state as the plant holds it, converted by [`RawState::state`] when read.
+    fn raw_state(&self) -> RawState {
+        RawState::Euler(self.state())
+    }
     /// The thrust the thrusters really deliver now (after lag and limits).
     fn thrust_n(&self) -> [f64; 3];
     /// Set the ocean current `[cx, cy, cz]` (inertial, m/s) from now on (a current
@@ -78,6 +85,7 @@ impl Boundary {
     }
 }
 
+pub mod raw_state;
 pub mod six_dof;
 pub mod thrusters;
 pub mod water;

@@ -22,6 +22,7 @@
 //!
 //! One [`Plant::step`] is one classic RK4 step.
 
+use super::raw_state::{rot, RawState};
 use super::thrusters::Thrusters;
 use super::{Boundary, Environment, Plant, PlantState};
 use controller_core::params::VehicleParams;
@@ -105,29 +106,6 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     let [a0, a1, a2] = a;
     let [b0, b1, b2] = b;
     [a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0]
-}
-
-/// Body -> NED rotation matrix rows of a unit quaternion `[e0, e1, e2, e3]` (`e0` scalar).
-#[inline(always)]
-fn rot(q: [f64; 4]) -> [[f64; 3]; 3] {
-    let [e0, e1, e2, e3] = q;
-    [
-        [
-            1.0 - 2.0 * (e2 * e2 + e3 * e3),
-            2.0 * (e1 * e2 - e0 * e3),
-            2.0 * (e1 * e3 + e0 * e2),
-        ],
-        [
-            2.0 * (e1 * e2 + e0 * e3),
-            1.0 - 2.0 * (e1 * e1 + e3 * e3),
-            2.0 * (e2 * e3 - e0 * e1),
-        ],
-        [
-            2.0 * (e1 * e3 - e0 * e2),
-            2.0 * (e2 * e3 + e0 * e1),
-            1.0 - 2.0 * (e1 * e1 + e2 * e2),
-        ],
-    ]
 }
 
 /// State layout: `[x, y, z, e0, e1, e2, e3, u, v, w, p, q, r]`.
@@ -252,6 +230,11 @@ pub struct SixDof {
     surface: bool,
     seabed_depth_m: Option<f64>,
     contact: Option<Boundary>,
+    /// The step `dt` that [`Self::lag_half`] was computed for (NaN before the first step).
+    lag_dt_s: f64,
+    /// The thrusters' lag factor over half a step, `exp(-dt / 2T)`: the plant runs at one
+    /// step, so the `exp` is computed once, not at every step.
+    lag_half: f64,
 }
 
 impl SixDof {
@@ -274,6 +257,8 @@ impl SixDof {
             surface: false,
             seabed_depth_m: None,
             contact: None,
+            lag_dt_s: f64::NAN,
+            lag_half: 0.0,
         }
     }
 
@@ -314,7 +299,11 @@ impl Plant for SixDof {
         let f0 = self.thr.force_n;
         let tc = self.thr.time_constant_s;
         let (eh, ef) = if tc > 0.0 {
-            let e = (-0.5 * dt_s / tc).exp();
+            if dt_s.to_bits() != self.lag_dt_s.to_bits() {
+                self.lag_dt_s = dt_s;
+                self.lag_half = (-0.5 * dt_s / tc).exp();
+            }
+            let e = self.lag_half;
             (e, e * e)
         } else {
             (0.0, 0.0)
@@ -387,13 +376,14 @@ impl Plant for SixDof {
     }
 
     fn state(&self) -> PlantState {
+        self.raw_state().state()
+    }
+
+    fn raw_state(&self) -> RawState {
         let [x, y, z, e0, e1, e2, e3, u, v, w, p, q, r] = self.x;
-        let [r0, r1, r2] = rot([e0, e1, e2, e3]);
-        let roll = r2[1].atan2(r2[2]);
-        let pitch = -r2[0].clamp(-1.0, 1.0).asin();
-        let yaw = r1[0].atan2(r0[0]);
-        PlantState {
-            eta: [x, y, z, roll, pitch, yaw],
+        RawState::Quaternion {
+            pos_m: [x, y, z],
+            quat: [e0, e1, e2, e3],
             nu: [u, v, w, p, q, r],
         }
     }
