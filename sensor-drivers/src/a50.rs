@@ -10,7 +10,7 @@
 //!   lock), altitude (m), figure of merit (m/s), the 3x3 velocity covariance ((m/s)^2, nine
 //!   entries separated by `;`), time of validity and time of transmission (Unix time in
 //!   microseconds), time since the previous report (ms), status (bit 0: high temperature).
-//! - `wrp`: dead-reckoning report: time stamp (Unix s), x, y, z (m), position standard
+//! - `wrp`: dead-reckoning report: time stamp (Unix s, read to the microsecond), x, y, z (m), position standard
 //!   deviation (m), roll, pitch, yaw (degrees), status (0 good, 1 not).
 //!
 //! The fixed-point fields must carry their documented number of decimals (see [`parse`]).
@@ -21,7 +21,7 @@
 //! [`VelocityGate`] then decides whether a checked velocity report may reach the estimator:
 //! invalid (no bottom lock) or a figure of merit above the threshold is refused.
 
-use crate::fields::{split_checksum, trim_line_end, FieldError, Fields};
+use crate::fields::{fixed_point, split_checksum, trim_line_end, FieldError, Fields};
 use crc::{Crc, CRC_8_SMBUS};
 
 /// The A50's CRC-8 (polynomial 0x07, init 0x00, no reflection, xorout 0x00).
@@ -79,8 +79,9 @@ pub struct VelocityReport {
 /// One `wrp` dead-reckoning report, exactly as sent.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DeadReckoningReport {
-    /// Time stamp of the report (Unix time, s).
-    pub time_s: f64,
+    /// Time stamp of the report (Unix time, microseconds; sent in seconds with up to six
+    /// decimals, read as an integer so that no software `f64` runs on the MCU).
+    pub time_us: u64,
     /// Position from the start of the dead-reckoning run: x, y, z (down) (m).
     pub position_m: [f32; 3],
     /// Standard deviation of the position (m).
@@ -187,7 +188,7 @@ fn parse_wrz(body: &[u8]) -> Result<VelocityReport, FrameError> {
 
 fn parse_wrp(body: &[u8]) -> Result<DeadReckoningReport, FrameError> {
     let mut f = Fields::new(body, b',');
-    let time_s = f.next_f64()?;
+    let time_us = time_us(f.next_str()?).ok_or(FieldError::Malformed(0))?;
     let position_m = [f.next_f32()?, f.next_f32()?, f.next_f32()?];
     let position_std_m = f.next_f32()?;
     let attitude_deg = [f.next_f32()?, f.next_f32()?, f.next_f32()?];
@@ -197,12 +198,23 @@ fn parse_wrp(body: &[u8]) -> Result<DeadReckoningReport, FrameError> {
         return Err(FrameError::OutOfRange);
     }
     Ok(DeadReckoningReport {
-        time_s,
+        time_us,
         position_m,
         position_std_m,
         attitude_deg,
         status,
     })
+}
+
+/// Seconds printed with one to six decimals (`49056.809`) as microseconds.
+fn time_us(s: &str) -> Option<u64> {
+    let decimals = s.len().checked_sub(s.find('.')?.checked_add(1)?)?;
+    let scale = 10_u64.checked_pow(6_u32.checked_sub(u32::try_from(decimals).ok()?)?)?;
+    let (units, negative) = fixed_point(s, decimals)?;
+    if negative || decimals == 0 {
+        return None;
+    }
+    units.checked_mul(scale)
 }
 
 /// Why a checked velocity report does not reach the estimator.

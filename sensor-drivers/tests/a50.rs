@@ -64,22 +64,22 @@ fn every_documented_line_ending_is_accepted() {
 /// The two dead-reckoning examples (wrp).
 #[test]
 fn documented_wrp_examples_decode() {
-    let cases: [(&[u8], f64, [f32; 3]); 2] = [
+    let cases: [(&[u8], u64, [f32; 3]); 2] = [
         (
             b"wrp,49056.809,0.41,0.15,1.23,0.4,53.9,13.0,19.3,0*de",
-            49056.809,
+            49_056_809_000,
             [0.41, 0.15, 1.23],
         ),
         (
             b"wrp,49057.269,0.39,0.18,1.23,0.4,53.9,13.0,19.3,0*e2",
-            49057.269,
+            49_057_269_000,
             [0.39, 0.18, 1.23],
         ),
     ];
     for (line, t, p) in cases {
         match parse(line) {
             Ok(Report::DeadReckoning(d)) => {
-                assert_eq!(d.time_s, t);
+                assert_eq!(d.time_us, t);
                 assert_eq!(d.position_m, p);
                 assert_eq!(d.position_std_m, 0.4);
                 assert_eq!(d.attitude_deg, [53.9, 13.0, 19.3]);
