@@ -19,7 +19,8 @@
 //! come back as [`Report::Other`] with their letter; the vehicle uses only `wrz`.
 //!
 //! [`VelocityGate`] then decides whether a checked velocity report may reach the estimator:
-//! invalid (no bottom lock) or a figure of merit above the threshold is refused.
+//! invalid (no bottom lock), inconsistent (an asymmetric covariance, a negative variance or
+//! valid altitude) or a figure of merit above the threshold is refused.
 
 use crate::fields::{fixed_point, split_checksum, trim_line_end, FieldError, Fields};
 use crc::{Crc, CRC_8_SMBUS};
@@ -74,6 +75,28 @@ pub struct VelocityReport {
     pub since_last_ms: f32,
     /// Status bits; bit 0: high temperature, thermal shutdown soon.
     pub status: u8,
+}
+
+impl VelocityReport {
+    /// `true` when the covariance is one and a valid report's altitude is not negative. A
+    /// covariance is symmetric, its variances are not negative, and each covariance is
+    /// bounded by its two variances (`c_ij^2 <= c_ii c_jj`, positive semi-definite); the
+    /// variances stay under [`MAX_SPEED_M_S`] squared, as the velocities do. Not a parser
+    /// check: the documentation's own example has an asymmetric covariance
+    /// (`1e-07;0;1.4;0;1.2;0;0.2;0;1e+09`) and must decode; [`VelocityGate`] applies it
+    /// before the estimator.
+    pub fn is_consistent(&self) -> bool {
+        let c = &self.covariance;
+        let at = |i: usize| c.get(i).copied().unwrap_or(f32::NAN);
+        let max_var = MAX_SPEED_M_S * MAX_SPEED_M_S;
+        let variances = [0, 4, 8].iter().all(|&i| (0.0..=max_var).contains(&at(i)));
+        // (off-diagonal index, its mirror, the two variances' indices)
+        let pairs = [(1, 3, 0, 4), (2, 6, 0, 8), (5, 7, 4, 8)];
+        let covariances = pairs
+            .iter()
+            .all(|&(a, b, i, j)| at(a) == at(b) && at(a) * at(a) <= at(i) * at(j));
+        variances && covariances && (!self.valid || self.altitude_m >= 0.0)
+    }
 }
 
 /// One `wrp` dead-reckoning report, exactly as sent.
@@ -134,6 +157,9 @@ pub fn parse(line: &[u8]) -> Result<Report, FrameError> {
     match covered {
         [b'w', b'r', b'z', b',', body @ ..] => parse_wrz(body).map(Report::Velocity),
         [b'w', b'r', b'p', b',', body @ ..] => parse_wrp(body).map(Report::DeadReckoning),
+        // A velocity or dead-reckoning letter not followed by its fields is a corrupted
+        // report, not another kind.
+        [b'w', b'r', b'z' | b'p', ..] => Err(FrameError::NoStart),
         [b'w', b'r', letter, ..] => Ok(Report::Other(*letter)),
         _ => Err(FrameError::NoStart),
     }
@@ -222,6 +248,10 @@ fn time_us(s: &str) -> Option<u64> {
 pub enum Refusal {
     /// `valid` is `n`: no bottom lock. The estimator sees a DVL gap.
     NoBottomLock,
+    /// The report contradicts itself: a covariance that is not symmetric or has a negative
+    /// variance, or an altitude marked valid that is negative. The CRC-8 passes 1 in 256
+    /// deleted or inserted bytes; most of those in the covariance show here.
+    Inconsistent,
     /// The figure of merit is above the gate's threshold.
     PoorFigureOfMerit {
         /// The report's figure of merit (m/s).
@@ -258,6 +288,9 @@ impl VelocityGate {
                 fom_m_s: r.fom_m_s,
                 max_m_s: self.max_fom_m_s,
             });
+        }
+        if !r.is_consistent() {
+            return Err(Refusal::Inconsistent);
         }
         Ok(*r)
     }

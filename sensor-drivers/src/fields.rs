@@ -63,6 +63,20 @@ impl<'a> Fields<'a> {
         Ok(s.trim_matches(' '))
     }
 
+    /// The next field padded to exactly `width` bytes, as fixed-width formats print it:
+    /// spaces, then the value without blanks. The value's text, or `Malformed`.
+    pub fn next_padded(&mut self, width: usize) -> Result<&'a str, FieldError> {
+        let idx = self.index;
+        let raw = self.next_raw()?;
+        let value = raw
+            .iter()
+            .position(|&b| b != b' ')
+            .and_then(|start| raw.get(start..))
+            .filter(|v| raw.len() == width && !v.contains(&b' '))
+            .ok_or(FieldError::Malformed(idx))?;
+        core::str::from_utf8(value).map_err(|_| FieldError::Malformed(idx))
+    }
+
     /// The next field as a finite `f32`.
     pub fn next_f32(&mut self) -> Result<f32, FieldError> {
         let idx = self.index;

@@ -265,3 +265,30 @@ fn the_gate_refuses_no_lock_and_a_poor_figure_of_merit() {
     };
     assert!(nan_gate.admit(&good).is_err());
 }
+
+/// A covariance that is not one (asymmetric, a negative variance) or a valid report with
+/// a negative altitude: a digit lost in transit that the CRC-8 let through.
+#[test]
+fn the_gate_refuses_a_report_that_contradicts_itself() {
+    let gate = VelocityGate::default();
+    let body = |cov: &str, alt: &str| {
+        format!("0.100,0.200,0.000,y,{alt},0.010,{cov},1700000000000000,1700000000050000,100.00,0")
+    };
+    let sym = "1e-4;2e-5;0;2e-5;1e-4;3e-6;0;3e-6;1e-4";
+    assert!(gate.admit(&velocity(&wrz(&body(sym, "1.00")))).is_ok());
+    for (cov, alt) in [
+        ("1e-4;2e-5;0;2e-6;1e-4;3e-6;0;3e-6;1e-4", "1.00"),
+        ("1e-4;2e-5;1e-5;2e-5;1e-4;3e-6;0;3e-6;1e-4", "1.00"),
+        ("1e-4;2e-5;0;2e-5;1e-4;3e-6;0;3e-5;1e-4", "1.00"),
+        ("-1e-4;2e-5;0;2e-5;1e-4;3e-6;0;3e-6;1e-4", "1.00"),
+        ("1e-4;2e-5;0;2e-5;1e-4;3e-6;0;3e-6;1e4", "1.00"),
+        ("1e-4;2e-3;0;2e-3;1e-4;3e-6;0;3e-6;1e-4", "1.00"),
+        (sym, "-1.00"),
+    ] {
+        assert_eq!(
+            gate.admit(&velocity(&wrz(&body(cov, alt)))),
+            Err(Refusal::Inconsistent),
+            "{cov} {alt}"
+        );
+    }
+}
