@@ -6,8 +6,8 @@
 //! ground station (`clients/pymavlink_survey.py`) flies the survey's legs as a mission in AUTO.
 //! The vehicle's estimate against the truth (the served vehicle's truth log, from 10 s after
 //! AUTO is taken to 250 s after it) is held within 10 % + 1 cm of the estimation RMS of
-//! `host-sim run nav-lawnmower-3d` (after 10 s, over its 250 s). Skipped with the fix without
-//! pymavlink.
+//! `host-sim run nav-lawnmower-3d` (after 10 s, over its 250 s), and every waypoint is
+//! reported reached. Skipped with the fix without pymavlink.
 
 // Test code: a failed expectation should stop the test.
 #![allow(
@@ -101,6 +101,20 @@ fn the_lawnmower_survey_with_the_dvl_and_usbl_on_their_wires_matches_software() 
         .and_then(|v| v.trim().parse::<f64>().ok())
         .expect("the client's START line")
         / 1e3;
+    // Every waypoint reported reached (MISSION_ITEM_REACHED, as the ground station saw it):
+    // the survey was flown, not only its first leg.
+    let reached = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("REACHED "))
+        .expect("the client's REACHED line");
+    let want = format!(
+        "[{}]",
+        (0..LEGS.len())
+            .map(|k| k.to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    assert_eq!(reached.trim(), want, "waypoints reached");
     let rows = read_truth(&truth_path);
     let scored: Vec<f64> = rows
         .iter()
