@@ -137,6 +137,8 @@ pub struct Autopilot {
     onboard_seq: u16,
     /// Thrust commanded by the latest step `[F1x, F2x, F3z]` (N): the estimator's input.
     thrust_cmd_n: [f32; 3],
+    /// The latest DVL velocity the on-board estimator accepted, as measured.
+    last_dvl: crate::protocol::DvlReport,
     /// The mission in use (waypoints, speed), the one being uploaded, and the path AUTO flies
     /// with its start time.
     mission: Mission,
@@ -187,6 +189,10 @@ impl Autopilot {
             onboard: None,
             onboard_seq: 0,
             thrust_cmd_n: [0.0; 3],
+            last_dvl: crate::protocol::DvlReport {
+                t_us: 0,
+                velocity_m_s: [0.0; 2],
+            },
             mission: Mission::default(),
             upload: Mission::default(),
             auto: None,

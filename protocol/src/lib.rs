@@ -35,6 +35,7 @@ pub mod decoder;
 pub mod framing;
 pub mod health;
 pub mod limits;
+pub mod measured;
 pub mod messages;
 
 pub use client::{Answer, Client, ClientConfig, Event, Frame, SendError, Sent};
@@ -44,6 +45,7 @@ pub use framing::{
     MAX_FRAME_LEN, MAX_PAYLOAD_LEN, PROTOCOL_VERSION,
 };
 pub use health::{BatteryStatus, FailsafeAction, HealthParams, HealthSample, SurfaceEnd};
+pub use measured::DvlReport;
 pub use messages::*;
 
 #[cfg(test)]

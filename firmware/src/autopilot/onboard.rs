@@ -2,7 +2,7 @@
 //! compass calibration it uses.
 
 use super::{check_nav, Autopilot};
-use crate::protocol::{Command, NackReason};
+use crate::protocol::{Command, DvlReport, NackReason};
 use controller_core::nav::compass_cal::CompassCalibration;
 use controller_core::nav::onboard::OnboardNav;
 use controller_core::nav::Refusal;
@@ -64,7 +64,14 @@ impl Autopilot {
                 self.feed(seq, |o, _| o.pressure(now_us, *t_us, *pressure_pa))
             }
             Command::UsblFix(f) => self.feed(seq, |o, _| o.position(f)),
-            Command::DvlFix(f) => self.feed(seq, |o, _| o.dvl(f)),
+            Command::DvlFix(f) => {
+                self.feed(seq, |o, _| o.dvl(f))?;
+                self.last_dvl = DvlReport {
+                    t_us: f.t_us,
+                    velocity_m_s: f.velocity_m_s,
+                };
+                Ok(())
+            }
             // The raw reading to a turn (the estimator takes the calibration off its copy).
             Command::Compass(f) => self.feed_swing(seq, f.yaw_rad, None, |o, _| o.heading(f)),
             Command::SetCompassCal(cal) => self.set_compass_calibration(cal),
@@ -92,5 +99,11 @@ impl Autopilot {
     /// The compass calibration in force.
     pub fn compass_calibration(&self) -> CompassCalibration {
         self.compass_cal
+    }
+
+    /// The latest DVL velocity the on-board estimator accepted, as the instrument measured
+    /// it (zeros before the first): the telemetry's record of the vehicle's own speed.
+    pub fn last_dvl(&self) -> DvlReport {
+        self.last_dvl
     }
 }
