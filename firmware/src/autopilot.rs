@@ -22,6 +22,7 @@
 //! vehicle's IMU and pressure sensor and by the fixes that come down the tether.
 
 mod arming;
+mod guided;
 mod health;
 mod ident;
 mod mission;
@@ -346,6 +347,7 @@ impl Autopilot {
                 radius_m,
                 depth_band_m,
             } => self.start_ident(now_us, *radius_m, *depth_band_m),
+            Command::GuidedTarget { pos_m } => self.guided_target(now_us, *pos_m),
             Command::MissionItem {
                 index,
                 count,
@@ -405,6 +407,7 @@ impl Autopilot {
                 }
                 self.ident_sticks(m);
                 self.take_sticks(now_us, m);
+                self.guided_sticks(now_us, m);
                 Ok(())
             }
         }
@@ -510,7 +513,7 @@ impl Autopilot {
                 ),
                 None => return self.neutral(faults),
             },
-            (Mode::Hold, _, Some((r, start))) => (
+            (Mode::Hold | Mode::Guided, _, Some((r, start))) => (
                 r.sample(seconds_since(now_us, *start)),
                 ControlMode::Tracking3d,
             ),
@@ -550,6 +553,8 @@ impl Autopilot {
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_guided;
 #[cfg(test)]
 mod tests_health;
 #[cfg(test)]

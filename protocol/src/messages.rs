@@ -71,6 +71,11 @@ pub enum Mode {
     /// thruster up until the vehicle is within 0.3 m of the surface, then hold that depth
     /// or disarm (`SURFACE_END`). The battery and leak failsafes switch to it.
     Surface,
+    /// Go to a point and hold it (ArduSub's GUIDED; version 8): the 3-D tracking law holds
+    /// where the vehicle was when the mode was entered (or the vehicle armed) until a
+    /// [`Command::GuidedTarget`] arrives, then flies to that point and holds it. A stick off
+    /// centre stops the go-to where the vehicle is.
+    Guided,
 }
 
 /// The one map between the tether's tracking modes and the core's laws: a law in a plane is
@@ -269,6 +274,14 @@ pub enum Command {
         /// Half-height of the depth band around the start depth (m).
         depth_band_m: f32,
     },
+    /// The point GUIDED goes to and holds (version 8): `[north, east, down]` (m), local NED
+    /// frame, checked as a mission's waypoint ([`limits`](crate::limits)) and against the
+    /// depth limit. Taken only armed (`NotArmed`) in [`Mode::Guided`] (`NotInGuided`): a
+    /// target given before is never flown.
+    GuidedTarget {
+        /// `[north, east, down]` (m).
+        pos_m: [f32; 3],
+    },
 }
 
 /// What the vehicle sends back for a command it takes; a refused command is answered by
@@ -432,6 +445,8 @@ pub enum NackReason {
     /// Arming while a leak or a critical battery holds (version 7; ArduSub's pre-arm
     /// checks).
     Health,
+    /// A GUIDED target outside [`Mode::Guided`] (version 8).
+    NotInGuided,
 }
 
 impl From<controller_core::Error> for NackReason {

@@ -116,6 +116,10 @@ fn every_command_and_reply_round_trips_and_fits() {
             sin_rad: f32::MAX,
             cos_rad: f32::MIN,
         }),
+        Command::SetMode(Mode::Guided),
+        Command::GuidedTarget {
+            pos_m: [f32::MAX, f32::MIN, f32::MAX],
+        },
     ];
     for (i, cmd) in commands.iter().enumerate() {
         let f = frame(u16::MAX - i as u16, cmd);
