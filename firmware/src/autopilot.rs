@@ -138,7 +138,7 @@ pub struct Autopilot {
     onboard_seq: u16,
     /// Thrust commanded by the latest step `[F1x, F2x, F3z]` (N): the estimator's input.
     thrust_cmd_n: [f32; 3],
-    /// The latest DVL velocity the on-board estimator accepted, as measured.
+    /// The latest sound DVL velocity the on-board estimator was given, as measured.
     last_dvl: crate::protocol::DvlReport,
     /// The mission in use (waypoints, speed), the one being uploaded, and the path AUTO flies
     /// with its start time.

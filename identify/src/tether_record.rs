@@ -172,6 +172,25 @@ fn dvl_reports(span: &[&Telemetry]) -> Vec<(f64, [f64; 2])> {
     out
 }
 
+/// `s`'s surge and sway set to `uv_m_s`, and its heave made again from the depth rate with
+/// them: the estimator's body heave is its depth rate turned to the body axes with its own
+/// surge and sway (`w = (z_dot + s_theta u - c_theta s_phi v) / (c_theta c_phi)`), so at a
+/// few degrees of pitch its surge's error is in the heave too.
+fn set_horizontal(s: &mut RecordSample, uv_m_s: [f64; 2]) {
+    let [u, v, w] = s.vel_m_s;
+    let [roll, pitch] = s.tilt_rad;
+    let (sr, cr) = roll.sin_cos();
+    let (sp, cp) = pitch.sin_cos();
+    let den = cp * cr;
+    let [u_m, v_m] = uv_m_s;
+    s.vel_m_s = [u_m, v_m, w];
+    // As the estimator turns it (a steeper tilt keeps the depth rate itself).
+    if den > 0.1 {
+        let z_dot = -sp * u + cp * sr * v + den * w;
+        s.vel_m_s[2] = (z_dot + sp * u_m - cp * sr * v_m) / den;
+    }
+}
+
 /// Surge and sway of `record` replaced by the DVL's reports, interpolated to each sample's
 /// time; the samples outside the reports' span are dropped (nothing is extrapolated). The
 /// estimate's velocities stay when the span holds no DVL report.
@@ -200,14 +219,19 @@ fn dvl_velocities(record: &mut Record, span: &[&Telemetry], path: &Path) -> Resu
         let (Some(&(ta, va)), Some(&(tb, vb))) = (reports.get(k), reports.get(k + 1)) else {
             // The last report's own time.
             if let Some(&(_, v)) = reports.get(k) {
-                s.vel_m_s[0] = v[0];
-                s.vel_m_s[1] = v[1];
+                set_horizontal(s, v);
             }
             continue;
         };
-        let w = if tb > ta { (s.t_s - ta) / (tb - ta) } else { 0.0 };
-        s.vel_m_s[0] = va[0] + (vb[0] - va[0]) * w;
-        s.vel_m_s[1] = va[1] + (vb[1] - va[1]) * w;
+        let w = if tb > ta {
+            (s.t_s - ta) / (tb - ta)
+        } else {
+            0.0
+        };
+        set_horizontal(
+            s,
+            [va[0] + (vb[0] - va[0]) * w, va[1] + (vb[1] - va[1]) * w],
+        );
     }
     Ok(VelocitySource::Dvl {
         reports: reports.len(),
@@ -305,7 +329,8 @@ mod tests {
         let frames = with_dvl((2_000, 3_500));
         let e = from_telemetry(frames.iter(), 0, Path::new("log")).unwrap_err();
         assert!(
-            e.to_string().contains("no DVL report for 1.800 s after t = 1.800 s"),
+            e.to_string()
+                .contains("no DVL report for 1.800 s after t = 1.800 s"),
             "{e}"
         );
     }

@@ -4,10 +4,11 @@
 
 use serde::{Deserialize, Serialize};
 
-/// The latest DVL velocity the vehicle accepted (its own instrument's reading, or a tether
-/// `DvlFix` taken by the on-board estimator), in [`Telemetry::dvl`](crate::Telemetry::dvl)
-/// (version 8). The on-board estimate between two of these is model-aided with the vehicle
-/// file the vehicle was given; this is the instrument's measurement alone.
+/// The latest DVL velocity the vehicle took (its own instrument's reading, or a tether
+/// `DvlFix`, given to the on-board estimator: fused, or refused only by its outlier gate), in
+/// [`Telemetry::dvl`](crate::Telemetry::dvl) (version 8). The on-board estimate is
+/// model-aided with the vehicle file the vehicle was given, and its gate refuses the readings
+/// that model disagrees with most; this is the instrument's measurement alone.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct DvlReport {
     /// Time of validity of the measurement (the sensor's time, microseconds); 0 before the

@@ -566,7 +566,7 @@ pub struct Telemetry {
     pub nav_pos_std_m: [f32; 3],
     /// Waypoints of the mission the reference has passed, in AUTO (0 otherwise).
     pub mission_reached: u16,
-    /// The latest DVL velocity the vehicle accepted, as measured (version 8).
+    /// The latest sound DVL velocity the vehicle took, as measured (version 8).
     pub dvl: crate::DvlReport,
 }
 

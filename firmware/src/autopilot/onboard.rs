@@ -65,12 +65,17 @@ impl Autopilot {
             }
             Command::UsblFix(f) => self.feed(seq, |o, _| o.position(f)),
             Command::DvlFix(f) => {
-                self.feed(seq, |o, _| o.dvl(f))?;
-                self.last_dvl = DvlReport {
-                    t_us: f.t_us,
-                    velocity_m_s: f.velocity_m_s,
-                };
-                Ok(())
+                let r = self.feed(seq, |o, _| o.dvl(f));
+                // A sound measurement is recorded even when the estimator's gate refuses it
+                // (`Outlier`: its model disagrees, which is what a log for identifying the
+                // model must keep); a broken or mistimed one is not.
+                if matches!(r, Ok(()) | Err(NackReason::NavRefused(Refusal::Outlier))) {
+                    self.last_dvl = DvlReport {
+                        t_us: f.t_us,
+                        velocity_m_s: f.velocity_m_s,
+                    };
+                }
+                r
             }
             // The raw reading to a turn (the estimator takes the calibration off its copy).
             Command::Compass(f) => self.feed_swing(seq, f.yaw_rad, None, |o, _| o.heading(f)),
@@ -101,8 +106,9 @@ impl Autopilot {
         self.compass_cal
     }
 
-    /// The latest DVL velocity the on-board estimator accepted, as the instrument measured
-    /// it (zeros before the first): the telemetry's record of the vehicle's own speed.
+    /// The latest sound DVL velocity the on-board estimator was given (fused, or refused only
+    /// by its outlier gate), as the instrument measured it (zeros before the first): the
+    /// telemetry's record of the vehicle's own speed.
     pub fn last_dvl(&self) -> DvlReport {
         self.last_dvl
     }

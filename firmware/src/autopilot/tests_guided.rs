@@ -81,7 +81,11 @@ fn a_target_is_checked_and_a_refused_one_changes_nothing() {
         ([5.0, 0.0, 12.0], NackReason::DepthLimit),
     ];
     for (pos_m, why) in cases {
-        assert_eq!(send(&mut a, t, &mut seq, &target(pos_m)), Err(why), "{pos_m:?}");
+        assert_eq!(
+            send(&mut a, t, &mut seq, &target(pos_m)),
+            Err(why),
+            "{pos_m:?}"
+        );
         assert_eq!(a.guided_point(), Some([0.0, 0.0, 2.0]));
     }
     // Outside GUIDED: refused by name.

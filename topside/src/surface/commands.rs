@@ -58,8 +58,11 @@ impl Topside {
                 // The vehicle took it: shown (and judged, e.g. a mission upload in AUTO) now,
                 // not at its next telemetry. GUIDED holds where the vehicle is.
                 v.tel.mode = firmware_mode;
-                self.guided_target = (firmware_mode == Mode::Guided)
-                    .then_some([v.state.x_m, v.state.y_m, v.state.z_m]);
+                self.guided_target = (firmware_mode == Mode::Guided).then_some([
+                    v.state.x_m,
+                    v.state.y_m,
+                    v.state.z_m,
+                ]);
                 self.sticks_seen_centred = false;
                 self.gcs.ack(station, cmd, MavResult::MAV_RESULT_ACCEPTED)
             }
