@@ -554,6 +554,8 @@ impl Autopilot {
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
+mod tests_dvl;
+#[cfg(test)]
 mod tests_guided;
 #[cfg(test)]
 mod tests_health;

@@ -77,9 +77,7 @@ fn go_to(gcs: &Gcs, [x, y, z]: [f32; 3]) -> Option<[f32; 3]> {
         }),
     );
     wait(gcs, Duration::from_secs(5), |m| match m {
-        MavMessage::POSITION_TARGET_LOCAL_NED(p) if (p.x - x).abs() < 1e-3 => {
-            Some([p.x, p.y, p.z])
-        }
+        MavMessage::POSITION_TARGET_LOCAL_NED(p) if (p.x - x).abs() < 1e-3 => Some([p.x, p.y, p.z]),
         _ => None,
     })
 }
