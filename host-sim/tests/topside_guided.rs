@@ -193,10 +193,12 @@ fn a_restarted_surface_reads_guided_back_and_the_go_to_goes_on() {
     );
     assert_eq!(seen, Some((GUIDED, true)), "GUIDED read back, armed");
     assert!(before > 0.5, "the go-to was under way: {before:.2} m to go");
-    assert!(reached < 0.1, "the first target missed by {reached:.3} m");
+    // The go-to tests' own bound is 0.3 m (pymavlink_gcs.py); measured 0.017-0.027 m and
+    // 0.090-0.094 m.
+    assert!(reached < 0.2, "the first target missed by {reached:.3} m");
     assert_eq!(echoed, Some(second_target), "a new target taken");
     assert!(
-        reached_second < 0.1,
+        reached_second < 0.2,
         "the second target missed by {reached_second:.3} m"
     );
 }
