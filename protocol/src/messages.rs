@@ -490,7 +490,7 @@ pub struct Telemetry {
     /// Waypoints of the mission the reference has passed, in AUTO (0 otherwise).
     pub mission_reached: u16,
     /// The latest sound DVL velocity the vehicle took, as measured (version 8).
-    pub dvl: crate::DvlReport,
+    pub dvl: crate::measured::DvlReport,
 }
 
 /// The slow half of the report: link counters and health, sent as the answer to each

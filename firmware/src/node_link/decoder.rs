@@ -9,7 +9,7 @@
 //! postcard. Resynchronizes on the next zero after garbage or an over-long frame; an empty
 //! frame is ignored.
 
-use super::{MAX_LINK_FRAME_LEN, NODE_LINK_VERSION};
+use super::wire::{MAX_LINK_FRAME_LEN, NODE_LINK_VERSION};
 use crate::protocol::{DropCounters, DropReason, Envelope, Header, CRC, CRC_LEN};
 use serde::de::DeserializeOwned;
 

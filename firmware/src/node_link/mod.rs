@@ -29,18 +29,15 @@
 //! [`LINK_BAUD`] at most half of the [`LINK_PERIOD_US`] (`docs/deployment.md`).
 
 mod decoder;
+mod wire;
 
 pub use decoder::{LinkDecoder, LinkFrame};
+pub use wire::{
+    MAX_DOWNLINK_FRAME_LEN, MAX_LINK_FRAME_LEN, MAX_UPLINK_FRAME_LEN, NODE_LINK_VERSION,
+};
 
 use crate::protocol::{EncodeError, MAX_FRAME_LEN};
 use serde::{Deserialize, Serialize};
-
-/// Version of the node link's messages; a frame of another version is never applied.
-/// Version 3: both messages carry their sender's `u64` sequence (replays refused at any
-/// distance). Version 2: the downlink carries the topside's send time and the uplink
-/// echoes it with the node's holding time and the age of its newest IMU sample, so the
-/// topside knows the round trip and the sample's time on its own clock at any latency.
-pub const NODE_LINK_VERSION: u8 = 3;
 
 /// The link's default rate on the wire, 8N1 (10 bits a byte).
 pub const LINK_BAUD: u32 = 115_200;
@@ -57,38 +54,6 @@ pub const ESC_MIN_US: u16 = 1100;
 pub const ESC_MAX_US: u16 = 1900;
 /// The longest time to live a downlink may ask for, milliseconds.
 pub const MAX_TTL_MS: u8 = 100;
-
-/// Largest downlink frame on the wire, both delimiters included (every field at its
-/// largest postcard encoding; tested).
-pub const MAX_DOWNLINK_FRAME_LEN: usize = frame_len(MAX_DOWNLINK_PAYLOAD_LEN);
-/// Largest uplink frame on the wire, both delimiters included (tested).
-pub const MAX_UPLINK_FRAME_LEN: usize = frame_len(MAX_UPLINK_PAYLOAD_LEN);
-/// Largest frame either way: the receive buffers' size.
-pub const MAX_LINK_FRAME_LEN: usize = if MAX_UPLINK_FRAME_LEN > MAX_DOWNLINK_FRAME_LEN {
-    MAX_UPLINK_FRAME_LEN
-} else {
-    MAX_DOWNLINK_FRAME_LEN
-};
-
-/// Envelope: version (1 byte), session (the tether's: a `u32` varint, at most 5;
-/// the node link sends 0, one byte, and carries its own session in its messages), sequence
-/// (`u16` varint, at most 3). The bounds count the envelope's session at its largest.
-const ENVELOPE_MAX: usize = 1 + 3 + 5;
-/// Largest postcard varint of a `u64` sequence.
-const SEQ_MAX: usize = 10;
-/// Downlink postcard payload at most: envelope, session (`u32`, 5), sequence (`u64`, 10),
-/// three pulses (`u16`, 3 each), time to live (`u8`, 1), arm (1), send time (`u32`, 5).
-const MAX_DOWNLINK_PAYLOAD_LEN: usize = ENVELOPE_MAX + 5 + SEQ_MAX + 3 * 3 + 1 + 1 + 5;
-/// Uplink postcard payload at most: envelope, session (5), echoed sequence (`u16`, 3),
-/// echoed time (`u32`, 5), IMU age (`u32`, 5), dt (`u32`, 5), samples (`u16`, 3), delta angle
-/// and velocity (6 `f32`, 24), pressure (4), pressure count (1), status (1), eight `u16`
-/// counters (24).
-const MAX_UPLINK_PAYLOAD_LEN: usize = ENVELOPE_MAX + 5 + 3 + 5 + 5 + 5 + 3 + 24 + 4 + 1 + 1 + 8 * 3;
-
-/// Frame length for a payload: CRC-32 appended, COBS, two delimiters.
-const fn frame_len(payload: usize) -> usize {
-    cobs::max_encoding_length(payload + crate::protocol::CRC_LEN) + 2
-}
 
 /// Wire time of `bytes` at `baud` (8N1), microseconds, rounded up.
 pub const fn wire_time_us(bytes: usize, baud: u32) -> u32 {

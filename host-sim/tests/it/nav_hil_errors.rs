@@ -411,8 +411,8 @@ fn drawn_runs_match_software(runs: std::ops::Range<u64>, duration_s: f64) {
     }
 }
 
-/// CI's runs: the campaign's first two draws (one test each, so that they run in parallel),
-/// the survey's first 60 s (the last 80 % from 12 s: the estimate's convergence from the
+/// The campaign's first two draws (one test each, so that they run in parallel; CI flies the
+/// first, `ROV_LONG=all` both), the survey's first 60 s (the last 80 % from 12 s: the estimate's convergence from the
 /// 5 m start is inside the window, the part where the board and the software could part).
 #[test]
 fn hil_drawn_monte_carlo_run_0_matches_its_software_twin() {
@@ -428,7 +428,7 @@ fn hil_drawn_monte_carlo_run_0_matches_its_software_twin() {
 
 #[test]
 fn hil_drawn_monte_carlo_run_1_matches_its_software_twin() {
-    if !long_emulated::long_test(
+    if !long_emulated::long_test_all(
         "nav_hil_errors",
         "hil_drawn_monte_carlo_run_1_matches_its_software_twin",
         90,

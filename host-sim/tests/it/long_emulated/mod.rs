@@ -30,6 +30,20 @@ pub fn long_test(module: &str, name: &str, wall_s: u32) -> bool {
     long_test_of("it", &format!("{module}::{name}"), wall_s)
 }
 
+/// A long test that runs only with `ROV_LONG=all`, whatever its length: a second draw of a
+/// comparison CI already flies once (CI's half hour has no room for both).
+pub fn long_test_all(module: &str, name: &str, wall_s: u32) -> bool {
+    if std::env::var_os("ROV_LONG").is_some_and(|v| v == "all") {
+        return true;
+    }
+    let _ = writeln!(
+        std::io::stderr(),
+        "SKIPPED {name} (long test, ~{wall_s} s on 2 cores; run with ROV_LONG=all cargo test \
+         -p host-sim --test it {module}::{name})"
+    );
+    false
+}
+
 /// [`long_test`] for a test of another test binary of host-sim (`binary`), `path` its name
 /// in that binary.
 pub fn long_test_of(binary: &str, path: &str, wall_s: u32) -> bool {
