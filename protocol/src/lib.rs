@@ -36,6 +36,7 @@ pub mod framing;
 pub mod health;
 pub mod limits;
 pub mod messages;
+pub mod motor_test;
 
 pub use client::{Answer, Client, ClientConfig, Event, Frame, SendError, Sent};
 pub use decoder::{decode_frame, Decoded, DropCounters, DropReason, FrameDecoder};
@@ -45,6 +46,7 @@ pub use framing::{
 };
 pub use health::{BatteryStatus, FailsafeAction, HealthParams, HealthSample, SurfaceEnd};
 pub use messages::*;
+pub use motor_test::MotorTest;
 
 #[cfg(test)]
 mod tests;
