@@ -115,6 +115,17 @@ impl Topside {
             },
             MavCmd::MAV_CMD_DO_START_MAG_CAL => self.start_mag_cal(station),
             MavCmd::MAV_CMD_DO_REPOSITION => self.reposition_long(station, &c),
+            MavCmd::MAV_CMD_DO_MOTOR_TEST => self.motor_test(
+                station,
+                &super::motor_test::MotorTestParams {
+                    motor: c.param1,
+                    throttle_type: c.param2,
+                    throttle: c.param3,
+                    timeout_s: c.param4,
+                    motor_count: c.param5,
+                    order: c.param6,
+                },
+            ),
             // The vehicle's estimator restarted at the latest USBL fix (param1 = 1).
             MavCmd::MAV_CMD_USER_1 if c.param1 == 1.0 => {
                 match self.nav.start(&mut self.v, true)? {
@@ -146,6 +157,20 @@ impl Topside {
         }
         match c.command {
             MavCmd::MAV_CMD_DO_REPOSITION => self.reposition_int(station, &c),
+            MavCmd::MAV_CMD_DO_MOTOR_TEST => {
+                self.gcs.stats.handled += 1;
+                self.motor_test(
+                    station,
+                    &super::motor_test::MotorTestParams {
+                        motor: c.param1,
+                        throttle_type: c.param2,
+                        throttle: c.param3,
+                        timeout_s: c.param4,
+                        motor_count: c.x as f32,
+                        order: c.y as f32,
+                    },
+                )
+            }
             other => {
                 self.gcs.stats.handled += 1;
                 self.gcs

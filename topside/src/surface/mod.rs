@@ -60,6 +60,7 @@ mod guard;
 mod inquiry;
 mod logs;
 mod missions;
+mod motor_test;
 pub mod navigation;
 pub mod params;
 mod start;
@@ -181,6 +182,9 @@ struct Topside {
     refusals_said: u64,
     /// The vehicle's navigation from the surface: its estimator's start, the USBL's fixes.
     nav: navigation::SurfaceNav,
+    /// The end of the motor test's window (simulated or vehicle seconds) and its request,
+    /// while one runs.
+    motor_test_until: Option<(f64, protocol::MotorTest)>,
 }
 
 impl Topside {
@@ -233,6 +237,7 @@ impl Topside {
                 self.gcs.text(MavSeverity::MAV_SEVERITY_INFO, &text)?;
             }
             self.poll_mag_cal()?;
+            self.poll_motor_test()?;
             self.watch_vehicle(k.is_multiple_of(per_second))?;
 
             let faults = self.v.tel.faults & !fault::SATURATED;

@@ -307,6 +307,7 @@ fn run_topside(
         vehicle_silent: false,
         refusals_said: 0,
         nav,
+        motor_test_until: None,
     };
     t.run(a, speedup)
 }
