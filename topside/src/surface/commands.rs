@@ -181,7 +181,7 @@ impl Topside {
 
     /// MAVLink: 1 arms, 0 disarms; anything else (NaN, 0.5, -1) is refused rather than read
     /// as one of them (ArduPilot's rule too).
-    fn arm_disarm(&mut self, station: StationId, param1: f32) -> Result<()> {
+    pub(super) fn arm_disarm(&mut self, station: StationId, param1: f32) -> Result<()> {
         let command = MavCmd::MAV_CMD_COMPONENT_ARM_DISARM;
         let cmd = if param1 == 1.0 {
             Command::Arm
