@@ -115,6 +115,7 @@ impl Topside {
             },
             MavCmd::MAV_CMD_DO_START_MAG_CAL => self.start_mag_cal(station),
             MavCmd::MAV_CMD_DO_REPOSITION => self.reposition_long(station, &c),
+            MavCmd::MAV_CMD_USER_2 => self.start_ident(station, c.param1, c.param2),
             MavCmd::MAV_CMD_DO_MOTOR_TEST => self.motor_test(
                 station,
                 &super::motor_test::MotorTestParams {

@@ -58,6 +58,7 @@ mod frames;
 mod geodesy;
 mod goto;
 mod guard;
+mod ident;
 mod inquiry;
 pub mod joystick;
 mod logs;
@@ -184,6 +185,8 @@ struct Topside {
     refusals_said: u64,
     /// The vehicle's navigation from the surface: its estimator's start, the USBL's fixes.
     nav: navigation::SurfaceNav,
+    /// The identification manoeuvre flying, as the surface follows it.
+    ident: Option<ident::IdentRun>,
     /// The joystick gain the sticks are scaled by (`JS_GAIN_*`).
     js_gain: f32,
     /// The commander's buttons: what was held, the stream's sequence numbers.
@@ -244,6 +247,7 @@ impl Topside {
             }
             self.poll_mag_cal()?;
             self.poll_motor_test()?;
+            self.poll_ident()?;
             self.watch_vehicle(k.is_multiple_of(per_second))?;
 
             let faults = self.v.tel.faults & !fault::SATURATED;

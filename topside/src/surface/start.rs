@@ -309,6 +309,7 @@ fn run_topside(
         refusals_said: 0,
         nav,
         motor_test_until: None,
+        ident: None,
         js_gain,
         buttons: Default::default(),
     };
