@@ -5,7 +5,7 @@ Usage: mavsdk_gcs.py PORT LAT LON N,E,Z N,E,Z N,E,Z GN,GE,GZ. Connects (udpin PO
 downloads the parameters, uploads a 3-waypoint local-frame mission (MISSION_ITEM_INT, x and y
 in metres x 1e4, z the depth) and reads it back, arms, flies it in AUTO, sets the origin
 (LAT, LON) and goes to the global point GN, GE (metres north and east of it) at depth GZ
-with `goto_location` (MAV_CMD_DO_REPOSITION), runs the motor test on thruster 1
+(MAV_CMD_DO_REPOSITION: MAVSDK's goto_location cannot switch a submarine's mode), runs the motor test on thruster 1
 (MAV_CMD_DO_MOTOR_TEST through MAVSDK's MavlinkDirect) and disarms. Prints PASS lines and
 `MARK: name t` (wall clock) at each phase. Exits 0 or raises.
 """
@@ -133,8 +133,24 @@ def main():
     expect(result == 0, f"GUIDED accepted ({result})")
     lat = lat0 + math.degrees(gn / 6356752.3)
     lon = lon0 + math.degrees(ge / (6378137.0 * math.cos(math.radians(lat0))))
-    action.goto_location(lat, lon, -gz, float("nan"))
-    expect(True, "goto_location accepted")
+    # MAVSDK's Action.goto_location first switches the flight mode, which MAVSDK cannot map
+    # for a submarine ("Cannot translate flight mode to ArduPilot mode, for MAV_TYPE: 12"):
+    # the go-to it sends, MAV_CMD_DO_REPOSITION in a COMMAND_INT, goes through MavlinkDirect.
+    with link.lock:
+        link.acks.clear()
+    link.send("COMMAND_INT", {
+        "target_system": 1, "target_component": 1, "frame": 0, "command": 192,
+        "current": 0, "autocontinue": 0, "param1": -1.0, "param2": 1.0, "param3": 0.0,
+        "param4": 0.0, "x": int(round(lat * 1e7)), "y": int(round(lon * 1e7)),
+        "z": -gz})
+    end = time.time() + 10
+    result = None
+    while result is None and time.time() < end:
+        with link.lock:
+            result = next((a.get("result") for a in link.acks if a.get("command") == 192),
+                          None)
+        time.sleep(0.05)
+    expect(result == 0, f"DO_REPOSITION accepted ({result})")
     reaches(link, (gn, ge, gz), "the go-to point", 240.0, within=0.5)
 
     print(f"MARK: motor {time.time():.3f}", flush=True)
