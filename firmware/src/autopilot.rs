@@ -26,6 +26,7 @@ mod guided;
 mod health;
 mod ident;
 mod mission;
+mod motor_test;
 mod onboard;
 pub use onboard::OWN_READING;
 mod output;
@@ -168,6 +169,8 @@ pub struct Autopilot {
     health: HealthMonitor,
     /// Where the SURFACE mode is.
     surface: SurfacePhase,
+    /// The motor test in force (`MotorTest`), if any.
+    motor_test: Option<motor_test::MotorTestRun>,
     /// Control steps run.
     pub steps: u32,
 }
@@ -207,6 +210,7 @@ impl Autopilot {
             sticks_seen_centred: false,
             health: HealthMonitor::with_defaults(),
             surface: SurfacePhase::Ascent,
+            motor_test: None,
             steps: 0,
         }
     }
@@ -273,12 +277,19 @@ impl Autopilot {
     /// new order.
     pub fn new_session(&mut self) {
         self.nav_order_reset = true;
+        self.motor_test = None;
     }
 
     /// Apply one command received at `now_us` with sequence number `seq`. On `Err` nothing
     /// changed.
     #[cfg_attr(feature = "no-panic", no_panic::no_panic)]
     pub fn handle(&mut self, now_us: u64, seq: u16, cmd: &Command) -> Result<(), NackReason> {
+        self.apply(now_us, seq, cmd)?;
+        self.after_command(cmd);
+        Ok(())
+    }
+
+    fn apply(&mut self, now_us: u64, seq: u16, cmd: &Command) -> Result<(), NackReason> {
         match cmd {
             Command::Heartbeat { .. } => {
                 self.last_heartbeat_us = Some(now_us);
@@ -385,6 +396,7 @@ impl Autopilot {
                 });
                 Ok(())
             }
+            Command::MotorTest(test) => self.start_motor_test(now_us, test),
             Command::SetVehicle(params) => self.set_vehicle(params),
             Command::SetHealth(params) => self.set_health(params),
             Command::SetFailsafe(f) => {
@@ -466,7 +478,11 @@ impl Autopilot {
             faults |= fault::SENSOR_LOST;
         }
         if !self.armed || faults & fault::HEARTBEAT_LOST != 0 {
+            self.motor_test = None;
             return self.neutral(faults);
+        }
+        if let Some(out) = self.motor_test_step(now_us, faults) {
+            return out;
         }
         // A calibration turn (in `Hold`): its surge and yaw, the depth held by the law on the
         // hold point; when it ends, the hold point is where it started.
@@ -559,5 +575,7 @@ mod tests_dvl;
 mod tests_guided;
 #[cfg(test)]
 mod tests_health;
+#[cfg(test)]
+mod tests_motor_test;
 #[cfg(test)]
 mod tests_sticks;

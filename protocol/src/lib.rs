@@ -38,6 +38,7 @@ pub mod limits;
 pub mod measured;
 pub mod messages;
 pub mod nack;
+pub mod motor_test;
 
 pub use client::{Answer, Client, ClientConfig, Event, Frame, SendError, Sent};
 pub use decoder::{decode_frame, Decoded, DropCounters, DropReason, FrameDecoder};
@@ -48,6 +49,7 @@ pub use framing::{
 pub use health::{BatteryStatus, FailsafeAction, HealthParams, HealthSample, SurfaceEnd};
 pub use measured::DvlReport;
 pub use messages::*;
+pub use motor_test::MotorTest;
 
 #[cfg(test)]
 mod tests;

@@ -283,6 +283,10 @@ pub enum Command {
         /// `[north, east, down]` (m).
         pos_m: [f32; 3],
     },
+    /// Spin one thruster at a set pulse for a short window (version 8,
+    /// [`MotorTest`](crate::MotorTest)): armed only (`NotArmed`); ends at its window's end
+    /// (then the vehicle disarms), on any other command, a lost heartbeat or a disarm.
+    MotorTest(crate::motor_test::MotorTest),
 }
 
 /// What the vehicle sends back for a command it takes; a refused command is answered by

@@ -26,6 +26,7 @@ impl Autopilot {
         self.hold = None;
         self.auto = None;
         self.sticks_seen_centred = false;
+        self.motor_test = None;
         self.abort_swing();
         self.abort_ident(super::IdentAbort::ModeChange);
     }
@@ -48,6 +49,7 @@ impl Autopilot {
         self.engaged_us = now_us;
         self.controller.reset();
         self.armed = true;
+        self.motor_test = None;
         self.sticky = 0;
         Ok(())
     }

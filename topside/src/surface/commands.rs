@@ -99,6 +99,18 @@ impl Topside {
             },
             MavCmd::MAV_CMD_DO_START_MAG_CAL => self.start_mag_cal(station),
             MavCmd::MAV_CMD_DO_REPOSITION => self.reposition_long(station, &c),
+            MavCmd::MAV_CMD_USER_2 => self.start_ident(station, c.param1, c.param2),
+            MavCmd::MAV_CMD_DO_MOTOR_TEST => self.motor_test(
+                station,
+                &super::motor_test::MotorTestParams {
+                    motor: c.param1,
+                    throttle_type: c.param2,
+                    throttle: c.param3,
+                    timeout_s: c.param4,
+                    motor_count: c.param5,
+                    order: c.param6,
+                },
+            ),
             // The vehicle's estimator restarted at the latest USBL fix (param1 = 1).
             MavCmd::MAV_CMD_USER_1 if c.param1 == 1.0 => {
                 match self.nav.start(&mut self.v, true)? {
@@ -130,6 +142,20 @@ impl Topside {
         }
         match c.command {
             MavCmd::MAV_CMD_DO_REPOSITION => self.reposition_int(station, &c),
+            MavCmd::MAV_CMD_DO_MOTOR_TEST => {
+                self.gcs.stats.handled += 1;
+                self.motor_test(
+                    station,
+                    &super::motor_test::MotorTestParams {
+                        motor: c.param1,
+                        throttle_type: c.param2,
+                        throttle: c.param3,
+                        timeout_s: c.param4,
+                        motor_count: c.x as f32,
+                        order: c.y as f32,
+                    },
+                )
+            }
             other => {
                 self.gcs.stats.handled += 1;
                 self.gcs
@@ -140,7 +166,7 @@ impl Topside {
 
     /// MAVLink: 1 arms, 0 disarms; anything else (NaN, 0.5, -1) is refused rather than read
     /// as one of them (ArduPilot's rule too).
-    fn arm_disarm(&mut self, station: StationId, param1: f32) -> Result<()> {
+    pub(super) fn arm_disarm(&mut self, station: StationId, param1: f32) -> Result<()> {
         let command = MavCmd::MAV_CMD_COMPONENT_ARM_DISARM;
         let cmd = if param1 == 1.0 {
             Command::Arm

@@ -398,12 +398,26 @@ impl Missions {
             // the float `MISSION_ITEM` for `MISSION_REQUEST`.
             MavMessage::MISSION_REQUEST_INT(MISSION_REQUEST_INT_DATA { seq, .. }) => {
                 match self.download_item(Some(station), *seq) {
-                    Some(item) => gcs.send_to(station, MavMessage::MISSION_ITEM_INT(item))?,
+                    Some(item) => gcs.send_to(
+                        station,
+                        // Addressed to the station downloading (MAVSDK drops an item
+                        // addressed elsewhere).
+                        MavMessage::MISSION_ITEM_INT(MISSION_ITEM_INT_DATA {
+                            target_system: sender.1,
+                            target_component: sender.2,
+                            ..item
+                        }),
+                    )?,
                     None => Self::ack(sender, gcs, MavMissionResult::MAV_MISSION_INVALID_SEQUENCE)?,
                 }
             }
             MavMessage::MISSION_REQUEST(r) => match self.download_item(None, r.seq) {
                 Some(item) => {
+                    let item = MISSION_ITEM_INT_DATA {
+                        target_system: sender.1,
+                        target_component: sender.2,
+                        ..item
+                    };
                     gcs.send_to(station, MavMessage::MISSION_ITEM(float_item(&item, false)))?
                 }
                 None => Self::ack(sender, gcs, MavMissionResult::MAV_MISSION_INVALID_SEQUENCE)?,

@@ -49,6 +49,7 @@
 //! The start (arguments, the vehicle behind the tether, the ground stations, the logs) is in
 //! `start`; the `Topside` here owns the state and runs the loop.
 
+mod buttons;
 mod calibration;
 mod commander;
 mod commands;
@@ -57,9 +58,12 @@ mod frames;
 mod geodesy;
 mod goto;
 mod guard;
+mod ident;
 mod inquiry;
+pub mod joystick;
 mod logs;
 mod missions;
+mod motor_test;
 pub mod navigation;
 pub mod params;
 mod start;
@@ -181,6 +185,15 @@ struct Topside {
     refusals_said: u64,
     /// The vehicle's navigation from the surface: its estimator's start, the USBL's fixes.
     nav: navigation::SurfaceNav,
+    /// The identification manoeuvre flying, as the surface follows it.
+    ident: Option<ident::IdentRun>,
+    /// The joystick gain the sticks are scaled by (`JS_GAIN_*`).
+    js_gain: f32,
+    /// The commander's buttons: what was held, the stream's sequence numbers.
+    buttons: joystick::ButtonState,
+    /// The end of the motor test's window (simulated or vehicle seconds) and its request,
+    /// while one runs.
+    motor_test_until: Option<(f64, protocol::MotorTest)>,
 }
 
 impl Topside {
@@ -233,6 +246,8 @@ impl Topside {
                 self.gcs.text(MavSeverity::MAV_SEVERITY_INFO, &text)?;
             }
             self.poll_mag_cal()?;
+            self.poll_motor_test()?;
+            self.poll_ident()?;
             self.watch_vehicle(k.is_multiple_of(per_second))?;
 
             let faults = self.v.tel.faults & !fault::SATURATED;
@@ -285,6 +300,7 @@ impl Topside {
         }
         self.manual = ManualThrust::default();
         self.manual_at = None;
+        self.buttons.forget();
         self.sticks_seen_centred = false;
         self.v.outputs_changed();
         if self.missions.uploader().is_some_and(|u| Some(u) != now) {
@@ -320,6 +336,15 @@ impl Topside {
         if matches!(msg, MavMessage::CHANGE_OPERATOR_CONTROL(_)) {
             return Ok(());
         }
+        // The buttons act after the frame's sticks are taken (an arm checks them).
+        let buttons = match &msg {
+            MavMessage::MANUAL_CONTROL(m) => Some((
+                m.buttons,
+                self.manual_at
+                    .is_some_and(|at| at.elapsed() < MANUAL_CONTROL_TIMEOUT),
+            )),
+            _ => None,
+        };
         if let MavMessage::MANUAL_CONTROL(m) = &msg {
             self.manual_at = Some(Instant::now());
             if sticks_centred(&manual_thrust(m.x, m.z, m.r)) {
@@ -346,6 +371,9 @@ impl Topside {
             mission_type,
         )? {
             self.handle(station, msg)?;
+        }
+        if let Some((pressed, live)) = buttons {
+            self.on_buttons(station, header.sequence, pressed, live)?;
         }
         Ok(())
     }
@@ -450,7 +478,14 @@ impl Topside {
             }
             MavMessage::MANUAL_CONTROL(m) => {
                 self.gcs.stats.handled += 1;
-                self.manual = manual_thrust(m.x, m.z, m.r);
+                // Scaled by the joystick gain, as ArduSub scales every axis.
+                let g = self.js_gain;
+                let t = manual_thrust(m.x, m.z, m.r);
+                self.manual = ManualThrust {
+                    surge: t.surge * g,
+                    yaw: t.yaw * g,
+                    heave: t.heave * g,
+                };
             }
             MavMessage::SET_GPS_GLOBAL_ORIGIN(o) => {
                 self.gcs.stats.handled += 1;

@@ -22,6 +22,7 @@
 //! the vehicle takes it now; a group the vehicle refuses now (a new description while its
 //! estimator runs or while armed) waits and is applied when the vehicle takes it (`start`).
 
+use super::joystick::JoystickSettings;
 use anyhow::{anyhow, bail, Context, Result};
 use controller_core::controller::Gains;
 use controller_core::nav::compass_cal::{CalRefusal, CompassCalibration, MAX_DEVIATION_RAD};
@@ -110,6 +111,8 @@ pub struct Settings {
     pub compass: CompassDeviationDeg,
     /// The passkey for `CHANGE_OPERATOR_CONTROL` (0: no takeover).
     pub control_passkey: f32,
+    /// The joystick's buttons and gain (`BTNn_*`, `JS_GAIN_*`).
+    pub joystick: JoystickSettings,
 }
 
 /// The compass's heading-dependent deviation as the ground station shows it, in degrees
@@ -155,6 +158,7 @@ impl Settings {
             mission_speed_m_s: MISSION_SPEED_M_S,
             compass: CompassDeviationDeg::default(),
             control_passkey: 0.0,
+            joystick: JoystickSettings::default(),
         }
     }
 
@@ -183,6 +187,7 @@ impl Settings {
                     bail!("CTRL_PASSKEY must be a whole number from 0 to {MAX_PASSKEY}");
                 }
             }
+            Group::Joystick => self.joystick.check()?,
             Group::Compass => {
                 let c = self.compass;
                 let max_deg = MAX_DEVIATION_RAD.to_degrees();
@@ -230,11 +235,13 @@ pub enum Group {
     Compass,
     /// Kept at the surface: who may take control.
     Control,
+    /// Kept at the surface: the joystick's buttons and gain.
+    Joystick,
 }
 
 /// The groups in the order a restart restores them: the vehicle first (the others are
 /// checked against it on board), then the timeouts and the gains.
-pub const GROUPS: [Group; 7] = [
+pub const GROUPS: [Group; 8] = [
     Group::Vehicle,
     Group::Compass,
     Group::Failsafe,
@@ -242,6 +249,7 @@ pub const GROUPS: [Group; 7] = [
     Group::Paper,
     Group::Mission,
     Group::Control,
+    Group::Joystick,
 ];
 
 impl Group {
@@ -255,6 +263,7 @@ impl Group {
             Group::Mission => "MIS_SPEED",
             Group::Compass => "COMPASS_DEV_*",
             Group::Control => "CTRL_PASSKEY",
+            Group::Joystick => "BTN*, JS_GAIN_*",
         }
     }
 }
@@ -348,6 +357,7 @@ impl Settings {
             Group::Mission => self.mission_speed_m_s = from.mission_speed_m_s,
             Group::Compass => self.compass = from.compass,
             Group::Control => self.control_passkey = from.control_passkey,
+            Group::Joystick => self.joystick = from.joystick,
         }
     }
 
@@ -454,6 +464,39 @@ pub const PARAMS: &[Param] = params![
     "FS_PILOT_TIMEOUT" => failsafe.pilot_stale_s,
 ];
 
+macro_rules! buttons {
+    ($($i:literal),*) => {
+        &[$(
+            Param {
+                name: concat!("BTN", stringify!($i), "_FUNCTION"),
+                get: |s| s.joystick.buttons[$i][0],
+                set: |s, v| s.joystick.buttons[$i][0] = v,
+            },
+            Param {
+                name: concat!("BTN", stringify!($i), "_SFUNCTION"),
+                get: |s| s.joystick.buttons[$i][1],
+                set: |s, v| s.joystick.buttons[$i][1] = v,
+            },
+        )*]
+    };
+}
+
+/// ArduSub's joystick parameters (`joystick`): the buttons' functions and the gain. Kept at
+/// the surface and saved with the project's.
+pub const JOYSTICK: &[Param] = buttons![0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15];
+/// The joystick gain's parameters.
+pub const JOYSTICK_GAIN: &[Param] = params![
+    "JS_GAIN_DEFAULT" => joystick.gain_default,
+    "JS_GAIN_MAX" => joystick.gain_max,
+    "JS_GAIN_MIN" => joystick.gain_min,
+    "JS_GAIN_STEPS" => joystick.gain_steps,
+];
+
+/// The parameters saved: the project's and ArduSub's joystick ones.
+pub fn saved() -> impl Iterator<Item = &'static Param> {
+    PARAMS.iter().chain(JOYSTICK).chain(JOYSTICK_GAIN)
+}
+
 /// ArduSub's parameters whose meaning here is the same, under their own names: the same
 /// settings as the project's (`FS_PILOT_TIMEOUT` is `FS_PILOT_STALE`; `WPNAV_SPEED` is
 /// `MIS_SPEED` in cm/s), and `ARMING_CHECK`, read-only 1: the vehicle's pre-arm checks
@@ -494,12 +537,12 @@ pub fn read_only(name: &str) -> Option<&'static str> {
 
 /// Every parameter listed: the project's, then ArduSub's names.
 pub fn all() -> impl Iterator<Item = &'static Param> {
-    PARAMS.iter().chain(ARDUSUB)
+    saved().chain(ARDUSUB)
 }
 
 /// How many parameters are listed.
 pub fn count() -> usize {
-    PARAMS.len() + ARDUSUB.len()
+    PARAMS.len() + JOYSTICK.len() + JOYSTICK_GAIN.len() + ARDUSUB.len()
 }
 
 /// Parameter `index` of the list.
@@ -522,16 +565,15 @@ pub fn group(p: &Param) -> Group {
         Some("COMPASS") => Group::Compass,
         Some("CTRL") | Some("ARMING") => Group::Control,
         Some("WPNAV") => Group::Mission,
+        Some("JS") => Group::Joystick,
+        Some(b) if b.starts_with("BTN") => Group::Joystick,
         _ => Group::Paper,
     }
 }
 
 /// The settings as a name -> value map (the saved file: the project's names only).
 pub fn to_map(s: &Settings) -> BTreeMap<String, f32> {
-    PARAMS
-        .iter()
-        .map(|p| (p.name.to_string(), (p.get)(s)))
-        .collect()
+    saved().map(|p| (p.name.to_string(), (p.get)(s))).collect()
 }
 
 /// Save the settings as JSON.
@@ -572,115 +614,4 @@ pub fn load(path: &Path, defaults: Settings) -> Result<Settings> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn names_fit_mavlink_and_are_unique() {
-        for (i, p) in PARAMS.iter().enumerate() {
-            assert!(p.name.len() <= 16, "{}", p.name);
-            assert!(
-                PARAMS[i + 1..].iter().all(|q| q.name != p.name),
-                "{}",
-                p.name
-            );
-        }
-    }
-
-    #[test]
-    fn defaults_pass_every_check_and_round_trip_the_failsafe() {
-        let s = Settings::new(VehicleParams::OBSERVER);
-        for group in GROUPS {
-            s.check(group).unwrap();
-        }
-        assert_eq!(s.failsafe.to_firmware().unwrap(), Failsafe::DEFAULT);
-        assert_eq!(
-            group(&PARAMS[find("VEH_PWM_MAX").unwrap().0]),
-            Group::Vehicle
-        );
-        assert_eq!(
-            group(&PARAMS[find("FS_NAV_STALE").unwrap().0]),
-            Group::Failsafe
-        );
-        assert_eq!(group(&PARAMS[find("PXY_C4").unwrap().0]), Group::Paper);
-    }
-
-    #[test]
-    fn the_passkey_is_a_whole_number_and_0_means_no_takeover() {
-        let mut s = Settings::new(VehicleParams::OBSERVER);
-        assert_eq!(s.passkey(), None);
-        s.control_passkey = 4321.0;
-        s.check(Group::Control).unwrap();
-        assert_eq!(s.passkey().as_deref(), Some("4321"));
-        for bad in [0.5, -1.0, 1e6, f32::NAN] {
-            s.control_passkey = bad;
-            assert!(s.check(Group::Control).is_err(), "{bad}");
-        }
-        assert_eq!(
-            group(&PARAMS[find("CTRL_PASSKEY").unwrap().0]),
-            Group::Control
-        );
-        let (a, mut b) = (
-            Settings::new(VehicleParams::OBSERVER),
-            Settings::new(VehicleParams::OBSERVER),
-        );
-        b.vehicle.mass_kg += 1.0;
-        assert!(a.same_group(&b, Group::Tracking) && !a.same_group(&b, Group::Vehicle));
-    }
-
-    #[test]
-    fn ardusubs_names_are_the_same_settings() {
-        let mut s = Settings::new(VehicleParams::OBSERVER);
-        let (_, wpnav) = find("WPNAV_SPEED").unwrap();
-        (wpnav.set)(&mut s, 35.0);
-        assert!((s.mission_speed_m_s - 0.35).abs() < 1e-6);
-        assert_eq!(group(wpnav), Group::Mission);
-        let (_, fs) = find("FS_PILOT_TIMEOUT").unwrap();
-        (fs.set)(&mut s, 0.8);
-        assert_eq!(s.failsafe.pilot_stale_s, 0.8);
-        assert!(read_only("ARMING_CHECK").is_some());
-        assert_eq!(count(), all().count());
-        assert!(all().all(|p| p.name.len() <= 16));
-    }
-
-    #[test]
-    fn every_parameter_reads_back_what_was_written() {
-        let mut g = Settings::new(VehicleParams::OBSERVER);
-        for (i, p) in PARAMS.iter().enumerate() {
-            (p.set)(&mut g, 100.0 + i as f32);
-        }
-        for (i, p) in PARAMS.iter().enumerate() {
-            // An ArduSub name of the same setting reads the latest write.
-            if PARAMS[i + 1..].iter().any(|q| (q.get)(&g) == (p.get)(&g)) {
-                continue;
-            }
-            assert_eq!((p.get)(&g), 100.0 + i as f32, "{}", p.name);
-        }
-    }
-
-    #[test]
-    fn a_saved_file_loads_back_and_a_bad_one_is_refused_by_name() {
-        let dir = std::env::temp_dir().join(format!("rov-params-{}", std::process::id()));
-        let path = dir.join("p.json");
-        let defaults = Settings::new(VehicleParams::OBSERVER);
-        let mut g = defaults;
-        g.gains.tracking.xy_kp *= 1.5;
-        g.vehicle.mass_kg = 12.5;
-        g.failsafe.pilot_stale_s = 0.8;
-        save(&path, &g).unwrap();
-        assert_eq!(load(&path, defaults).unwrap(), g);
-        std::fs::write(&path, r#"{"TRK_NOPE": 1.0}"#).unwrap();
-        assert!(format!("{:#}", load(&path, defaults).unwrap_err()).contains("TRK_NOPE"));
-        for bad in [
-            r#"{"TRK_XY_KP": -1.0}"#,
-            r#"{"VEH_BUOY": 9.0}"#,
-            r#"{"FS_HB_NEUTRAL": 3.0}"#,
-            r#"{"FS_HB_DISARM": 0.3}"#,
-        ] {
-            std::fs::write(&path, bad).unwrap();
-            let e = format!("{:#}", load(&path, defaults).unwrap_err());
-            assert!(e.contains("refused"), "{bad}: {e}");
-        }
-        let _ = std::fs::remove_dir_all(dir);
-    }
-}
+mod tests;

@@ -289,6 +289,7 @@ fn run_topside(
         tlog_path.display(),
         tether_path.display()
     );
+    let js_gain = v.settings.joystick.start_gain();
     let mut t = Topside {
         gcs,
         v,
@@ -306,6 +307,10 @@ fn run_topside(
         vehicle_silent: false,
         refusals_said: 0,
         nav,
+        motor_test_until: None,
+        ident: None,
+        js_gain,
+        buttons: Default::default(),
     };
     t.run(a, speedup)
 }

@@ -336,7 +336,7 @@ impl Vehicle {
             },
             Group::Vehicle => Command::SetVehicle(proposed.vehicle),
             Group::Compass => Command::SetCompassCal(proposed.compass.to_calibration()),
-            Group::Mission | Group::Control => {
+            Group::Mission | Group::Control | Group::Joystick => {
                 // Nothing to send now: kept at the surface (the next mission carries the
                 // speed).
                 self.settings.take_group(&proposed, group);
