@@ -37,8 +37,8 @@ pub mod health;
 pub mod limits;
 pub mod measured;
 pub mod messages;
-pub mod nack;
 pub mod motor_test;
+pub mod nack;
 
 pub use client::{Answer, Client, ClientConfig, Event, Frame, SendError, Sent};
 pub use decoder::{decode_frame, Decoded, DropCounters, DropReason, FrameDecoder};
