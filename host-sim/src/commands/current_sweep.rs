@@ -156,7 +156,7 @@ fn heat_map(file: &Path, path: &str, cells: &[&Cell]) -> Result<()> {
         let n = DIRECTIONS_DEG.len() as f64;
         let m = SPEEDS_M_S.len() as f64;
         // Plain coordinates with a band for the labels: columns are directions, rows speeds.
-        let mut ch = ChartBuilder::on(&root)
+        let mut ch = ChartBuilder::on(root)
             .caption(
                 format!(
                 "{path}: RMS tracking error over the last 80 % in a current (cm; green <= 5 cm)"

@@ -662,7 +662,7 @@ pub fn histogram(
     crate::output::png_file::write(path, (1000, 650), |root| {
         let e = |x: String| anyhow!("{}: {x}", path.display());
         root.fill(&WHITE).map_err(|x| e(x.to_string()))?;
-        let mut ch = ChartBuilder::on(&root)
+        let mut ch = ChartBuilder::on(root)
             .caption(title, (FONT_NAME, 20))
             .margin(12)
             .x_label_area_size(40)
