@@ -22,7 +22,7 @@
 //!
 //! One [`Plant::step`] is one classic RK4 step.
 
-use super::raw_state::{rot, RawState};
+use super::state::{rot, RawState};
 use super::thrusters::Thrusters;
 use super::{Boundary, Environment, Plant, PlantState};
 use controller_core::params::VehicleParams;
