@@ -8,8 +8,13 @@
 #    tick per guest instruction: the figures are repeatable instruction counts per call
 #    (averaged over 512 calls with varying inputs; min and max too) and the stack each item
 #    touched (stack painting). Instruction counts, not M4 cycles: see shared QEMU notes.
-# 2. Checks with `nm` that the default bench image (control path + loop, nothing else) links
-#    no soft-f64 helper (`__aeabi_d*`, `__*df*`); fails if it does and names the callers.
+#    Among them `loop.onboard_instruments_3d`: the board's pass with the DVL on its UART (a
+#    whole A50 `wrz` line parsed, gated and fused every 5th pass) and a health frame on the
+#    harness UART every pass (the health checks it feeds), and `drv.a50_wrz` / `drv.a50_wrp`,
+#    the A50 parser alone (mcu-bench/src/instruments_bench.rs).
+# 2. Checks with `nm` that the default bench image (control path, loop and the instruments'
+#    parsers, nothing else) links no soft-f64 helper (`__aeabi_d*`, `__*df*`); fails if it
+#    does and names the callers. Step 4 holds the firmware images to the same.
 # 3. Builds the bench again with `--features libm-compare,law-alone`: times `libm::sinf` for
 #    comparison (that image does contain soft f64, by design) and each law alone (`law.*`,
 #    closed loop; the allocation, PWM map and anti-windup untimed).
@@ -145,11 +150,15 @@ if cargo build -q -p firmware --release --target "$TARGET" 2>"$OUT/firmware-buil
     read -r text data bss _ < <("$SIZE" -B "$FW" | awk 'NR==2 {print $1, $2, $3}')
     FW_FLASH=$((text + data)); FW_RAM=$((data + bss))
     echo "firmware $FW: flash $FW_FLASH B ($((FW_FLASH / 1024)).$(((FW_FLASH % 1024) * 10 / 1024)) KiB), static RAM $FW_RAM B"
-    FWF64=$(soft_f64_symbols "$FW")
-    if [ -z "$FWF64" ]; then echo "firmware nm: no soft-f64 symbol"; else
-      echo "firmware nm: soft f64 present:"; echo "$FWF64" | sed 's/^/    /'
-      echo "  called from:"; soft_f64_callers "$FW"
-    fi
+    for img in "$FW" "$TDIR/$TARGET/release/qemu"; do
+      [ -f "$img" ] || continue
+      FWF64=$(soft_f64_symbols "$img")
+      if [ -z "$FWF64" ]; then echo "firmware nm ($(basename "$img")): no soft-f64 symbol"; else
+        NM_OK=0
+        echo "firmware nm ($(basename "$img")): SOFT F64 FOUND:"; echo "$FWF64" | sed 's/^/    /'
+        echo "  called from:"; soft_f64_callers "$img"
+      fi
+    done
   else
     echo "firmware built, but no stm32f4 binary found in $TDIR/$TARGET/release (not there yet?)"
   fi
@@ -312,7 +321,9 @@ if [ -n "$NAV" ]; then
 fi
 # The whole loop iteration with the estimator is measured as `loop.onboard_3d` (checked with
 # the other loop items above): the board's fixed-rate pass with its own sensors' drivers, the
-# estimator, the fixes from the surface, the control step and the telemetry.
+# estimator, the fixes from the surface, the control step and the telemetry; and as
+# `loop.onboard_instruments_3d` with a DVL line on its UART and a health frame in the pass.
+grep -E '^(INSTRUMENTS|ONBOARD) ' "$OUT/bench.log" | sed 's/^/  /' || true
 HW=$(sed -n 's/^STACK high_water=\([0-9]*\).*/\1/p' "$OUT/bench.log")
 echo "  stack: whole bench program high-water $HW B${LOOP_STACK:+, loop iteration $LOOP_STACK B below its caller}"
 if [ -n "$FW_FLASH" ]; then
@@ -346,7 +357,7 @@ while read -r line; do
   check "$name (max)" "$(echo "$line" | field max)" 5000 instructions
 done < <(grep -a '^BENCH node\.' "$OUT/node-bench.log" 2>/dev/null || true)
 [ "$NODE_OK" = 1 ] && echo "  ok    node image: links in its budget, no controller core" || echo "  FAIL  node image (see above)"
-[ "$NM_OK" = 1 ] && echo "  ok    no soft f64 in the control path" || echo "  FAIL  soft f64 in the control path"
+[ "$NM_OK" = 1 ] && echo "  ok    no soft f64 in the control path nor the firmware images" || echo "  FAIL  soft f64 in the control path or a firmware image"
 
 if [ "$NM_OK" != 1 ] || [ "$NODE_OK" != 1 ]; then exit 1; fi
 if [ "$over" = 1 ]; then echo "over a budget in force: failing"; exit 1; fi

@@ -22,6 +22,7 @@
 //! vehicle's IMU and pressure sensor and by the fixes that come down the tether.
 
 mod arming;
+mod guided;
 mod health;
 mod ident;
 mod mission;
@@ -137,6 +138,8 @@ pub struct Autopilot {
     onboard_seq: u16,
     /// Thrust commanded by the latest step `[F1x, F2x, F3z]` (N): the estimator's input.
     thrust_cmd_n: [f32; 3],
+    /// The latest sound DVL velocity the on-board estimator was given, as measured.
+    last_dvl: crate::protocol::DvlReport,
     /// The mission in use (waypoints, speed), the one being uploaded, and the path AUTO flies
     /// with its start time.
     mission: Mission,
@@ -187,6 +190,10 @@ impl Autopilot {
             onboard: None,
             onboard_seq: 0,
             thrust_cmd_n: [0.0; 3],
+            last_dvl: crate::protocol::DvlReport {
+                t_us: 0,
+                velocity_m_s: [0.0; 2],
+            },
             mission: Mission::default(),
             upload: Mission::default(),
             auto: None,
@@ -340,6 +347,7 @@ impl Autopilot {
                 radius_m,
                 depth_band_m,
             } => self.start_ident(now_us, *radius_m, *depth_band_m),
+            Command::GuidedTarget { pos_m } => self.guided_target(now_us, *pos_m),
             Command::MissionItem {
                 index,
                 count,
@@ -399,6 +407,7 @@ impl Autopilot {
                 }
                 self.ident_sticks(m);
                 self.take_sticks(now_us, m);
+                self.guided_sticks(now_us, m);
                 Ok(())
             }
         }
@@ -504,7 +513,7 @@ impl Autopilot {
                 ),
                 None => return self.neutral(faults),
             },
-            (Mode::Hold, _, Some((r, start))) => (
+            (Mode::Hold | Mode::Guided, _, Some((r, start))) => (
                 r.sample(seconds_since(now_us, *start)),
                 ControlMode::Tracking3d,
             ),
@@ -544,6 +553,10 @@ impl Autopilot {
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_dvl;
+#[cfg(test)]
+mod tests_guided;
 #[cfg(test)]
 mod tests_health;
 #[cfg(test)]

@@ -6,8 +6,8 @@
 //! ground station (`clients/pymavlink_survey.py`) flies the survey's legs as a mission in AUTO.
 //! The vehicle's estimate against the truth (the served vehicle's truth log, from 10 s after
 //! AUTO is taken to 250 s after it) is held within 10 % + 1 cm of the estimation RMS of
-//! `host-sim run nav-lawnmower-3d` (after 10 s, over its 250 s). Skipped with the fix without
-//! pymavlink.
+//! `host-sim run nav-lawnmower-3d` (after 10 s, over its 250 s), and every waypoint is
+//! reported reached. Skipped with the fix without pymavlink.
 
 // Test code: a failed expectation should stop the test.
 #![allow(
@@ -18,6 +18,8 @@
 )]
 
 mod gcs;
+#[path = "it/long_emulated/mod.rs"]
+mod long_emulated;
 
 use gcs::{dive, free_udp_port, pymavlink_or_skip, stop};
 use host_sim::closed_loop::runner::{run, RunOptions};
@@ -54,7 +56,8 @@ fn read_truth(path: &Path) -> Vec<(f64, [f64; 3], [f64; 3])> {
 
 #[test]
 fn the_lawnmower_survey_with_the_dvl_and_usbl_on_their_wires_matches_software() {
-    if !pymavlink_or_skip() {
+    let name = "the_lawnmower_survey_with_the_dvl_and_usbl_on_their_wires_matches_software";
+    if !long_emulated::long_test_of("served_navigation", name, 90) || !pymavlink_or_skip() {
         return;
     }
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("served-navigation");
@@ -101,6 +104,20 @@ fn the_lawnmower_survey_with_the_dvl_and_usbl_on_their_wires_matches_software() 
         .and_then(|v| v.trim().parse::<f64>().ok())
         .expect("the client's START line")
         / 1e3;
+    // Every waypoint reported reached (MISSION_ITEM_REACHED, as the ground station saw it):
+    // the survey was flown, not only its first leg.
+    let reached = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("REACHED "))
+        .expect("the client's REACHED line");
+    let want = format!(
+        "[{}]",
+        (0..LEGS.len())
+            .map(|k| k.to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    assert_eq!(reached.trim(), want, "waypoints reached");
     let rows = read_truth(&truth_path);
     let scored: Vec<f64> = rows
         .iter()

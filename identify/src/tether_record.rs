@@ -3,6 +3,14 @@
 //! flew on (the on-board estimate: DVL velocities, gyro rates, attitude) and the pulse widths
 //! written to the ESCs. This is what a real dive leaves at the surface; no plant truth in it.
 //!
+//! Surge and sway are the DVL's own measurements, which every frame carries (the latest one
+//! the vehicle accepted, `Telemetry::dvl`), interpolated linearly between their times of
+//! validity to the control period: the estimate between two DVL reports is predicted with
+//! the vehicle file the vehicle was given (model-aided), so its surge dynamics would be
+//! partly the prior's. A log without DVL reports (a vehicle without one) keeps the estimate's
+//! velocities, and says so ([`TetherRecord::velocity`]); a DVL silent longer than
+//! [`MAX_DVL_GAP_S`] inside the armed span is refused with its time.
+//!
 //! The record is the armed span of the log (first to last armed frame). Telemetry comes once
 //! per control period; a frame lost on the tether (a corrupted or dropped frame) leaves a gap
 //! that is filled by linear interpolation when it is at most [`MAX_FILLED_GAP_PERIODS`]
@@ -17,6 +25,22 @@ use std::path::Path;
 /// The longest gap between two telemetry frames that is filled (control periods).
 pub const MAX_FILLED_GAP_PERIODS: u64 = 5;
 
+/// The longest time between two DVL reports bridged by interpolation (s): five periods of
+/// a 5 Hz DVL.
+pub const MAX_DVL_GAP_S: f64 = 1.0;
+
+/// Where the record's surge and sway velocities come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum VelocitySource {
+    /// The DVL's measurements in the telemetry (this many distinct reports).
+    Dvl {
+        /// Distinct DVL reports in the record's span.
+        reports: usize,
+    },
+    /// The on-board estimate (the log holds no DVL report).
+    Estimate,
+}
+
 /// A record read from a tether log, and what the reading found.
 #[derive(Debug, Clone)]
 pub struct TetherRecord {
@@ -26,6 +50,8 @@ pub struct TetherRecord {
     pub filled: usize,
     /// Frames of the log that did not decode (either direction).
     pub dropped_frames: usize,
+    /// Where surge and sway come from.
+    pub velocity: VelocitySource,
 }
 
 fn sample(t: &Telemetry) -> RecordSample {
@@ -121,12 +147,94 @@ pub fn from_telemetry<'a>(
         }
         samples.push(sb);
     }
-    let record = Record { samples };
+    let mut record = Record { samples };
+    let velocity = dvl_velocities(&mut record, span, path)?;
     record.check()?;
     Ok(TetherRecord {
         record,
         filled,
         dropped_frames,
+        velocity,
+    })
+}
+
+/// The distinct DVL reports of `span`, in time order: `(t_s, [u, v])`.
+fn dvl_reports(span: &[&Telemetry]) -> Vec<(f64, [f64; 2])> {
+    let mut out: Vec<(f64, [f64; 2])> = Vec::new();
+    let mut last_t_us = 0u64;
+    for t in span {
+        let d = t.dvl;
+        if d.is_some() && d.t_us > last_t_us {
+            last_t_us = d.t_us;
+            out.push((d.t_us as f64 * 1e-6, d.velocity_m_s.map(f64::from)));
+        }
+    }
+    out
+}
+
+/// `s`'s surge and sway set to `uv_m_s`, and its heave made again from the depth rate with
+/// them: the estimator's body heave is its depth rate turned to the body axes with its own
+/// surge and sway (`w = (z_dot + s_theta u - c_theta s_phi v) / (c_theta c_phi)`), so at a
+/// few degrees of pitch its surge's error is in the heave too.
+fn set_horizontal(s: &mut RecordSample, uv_m_s: [f64; 2]) {
+    let [u, v, w] = s.vel_m_s;
+    let [roll, pitch] = s.tilt_rad;
+    let (sr, cr) = roll.sin_cos();
+    let (sp, cp) = pitch.sin_cos();
+    let den = cp * cr;
+    let [u_m, v_m] = uv_m_s;
+    s.vel_m_s = [u_m, v_m, w];
+    // As the estimator turns it (a steeper tilt keeps the depth rate itself).
+    if den > 0.1 {
+        let z_dot = -sp * u + cp * sr * v + den * w;
+        s.vel_m_s[2] = (z_dot + sp * u_m - cp * sr * v_m) / den;
+    }
+}
+
+/// Surge and sway of `record` replaced by the DVL's reports, interpolated to each sample's
+/// time; the samples outside the reports' span are dropped (nothing is extrapolated). The
+/// estimate's velocities stay when the span holds no DVL report.
+fn dvl_velocities(record: &mut Record, span: &[&Telemetry], path: &Path) -> Result<VelocitySource> {
+    let reports = dvl_reports(span);
+    let (Some(&(first, _)), Some(&(last, _))) = (reports.first(), reports.last()) else {
+        return Ok(VelocitySource::Estimate);
+    };
+    for pair in reports.windows(2) {
+        if let [(ta, _), (tb, _)] = pair {
+            if tb - ta > MAX_DVL_GAP_S {
+                bail!(
+                    "{}: no DVL report for {:.3} s after t = {ta:.3} s on the vehicle's clock                      (at most {MAX_DVL_GAP_S} s is bridged)",
+                    path.display(),
+                    tb - ta
+                );
+            }
+        }
+    }
+    record.samples.retain(|s| s.t_s >= first && s.t_s <= last);
+    let mut k = 0usize;
+    for s in &mut record.samples {
+        while reports.get(k + 1).is_some_and(|&(t, _)| t < s.t_s) {
+            k += 1;
+        }
+        let (Some(&(ta, va)), Some(&(tb, vb))) = (reports.get(k), reports.get(k + 1)) else {
+            // The last report's own time.
+            if let Some(&(_, v)) = reports.get(k) {
+                set_horizontal(s, v);
+            }
+            continue;
+        };
+        let w = if tb > ta {
+            (s.t_s - ta) / (tb - ta)
+        } else {
+            0.0
+        };
+        set_horizontal(
+            s,
+            [va[0] + (vb[0] - va[0]) * w, va[1] + (vb[1] - va[1]) * w],
+        );
+    }
+    Ok(VelocitySource::Dvl {
+        reports: reports.len(),
     })
 }
 
@@ -155,6 +263,7 @@ mod tests {
         );
         frames.push(telemetry(20 * 300, false, 0.0));
         let r = from_telemetry(frames.iter(), 3, Path::new("log")).unwrap();
+        assert_eq!(r.velocity, VelocitySource::Estimate);
         assert_eq!(r.filled, 1);
         assert_eq!(r.dropped_frames, 3);
         assert_eq!(r.record.samples.len(), 295);
@@ -174,6 +283,56 @@ mod tests {
         let idle: Vec<Telemetry> = (0..200).map(|k| telemetry(20 * k, false, 0.0)).collect();
         let e = from_telemetry(idle.iter(), 0, Path::new("log")).unwrap_err();
         assert!(e.to_string().contains("no armed telemetry"), "{e}");
+    }
+
+    /// Telemetry every 20 ms whose estimate says `u = 9`, with a DVL report every 200 ms
+    /// (valid 40 ms before the frame that first carries it) of `u = t`, `v = -t`; none
+    /// between `gap_ms.0` and `gap_ms.1`.
+    fn with_dvl(gap_ms: (u64, u64)) -> Vec<Telemetry> {
+        let mut dvl = protocol::DvlReport::default();
+        (0..500u64)
+            .map(|k| {
+                let t_ms = 20 * k;
+                let mut t = telemetry(t_ms, true, 9.0);
+                let due = t_ms >= 40 && (t_ms - 40) % 200 == 0;
+                if due && !(gap_ms.0..gap_ms.1).contains(&t_ms) {
+                    let valid_s = (t_ms - 40) as f32 * 1e-3;
+                    dvl = protocol::DvlReport {
+                        t_us: (t_ms - 40) * 1000,
+                        velocity_m_s: [valid_s, -valid_s],
+                    };
+                }
+                t.dvl = dvl;
+                t
+            })
+            .collect()
+    }
+
+    #[test]
+    fn surge_and_sway_are_the_dvl_s_reports_interpolated_not_the_estimate() {
+        let frames = with_dvl((0, 0));
+        let r = from_telemetry(frames.iter(), 0, Path::new("log")).unwrap();
+        assert!(matches!(r.velocity, VelocitySource::Dvl { reports: 49 }));
+        // The first report is valid at 0 s (t_us 0 means none): the span starts at 0.2 s.
+        let first = r.record.samples.first().unwrap();
+        assert!((first.t_s - 0.2).abs() < 1e-9, "{}", first.t_s);
+        let last = r.record.samples.last().unwrap();
+        assert!((last.t_s - 9.8).abs() < 1e-9, "{}", last.t_s);
+        for s in &r.record.samples {
+            assert!((s.vel_m_s[0] - s.t_s).abs() < 1e-5, "{s:?}");
+            assert!((s.vel_m_s[1] + s.t_s).abs() < 1e-5, "{s:?}");
+        }
+    }
+
+    #[test]
+    fn a_silent_dvl_is_refused_with_its_time() {
+        let frames = with_dvl((2_000, 3_500));
+        let e = from_telemetry(frames.iter(), 0, Path::new("log")).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("no DVL report for 1.800 s after t = 1.800 s"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -8,6 +8,7 @@
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 mod bench;
+mod instruments_bench;
 mod loop_bench;
 mod nav_bench;
 mod onboard_bench;
@@ -33,6 +34,7 @@ pub fn run_all<P: bench::Platform>(p: &P) -> bool {
     nav_bench::run_nav(&b, p);
     loop_bench::run_loop(&b, p);
     onboard_bench::run_onboard(&b, p);
+    instruments_bench::run_instruments(&b, p);
     #[cfg(feature = "topside")]
     topside_bench::run_topside(&b, p);
     if let Some(hw) = p.stack_high_water() {

@@ -23,13 +23,13 @@ use core::convert::Infallible;
 use embedded_hal::i2c::{ErrorType as I2cErrorType, I2c, Operation as I2cOp};
 use embedded_hal::spi::{ErrorType as SpiErrorType, Operation, SpiDevice};
 use firmware::protocol::{fault, Board, Command, Mode, MAX_FRAME_LEN};
-use firmware::{App, BusSensors, Config, Monotonic};
+use firmware::{App, BusSensors, Config, Monotonic, Sensors};
 use sensor_drivers::icm42688::{self, Icm42688};
 use sensor_drivers::ms5837::{Ms5837, Osr};
 
 /// An ICM-42688-P on a bus in RAM: `WHO_AM_I` = 0x47, then level samples (1 g up on the
 /// chip's z axis) with a small gyro signal that changes every read.
-struct FakeImuBus {
+pub(crate) struct FakeImuBus {
     reads: u32,
 }
 
@@ -60,7 +60,7 @@ impl SpiDevice for FakeImuBus {
 }
 
 /// An MS5837-30BA on a bus in RAM: the datasheet's example PROM and conversions.
-struct FakeBaroBus {
+pub(crate) struct FakeBaroBus {
     last_cmd: u8,
 }
 
@@ -99,6 +99,9 @@ impl I2c for FakeBaroBus {
     }
 }
 
+/// The bench's IMU and pressure sensor on their buses in RAM.
+pub(crate) type BenchBusSensors = BusSensors<FakeImuBus, FakeBaroBus>;
+
 /// The drivers' start-up waits, skipped.
 struct NoWait;
 
@@ -108,7 +111,7 @@ impl embedded_hal::delay::DelayNs for NoWait {
 
 /// The firmware's clock: simulated microseconds set by the bench, the platform's counter
 /// for the loop's own timing.
-struct SimClock<'a, P: Platform> {
+pub(crate) struct SimClock<'a, P: Platform> {
     p: &'a P,
     now_us: &'a Cell<u64>,
 }
@@ -122,8 +125,22 @@ impl<P: Platform> Monotonic for SimClock<'_, P> {
     }
 }
 
-/// Run `loop.onboard_3d`.
+/// Run `loop.onboard_3d`: the DVL's velocities come from the surface over the tether.
 pub fn run_onboard<P: Platform>(b: &Bench<'_, P>, p: &P) {
+    run_onboard_with(b, p, "loop.onboard_3d", true, |bus| bus, |_, _, _| ());
+}
+
+/// Run one onboard loop item named `name`: `wrap` adds ports to the bus sensors (the DVL's
+/// UART, the health inputs), `feed(i, t_us)` queues their bytes before pass `i` (untimed);
+/// `dvl_over_tether` sends the DVL's velocity as a tether frame instead.
+pub(crate) fn run_onboard_with<P: Platform, N: Sensors>(
+    b: &Bench<'_, P>,
+    p: &P,
+    name: &str,
+    dvl_over_tether: bool,
+    wrap: impl FnOnce(BenchBusSensors) -> N,
+    mut feed: impl FnMut(&mut App<FakePwm, FakeSerial, SimClock<'_, P>, N>, u32, u64),
+) {
     let now_us = Cell::new(0u64);
     let Ok(imu) = Icm42688::new(
         FakeImuBus { reads: 0 },
@@ -146,7 +163,7 @@ pub fn run_onboard<P: Platform>(b: &Bench<'_, P>, p: &P) {
         SimClock { p, now_us: &now_us },
         controller,
         Config::fixed_rate(Board::Host),
-        BusSensors::new(Some(imu), Some(baro)),
+        wrap(BusSensors::new(Some(imu), Some(baro))),
     ) else {
         return;
     };
@@ -175,7 +192,7 @@ pub fn run_onboard<P: Platform>(b: &Bench<'_, P>, p: &P) {
     }
     let (mut disarmed, mut lost, mut no_law) = (0u32, 0u32, 0u32);
     b.run_state(
-        "loop.onboard_3d",
+        name,
         CALLS,
         &mut app,
         |app, i| {
@@ -183,7 +200,8 @@ pub fn run_onboard<P: Platform>(b: &Bench<'_, P>, p: &P) {
             now_us.set(t_us);
             let serial = app.parts_mut().1;
             serial.clear_tx();
-            surface_frames(serial, &mut seq, i, t_us);
+            surface_frames(serial, &mut seq, i, t_us, dvl_over_tether);
+            feed(app, i, t_us);
         },
         |app| app.tick(),
         |app| {
@@ -206,7 +224,7 @@ pub fn run_onboard<P: Platform>(b: &Bench<'_, P>, p: &P) {
         .unwrap_or_default();
     let est = app.autopilot().nav_state();
     p.print(format_args!(
-        "ONBOARD loop.onboard_3d: {} IMU samples, {} depths, {} headings, {} DVL, {} USBL fused; \
+        "ONBOARD {name}: {} IMU samples, {} depths, {} headings, {} DVL, {} USBL fused; \
          estimate ({:.3}, {:.3}, {:.3}) m vs launch (0, 0, {z0:.3}); sensor-lost passes {lost}, \
          disarmed {disarmed}, without the law {no_law}",
         health.imu_samples,
@@ -220,16 +238,17 @@ pub fn run_onboard<P: Platform>(b: &Bench<'_, P>, p: &P) {
     ));
     if lost + disarmed + no_law > 0 {
         p.print(format_args!(
-            "WARN loop.onboard_3d: sensor-lost {lost}, disarmed {disarmed}, no law {no_law}"
+            "WARN {name}: sensor-lost {lost}, disarmed {disarmed}, no law {no_law}"
         ));
     }
 }
 
 /// The surface's frames before control pass `i` at `t_us` (the estimator's inputs from the
 /// PC, as a dive sends them): a heartbeat and a compass heading every 5th pass, a DVL
-/// velocity every 10th, a USBL fix 0.3 s old every 50th. Shared by the onboard and the
-/// topside loop benches, so both time the same load.
-pub(crate) fn surface_frames(serial: &mut FakeSerial, seq: &mut u16, i: u32, t_us: u64) {
+/// velocity every 10th (unless `dvl` is false: the DVL is on the board's UART), a USBL fix
+/// 0.3 s old every 50th. Shared by the onboard and the topside loop benches, so both time the
+/// same load.
+pub(crate) fn surface_frames(serial: &mut FakeSerial, seq: &mut u16, i: u32, t_us: u64, dvl: bool) {
     let mut send = |cmd: &Command| {
         *seq = seq.wrapping_add(1);
         let mut out = [0u8; MAX_FRAME_LEN];
@@ -243,7 +262,7 @@ pub(crate) fn surface_frames(serial: &mut FakeSerial, seq: &mut u16, i: u32, t_u
             std_rad: 0.02,
         }));
     }
-    if i.is_multiple_of(10) {
+    if dvl && i.is_multiple_of(10) {
         send(&Command::DvlFix(DvlFix {
             t_us,
             velocity_m_s: [0.001, -0.001],

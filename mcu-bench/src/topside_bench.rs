@@ -137,7 +137,7 @@ pub fn run_topside<P: Platform>(b: &Bench<'_, P>, p: &P) {
             }
             let serial = t.app.parts_mut().1;
             serial.clear_tx();
-            surface_frames(serial, &mut seq, i, t_us);
+            surface_frames(serial, &mut seq, i, t_us, true);
         },
         // The board's loop pass (`topside_board.rs`).
         |t| {

@@ -35,6 +35,7 @@ pub mod decoder;
 pub mod framing;
 pub mod health;
 pub mod limits;
+pub mod measured;
 pub mod messages;
 pub mod nack;
 
@@ -45,6 +46,7 @@ pub use framing::{
     MAX_FRAME_LEN, MAX_PAYLOAD_LEN, PROTOCOL_VERSION,
 };
 pub use health::{BatteryStatus, FailsafeAction, HealthParams, HealthSample, SurfaceEnd};
+pub use measured::DvlReport;
 pub use messages::*;
 
 #[cfg(test)]

@@ -72,6 +72,11 @@ pub enum Mode {
     /// thruster up until the vehicle is within 0.3 m of the surface, then hold that depth
     /// or disarm (`SURFACE_END`). The battery and leak failsafes switch to it.
     Surface,
+    /// Go to a point and hold it (ArduSub's GUIDED; version 8): the 3-D tracking law holds
+    /// where the vehicle was when the mode was entered (or the vehicle armed) until a
+    /// [`Command::GuidedTarget`] arrives, then flies to that point and holds it. A stick off
+    /// centre stops the go-to where the vehicle is.
+    Guided,
 }
 
 /// The one map between the tether's tracking modes and the core's laws: a law in a plane is
@@ -269,6 +274,14 @@ pub enum Command {
         radius_m: f32,
         /// Half-height of the depth band around the start depth (m).
         depth_band_m: f32,
+    },
+    /// The point GUIDED goes to and holds (version 8): `[north, east, down]` (m), local NED
+    /// frame, checked as a mission's waypoint ([`limits`](crate::limits)) and against the
+    /// depth limit. Taken only armed (`NotArmed`) in [`Mode::Guided`] (`NotInGuided`): a
+    /// target given before is never flown.
+    GuidedTarget {
+        /// `[north, east, down]` (m).
+        pos_m: [f32; 3],
     },
 }
 
@@ -476,6 +489,8 @@ pub struct Telemetry {
     pub nav_pos_std_m: [f32; 3],
     /// Waypoints of the mission the reference has passed, in AUTO (0 otherwise).
     pub mission_reached: u16,
+    /// The latest sound DVL velocity the vehicle took, as measured (version 8).
+    pub dvl: crate::DvlReport,
 }
 
 /// The slow half of the report: link counters and health, sent as the answer to each

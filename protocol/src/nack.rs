@@ -64,6 +64,8 @@ pub enum NackReason {
     /// Arming while a leak or a critical battery holds (version 7; ArduSub's pre-arm
     /// checks).
     Health,
+    /// A GUIDED target outside [`Mode::Guided`](crate::Mode::Guided) (version 8).
+    NotInGuided,
 }
 
 impl From<controller_core::Error> for NackReason {

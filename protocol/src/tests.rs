@@ -15,18 +15,18 @@ fn frame(seq: u16, cmd: &Command) -> Vec<u8> {
 }
 
 #[test]
-fn the_bytes_are_postcard_then_crc32_then_cobs_as_in_version_7() {
+fn the_bytes_are_postcard_then_crc32_then_cobs_as_in_version_8() {
     // Computed independently (Python: zlib.crc32 and a textbook COBS) from the postcard
-    // payloads [7, 7, 0xAC, 0x02, 1] (version 7, seq 7, session 300 as a varint, `Arm` =
-    // variant 1) and [7, 42, 0xAC, 0x02, 0, 0xE8, 0x07] (seq 42, `Heartbeat` = variant 0,
+    // payloads [8, 7, 0xAC, 0x02, 1] (version 8, seq 7, session 300 as a varint, `Arm` =
+    // variant 1) and [8, 42, 0xAC, 0x02, 0, 0xE8, 0x07] (seq 42, `Heartbeat` = variant 0,
     // t_us = 1000 as a varint). Version 6 put the session after the sequence number.
     assert_eq!(
         frame(7, &Command::Arm),
-        [0, 10, 7, 7, 172, 2, 1, 164, 229, 134, 124, 0]
+        [0, 10, 8, 7, 172, 2, 1, 117, 114, 214, 254, 0]
     );
     assert_eq!(
         frame(42, &Command::Heartbeat { t_us: 1000 }),
-        [0, 5, 7, 42, 172, 2, 7, 232, 7, 251, 145, 225, 233, 0]
+        [0, 5, 8, 42, 172, 2, 7, 232, 7, 18, 225, 169, 31, 0]
     );
 }
 
@@ -116,6 +116,10 @@ fn every_command_and_reply_round_trips_and_fits() {
             sin_rad: f32::MAX,
             cos_rad: f32::MIN,
         }),
+        Command::SetMode(Mode::Guided),
+        Command::GuidedTarget {
+            pos_m: [f32::MAX, f32::MIN, f32::MAX],
+        },
     ];
     for (i, cmd) in commands.iter().enumerate() {
         let f = frame(u16::MAX - i as u16, cmd);
@@ -135,6 +139,10 @@ fn every_command_and_reply_round_trips_and_fits() {
         faults: u16::MAX,
         nav,
         nav_pos_std_m: [f32::MAX; 3],
+        dvl: DvlReport {
+            t_us: u64::MAX,
+            velocity_m_s: [f32::MAX, f32::MIN],
+        },
         ..Telemetry::default()
     });
     let f = encode(u32::MAX, 1, &t, &mut out).unwrap().to_vec();

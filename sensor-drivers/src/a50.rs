@@ -10,7 +10,7 @@
 //!   lock), altitude (m), figure of merit (m/s), the 3x3 velocity covariance ((m/s)^2, nine
 //!   entries separated by `;`), time of validity and time of transmission (Unix time in
 //!   microseconds), time since the previous report (ms), status (bit 0: high temperature).
-//! - `wrp`: dead-reckoning report: time stamp (Unix s), x, y, z (m), position standard
+//! - `wrp`: dead-reckoning report: time stamp (Unix s, read to the microsecond), x, y, z (m), position standard
 //!   deviation (m), roll, pitch, yaw (degrees), status (0 good, 1 not).
 //!
 //! The fixed-point fields must carry their documented number of decimals (see [`parse`]).
@@ -19,9 +19,10 @@
 //! come back as [`Report::Other`] with their letter; the vehicle uses only `wrz`.
 //!
 //! [`VelocityGate`] then decides whether a checked velocity report may reach the estimator:
-//! invalid (no bottom lock) or a figure of merit above the threshold is refused.
+//! invalid (no bottom lock), inconsistent (an asymmetric covariance, a negative variance or
+//! valid altitude) or a figure of merit above the threshold is refused.
 
-use crate::fields::{split_checksum, trim_line_end, FieldError, Fields};
+use crate::fields::{fixed_point, split_checksum, trim_line_end, FieldError, Fields};
 use crc::{Crc, CRC_8_SMBUS};
 
 /// The A50's CRC-8 (polynomial 0x07, init 0x00, no reflection, xorout 0x00).
@@ -76,11 +77,34 @@ pub struct VelocityReport {
     pub status: u8,
 }
 
+impl VelocityReport {
+    /// `true` when the covariance is one and a valid report's altitude is not negative. A
+    /// covariance is symmetric, its variances are not negative, and each covariance is
+    /// bounded by its two variances (`c_ij^2 <= c_ii c_jj`, positive semi-definite); the
+    /// variances stay under [`MAX_SPEED_M_S`] squared, as the velocities do. Not a parser
+    /// check: the documentation's own example has an asymmetric covariance
+    /// (`1e-07;0;1.4;0;1.2;0;0.2;0;1e+09`) and must decode; [`VelocityGate`] applies it
+    /// before the estimator.
+    pub fn is_consistent(&self) -> bool {
+        let c = &self.covariance;
+        let at = |i: usize| c.get(i).copied().unwrap_or(f32::NAN);
+        let max_var = MAX_SPEED_M_S * MAX_SPEED_M_S;
+        let variances = [0, 4, 8].iter().all(|&i| (0.0..=max_var).contains(&at(i)));
+        // (off-diagonal index, its mirror, the two variances' indices)
+        let pairs = [(1, 3, 0, 4), (2, 6, 0, 8), (5, 7, 4, 8)];
+        let covariances = pairs
+            .iter()
+            .all(|&(a, b, i, j)| at(a) == at(b) && at(a) * at(a) <= at(i) * at(j));
+        variances && covariances && (!self.valid || self.altitude_m >= 0.0)
+    }
+}
+
 /// One `wrp` dead-reckoning report, exactly as sent.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DeadReckoningReport {
-    /// Time stamp of the report (Unix time, s).
-    pub time_s: f64,
+    /// Time stamp of the report (Unix time, microseconds; sent in seconds with up to six
+    /// decimals, read as an integer so that no software `f64` runs on the MCU).
+    pub time_us: u64,
     /// Position from the start of the dead-reckoning run: x, y, z (down) (m).
     pub position_m: [f32; 3],
     /// Standard deviation of the position (m).
@@ -133,6 +157,9 @@ pub fn parse(line: &[u8]) -> Result<Report, FrameError> {
     match covered {
         [b'w', b'r', b'z', b',', body @ ..] => parse_wrz(body).map(Report::Velocity),
         [b'w', b'r', b'p', b',', body @ ..] => parse_wrp(body).map(Report::DeadReckoning),
+        // A velocity or dead-reckoning letter not followed by its fields is a corrupted
+        // report, not another kind.
+        [b'w', b'r', b'z' | b'p', ..] => Err(FrameError::NoStart),
         [b'w', b'r', letter, ..] => Ok(Report::Other(*letter)),
         _ => Err(FrameError::NoStart),
     }
@@ -187,7 +214,7 @@ fn parse_wrz(body: &[u8]) -> Result<VelocityReport, FrameError> {
 
 fn parse_wrp(body: &[u8]) -> Result<DeadReckoningReport, FrameError> {
     let mut f = Fields::new(body, b',');
-    let time_s = f.next_f64()?;
+    let time_us = time_us(f.next_str()?).ok_or(FieldError::Malformed(0))?;
     let position_m = [f.next_f32()?, f.next_f32()?, f.next_f32()?];
     let position_std_m = f.next_f32()?;
     let attitude_deg = [f.next_f32()?, f.next_f32()?, f.next_f32()?];
@@ -197,7 +224,7 @@ fn parse_wrp(body: &[u8]) -> Result<DeadReckoningReport, FrameError> {
         return Err(FrameError::OutOfRange);
     }
     Ok(DeadReckoningReport {
-        time_s,
+        time_us,
         position_m,
         position_std_m,
         attitude_deg,
@@ -205,11 +232,26 @@ fn parse_wrp(body: &[u8]) -> Result<DeadReckoningReport, FrameError> {
     })
 }
 
+/// Seconds printed with one to six decimals (`49056.809`) as microseconds.
+fn time_us(s: &str) -> Option<u64> {
+    let decimals = s.len().checked_sub(s.find('.')?.checked_add(1)?)?;
+    let scale = 10_u64.checked_pow(6_u32.checked_sub(u32::try_from(decimals).ok()?)?)?;
+    let (units, negative) = fixed_point(s, decimals)?;
+    if negative || decimals == 0 {
+        return None;
+    }
+    units.checked_mul(scale)
+}
+
 /// Why a checked velocity report does not reach the estimator.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Refusal {
     /// `valid` is `n`: no bottom lock. The estimator sees a DVL gap.
     NoBottomLock,
+    /// The report contradicts itself: a covariance that is not symmetric or has a negative
+    /// variance, or an altitude marked valid that is negative. The CRC-8 passes 1 in 256
+    /// deleted or inserted bytes; most of those in the covariance show here.
+    Inconsistent,
     /// The figure of merit is above the gate's threshold.
     PoorFigureOfMerit {
         /// The report's figure of merit (m/s).
@@ -246,6 +288,9 @@ impl VelocityGate {
                 fom_m_s: r.fom_m_s,
                 max_m_s: self.max_fom_m_s,
             });
+        }
+        if !r.is_consistent() {
+            return Err(Refusal::Inconsistent);
         }
         Ok(*r)
     }

@@ -63,31 +63,48 @@ impl<'a> Fields<'a> {
         Ok(s.trim_matches(' '))
     }
 
+    /// The next field padded to exactly `width` bytes, as fixed-width formats print it:
+    /// spaces, then the value without blanks. The value's text, or `Malformed`.
+    pub fn next_padded(&mut self, width: usize) -> Result<&'a str, FieldError> {
+        let idx = self.index;
+        let raw = self.next_raw()?;
+        let value = raw
+            .iter()
+            .position(|&b| b != b' ')
+            .and_then(|start| raw.get(start..))
+            .filter(|v| raw.len() == width && !v.contains(&b' '))
+            .ok_or(FieldError::Malformed(idx))?;
+        core::str::from_utf8(value).map_err(|_| FieldError::Malformed(idx))
+    }
+
     /// The next field as a finite `f32`.
     pub fn next_f32(&mut self) -> Result<f32, FieldError> {
         let idx = self.index;
         parse_f32(self.next_str()?).ok_or(FieldError::Malformed(idx))
     }
 
+    /// The next field as a fixed-point decimal printed with exactly `decimals` digits after
+    /// the point (an optional `-`, digits without a superfluous leading zero, `.`,
+    /// `decimals` digits): its value times 10^`decimals` and whether it had a minus sign.
+    /// Integer arithmetic only (no software floating point on an FPU-less or f32-only MCU).
+    pub fn next_fixed(&mut self, decimals: usize) -> Result<(u64, bool), FieldError> {
+        let idx = self.index;
+        fixed_point(self.next_str()?, decimals).ok_or(FieldError::Malformed(idx))
+    }
+
     /// The next field as a finite `f32` printed with exactly `decimals` digits after the
-    /// point (an optional sign, digits, `.`, `decimals` digits).
+    /// point (see [`Fields::next_fixed`]). The value is the integer over 10^`decimals`, both
+    /// exact in `f32` up to 2^24 and 10^10, so the one rounded division gives the nearest
+    /// `f32`, as `f32::from_str` does; larger values go through `f32::from_str`.
     pub fn next_fixed_f32(&mut self, decimals: usize) -> Result<f32, FieldError> {
         let idx = self.index;
         let s = self.next_str()?;
-        let digits = s.strip_prefix(['+', '-']).unwrap_or(s);
-        let ok = match digits.split_once('.') {
-            Some((int, frac)) => {
-                !int.is_empty()
-                    && int.bytes().all(|b| b.is_ascii_digit())
-                    && frac.len() == decimals
-                    && frac.bytes().all(|b| b.is_ascii_digit())
-            }
-            None => false,
+        let (units, negative) = fixed_point(s, decimals).ok_or(FieldError::Malformed(idx))?;
+        let magnitude = match POW10_F32.get(decimals) {
+            Some(&scale) if units < (1 << 24) => units as f32 / scale,
+            _ => parse_f32(s.strip_prefix('-').unwrap_or(s)).ok_or(FieldError::Malformed(idx))?,
         };
-        if !ok {
-            return Err(FieldError::Malformed(idx));
-        }
-        parse_f32(s).ok_or(FieldError::Malformed(idx))
+        Ok(if negative { -magnitude } else { magnitude })
     }
 
     /// The next field as a finite `f64`.
@@ -120,6 +137,46 @@ impl<'a> Fields<'a> {
             Some(_) => Err(FieldError::Extra),
         }
     }
+}
+
+/// Powers of ten exact in `f32` (10^10 = 2^10 x 9,765,625, under 2^24 x 2^10).
+const POW10_F32: [f32; 11] = [
+    1.0,
+    10.0,
+    100.0,
+    1_000.0,
+    10_000.0,
+    100_000.0,
+    1_000_000.0,
+    10_000_000.0,
+    100_000_000.0,
+    1_000_000_000.0,
+    10_000_000_000.0,
+];
+
+/// `s` as `[-] digits . decimals-digits`, as C's `%.Nf` prints it: the digits as one
+/// integer and whether the sign was `-`. `None` for anything else: a `+`, no digit before
+/// the point, a leading zero before another digit (`01.250`), another count of decimals, or
+/// more than 19 digits.
+pub fn fixed_point(s: &str, decimals: usize) -> Option<(u64, bool)> {
+    let (negative, digits) = match s.as_bytes() {
+        [b'-', rest @ ..] => (true, rest),
+        rest => (false, rest),
+    };
+    let point = digits.iter().position(|&b| b == b'.')?;
+    let (int, frac) = digits.split_at(point);
+    let frac = frac.get(1..)?;
+    if int.is_empty() || frac.len() != decimals || matches!(int, [b'0', _, ..]) {
+        return None;
+    }
+    let mut units = 0_u64;
+    for &b in int.iter().chain(frac) {
+        if !b.is_ascii_digit() {
+            return None;
+        }
+        units = units.checked_mul(10)?.checked_add(u64::from(b - b'0'))?;
+    }
+    Some((units, negative))
 }
 
 /// Characters a decimal number in these formats may contain: digits, sign, point, exponent.

@@ -3,8 +3,12 @@
 //!
 //! One ensemble is a group of lines, each `:` + two letters + comma-separated fields + CR LF;
 //! fields are padded with spaces to fixed widths. PD6 has **no checksum**: a corrupted digit
-//! is a different valid number, so only the syntax, the status letters and the ranges below
-//! can refuse a line. Velocities are integers in mm/s; -32768 means "no value".
+//! is a different valid number. What the format allows is checked: each field's width (the
+//! `±XXXXX` and `DDDD.DD` of the definitions below, so a deleted or inserted character is
+//! refused), its sign and decimals, the ranges, and across one ensemble the velocity groups
+//! that are good agreeing in magnitude ([`BottomTrack::frames_agree`]: the ship and earth
+//! frames are rotations of the instrument frame). Velocities are integers in mm/s; -32768
+//! means "no value".
 //!
 //! - `:BI,±XXXXX,±YYYYY,±ZZZZZ,±EEEEE,S`: bottom-track velocity in the instrument (Water
 //!   Linked: vehicle) frame, x, y, z and error velocity, status `A` good / `V` bad.
@@ -21,7 +25,7 @@
 //! returned as [`Line::Other`]. [`Ensemble`] collects one ensemble's bottom-track lines
 //! and completes it at `:BD`, the last bottom-track line of an ensemble.
 
-use crate::fields::{trim_line_end, FieldError, Fields};
+use crate::fields::{fixed_point, parse_int, trim_line_end, FieldError, Fields};
 
 /// The value PD6 sends for a velocity it does not have.
 pub const MISSING_MM_S: i32 = -32768;
@@ -130,9 +134,13 @@ pub fn parse(line: &[u8]) -> Result<Line, Pd6Error> {
     }
 }
 
-/// A velocity in mm/s to m/s; `None` for -32768.
+/// A velocity in mm/s (`±XXXXX`: six characters, the sign always printed) to m/s; `None`
+/// for -32768.
 fn velocity(f: &mut Fields<'_>) -> Result<Option<f32>, Pd6Error> {
-    let mm_s: i32 = f.next_int()?;
+    let idx = f.index();
+    let mm_s = signed_units(f.next_padded(6)?, 0, true)
+        .and_then(|v| i32::try_from(v).ok())
+        .ok_or(FieldError::Malformed(idx))?;
     match mm_s {
         MISSING_MM_S => Ok(None),
         -32767..=32767 => Ok(Some(mm_s as f32 / 1000.0)),
@@ -153,19 +161,45 @@ fn velocity_group(body: &[u8], with_error: bool) -> Result<VelocityGroup, Pd6Err
     })
 }
 
+/// A fixed-width field `width` wide with `decimals` decimals (a sign first when `signed`;
+/// `-` refused otherwise): its value in units of 10^-`decimals`.
+fn fixed(f: &mut Fields<'_>, width: usize, decimals: usize, signed: bool) -> Result<i64, Pd6Error> {
+    let idx = f.index();
+    let text = f.next_padded(width)?;
+    signed_units(text, decimals, signed).ok_or(Pd6Error::Field(FieldError::Malformed(idx)))
+}
+
+/// `text` as `[±]digits[.decimals]` with the sign required when `signed` and absent
+/// otherwise: its value in units of 10^-`decimals`.
+fn signed_units(text: &str, decimals: usize, signed: bool) -> Option<i64> {
+    let (negative, digits) = match (signed, text.as_bytes()) {
+        (true, [b'+', rest @ ..]) => (false, rest),
+        (true, [b'-', rest @ ..]) => (true, rest),
+        (false, rest @ [b'0'..=b'9', ..]) => (false, rest),
+        _ => return None,
+    };
+    let digits = core::str::from_utf8(digits).ok()?;
+    let units = if decimals == 0 {
+        if matches!(digits.as_bytes(), [b'0', _, ..]) || digits.is_empty() {
+            return None;
+        }
+        parse_int::<i64>(digits).filter(|_| digits.bytes().all(|b| b.is_ascii_digit()))?
+    } else {
+        i64::try_from(fixed_point(digits, decimals)?.0).ok()?
+    };
+    Some(if negative { -units } else { units })
+}
+
 fn bottom_distance(body: &[u8]) -> Result<BottomDistance, Pd6Error> {
     let mut f = Fields::new(body, b',');
-    let distance_m = [f.next_f64()?, f.next_f64()?, f.next_f64()?];
-    let range_to_bottom_m = f.next_f32()?;
-    let since_good_s = f.next_f32()?;
-    f.end()?;
-    // Field widths: 8 integer digits for distances, DDDD.DD, TTT.TT.
-    let ok = distance_m.iter().all(|d| d.abs() < 1e8)
-        && (0.0..10_000.0).contains(&range_to_bottom_m)
-        && (0.0..1_000.0).contains(&since_good_s);
-    if !ok {
-        return Err(Pd6Error::OutOfRange);
+    // `±EEEEEEEE.EE` x 3, `DDDD.DD`, `TTT.TT`: the widths bound the ranges.
+    let mut distance_m = [0.0_f64; 3];
+    for d in distance_m.iter_mut() {
+        *d = fixed(&mut f, 12, 2, true)? as f64 / 100.0;
     }
+    let range_to_bottom_m = fixed(&mut f, 7, 2, false)? as f32 / 100.0;
+    let since_good_s = fixed(&mut f, 6, 2, false)? as f32 / 100.0;
+    f.end()?;
     Ok(BottomDistance {
         distance_m,
         range_to_bottom_m,
@@ -176,7 +210,7 @@ fn bottom_distance(body: &[u8]) -> Result<BottomDistance, Pd6Error> {
 fn timing_scaling(body: &[u8]) -> Result<TimingScaling, Pd6Error> {
     let mut f = Fields::new(body, b',');
     let stamp_idx = f.index();
-    let stamp_text = f.next_str()?.as_bytes();
+    let stamp_text = f.next_padded(14)?.as_bytes();
     let mut stamp = [0_u8; 7];
     if stamp_text.len() != 14 {
         return Err(FieldError::Malformed(stamp_idx).into());
@@ -187,11 +221,14 @@ fn timing_scaling(body: &[u8]) -> Result<TimingScaling, Pd6Error> {
             _ => return Err(FieldError::Malformed(stamp_idx).into()),
         };
     }
-    let salinity_ppt = f.next_f32()?;
-    let temperature_c = f.next_f32()?;
-    let depth_m = f.next_f32()?;
-    let speed_of_sound_m_s = f.next_f32()?;
-    let bit = f.next_int::<u16>()?;
+    // `SS.S`, `±TT.T`, `DDDD.D`, `CCCC.C`, `BBB`.
+    let salinity_ppt = fixed(&mut f, 4, 1, false)? as f32 / 10.0;
+    let temperature_c = fixed(&mut f, 5, 1, true)? as f32 / 10.0;
+    let depth_m = fixed(&mut f, 6, 1, false)? as f32 / 10.0;
+    let speed_of_sound_m_s = fixed(&mut f, 6, 1, false)? as f32 / 10.0;
+    let bit_idx = f.index();
+    let bit = u16::try_from(fixed(&mut f, 3, 0, false)?)
+        .map_err(|_| Pd6Error::Field(FieldError::Malformed(bit_idx)))?;
     f.end()?;
     let [_, month, day, hour, minute, second, _] = stamp;
     let ok = (1..=12).contains(&month)
@@ -229,11 +266,49 @@ pub struct BottomTrack {
     pub timing: Option<TimingScaling>,
 }
 
+/// Largest difference of speed between two good velocity groups of one ensemble (m/s):
+/// each component is printed to 1 mm/s, so a rotation of the same velocity differs by at
+/// most sqrt(3) x 1 mm/s after rounding.
+pub const FRAMES_AGREE_M_S: f32 = 0.0018;
+
 impl BottomTrack {
-    /// The instrument-frame velocity (m/s) when `:BI` came, is good and complete.
+    /// The instrument-frame velocity (m/s) when `:BI` came, is good and complete, and the
+    /// other good groups agree with it ([`BottomTrack::frames_agree`]).
     pub fn instrument_velocity_m_s(&self) -> Option<[f32; 3]> {
-        self.instrument.as_ref().and_then(VelocityGroup::usable)
+        self.instrument
+            .as_ref()
+            .and_then(VelocityGroup::usable)
+            .filter(|_| self.frames_agree())
     }
+
+    /// `true` when the good, complete velocity groups (`:BI`, `:BS`, `:BE`) have the same
+    /// speed within [`FRAMES_AGREE_M_S`]: the ship and earth frames are rotations of the
+    /// instrument's, so a corrupted digit in one of them shows (not when only one group is
+    /// good, nor a digit changed in the same way in all of them).
+    pub fn frames_agree(&self) -> bool {
+        let speed_sq = |g: &Option<VelocityGroup>| {
+            g.as_ref()
+                .and_then(VelocityGroup::usable)
+                .map(|[a, b, c]| a * a + b * b + c * c)
+        };
+        let squares = [
+            speed_sq(&self.instrument),
+            speed_sq(&self.ship),
+            speed_sq(&self.earth),
+        ];
+        let mut good = squares.iter().flatten();
+        let Some(&first) = good.next() else {
+            return true;
+        };
+        good.all(|&other| speeds_agree(first, other))
+    }
+}
+
+/// `|sqrt(a) - sqrt(b)| <= FRAMES_AGREE_M_S` for squared speeds `a`, `b`, without a square
+/// root (none in `core`): `(sa - sb)^2 <= t^2` is `a + b - t^2 <= 2 sa sb`.
+fn speeds_agree(a: f32, b: f32) -> bool {
+    let lhs = a + b - FRAMES_AGREE_M_S * FRAMES_AGREE_M_S;
+    lhs <= 0.0 || lhs * lhs <= 4.0 * a * b
 }
 
 /// Collects the lines of one ensemble; `:BD` completes it.

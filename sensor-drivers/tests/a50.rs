@@ -64,22 +64,22 @@ fn every_documented_line_ending_is_accepted() {
 /// The two dead-reckoning examples (wrp).
 #[test]
 fn documented_wrp_examples_decode() {
-    let cases: [(&[u8], f64, [f32; 3]); 2] = [
+    let cases: [(&[u8], u64, [f32; 3]); 2] = [
         (
             b"wrp,49056.809,0.41,0.15,1.23,0.4,53.9,13.0,19.3,0*de",
-            49056.809,
+            49_056_809_000,
             [0.41, 0.15, 1.23],
         ),
         (
             b"wrp,49057.269,0.39,0.18,1.23,0.4,53.9,13.0,19.3,0*e2",
-            49057.269,
+            49_057_269_000,
             [0.39, 0.18, 1.23],
         ),
     ];
     for (line, t, p) in cases {
         match parse(line) {
             Ok(Report::DeadReckoning(d)) => {
-                assert_eq!(d.time_s, t);
+                assert_eq!(d.time_us, t);
                 assert_eq!(d.position_m, p);
                 assert_eq!(d.position_std_m, 0.4);
                 assert_eq!(d.attitude_deg, [53.9, 13.0, 19.3]);
@@ -264,4 +264,31 @@ fn the_gate_refuses_no_lock_and_a_poor_figure_of_merit() {
         max_fom_m_s: f32::NAN,
     };
     assert!(nan_gate.admit(&good).is_err());
+}
+
+/// A covariance that is not one (asymmetric, a negative variance) or a valid report with
+/// a negative altitude: a digit lost in transit that the CRC-8 let through.
+#[test]
+fn the_gate_refuses_a_report_that_contradicts_itself() {
+    let gate = VelocityGate::default();
+    let body = |cov: &str, alt: &str| {
+        format!("0.100,0.200,0.000,y,{alt},0.010,{cov},1700000000000000,1700000000050000,100.00,0")
+    };
+    let sym = "1e-4;2e-5;0;2e-5;1e-4;3e-6;0;3e-6;1e-4";
+    assert!(gate.admit(&velocity(&wrz(&body(sym, "1.00")))).is_ok());
+    for (cov, alt) in [
+        ("1e-4;2e-5;0;2e-6;1e-4;3e-6;0;3e-6;1e-4", "1.00"),
+        ("1e-4;2e-5;1e-5;2e-5;1e-4;3e-6;0;3e-6;1e-4", "1.00"),
+        ("1e-4;2e-5;0;2e-5;1e-4;3e-6;0;3e-5;1e-4", "1.00"),
+        ("-1e-4;2e-5;0;2e-5;1e-4;3e-6;0;3e-6;1e-4", "1.00"),
+        ("1e-4;2e-5;0;2e-5;1e-4;3e-6;0;3e-6;1e4", "1.00"),
+        ("1e-4;2e-3;0;2e-3;1e-4;3e-6;0;3e-6;1e-4", "1.00"),
+        (sym, "-1.00"),
+    ] {
+        assert_eq!(
+            gate.admit(&velocity(&wrz(&body(cov, alt)))),
+            Err(Refusal::Inconsistent),
+            "{cov} {alt}"
+        );
+    }
 }

@@ -126,26 +126,29 @@ fn missing_values_and_bad_status_are_not_usable() {
 #[test]
 fn malformed_lines_are_refused() {
     let cases: [(&[u8], Pd6Error); 9] = [
-        (b"BI,+123,-420,+2000,+0,A", Pd6Error::NoStart),
-        (b":bi,+123,-420,+2000,+0,A", Pd6Error::NoStart),
+        (b"BI,  +123,  -420, +2000,    +0,A", Pd6Error::NoStart),
+        (b":bi,  +123,  -420, +2000,    +0,A", Pd6Error::NoStart),
         (
-            b":BI,+123,-420,+2000,+0,X",
+            b":BI,  +123,  -420, +2000,    +0,X",
             Pd6Error::Field(FieldError::Malformed(4)),
         ),
         (
-            b":BI,+123,-420,+2000,A",
+            b":BI,  +123,  -420, +2000,A",
             Pd6Error::Field(FieldError::Malformed(3)),
         ),
         (
-            b":BS,+123,-420,+2000,A,A",
+            b":BS,  +123,  -420, +2000,A,A",
             Pd6Error::Field(FieldError::Extra),
         ),
-        (b":BI,+123,-420,+40000,+0,A", Pd6Error::OutOfRange),
+        (b":BI,  +123,  -420,+40000,    +0,A", Pd6Error::OutOfRange),
         (
-            b":BI,+1.5,-420,+2000,+0,A",
+            b":BI,  +1.5,  -420, +2000,    +0,A",
             Pd6Error::Field(FieldError::Malformed(0)),
         ),
-        (b":BD,+0.00,+0.00,+0.00,-5.32,0.00", Pd6Error::OutOfRange),
+        (
+            b":BD,       +0.00,       +0.00,       +0.00,  -5.32,  0.00",
+            Pd6Error::Field(FieldError::Malformed(3)),
+        ),
         (
             b":TS,22130812061800, 0.0, +0.0,   0.0,1475.0,  0",
             Pd6Error::OutOfRange,
@@ -156,4 +159,64 @@ fn malformed_lines_are_refused() {
     }
     assert!(parse(b":TS,2202081206180, 0.0, +0.0,   0.0,1475.0,  0").is_err());
     assert!(parse(b":BD,+nan,+0.00,+0.00,5.32,0.00").is_err());
+}
+
+/// The fixed widths and layouts of the definitions: a character deleted or inserted, a
+/// sign missing or added, decimals changed are refused.
+#[test]
+fn fields_off_their_width_or_layout_are_refused() {
+    for line in [
+        ":BI,+123,-420,+2000,+0,A",
+        ":BI,  +123,  -420, +2000,   +0,A",
+        ":BI,   +123,  -420, +2000,    +0,A",
+        ":BI,   123,  -420, +2000,    +0,A",
+        ":BI,  +1 3,  -420, +2000,    +0,A",
+        ":BI, +0123,  -420, +2000,    +0,A",
+        ":BS,  -420,  +123,+ 2000,A",
+        ":BD,       +0.00,       +0.00,        0.00,   5.32,  0.00",
+        ":BD,       +0.00,       +0.00,       +0.00,   5.3,  0.00",
+        ":BD,       +0.00,       +0.00,       +0.00,    5.32,  0.00",
+        ":BD,       +0.00,       +0.00,       +0.00,   5.32, 0.00",
+        ":TS,22020812061800,  0.0, +0.0,   0.0,1475.0,  0",
+        ":TS,22020812061800, 0.0,  0.0,   0.0,1475.0,  0",
+        ":TS,22020812061800, 0.0, +0.0,   0.0,1475.00,  0",
+        ":TS,22020812061800, 0.0, +0.0,   0.0,1475.0,   0",
+    ] {
+        assert!(parse(line.as_bytes()).is_err(), "{line}");
+    }
+}
+
+/// Across an ensemble: the good velocity groups must have the same speed (the ship and
+/// earth frames are rotations of the instrument frame); a changed digit in one shows.
+#[test]
+fn an_ensemble_whose_frames_disagree_gives_no_velocity() {
+    let collect = |lines: &[&str]| {
+        let mut e = Ensemble::new();
+        let mut out = None;
+        for l in lines {
+            out = e.push(parse(l.as_bytes()).unwrap()).or(out);
+        }
+        out.unwrap()
+    };
+    let bd = ":BD,       +0.00,       +0.00,       +0.00,   5.32,  0.00";
+    let good = collect(&[
+        ":BI,  +123,  -420, +2000,    +0,A",
+        ":BS,  -420,  +123, +2000,A",
+        ":BE,  +300,  +310, +2000,A",
+        bd,
+    ]);
+    // |(123, -420, 2000)| = 2047.3 mm/s, |(300, 310, 2000)| = 2046.0: within rounding.
+    assert!(good.frames_agree());
+    assert!(good.instrument_velocity_m_s().is_some());
+    let corrupted = collect(&[
+        ":BI,  +123,  -420, +2900,    +0,A",
+        ":BS,  -420,  +123, +2000,A",
+        ":BE,    +0,    +0,    +0,V",
+        bd,
+    ]);
+    assert!(!corrupted.frames_agree());
+    assert_eq!(corrupted.instrument_velocity_m_s(), None);
+    // One good group: nothing to compare with.
+    let alone = collect(&[":BI,  +123,  -420, +2900,    +0,A", bd]);
+    assert!(alone.frames_agree());
 }

@@ -42,6 +42,7 @@ where
                 .autopilot
                 .onboard_nav()
                 .map_or([0.0; 3], |o| o.position_std_m()),
+            dvl: self.autopilot.last_dvl(),
         }
     }
 

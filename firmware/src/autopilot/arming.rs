@@ -115,7 +115,11 @@ impl Autopilot {
             return Err(NackReason::NavStale);
         }
         // A position mode waits for the on-board estimate to be ready.
-        if let (Mode::Auto | Mode::Hold | Mode::Track { .. }, Some(o)) = (mode, &self.onboard) {
+        let position_mode = matches!(
+            mode,
+            Mode::Auto | Mode::Hold | Mode::Guided | Mode::Track { .. }
+        );
+        if let (true, Some(o)) = (position_mode, &self.onboard) {
             o.position_ready().map_err(NackReason::NavNotReady)?;
         }
         let s = self.nav_state();
@@ -136,7 +140,10 @@ impl Autopilot {
                     return Err(NackReason::NoReference);
                 }
             }
-            Mode::Hold => self.hold = Some((Reference::Hold { pos_m: here_m }, now_us)),
+            // GUIDED holds here until its first target.
+            Mode::Hold | Mode::Guided => {
+                self.hold = Some((Reference::Hold { pos_m: here_m }, now_us))
+            }
             Mode::Surface => self.surface = super::SurfacePhase::Ascent,
             Mode::Idle | Mode::Manual | Mode::Stabilize | Mode::DepthHold => {}
         }

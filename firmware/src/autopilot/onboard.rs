@@ -2,7 +2,7 @@
 //! compass calibration it uses.
 
 use super::{check_nav, Autopilot};
-use crate::protocol::{Command, NackReason};
+use crate::protocol::{Command, DvlReport, NackReason};
 use controller_core::nav::compass_cal::CompassCalibration;
 use controller_core::nav::onboard::OnboardNav;
 use controller_core::nav::Refusal;
@@ -64,7 +64,19 @@ impl Autopilot {
                 self.feed(seq, |o, _| o.pressure(now_us, *t_us, *pressure_pa))
             }
             Command::UsblFix(f) => self.feed(seq, |o, _| o.position(f)),
-            Command::DvlFix(f) => self.feed(seq, |o, _| o.dvl(f)),
+            Command::DvlFix(f) => {
+                let r = self.feed(seq, |o, _| o.dvl(f));
+                // A sound measurement is recorded even when the estimator's gate refuses it
+                // (`Outlier`: its model disagrees, which is what a log for identifying the
+                // model must keep); a broken or mistimed one is not.
+                if matches!(r, Ok(()) | Err(NackReason::NavRefused(Refusal::Outlier))) {
+                    self.last_dvl = DvlReport {
+                        t_us: f.t_us,
+                        velocity_m_s: f.velocity_m_s,
+                    };
+                }
+                r
+            }
             // The raw reading to a turn (the estimator takes the calibration off its copy).
             Command::Compass(f) => self.feed_swing(seq, f.yaw_rad, None, |o, _| o.heading(f)),
             Command::SetCompassCal(cal) => self.set_compass_calibration(cal),
@@ -92,5 +104,12 @@ impl Autopilot {
     /// The compass calibration in force.
     pub fn compass_calibration(&self) -> CompassCalibration {
         self.compass_cal
+    }
+
+    /// The latest sound DVL velocity the on-board estimator was given (fused, or refused only
+    /// by its outlier gate), as the instrument measured it (zeros before the first): the
+    /// telemetry's record of the vehicle's own speed.
+    pub fn last_dvl(&self) -> DvlReport {
+        self.last_dvl
     }
 }

@@ -40,7 +40,9 @@ pub struct DvlStats {
     pub bad_checksum: u32,
     /// Lines refused for their framing or fields (no `wr`, no checksum, a malformed or
     /// out-of-range field, a transmission before its validity or more than
-    /// `a50::MAX_LATENCY_US` after it).
+    /// `a50::MAX_LATENCY_US` after it), or reports that contradict themselves
+    /// (`a50::Refusal::Inconsistent`: an asymmetric covariance, a negative variance or
+    /// valid altitude).
     pub malformed: u32,
     /// Velocity reports marked invalid (no bottom lock).
     pub no_lock: u32,
@@ -164,6 +166,10 @@ impl<U: Read + ReadReady> DvlPort<U> {
             }
             Err(Refusal::PoorFigureOfMerit { .. }) => {
                 bump(&mut stats.poor_fom);
+                return None;
+            }
+            Err(Refusal::Inconsistent) => {
+                bump(&mut stats.malformed);
                 return None;
             }
         };

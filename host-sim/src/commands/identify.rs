@@ -57,9 +57,19 @@ pub fn read_log(log: &Path) -> Result<Record> {
             _ => None,
         });
         let t = tether_record::from_telemetry(telemetry, frames.dropped, &path)?;
+        let velocity = match t.velocity {
+            tether_record::VelocitySource::Dvl { reports } => {
+                format!("surge and sway from {reports} DVL reports")
+            }
+            tether_record::VelocitySource::Estimate => {
+                "no DVL report: surge and sway from the on-board estimate, which is \
+                 model-aided with the prior (the surge values lean toward it)"
+                    .to_string()
+            }
+        };
         println!(
             "{}: the vehicle's telemetry, {} samples ({} lost frames filled, {} undecodable \
-             frames in the log)",
+             frames in the log); {velocity}",
             path.display(),
             t.record.samples.len(),
             t.filled,

@@ -117,18 +117,33 @@ pub fn exits_at_duration(mut child: Child, timeout: std::time::Duration) {
 }
 
 /// The `rov-topside` binary of this build profile, built if needed (`cargo test --workspace`
-/// builds it; a test run alone with `-p host-sim` gets it built here, once).
+/// builds it; a test run alone with `-p host-sim` gets it built here, once, with the same
+/// profile).
 pub fn rov_topside() -> PathBuf {
     static BIN: OnceLock<PathBuf> = OnceLock::new();
     BIN.get_or_init(|| {
         let exe = std::env::current_exe().unwrap();
         // <target>/<profile>/deps/<test binary>
         let profile_dir = exe.parent().and_then(Path::parent).unwrap().to_path_buf();
+        // The test profile's folder is `debug` too: `cargo test --workspace` has built the
+        // program there with that profile, which `cargo build` (the dev profile) would
+        // build again, MAVLink's dialect and all.
+        let profile = if profile_dir.file_name().is_some_and(|n| n == "release") {
+            "release"
+        } else {
+            "test"
+        };
         let mut cargo = Command::new(env!("CARGO"));
-        cargo.args(["build", "-q", "-p", "topside", "--bin", "rov-topside"]);
-        if profile_dir.file_name().is_some_and(|n| n == "release") {
-            cargo.arg("--release");
-        }
+        cargo.args([
+            "build",
+            "-q",
+            "--profile",
+            profile,
+            "-p",
+            "topside",
+            "--bin",
+            "rov-topside",
+        ]);
         let ok = cargo
             .current_dir(env!("CARGO_MANIFEST_DIR"))
             .status()

@@ -5,9 +5,12 @@
 
 use host_sim::closed_loop::runner::run;
 use host_sim::closed_loop::{RunOptions, RunOutput};
-use host_sim::commands::current_sweep::{cell, sweep, RMS_BOUND_M};
+use host_sim::commands::current_sweep::{cell, sweep, PATHS, RMS_BOUND_M};
 use host_sim::commands::monte_carlo::{run_batch, McConfig};
 use sim_scenario::Scenario;
+
+use crate::long_emulated::campaign_runs;
+use rayon::prelude::*;
 
 fn fly(name: &str, current_m_s: Option<[f64; 3]>) -> RunOutput {
     let sc = Scenario::load(name).unwrap();
@@ -19,11 +22,25 @@ fn fly(name: &str, current_m_s: Option<[f64; 3]>) -> RunOutput {
     run(&sc.resolve().unwrap(), &opts).unwrap()
 }
 
-/// The sweep: line, circle and lawnmower, 0.1-0.3 m/s from every 30 degrees.
+/// The sweep: line, circle and lawnmower, 0.1-0.3 m/s from every 30 degrees (quick: the
+/// fastest current, 0.3 m/s, from every 90 degrees on each path).
 #[test]
 fn every_current_direction_up_to_0_3_m_s_is_tracked_within_5_cm_rms() {
-    let cells = sweep().unwrap();
-    assert_eq!(cells.len(), 3 * 3 * 12);
+    let full = 3 * 3 * 12;
+    let name = "every_current_direction_up_to_0_3_m_s_is_tracked_within_5_cm_rms";
+    let cells = if campaign_runs("currents", name, full, 12) == full {
+        sweep().unwrap()
+    } else {
+        let quick: Vec<_> = PATHS
+            .iter()
+            .flat_map(|p| [0.0, 90.0, 180.0, 270.0].map(|d| (*p, d)))
+            .collect();
+        quick
+            .par_iter()
+            .map(|&(path, dir)| cell(path, 0.3, dir).unwrap())
+            .collect()
+    };
+    assert!(cells.len() == full || cells.len() == 12);
     for c in &cells {
         eprintln!(
             "{:13} {:.1} m/s from {:3.0} deg: RMS {:5.1} mm, max after 10 s {:5.1} mm",
@@ -59,11 +76,17 @@ fn current_3d_is_tracked_within_2_cm() {
 /// 5 cm, no NaN.
 #[test]
 fn monte_carlo_in_0_1_and_0_2_m_s_currents_keeps_p95_within_5_cm() {
+    let runs = campaign_runs(
+        "currents",
+        "monte_carlo_in_0_1_and_0_2_m_s_currents_keeps_p95_within_5_cm",
+        200,
+        50,
+    );
     for speed in [0.1, 0.2] {
         let mut sc = Scenario::load("mc-circle-3d").unwrap();
         sc.disturbance.current_m_s = [speed, 0.0, 0.0];
         let cfg = McConfig {
-            runs: 200,
+            runs,
             seed: 1,
             perturb: 0.2,
             progress: false,

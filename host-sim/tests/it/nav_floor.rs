@@ -3,6 +3,7 @@
 //! estimator is judged against it. Prints the docs' results table:
 //! `cargo test -p host-sim --release --test nav_floor -- --nocapture --test-threads 1`.
 
+use crate::long_emulated::long_test;
 use host_sim::closed_loop::floor::NavFloor;
 use host_sim::closed_loop::runner::{run, RunOptions, Summary};
 use sim_scenario::Scenario;
@@ -77,6 +78,13 @@ fn measure_seed(label: &str, sc: &Scenario, seed: Option<u64>) -> (Summary, NavF
 /// `cargo test -p host-sim --release --test nav_floor probe -- --nocapture`.
 #[test]
 fn probe_the_issue_rows_filter_floor_ratio_nees() {
+    if !long_test(
+        "nav_floor",
+        "probe_the_issue_rows_filter_floor_ratio_nees",
+        10,
+    ) {
+        return;
+    }
     header();
     for name in ["nav-circle-3d", "nav-lawnmower-3d", "nav-current-3d"] {
         measure(name, &load(name));
@@ -94,6 +102,9 @@ fn probe_the_issue_rows_filter_floor_ratio_nees() {
 /// `cargo test -p host-sim --release --test nav_floor seeds -- --nocapture`.
 #[test]
 fn probe_over_seeds_ratio_and_nees() {
+    if !long_test("nav_floor", "probe_over_seeds_ratio_and_nees", 30) {
+        return;
+    }
     let rows = [
         ("nav-lawnmower-3d", load("nav-lawnmower-3d")),
         ("survey, compass 10 deg", survey_bias(10.0)),

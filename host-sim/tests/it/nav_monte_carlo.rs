@@ -5,6 +5,7 @@
 //! +-5 deg off, with that uncertainty). Figures on the TRUE position, RMS over the last
 //! 80 %.
 
+use crate::long_emulated::campaign_runs;
 use crate::nav_twins;
 
 use host_sim::closed_loop::runner::{run, RunOptions};
@@ -12,7 +13,7 @@ use nav_twins::drawn_run;
 use rayon::prelude::*;
 use sim_scenario::Scenario;
 
-const RUNS: u64 = 200;
+const RUNS: usize = 200;
 
 fn percentile(sorted: &[f64], p: f64) -> f64 {
     let i = ((sorted.len() - 1) as f64 * p).round() as usize;
@@ -22,7 +23,13 @@ fn percentile(sorted: &[f64], p: f64) -> f64 {
 #[test]
 fn two_hundred_surveys_with_drawn_biases_and_start_errors_p95_within_15_cm() {
     let base = Scenario::load("nav-lawnmower-3d").unwrap();
-    let results: Vec<_> = (0..RUNS)
+    let runs = campaign_runs(
+        "nav_monte_carlo",
+        "two_hundred_surveys_with_drawn_biases_and_start_errors_p95_within_15_cm",
+        RUNS,
+        40,
+    ) as u64;
+    let results: Vec<_> = (0..runs)
         .into_par_iter()
         .map(|k| {
             let s = run(
@@ -49,7 +56,7 @@ fn two_hundred_surveys_with_drawn_biases_and_start_errors_p95_within_15_cm() {
     estimation.sort_by(f64::total_cmp);
     let p95 = percentile(&tracking, 0.95);
     println!(
-        "{RUNS} surveys: tracking p50 {:.1} cm, p95 {:.1} cm, max {:.1} cm; estimation p95 {:.1} cm; NaN {nan}, diverged {diverged}, diverged filters {diverged_filters}",
+        "{runs} surveys: tracking p50 {:.1} cm, p95 {:.1} cm, max {:.1} cm; estimation p95 {:.1} cm; NaN {nan}, diverged {diverged}, diverged filters {diverged_filters}",
         100.0 * percentile(&tracking, 0.5),
         100.0 * p95,
         100.0 * tracking[tracking.len() - 1],

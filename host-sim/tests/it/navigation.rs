@@ -2,6 +2,7 @@
 //! issue's numbers. Every tracking figure is the **true** position against the reference;
 //! the estimation figure is the estimate against the truth.
 
+use crate::long_emulated::campaign_runs;
 use host_sim::closed_loop::estimator_nav::EstimatorNav;
 use host_sim::closed_loop::runner::{run, RunOptions, RunOutput, Summary};
 use host_sim::closed_loop::{run_closed_loop, CoreEndpoint};
@@ -210,10 +211,16 @@ fn a_60_s_usbl_dropout_with_dvl_grows_the_error_by_under_1_percent_of_the_distan
 fn monte_carlo_of_the_full_suite_stays_within_twice_the_nominal_p95() {
     let sc = load("nav-circle-3d");
     let nominal = run_sc(&sc, false).summary.rms_position_error_last80_m;
+    let runs = campaign_runs(
+        "navigation",
+        "monte_carlo_of_the_full_suite_stays_within_twice_the_nominal_p95",
+        100,
+        25,
+    );
     let (summary, _) = run_batch(
         &sc.resolve().unwrap(),
         &McConfig {
-            runs: 100,
+            runs,
             seed: 1,
             perturb: 0.2,
             progress: false,
@@ -222,7 +229,7 @@ fn monte_carlo_of_the_full_suite_stays_within_twice_the_nominal_p95() {
     )
     .unwrap();
     println!(
-        "Monte Carlo nav-circle-3d, 100 runs +-20 %: last-80 % RMS p50 {:.1} cm p95 {:.1} cm max {:.1} cm (nominal {:.1} cm); estimation p95 {:.1} cm; NaN {}, diverged {}, diverged filters {}",
+        "Monte Carlo nav-circle-3d, {runs} runs +-20 %: last-80 % RMS p50 {:.1} cm p95 {:.1} cm max {:.1} cm (nominal {:.1} cm); estimation p95 {:.1} cm; NaN {}, diverged {}, diverged filters {}",
         100.0 * summary.rms_position_error_last80_m.p50,
         100.0 * summary.rms_position_error_last80_m.p95,
         100.0 * summary.rms_position_error_last80_m.max,

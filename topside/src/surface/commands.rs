@@ -5,8 +5,6 @@
 use super::params;
 use super::{ardusub_mode, telemetry, StationId, Topside};
 use anyhow::Result;
-use controller_core::controller::ControlMode;
-use controller_core::reference::Reference;
 use mavlink::dialects::ardupilotmega::{
     MavCmd, MavResult, MavSeverity, COMMAND_INT_DATA, COMMAND_LONG_DATA, PARAM_SET_DATA,
 };
@@ -42,43 +40,29 @@ impl Topside {
         let cmd = MavCmd::MAV_CMD_DO_SET_MODE;
         let v = &mut self.v;
         let name = mode_name(custom);
-        let (firmware_mode, reference) = match custom {
-            ardusub_mode::MANUAL => (Mode::Manual, None),
-            ardusub_mode::STABILIZE => (Mode::Stabilize, None),
-            ardusub_mode::ALT_HOLD => (Mode::DepthHold, None),
-            ardusub_mode::POSHOLD => (Mode::Hold, None),
-            ardusub_mode::GUIDED => (
-                Mode::from(ControlMode::Tracking3d),
-                Some(Reference::Hold {
-                    pos_m: [v.state.x_m, v.state.y_m, v.state.z_m],
-                }),
-            ),
-            ardusub_mode::AUTO => (Mode::Auto, None),
+        let firmware_mode = match custom {
+            ardusub_mode::MANUAL => Mode::Manual,
+            ardusub_mode::STABILIZE => Mode::Stabilize,
+            ardusub_mode::ALT_HOLD => Mode::DepthHold,
+            ardusub_mode::POSHOLD => Mode::Hold,
+            ardusub_mode::GUIDED => Mode::Guided,
+            ardusub_mode::AUTO => Mode::Auto,
             other => {
                 let why =
                     format!("Mode {other} refused: no such mode here (offered: {MODES_OFFERED})");
                 return self.refuse(station, cmd, &why);
             }
         };
-        if let Some(reference) = reference {
-            if let Err(why) = v.command(&Command::SetReference {
-                reference,
-                start_us: None,
-            })? {
-                let why = format!("{name} refused: the hold point was refused: {why}");
-                return self.refuse(station, cmd, &why);
-            }
-        }
         match v.command(&Command::SetMode(firmware_mode))? {
             Ok(()) => {
                 // The vehicle took it: shown (and judged, e.g. a mission upload in AUTO) now,
-                // not at its next telemetry.
+                // not at its next telemetry. GUIDED holds where the vehicle is.
                 v.tel.mode = firmware_mode;
-                self.guided = custom == ardusub_mode::GUIDED;
-                self.guided_target = match reference {
-                    Some(Reference::Hold { pos_m }) => Some(pos_m),
-                    _ => None,
-                };
+                self.guided_target = (firmware_mode == Mode::Guided).then_some([
+                    v.state.x_m,
+                    v.state.y_m,
+                    v.state.z_m,
+                ]);
                 self.sticks_seen_centred = false;
                 self.gcs.ack(station, cmd, MavResult::MAV_RESULT_ACCEPTED)
             }
@@ -170,19 +154,11 @@ impl Topside {
             if let Some(why) = self.sticks_refuse_arming()? {
                 return self.refuse(station, command, &why);
             }
-            // Nothing given before arming is flown after it: GUIDED holds where the vehicle
-            // is until a target is sent.
-            if self.guided {
+            // Nothing given before arming is flown after it: the vehicle in GUIDED holds
+            // where it is until a target is sent.
+            if self.guided() {
                 let s = &self.v.state;
-                let hold = [s.x_m, s.y_m, s.z_m];
-                if let Err(why) = self.v.command(&Command::SetReference {
-                    reference: Reference::Hold { pos_m: hold },
-                    start_us: None,
-                })? {
-                    let why = format!("Arming refused: the GUIDED hold point was refused: {why}");
-                    return self.refuse(station, command, &why);
-                }
-                self.guided_target = Some(hold);
+                self.guided_target = Some([s.x_m, s.y_m, s.z_m]);
             }
         }
         match self.v.command(&cmd)? {

@@ -1,5 +1,5 @@
-//! "Go to" as ground stations send it, flown in GUIDED as a point to hold (the vehicle's
-//! `SetReference(Hold)`):
+//! "Go to" as ground stations send it, flown by the vehicle in its GUIDED mode
+//! (`Mode::Guided`: `GuidedTarget`, a point to go to and hold):
 //!
 //! | in | answered |
 //! |---|---|
@@ -16,7 +16,6 @@
 use super::geodesy::{item_position, GlobalOrigin};
 use super::{StationId, Topside};
 use anyhow::Result;
-use controller_core::reference::Reference;
 use controller_core::state::NavState;
 use mavlink::dialects::ardupilotmega::{
     MavCmd, MavFrame, MavMessage, MavMissionResult, MavResult, MavSeverity,
@@ -121,9 +120,15 @@ pub fn global_target(
 }
 
 impl Topside {
+    /// The vehicle is in GUIDED (its own mode, as its telemetry says: a restarted surface
+    /// reads it back).
+    pub(super) fn guided(&self) -> bool {
+        self.v.tel.mode == protocol::Mode::Guided
+    }
+
     /// Whether a target may be flown now: GUIDED and armed; else the reason.
     fn goto_state(&self) -> Option<&'static str> {
-        if !self.guided {
+        if !self.guided() {
             Some("not in GUIDED (switch to GUIDED first)")
         } else if !self.v.tel.armed {
             Some("the vehicle is disarmed (arm in GUIDED, then send the target)")
@@ -132,12 +137,9 @@ impl Topside {
         }
     }
 
-    /// Fly to `pos_m`: the vehicle's hold point, echoed as `POSITION_TARGET_LOCAL_NED`.
+    /// Fly to `pos_m`: the vehicle's GUIDED target, echoed as `POSITION_TARGET_LOCAL_NED`.
     fn fly_to(&mut self, pos_m: [f32; 3]) -> Result<std::result::Result<(), String>> {
-        if let Err(why) = self.v.command(&Command::SetReference {
-            reference: Reference::Hold { pos_m },
-            start_us: None,
-        })? {
+        if let Err(why) = self.v.command(&Command::GuidedTarget { pos_m })? {
             return Ok(Err(format!("the vehicle refused the point: {why}")));
         }
         self.guided_target = Some(pos_m);
@@ -346,7 +348,7 @@ impl Topside {
         let cmd = MavCmd::MAV_CMD_DO_REPOSITION;
         let change_mode =
             flags.is_finite() && (flags as u32) & (REPOSITION_CHANGE_MODE as u32) != 0;
-        if !self.guided && change_mode && self.v.tel.armed {
+        if !self.guided() && change_mode && self.v.tel.armed {
             if let Err(why) = self.enter_guided()? {
                 return self.refuse(station, cmd, &format!("Reposition refused: {why}"));
             }
@@ -378,18 +380,11 @@ impl Topside {
     /// without its acknowledgement.
     fn enter_guided(&mut self) -> Result<std::result::Result<(), String>> {
         let hold = [self.v.state.x_m, self.v.state.y_m, self.v.state.z_m];
-        if let Err(why) = self.v.command(&Command::SetReference {
-            reference: Reference::Hold { pos_m: hold },
-            start_us: None,
-        })? {
-            return Ok(Err(format!("the hold point was refused: {why}")));
-        }
-        let mode = protocol::Mode::from(controller_core::controller::ControlMode::Tracking3d);
+        let mode = protocol::Mode::Guided;
         if let Err(why) = self.v.command(&Command::SetMode(mode))? {
             return Ok(Err(format!("GUIDED refused: {why}")));
         }
         self.v.tel.mode = mode;
-        self.guided = true;
         self.guided_target = Some(hold);
         self.sticks_seen_centred = false;
         Ok(Ok(()))

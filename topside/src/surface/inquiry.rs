@@ -63,7 +63,7 @@ impl Topside {
         let v = &self.v;
         let time_boot_ms = (v.tel.t_us / 1000) as u32;
         Some(match id {
-            ids::HEARTBEAT => telemetry::heartbeat(v, self.guided),
+            ids::HEARTBEAT => telemetry::heartbeat(v),
             ids::SYS_STATUS => telemetry::sys_status(v, self.gcs.stats.not_ours),
             ids::SYSTEM_TIME => MavMessage::SYSTEM_TIME(SYSTEM_TIME_DATA {
                 time_unix_usec: std::time::SystemTime::now()

@@ -112,15 +112,16 @@ pub mod ardusub_mode {
     pub const MANUAL: u32 = 19;
 }
 
-/// The ArduSub mode a firmware mode is shown as.
-fn custom_mode_of(mode: Mode, guided: bool) -> u32 {
+/// The ArduSub mode a firmware mode is shown as (a tracking mode, which no ground station
+/// asks for, as AUTO).
+fn custom_mode_of(mode: Mode) -> u32 {
     match mode {
         Mode::Manual => ardusub_mode::MANUAL,
         Mode::Stabilize => ardusub_mode::STABILIZE,
         Mode::Auto => ardusub_mode::AUTO,
         Mode::DepthHold => ardusub_mode::ALT_HOLD,
         Mode::Hold => ardusub_mode::POSHOLD,
-        Mode::Track { .. } if guided => ardusub_mode::GUIDED,
+        Mode::Guided => ardusub_mode::GUIDED,
         Mode::Track { .. } => ardusub_mode::AUTO,
         Mode::Idle => ardusub_mode::MANUAL,
         Mode::Surface => ardusub_mode::SURFACE,
@@ -158,9 +159,8 @@ struct Topside {
     /// real time).
     manual: ManualThrust,
     manual_at: Option<Instant>,
-    /// GUIDED is shown (the vehicle's `Track` mode entered through GUIDED).
-    guided: bool,
-    /// The point GUIDED holds or goes to (`POSITION_TARGET_LOCAL_NED`).
+    /// The point GUIDED holds or goes to (`POSITION_TARGET_LOCAL_NED`): the latest one the
+    /// vehicle took from this surface (none after a restart until one is sent).
     guided_target: Option<[f32; 3]>,
     /// The streamed messages' rates, each station's own where it set one.
     streams: streams::Streams,
@@ -242,7 +242,7 @@ impl Topside {
             self.missions
                 .tick(&mut self.gcs, &self.v.tel, k.is_multiple_of(per_second))?;
             self.send_streams(k)?;
-            if self.guided && k.is_multiple_of(per_second) {
+            if self.guided() && k.is_multiple_of(per_second) {
                 self.send_position_target()?;
             }
             k += 1;

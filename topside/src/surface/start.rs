@@ -296,7 +296,6 @@ fn run_topside(
         missions: Missions::default(),
         manual: ManualThrust::default(),
         manual_at: None,
-        guided: false,
         guided_target: None,
         streams: Default::default(),
         last_faults: 0,

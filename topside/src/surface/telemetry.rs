@@ -58,13 +58,13 @@ const FAILSAFES: u16 = fault::HEARTBEAT_LOST
     | link_fault::NODE_LINK_LOST;
 
 /// `HEARTBEAT`: ArduSub's type and autopilot, the armed flag, the mode.
-pub(super) fn heartbeat(v: &Vehicle, guided: bool) -> MavMessage {
+pub(super) fn heartbeat(v: &Vehicle) -> MavMessage {
     let mut base = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
     if v.tel.armed {
         base |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
     }
     MavMessage::HEARTBEAT(HEARTBEAT_DATA {
-        custom_mode: custom_mode_of(v.tel.mode, guided),
+        custom_mode: custom_mode_of(v.tel.mode),
         mavtype: MavType::MAV_TYPE_SUBMARINE,
         autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
         base_mode: base,

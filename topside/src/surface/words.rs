@@ -47,6 +47,7 @@ pub fn nack(r: NackReason) -> String {
         N::NotInHold => "only in POSHOLD: switch to POSHOLD first".into(),
         N::DepthLimit => "deeper than the depth limit DEPTH_LIMIT_M".into(),
         N::Health => "a leak or a critical battery: fix it first".into(),
+        N::NotInGuided => "not in GUIDED (switch to GUIDED first)".into(),
         // A reason added to the protocol after this table: said as a plain refusal.
         _ => "refused by the vehicle".into(),
     }
@@ -152,6 +153,7 @@ mod tests {
             N::NotInHold,
             N::DepthLimit,
             N::Health,
+            N::NotInGuided,
             N::NavNotReady(NotReady::PositionUncertain),
             N::NavNotReady(NotReady::HeadingUncertain),
         ];

@@ -27,16 +27,40 @@ pub fn long_runs_wanted() -> bool {
 /// ROV_LONG=... cargo test -p host-sim --test it <module>::<name>)` straight to the terminal
 /// (not captured by the test harness) and does not.
 pub fn long_test(module: &str, name: &str, wall_s: u32) -> bool {
+    long_test_of("it", &format!("{module}::{name}"), wall_s)
+}
+
+/// [`long_test`] for a test of another test binary of host-sim (`binary`), `path` its name
+/// in that binary.
+pub fn long_test_of(binary: &str, path: &str, wall_s: u32) -> bool {
     let all = std::env::var_os("ROV_LONG").is_some_and(|v| v == "all");
     if all || (long_runs_wanted() && wall_s <= CI_WALL_S) {
         return true;
     }
     let tier = if wall_s <= CI_WALL_S { "1" } else { "all" };
+    let name = path.rsplit("::").next().unwrap_or(path);
     // Written to the stream itself: the harness captures only `print!` / `eprint!`.
     let _ = writeln!(
         std::io::stderr(),
         "SKIPPED {name} (long test, ~{wall_s} s on 2 cores; run with ROV_LONG={tier} cargo test \
-         -p host-sim --test it {module}::{name})"
+         -p host-sim --test {binary} {path})"
     );
     false
+}
+
+/// The number of draws of the statistical campaign `name` (a Monte Carlo, a sweep) of the
+/// test module `module`: `full` where `ROV_LONG` is set (CI), otherwise `quick`, said on the
+/// terminal. The quick campaign asserts the same bounds on its first `quick` draws (the
+/// same seeds), so it fails where the full one would on those; the full campaign, which
+/// holds the figure in docs/results.md, runs in CI.
+pub fn campaign_runs(module: &str, name: &str, full: usize, quick: usize) -> usize {
+    if long_runs_wanted() {
+        return full;
+    }
+    let _ = writeln!(
+        std::io::stderr(),
+        "QUICK {name}: {quick} of its {full} draws (all of them: ROV_LONG=1 cargo test -p \
+         host-sim --test it {module}::{name})"
+    );
+    quick
 }
