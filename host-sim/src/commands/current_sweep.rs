@@ -151,70 +151,70 @@ fn colour(rms_m: f64) -> RGBColor {
 fn heat_map(file: &Path, path: &str, cells: &[&Cell]) -> Result<()> {
     init_font();
     let e = |x: String| anyhow!("{}: {x}", file.display());
-    let root = BitMapBackend::new(file, (1100, 420)).into_drawing_area();
-    root.fill(&WHITE).map_err(|x| e(x.to_string()))?;
-    let n = DIRECTIONS_DEG.len() as f64;
-    let m = SPEEDS_M_S.len() as f64;
-    // Plain coordinates with a band for the labels: columns are directions, rows speeds.
-    let mut ch = ChartBuilder::on(&root)
-        .caption(
-            format!(
+    crate::output::png_file::write(file, (1100, 420), |root| {
+        root.fill(&WHITE).map_err(|x| e(x.to_string()))?;
+        let n = DIRECTIONS_DEG.len() as f64;
+        let m = SPEEDS_M_S.len() as f64;
+        // Plain coordinates with a band for the labels: columns are directions, rows speeds.
+        let mut ch = ChartBuilder::on(root)
+            .caption(
+                format!(
                 "{path}: RMS tracking error over the last 80 % in a current (cm; green <= 5 cm)"
             ),
-            (FONT_NAME, 20),
-        )
-        .margin(12)
-        .build_cartesian_2d(-1.4..n, -0.7..m)
-        .map_err(|x| e(x.to_string()))?;
-    let label = |text: String, at: (f64, f64), size: u32| {
-        Text::new(text, at, (FONT_NAME, size).into_font())
-    };
-    let mut labels = Vec::new();
-    for (i, d) in DIRECTIONS_DEG.iter().enumerate() {
-        labels.push(label(format!("{d:.0}"), (i as f64 + 0.38, -0.12), 18));
-    }
-    for (j, v) in SPEEDS_M_S.iter().enumerate() {
-        labels.push(label(format!("{v} m/s"), (-1.3, j as f64 + 0.58), 18));
-    }
-    labels.push(label(
+                (FONT_NAME, 20),
+            )
+            .margin(12)
+            .build_cartesian_2d(-1.4..n, -0.7..m)
+            .map_err(|x| e(x.to_string()))?;
+        let label = |text: String, at: (f64, f64), size: u32| {
+            Text::new(text, at, (FONT_NAME, size).into_font())
+        };
+        let mut labels = Vec::new();
+        for (i, d) in DIRECTIONS_DEG.iter().enumerate() {
+            labels.push(label(format!("{d:.0}"), (i as f64 + 0.38, -0.12), 18));
+        }
+        for (j, v) in SPEEDS_M_S.iter().enumerate() {
+            labels.push(label(format!("{v} m/s"), (-1.3, j as f64 + 0.58), 18));
+        }
+        labels.push(label(
         "current direction relative to the path's first course, degrees (0: from behind, along the path; 180: against it)".to_string(),
         (0.0, -0.42),
         16,
     ));
-    ch.draw_series(labels).map_err(|x| e(x.to_string()))?;
-    for c in cells {
-        let i = DIRECTIONS_DEG
-            .iter()
-            .position(|&d| d == c.direction_deg)
-            .unwrap_or(0) as f64;
-        let j = SPEEDS_M_S
-            .iter()
-            .position(|&s| s == c.speed_m_s)
-            .unwrap_or(0) as f64;
-        let fill = if c.nan {
-            RGBColor(60, 60, 60)
-        } else {
-            colour(c.rms_last80_m)
-        };
-        ch.draw_series([Rectangle::new(
-            [(i + 0.02, j + 0.02), (i + 0.98, j + 0.98)],
-            fill.filled(),
-        )])
-        .map_err(|x| e(x.to_string()))?;
-        let label = if c.nan {
-            "NaN".to_string()
-        } else {
-            format!("{:.1}", c.rms_last80_m * 100.0)
-        };
-        ch.draw_series([Text::new(
-            label,
-            (i + 0.3, j + 0.6),
-            (FONT_NAME, 18).into_font(),
-        )])
-        .map_err(|x| e(x.to_string()))?;
-    }
-    root.present().map_err(|x| e(x.to_string()))?;
-    Ok(())
+        ch.draw_series(labels).map_err(|x| e(x.to_string()))?;
+        for c in cells {
+            let i = DIRECTIONS_DEG
+                .iter()
+                .position(|&d| d == c.direction_deg)
+                .unwrap_or(0) as f64;
+            let j = SPEEDS_M_S
+                .iter()
+                .position(|&s| s == c.speed_m_s)
+                .unwrap_or(0) as f64;
+            let fill = if c.nan {
+                RGBColor(60, 60, 60)
+            } else {
+                colour(c.rms_last80_m)
+            };
+            ch.draw_series([Rectangle::new(
+                [(i + 0.02, j + 0.02), (i + 0.98, j + 0.98)],
+                fill.filled(),
+            )])
+            .map_err(|x| e(x.to_string()))?;
+            let label = if c.nan {
+                "NaN".to_string()
+            } else {
+                format!("{:.1}", c.rms_last80_m * 100.0)
+            };
+            ch.draw_series([Text::new(
+                label,
+                (i + 0.3, j + 0.6),
+                (FONT_NAME, 18).into_font(),
+            )])
+            .map_err(|x| e(x.to_string()))?;
+        }
+        Ok(())
+    })
 }
 
 /// Arguments of `host-sim current-sweep`.

@@ -2,6 +2,7 @@
 
 pub mod identify_plot;
 pub mod plots;
+pub mod png_file;
 
 use crate::closed_loop::{RunOutput, Sample};
 use anyhow::{Context, Result};

@@ -218,19 +218,18 @@ fn figure(
     panels: Vec<Panel>,
 ) -> Result<()> {
     init_font();
-    let root = BitMapBackend::new(path, size).into_drawing_area();
-    root.fill(&WHITE)
-        .map_err(|x| anyhow!("{}: {x}", path.display()))?;
-    let root = root
-        .titled(title, (FONT_NAME, 20))
-        .map_err(|x| anyhow!("{}: {x}", path.display()))?;
-    let areas = root.split_evenly((rows, cols));
-    for (area, (t, xd, yd, series, equal, inv)) in areas.iter().zip(panels.iter()) {
-        chart(area, t, xd, yd, series, *equal, *inv)?;
-    }
-    root.present()
-        .map_err(|x| anyhow!("{}: {x}", path.display()))?;
-    Ok(())
+    crate::output::png_file::write(path, size, |root| {
+        root.fill(&WHITE)
+            .map_err(|x| anyhow!("{}: {x}", path.display()))?;
+        let root = root
+            .titled(title, (FONT_NAME, 20))
+            .map_err(|x| anyhow!("{}: {x}", path.display()))?;
+        let areas = root.split_evenly((rows, cols));
+        for (area, (t, xd, yd, series, equal, inv)) in areas.iter().zip(panels.iter()) {
+            chart(area, t, xd, yd, series, *equal, *inv)?;
+        }
+        Ok(())
+    })
 }
 
 fn panel(t: &str, xd: &str, yd: &str, s: Vec<Series>) -> Panel {
@@ -660,28 +659,28 @@ pub fn histogram(
         counts[i] += 1;
     }
     let cmax = counts.iter().copied().max().unwrap_or(1).max(1);
-    let root = BitMapBackend::new(path, (1000, 650)).into_drawing_area();
-    let e = |x: String| anyhow!("{}: {x}", path.display());
-    root.fill(&WHITE).map_err(|x| e(x.to_string()))?;
-    let mut ch = ChartBuilder::on(&root)
-        .caption(title, (FONT_NAME, 20))
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(55)
-        .build_cartesian_2d(lo..hi, 0u32..(cmax + cmax / 10 + 1))
+    crate::output::png_file::write(path, (1000, 650), |root| {
+        let e = |x: String| anyhow!("{}: {x}", path.display());
+        root.fill(&WHITE).map_err(|x| e(x.to_string()))?;
+        let mut ch = ChartBuilder::on(root)
+            .caption(title, (FONT_NAME, 20))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(55)
+            .build_cartesian_2d(lo..hi, 0u32..(cmax + cmax / 10 + 1))
+            .map_err(|x| e(x.to_string()))?;
+        ch.configure_mesh()
+            .x_desc(x_desc)
+            .y_desc("runs")
+            .label_style((FONT_NAME, 13))
+            .axis_desc_style((FONT_NAME, 14))
+            .draw()
+            .map_err(|x| e(x.to_string()))?;
+        ch.draw_series(counts.iter().enumerate().map(|(i, c)| {
+            let x0 = lo + i as f64 * w;
+            Rectangle::new([(x0, 0u32), (x0 + w, *c)], COLORS[0].mix(0.7).filled())
+        }))
         .map_err(|x| e(x.to_string()))?;
-    ch.configure_mesh()
-        .x_desc(x_desc)
-        .y_desc("runs")
-        .label_style((FONT_NAME, 13))
-        .axis_desc_style((FONT_NAME, 14))
-        .draw()
-        .map_err(|x| e(x.to_string()))?;
-    ch.draw_series(counts.iter().enumerate().map(|(i, c)| {
-        let x0 = lo + i as f64 * w;
-        Rectangle::new([(x0, 0u32), (x0 + w, *c)], COLORS[0].mix(0.7).filled())
-    }))
-    .map_err(|x| e(x.to_string()))?;
-    root.present().map_err(|x| e(x.to_string()))?;
-    Ok(())
+        Ok(())
+    })
 }

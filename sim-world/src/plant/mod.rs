@@ -7,26 +7,11 @@
 //! - [`xz`]: vertical plane (`MODEL_NOTES` section 3), states `x, z, theta, u, w, q`.
 //! - [`xy`]: horizontal plane (`MODEL_NOTES` section 4), states `x, y, psi, u, v, r`.
 //! - [`six_dof`]: the full 6-DOF rigid body.
-//! - [`raw_state`]: the state before the conversion to Euler angles.
+//! - [`state`]: the state ([`PlantState`]) and the state before the conversion to Euler
+//!   angles ([`RawState`]).
 //! - [`thrusters`]: the thruster lag and limits shared by the planar plants.
 
-pub use raw_state::RawState;
-
-/// Pose and body velocities of the plant, `f64`, SI units.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct PlantState {
-    /// `[x, y, z, roll, pitch, yaw]` of the body origin (the CB), inertial, z down.
-    pub eta: [f64; 6],
-    /// `[u, v, w, p, q, r]` in the body frame.
-    pub nu: [f64; 6],
-}
-
-impl PlantState {
-    /// True when every component is finite.
-    pub fn is_finite(&self) -> bool {
-        self.eta.iter().chain(self.nu.iter()).all(|v| v.is_finite())
-    }
-}
+pub use state::{PlantState, RawState};
 
 /// A simulated vehicle.
 pub trait Plant: Send {
@@ -85,8 +70,8 @@ impl Boundary {
     }
 }
 
-pub mod raw_state;
 pub mod six_dof;
+pub mod state;
 pub mod thrusters;
 pub mod water;
 pub mod xy;

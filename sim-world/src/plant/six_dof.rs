@@ -22,7 +22,7 @@
 //!
 //! One [`Plant::step`] is one classic RK4 step.
 
-use super::raw_state::{rot, RawState};
+use super::state::{rot, RawState};
 use super::thrusters::Thrusters;
 use super::{Boundary, Environment, Plant, PlantState};
 use controller_core::params::VehicleParams;
@@ -112,7 +112,7 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 type X = [f64; 13];
 
 /// `x_dot` for the delivered thrusts `f = [F1x, F2x, F3z]`.
-#[inline]
+#[inline(always)]
 fn deriv(k: &Coeffs, vc: [f64; 3], s: &X, f: [f64; 3]) -> X {
     let [_, _, _, e0, e1, e2, e3, u, v, w, p, q, r] = *s;
     let [r0, r1, r2] = rot([e0, e1, e2, e3]);

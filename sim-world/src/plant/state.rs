@@ -1,9 +1,23 @@
-//! A plant's state as the plant holds it ([`RawState`]): the 6-DOF plant keeps its attitude
-//! as a quaternion, and the ZYX Euler angles of [`PlantState`] cost two `atan2` and an
-//! `asin`. A reader that keeps many states and looks at few (a delay line) stores these and
+//! The plant's state ([`PlantState`]) and the state as the plant holds it ([`RawState`]):
+//! the 6-DOF plant keeps its attitude as a quaternion, and the ZYX Euler angles of
+//! [`PlantState`] cost two `atan2` and an `asin`. A reader that keeps many states and looks at few (a delay line) stores these and
 //! converts only the one it reads.
 
-use super::PlantState;
+/// Pose and body velocities of the plant, `f64`, SI units.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PlantState {
+    /// `[x, y, z, roll, pitch, yaw]` of the body origin (the CB), inertial, z down.
+    pub eta: [f64; 6],
+    /// `[u, v, w, p, q, r]` in the body frame.
+    pub nu: [f64; 6],
+}
+
+impl PlantState {
+    /// True when every component is finite.
+    pub fn is_finite(&self) -> bool {
+        self.eta.iter().chain(self.nu.iter()).all(|v| v.is_finite())
+    }
+}
 
 /// A plant's state before the conversion to [`PlantState`].
 #[derive(Debug, Clone, Copy, PartialEq)]
