@@ -25,10 +25,10 @@ mod arming;
 mod guided;
 mod health;
 mod ident;
+mod ident_flight;
 mod mission;
 mod motor_test;
 mod onboard;
-pub use onboard::OWN_READING;
 mod output;
 mod swing;
 
@@ -36,10 +36,41 @@ mod swing;
 /// stick mode (ArduSub refuses to arm with the throttle off neutral, `AP_Arming_Sub`) and for
 /// the stick gate.
 pub const STICK_CENTRED: f32 = 0.05;
-pub use ident::{IdentAbort, IdentFlight, IdentOutcome, IDENT_DURATION_S};
-pub use mission::{
-    MAX_MISSION_DEPTH_M, MAX_MISSION_RANGE_M, MAX_MISSION_SPEED_M_S, MISSION_TURN_RADIUS_M,
-};
+
+/// The number the vehicle's own readings are handled under (`App::read_sensors`,
+/// `App::read_dvl`): never a tether command's.
+pub const OWN_READING: u16 = 0;
+
+/// The mission limits are wire facts the surface checks too: one list, in the protocol crate.
+pub use protocol::limits::{MAX_MISSION_DEPTH_M, MAX_MISSION_RANGE_M, MAX_MISSION_SPEED_M_S};
+/// Radius of the turns that join a mission's legs (m).
+pub const MISSION_TURN_RADIUS_M: f32 = 1.5;
+
+/// Waypoints in the local NED frame and the speed to fly them.
+#[derive(Debug, Clone, Default)]
+struct Mission {
+    waypoints: heapless::Vec<[f32; 3], { controller_core::reference::mission::MAX_WAYPOINTS }>,
+    speed_m_s: f32,
+}
+
+/// A motor test in force (`motor_test.rs`): the request, its end and the mode it started in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct MotorTestRun {
+    test: crate::protocol::MotorTest,
+    until_us: u64,
+    mode: Mode,
+}
+
+/// Where the SURFACE mode is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+enum SurfacePhase {
+    /// Going up.
+    #[default]
+    Ascent,
+    /// At the top, holding the depth it arrived at (`SURFACE_END` hold).
+    Holding,
+}
+pub use ident_flight::{IdentAbort, IdentFlight, IdentOutcome, IDENT_DURATION_S};
 
 use crate::compass_swing::{SwingFlight, SwingOutcome};
 use crate::health::HealthMonitor;
@@ -54,8 +85,6 @@ use controller_core::params::VehicleParams;
 use controller_core::reference::mission::MissionPath;
 use controller_core::reference::{Bounds, Reference};
 use controller_core::state::{BodyForces, NavState, TrackingErrors};
-use health::SurfacePhase;
-use mission::Mission;
 
 /// Largest magnitudes accepted in a `NavState` (anything beyond is a broken estimator).
 pub mod nav_limits {
@@ -170,7 +199,7 @@ pub struct Autopilot {
     /// Where the SURFACE mode is.
     surface: SurfacePhase,
     /// The motor test in force (`MotorTest`), if any.
-    motor_test: Option<motor_test::MotorTestRun>,
+    motor_test: Option<MotorTestRun>,
     /// Control steps run.
     pub steps: u32,
 }

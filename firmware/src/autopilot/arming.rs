@@ -1,8 +1,7 @@
 //! The arming gate and the stick gate: when the vehicle may arm, what arming, disarming and a
 //! change of mode clear, and when the pilot's sticks may produce thrust.
 
-use super::mission::MISSION_TURN_RADIUS_M;
-use super::{Autopilot, STICK_CENTRED};
+use super::{Autopilot, MISSION_TURN_RADIUS_M, STICK_CENTRED};
 use crate::protocol::{ManualThrust, Mode, NackReason};
 use controller_core::reference::mission::MissionPath;
 use controller_core::reference::Reference;

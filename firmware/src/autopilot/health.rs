@@ -2,7 +2,7 @@
 //! disarm), the SURFACE mode's step, the depth limit's cap on every step's vertical command
 //! and its refusal of deeper targets, and the health parameters' command.
 
-use super::{Autopilot, StepOutput};
+use super::{Autopilot, StepOutput, SurfacePhase};
 use crate::health::{
     DepthLimit, FailsafeAction, HealthParams, HealthReport, HealthSample, SurfaceEnd,
     SURFACE_DONE_DEPTH_M,
@@ -19,16 +19,6 @@ pub const SURFACE_ASCENT_FRACTION: f32 = 0.6;
 /// SURFACE's ascent rate limit, m/s: above it the upward force is cut back, so that the
 /// vehicle does not broach at speed.
 pub const SURFACE_ASCENT_MAX_M_S: f32 = 0.5;
-
-/// Where the SURFACE mode is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub(super) enum SurfacePhase {
-    /// Going up.
-    #[default]
-    Ascent,
-    /// At the top, holding the depth it arrived at (`SURFACE_END` hold).
-    Holding,
-}
 
 /// Depth rate (positive down) of a navigation state: the body's surge and heave speeds
 /// turned by the pitch.

@@ -1,21 +1,11 @@
 //! The waypoint mission: its upload item by item and what AUTO has reached of it.
 
-use super::{seconds_since, Autopilot};
+use super::{
+    seconds_since, Autopilot, Mission, MAX_MISSION_DEPTH_M, MAX_MISSION_RANGE_M,
+    MAX_MISSION_SPEED_M_S,
+};
 use crate::protocol::{Mode, NackReason};
 use controller_core::reference::mission::MAX_WAYPOINTS;
-use heapless::Vec;
-
-/// Waypoints in the local NED frame and the speed to fly them.
-#[derive(Debug, Clone, Default)]
-pub(super) struct Mission {
-    pub(super) waypoints: Vec<[f32; 3], MAX_WAYPOINTS>,
-    pub(super) speed_m_s: f32,
-}
-
-/// The mission limits are wire facts the surface checks too: one list, in the protocol crate.
-pub use protocol::limits::{MAX_MISSION_DEPTH_M, MAX_MISSION_RANGE_M, MAX_MISSION_SPEED_M_S};
-/// Radius of the turns that join a mission's legs (m).
-pub const MISSION_TURN_RADIUS_M: f32 = 1.5;
 
 impl Autopilot {
     /// Take waypoint `index` of a mission of `count`; the mission in use changes only when

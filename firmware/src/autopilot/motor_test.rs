@@ -12,18 +12,10 @@
 //!   session. Arming starts without one, and a restart boots without one.
 //! - The depth limit's cap applies to the vertical thruster's pulse as to every output.
 
-use super::{Autopilot, StepOutput};
-use crate::protocol::{Command, ManualThrust, Mode, MotorTest, NackReason};
+use super::{Autopilot, MotorTestRun, StepOutput};
+use crate::protocol::{Command, ManualThrust, MotorTest, NackReason};
 use controller_core::alloc::Allocation;
 use controller_core::state::BodyForces;
-
-/// A motor test in force: the request, its end and the mode it started in.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) struct MotorTestRun {
-    test: MotorTest,
-    until_us: u64,
-    mode: Mode,
-}
 
 /// Does the vehicle taking `cmd` end a motor test? Everything but the keep-alives, the
 /// navigation and sensor inputs, a centred stick and the test itself.

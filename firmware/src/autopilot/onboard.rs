@@ -1,15 +1,11 @@
 //! The on-board estimator's commands: its start, its sensor readings and fixes, and the
 //! compass calibration it uses.
 
-use super::{check_nav, Autopilot};
+use super::{check_nav, Autopilot, OWN_READING};
 use crate::protocol::{Command, DvlReport, NackReason};
 use controller_core::nav::compass_cal::CompassCalibration;
 use controller_core::nav::onboard::OnboardNav;
 use controller_core::nav::Refusal;
-
-/// The number the vehicle's own readings are handled under (`App::read_sensors`,
-/// `App::read_dvl`): never a tether command's.
-pub const OWN_READING: u16 = 0;
 
 impl Autopilot {
     /// Apply `f` to the on-board estimator (refused without one), recording `seq`.
