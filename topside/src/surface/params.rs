@@ -667,6 +667,19 @@ pub fn save(path: &Path, g: &Settings) -> Result<()> {
     std::fs::write(path, text).with_context(|| format!("write {}", path.display()))
 }
 
+/// The system id saved as `SYSID_THISMAV` (none when there is no file, no such entry or it
+/// is not 1-255): read before the ground stations open, whatever else the file holds.
+pub fn saved_system_id(path: &Path) -> Option<u8> {
+    let text = std::fs::read_to_string(path).ok()?;
+    let map: BTreeMap<String, f32> = serde_json::from_str(&text).ok()?;
+    let sysid_thismav = *map.get("SYSID_THISMAV")?;
+    SurfaceSettings {
+        sysid_thismav,
+        ..SurfaceSettings::default()
+    }
+    .system_id()
+}
+
 /// Load saved values over `defaults`; an unknown name, a non-finite value or a set the
 /// checks refuse is an error naming it.
 pub fn load(path: &Path, defaults: Settings) -> Result<Settings> {
