@@ -282,7 +282,7 @@ fn run_topside(
     // SYSID_THISMAV shows the system id in force (`--system-id` wins over a saved one).
     let system_id = gcs.system_id();
     if let Some(saved) = params::saved_system_id(&a.params).filter(|&id| id != system_id) {
-        let text = format!("--system-id {system_id} is used: the saved SYSID_THISMAV {saved} not");
+        let text = format!("--system-id {system_id} is used, not the saved SYSID_THISMAV {saved}");
         eprintln!("topside: {text}");
         gcs.text(MavSeverity::MAV_SEVERITY_INFO, &text)?;
     }
