@@ -98,3 +98,39 @@ fn the_ground_station_failsafe_warns_disarms_and_holds_depth_when_its_heartbeat_
         "disarmed {after:.2} s after the last heartbeat"
     );
 }
+
+#[test]
+fn pilot_speed_dn_bounds_the_descent_the_heave_stick_asks_in_alt_hold() {
+    if !pymavlink_or_skip() {
+        return;
+    }
+    let d = dir("pilot-speed");
+    let port = free_udp_port();
+    let flight = dive(
+        "circle-3d",
+        port,
+        &d.join("s.tlog"),
+        &d.join("params.json"),
+        &["--duration", "600"],
+    );
+    let (passed, out) = client(port, "pilot");
+    stop(flight);
+    assert!(passed, "pymavlink_health_params.py pilot failed");
+    let rate = |which: &str| -> f64 {
+        out.lines()
+            .find_map(|l| l.strip_prefix(&format!("RATE {which} ")))
+            .and_then(|v| v.parse().ok())
+            .unwrap_or_else(|| panic!("no {which} rate printed"))
+    };
+    let (limited, free) = (rate("limited"), rate("free"));
+    println!("full stick down in ALT_HOLD: {limited:.3} m/s (PILOT_SPEED_DN 20 cm/s, 0.10 m/s asked at gain 0.5), {free:.3} m/s (500 cm/s)");
+    // 0.10 m/s asked: at most that with a margin for the telemetry's delay, still descending.
+    assert!(
+        (0.02..=0.13).contains(&limited),
+        "{limited:.3} m/s with 0.10 m/s asked"
+    );
+    assert!(
+        free > 1.5 * limited,
+        "{free:.3} m/s free against {limited:.3} m/s limited"
+    );
+}

@@ -10,6 +10,9 @@ Usage: pymavlink_health_params.py PORT PHASE, PHASE one of:
   `set` saved.
 - `gcs`: `FS_GCS_ENABLE` 1 (warn), 2 (disarm) and 3 (depth hold): the station stops its
   heartbeats and the surface acts `FS_GCS_TIMEOUT` (2 s) later.
+- `pilot`: in ALT_HOLD, the heave stick full down (0.5 after the default joystick gain) for
+  8 s with `PILOT_SPEED_DN` 20 cm/s, then 500: prints `RATE limited X` and `RATE free Y`, the
+  mean depth rates (m/s) over each run's last 5 s (the vehicle's LOCAL_POSITION_NED).
 Prints PASS lines, every STATUSTEXT as `TEXT: ...`; exits 0 or raises.
 """
 import re
@@ -234,13 +237,52 @@ def phase_gcs(m):
     taken(m, "FS_GCS_ENABLE", 0)
 
 
+def descend(m, seconds):
+    """Full stick down in ALT_HOLD for `seconds`; the mean depth rate over the last 5 s."""
+    track = []
+    end = time.time() + seconds
+    next_send = 0.0
+    while time.time() < end:
+        if time.time() >= next_send:
+            m.mav.manual_control_send(m.target_system, 0, 0, 0, 0, 0)
+            next_send = time.time() + 0.05
+        p = recv(m, "LOCAL_POSITION_NED", 0.05)
+        if p is not None:
+            track.append((time.time(), p.z))
+    late = [(t, z) for t, z in track if t >= end - 5.0]
+    expect(len(late) >= 10, f"{len(late)} positions in the last 5 s")
+    (t0, z0), (t1, z1) = late[0], late[-1]
+    return (z1 - z0) / (t1 - t0)
+
+
+def phase_pilot(m):
+    taken(m, "PILOT_SPEED_DN", 20)
+    # Centred sticks first (the vehicle takes sticks only once seen centred).
+    for _ in range(10):
+        m.mav.manual_control_send(m.target_system, 0, 0, 500, 0, 0)
+        recv(m, "NOTHING", 0.05)
+    arm_in(m, ALT_HOLD)
+    for _ in range(10):
+        m.mav.manual_control_send(m.target_system, 0, 0, 500, 0, 0)
+        recv(m, "NOTHING", 0.05)
+    limited = descend(m, 8.0)
+    print(f"RATE limited {limited:.4f}", flush=True)
+    taken(m, "PILOT_SPEED_DN", 500)
+    free = descend(m, 8.0)
+    print(f"RATE free {free:.4f}", flush=True)
+    for _ in range(10):
+        m.mav.manual_control_send(m.target_system, 0, 0, 500, 0, 0)
+        recv(m, "NOTHING", 0.05)
+    disarm(m)
+
+
 def main():
     port, phase = int(sys.argv[1]), sys.argv[2]
     m = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=255)
     hb = m.wait_heartbeat(timeout=30)
     expect(hb is not None, "a HEARTBEAT arrives")
     beat(m)
-    {"set": phase_set, "restart": phase_restart, "gcs": phase_gcs}[phase](m)
+    {"set": phase_set, "restart": phase_restart, "gcs": phase_gcs, "pilot": phase_pilot}[phase](m)
 
 
 if __name__ == "__main__":
