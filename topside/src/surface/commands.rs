@@ -244,7 +244,17 @@ impl Topside {
                 // The operator's value wins over a saved one still waiting.
                 let group = params::group(param);
                 self.pending.forget(group);
-                params::save(&self.params_file, &self.pending.merged(&self.v.settings))?
+                params::save(&self.params_file, &self.pending.merged(&self.v.settings))?;
+                if name == "SYSID_THISMAV"
+                    && self.v.settings.surface.system_id() != Some(self.gcs.system_id())
+                {
+                    let text = format!(
+                        "SYSID_THISMAV {value} saved: taken at the next start (now {})",
+                        self.gcs.system_id()
+                    );
+                    self.gcs
+                        .text_to(station, MavSeverity::MAV_SEVERITY_INFO, &text)?;
+                }
             }
         }
         // The answer is the value in force (the new one, or the old one on a refusal), to

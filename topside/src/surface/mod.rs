@@ -55,6 +55,7 @@ mod commander;
 mod commands;
 mod faults;
 mod frames;
+mod gcs_failsafe;
 mod geodesy;
 mod goto;
 mod guard;
@@ -144,6 +145,14 @@ pub fn manual_thrust(x: i16, z: i16, r: i16) -> ManualThrust {
     }
 }
 
+/// Depth rate (positive down) of a navigation state: the body's velocities turned by roll
+/// and pitch.
+fn depth_rate_m_s(s: &controller_core::state::NavState) -> f32 {
+    let (sp, cp) = s.pitch_rad.sin_cos();
+    let (sr, cr) = s.roll_rad.sin_cos();
+    -s.u_m_s * sp + s.v_m_s * sr * cp + s.w_m_s * cr * cp
+}
+
 /// A sender's MAVLink system and component ids (8 bits on the wire).
 fn peer_of(header: MavHeader) -> (u8, u8) {
     (
@@ -194,6 +203,8 @@ struct Topside {
     /// The end of the motor test's window (simulated or vehicle seconds) and its request,
     /// while one runs.
     motor_test_until: Option<(f64, protocol::MotorTest)>,
+    /// The ground stations' heartbeat, for `FS_GCS_*`.
+    gcs_watch: gcs_failsafe::GcsWatch,
 }
 
 impl Topside {
@@ -223,21 +234,33 @@ impl Topside {
             self.commander.tick(&mut self.gcs)?;
             self.after_control_change(before)?;
 
+            self.watch_gcs()?;
             let fresh = self
                 .manual_at
                 .is_some_and(|at| at.elapsed() < MANUAL_CONTROL_TIMEOUT);
+            let holding = self
+                .gcs_watch
+                .holding_depth(self.v.settings.surface.gcs_failsafe());
             let v = &mut self.v;
             let pilot_mode = matches!(v.tel.mode, Mode::Manual | Mode::Stabilize | Mode::DepthHold);
-            if pilot_mode && v.tel.armed && fresh && k.is_multiple_of(v.stride) {
+            if pilot_mode && v.tel.armed && (fresh || holding) && k.is_multiple_of(v.stride) {
                 // Forwarded every period (every stride of the topside layout's finer loop)
                 // while the pilot's stream lives, centred until the commander's sticks were
                 // seen at centre; when it stops, nothing is forwarded and the firmware's
                 // MANUAL_STALE failsafe neutralizes the thrusters.
-                let sticks = if self.sticks_seen_centred {
+                // The ground station failsafe's depth hold: centred.
+                let mut sticks = if self.sticks_seen_centred && fresh {
                     self.manual
                 } else {
                     ManualThrust::default()
                 };
+                if v.tel.mode == Mode::DepthHold {
+                    // At most PILOT_SPEED_UP / PILOT_SPEED_DN, as ArduSub's ALT_HOLD.
+                    sticks.heave = v
+                        .settings
+                        .surface
+                        .limit_heave(sticks.heave, depth_rate_m_s(&v.state));
+                }
                 v.send(&Command::ManualThrust(sticks))?;
             }
             v.step()?;
@@ -345,6 +368,9 @@ impl Topside {
             )),
             _ => None,
         };
+        if matches!(msg, MavMessage::HEARTBEAT(_)) {
+            self.gcs_watch.heard();
+        }
         if let MavMessage::MANUAL_CONTROL(m) = &msg {
             self.manual_at = Some(Instant::now());
             if sticks_centred(&manual_thrust(m.x, m.z, m.r)) {

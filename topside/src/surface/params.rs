@@ -22,6 +22,12 @@
 //! the vehicle takes it now; a group the vehicle refuses now (a new description while its
 //! estimator runs or while armed) waits and is applied when the vehicle takes it (`start`).
 
+pub mod health;
+pub mod surface;
+
+pub use health::HealthSettings;
+pub use surface::SurfaceSettings;
+
 use super::joystick::JoystickSettings;
 use anyhow::{anyhow, bail, Context, Result};
 use controller_core::controller::Gains;
@@ -113,6 +119,12 @@ pub struct Settings {
     pub control_passkey: f32,
     /// The joystick's buttons and gain (`BTNn_*`, `JS_GAIN_*`).
     pub joystick: JoystickSettings,
+    /// The vehicle's health parameters (`BATT_*`, `FS_LEAK_*`, `FS_PRESS_*`, `FS_TEMP_*`,
+    /// `DEPTH_LIMIT_M`).
+    pub health: HealthSettings,
+    /// ArduSub's parameters kept at the surface (`FS_GCS_*`, `PILOT_SPEED_*`,
+    /// `SYSID_THISMAV`).
+    pub surface: SurfaceSettings,
 }
 
 /// The compass's heading-dependent deviation as the ground station shows it, in degrees
@@ -159,6 +171,8 @@ impl Settings {
             compass: CompassDeviationDeg::default(),
             control_passkey: 0.0,
             joystick: JoystickSettings::default(),
+            health: HealthSettings::default(),
+            surface: SurfaceSettings::default(),
         }
     }
 
@@ -188,6 +202,10 @@ impl Settings {
                 }
             }
             Group::Joystick => self.joystick.check()?,
+            Group::Health => {
+                self.health.to_vehicle()?;
+            }
+            Group::Surface => self.surface.check()?,
             Group::Compass => {
                 let c = self.compass;
                 let max_deg = MAX_DEVIATION_RAD.to_degrees();
@@ -237,12 +255,19 @@ pub enum Group {
     Control,
     /// Kept at the surface: the joystick's buttons and gain.
     Joystick,
+    /// `SetHealth` (refused by the vehicle while armed, but for a depth limit made
+    /// shallower or switched on).
+    Health,
+    /// Kept at the surface: the ground station failsafe, the pilot's depth rates, the
+    /// system id.
+    Surface,
 }
 
 /// The groups in the order a restart restores them: the vehicle first (the others are
 /// checked against it on board), then the timeouts and the gains.
-pub const GROUPS: [Group; 8] = [
+pub const GROUPS: [Group; 10] = [
     Group::Vehicle,
+    Group::Health,
     Group::Compass,
     Group::Failsafe,
     Group::Tracking,
@@ -250,6 +275,7 @@ pub const GROUPS: [Group; 8] = [
     Group::Mission,
     Group::Control,
     Group::Joystick,
+    Group::Surface,
 ];
 
 impl Group {
@@ -264,6 +290,8 @@ impl Group {
             Group::Compass => "COMPASS_DEV_*",
             Group::Control => "CTRL_PASSKEY",
             Group::Joystick => "BTN*, JS_GAIN_*",
+            Group::Health => "BATT_*, FS_LEAK_*, FS_PRESS_*, FS_TEMP_*, DEPTH_LIMIT_M",
+            Group::Surface => "FS_GCS_*, PILOT_SPEED_*, SYSID_THISMAV",
         }
     }
 }
@@ -358,6 +386,8 @@ impl Settings {
             Group::Compass => self.compass = from.compass,
             Group::Control => self.control_passkey = from.control_passkey,
             Group::Joystick => self.joystick = from.joystick,
+            Group::Health => self.health = from.health,
+            Group::Surface => self.surface = from.surface,
         }
     }
 
@@ -492,9 +522,48 @@ pub const JOYSTICK_GAIN: &[Param] = params![
     "JS_GAIN_STEPS" => joystick.gain_steps,
 ];
 
-/// The parameters saved: the project's and ArduSub's joystick ones.
+/// The vehicle's health parameters (`SetHealth`), ArduSub's names where ArduSub has one.
+pub const HEALTH: &[Param] = params![
+    "BATT_CAPACITY" => health.capacity_mah,
+    "BATT_LOW_VOLT" => health.low_volt,
+    "BATT_CRT_VOLT" => health.crt_volt,
+    "BATT_LOW_MAH" => health.low_mah,
+    "BATT_CRT_MAH" => health.crt_mah,
+    "BATT_FS_LOW_ACT" => health.fs_low_act,
+    "BATT_FS_CRT_ACT" => health.fs_crt_act,
+    "BATT_LOW_TIMER" => health.low_timer_s,
+    "BATT_VOLT_MULT" => health.volt_mult,
+    "BATT_AMP_PERVLT" => health.amp_pervlt,
+    "BATT_AMP_OFFSET" => health.amp_offset_v,
+    "BATT_EMPTY_VOLT" => health.empty_volt,
+    "FS_LEAK_ENABLE" => health.leak_enable,
+    "LEAK1_PIN" => health.leak1_pin,
+    "FS_PRESS_ENABLE" => health.press_enable,
+    "FS_PRESS_MAX" => health.press_max_pa,
+    "FS_TEMP_ENABLE" => health.temp_enable,
+    "FS_TEMP_MAX" => health.temp_max_c,
+    "DEPTH_LIMIT_M" => health.depth_limit_m,
+    "SURFACE_END" => health.surface_end,
+];
+
+/// ArduSub's parameters kept at the surface.
+pub const SURFACE: &[Param] = params![
+    "FS_GCS_ENABLE" => surface.gcs_enable,
+    "FS_GCS_TIMEOUT" => surface.gcs_timeout_s,
+    "PILOT_SPEED_UP" => surface.pilot_speed_up_cm_s,
+    "PILOT_SPEED_DN" => surface.pilot_speed_dn_cm_s,
+    "SYSID_THISMAV" => surface.sysid_thismav,
+];
+
+/// The parameters saved: the project's, ArduSub's joystick ones, the vehicle's health and
+/// the surface's own.
 pub fn saved() -> impl Iterator<Item = &'static Param> {
-    PARAMS.iter().chain(JOYSTICK).chain(JOYSTICK_GAIN)
+    PARAMS
+        .iter()
+        .chain(JOYSTICK)
+        .chain(JOYSTICK_GAIN)
+        .chain(HEALTH)
+        .chain(SURFACE)
 }
 
 /// ArduSub's parameters whose meaning here is the same, under their own names: the same
@@ -542,7 +611,12 @@ pub fn all() -> impl Iterator<Item = &'static Param> {
 
 /// How many parameters are listed.
 pub fn count() -> usize {
-    PARAMS.len() + JOYSTICK.len() + JOYSTICK_GAIN.len() + ARDUSUB.len()
+    PARAMS.len()
+        + JOYSTICK.len()
+        + JOYSTICK_GAIN.len()
+        + HEALTH.len()
+        + SURFACE.len()
+        + ARDUSUB.len()
 }
 
 /// Parameter `index` of the list.
@@ -557,6 +631,12 @@ pub fn find(name: &str) -> Option<(usize, &'static Param)> {
 
 /// The tether command group of a parameter.
 pub fn group(p: &Param) -> Group {
+    if HEALTH.iter().any(|h| h.name == p.name) {
+        return Group::Health;
+    }
+    if SURFACE.iter().any(|h| h.name == p.name) {
+        return Group::Surface;
+    }
     match p.name.split('_').next() {
         Some("TRK") => Group::Tracking,
         Some("FS") => Group::Failsafe,
@@ -585,6 +665,19 @@ pub fn save(path: &Path, g: &Settings) -> Result<()> {
     }
     let text = serde_json::to_string_pretty(&to_map(g))? + "\n";
     std::fs::write(path, text).with_context(|| format!("write {}", path.display()))
+}
+
+/// The system id saved as `SYSID_THISMAV` (none when there is no file, no such entry or it
+/// is not 1-255): read before the ground stations open, whatever else the file holds.
+pub fn saved_system_id(path: &Path) -> Option<u8> {
+    let text = std::fs::read_to_string(path).ok()?;
+    let map: BTreeMap<String, f32> = serde_json::from_str(&text).ok()?;
+    let sysid_thismav = *map.get("SYSID_THISMAV")?;
+    SurfaceSettings {
+        sysid_thismav,
+        ..SurfaceSettings::default()
+    }
+    .system_id()
 }
 
 /// Load saved values over `defaults`; an unknown name, a non-finite value or a set the

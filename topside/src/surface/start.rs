@@ -122,9 +122,10 @@ pub struct SurfaceOptions {
     /// (`out/topside-20261126-101500.tlog`, UTC); an existing file is never truncated.
     #[arg(long, default_value = "out/topside.tlog")]
     pub tlog: PathBuf,
-    /// MAVLink system id of the vehicle.
-    #[arg(long, default_value_t = 1)]
-    pub system_id: u8,
+    /// MAVLink system id of the vehicle (1-255). Without it, the saved `SYSID_THISMAV`
+    /// (set from a ground station, taken at the next start), else 1.
+    #[arg(long, value_parser = clap::value_parser!(u8).range(1..))]
+    pub system_id: Option<u8>,
     /// The parameters set from the ground station: restored from this file at start, saved
     /// to it after every accepted `PARAM_SET`.
     #[arg(long, default_value = "out/topside-params.json")]
@@ -195,7 +196,9 @@ pub fn start_with(
     }
     let nav = super::navigation::SurfaceNav::open(&o.nav).map_err(refused)?;
     let (tlog, tlog_path, tether_path) = open_logs(&o.tlog, o.tether_log.as_deref())?;
-    let gcs = Gcs::open(&o.mavlink, o.system_id, tlog)?;
+    let saved_id = params::saved_system_id(&o.params);
+    let system_id = o.system_id.or(saved_id).unwrap_or(1);
+    let gcs = Gcs::open(&o.mavlink, system_id, tlog)?;
     let (v, what) = vehicle(&tether_path)?;
     run_topside(o, speedup, gcs, v, what, &tlog_path, &tether_path, nav)
 }
@@ -276,9 +279,17 @@ fn run_topside(
     } else {
         params_used = format!("{} (none saved yet: the vehicle's values)", name(&a.params));
     }
+    // SYSID_THISMAV shows the system id in force (`--system-id` wins over a saved one).
+    let system_id = gcs.system_id();
+    if let Some(saved) = params::saved_system_id(&a.params).filter(|&id| id != system_id) {
+        let text = format!("--system-id {system_id} is used, not the saved SYSID_THISMAV {saved}");
+        eprintln!("topside: {text}");
+        gcs.text(MavSeverity::MAV_SEVERITY_INFO, &text)?;
+    }
+    v.settings.surface.sysid_thismav = f32::from(system_id);
     let mass = v.settings.vehicle.mass_kg;
     let text = format!(
-        "Flying {flown} (VEH_MASS {} kg); parameters {params_used}",
+        "Flying {flown} (VEH_MASS {} kg) as MAVLink system {system_id}; parameters {params_used}",
         params::show(mass)
     );
     eprintln!("topside: {text} ({})", a.params.display());
@@ -311,6 +322,7 @@ fn run_topside(
         ident: None,
         js_gain,
         buttons: Default::default(),
+        gcs_watch: Default::default(),
     };
     t.run(a, speedup)
 }

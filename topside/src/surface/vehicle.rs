@@ -336,7 +336,11 @@ impl Vehicle {
             },
             Group::Vehicle => Command::SetVehicle(proposed.vehicle),
             Group::Compass => Command::SetCompassCal(proposed.compass.to_calibration()),
-            Group::Mission | Group::Control | Group::Joystick => {
+            Group::Health => match proposed.health.to_vehicle() {
+                Ok(h) => Command::SetHealth(h),
+                Err(_) => return Ok(Err(Refusal::Nack(NackReason::OutOfRange))),
+            },
+            Group::Mission | Group::Control | Group::Joystick | Group::Surface => {
                 // Nothing to send now: kept at the surface (the next mission carries the
                 // speed).
                 self.settings.take_group(&proposed, group);

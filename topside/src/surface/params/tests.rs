@@ -110,3 +110,44 @@ fn a_saved_file_loads_back_and_a_bad_one_is_refused_by_name() {
     }
     let _ = std::fs::remove_dir_all(dir);
 }
+
+#[test]
+fn health_and_surface_parameters_save_load_and_name_their_groups() {
+    let dir = std::env::temp_dir().join(format!("rov-params-health-{}", std::process::id()));
+    let path = dir.join("p.json");
+    let defaults = Settings::new(VehicleParams::OBSERVER);
+    for (name, g) in [
+        ("BATT_LOW_VOLT", Group::Health),
+        ("FS_LEAK_ENABLE", Group::Health),
+        ("FS_PRESS_MAX", Group::Health),
+        ("DEPTH_LIMIT_M", Group::Health),
+        ("FS_GCS_ENABLE", Group::Surface),
+        ("PILOT_SPEED_UP", Group::Surface),
+        ("SYSID_THISMAV", Group::Surface),
+        ("FS_HB_DISARM", Group::Failsafe),
+    ] {
+        assert_eq!(group(find(name).unwrap().1), g, "{name}");
+    }
+    let mut g = defaults;
+    g.health.low_volt = 14.5;
+    g.health.depth_limit_m = 20.0;
+    g.surface.gcs_enable = 2.0;
+    g.surface.sysid_thismav = 2.0;
+    save(&path, &g).unwrap();
+    assert_eq!(load(&path, defaults).unwrap(), g);
+    assert_eq!(saved_system_id(&path), Some(2));
+    for bad in [
+        r#"{"BATT_CRT_VOLT": 15.0, "BATT_LOW_VOLT": 14.0}"#,
+        r#"{"SYSID_THISMAV": 0.0}"#,
+    ] {
+        std::fs::write(&path, bad).unwrap();
+        let e = format!("{:#}", load(&path, defaults).unwrap_err());
+        assert!(e.contains("refused"), "{bad}: {e}");
+    }
+    // No id saved, or one out of range: none.
+    assert_eq!(saved_system_id(&path), None);
+    std::fs::write(&path, r#"{"TRK_XY_KP": 1.0}"#).unwrap();
+    assert_eq!(saved_system_id(&path), None);
+    assert_eq!(saved_system_id(&dir.join("absent.json")), None);
+    let _ = std::fs::remove_dir_all(dir);
+}
