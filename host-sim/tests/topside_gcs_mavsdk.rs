@@ -33,18 +33,7 @@ fn mavsdk_or_skip() -> bool {
 
 /// The truth log's `x_m, y_m, z_m` rows.
 fn truth_rows(path: &Path) -> Vec<[f64; 3]> {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let col = |name: &str| head.iter().position(|c| *c == name).unwrap();
-    let cols = [col("x_m"), col("y_m"), col("z_m")];
-    lines
-        .filter_map(|l| {
-            let v: Vec<&str> = l.split(',').collect();
-            let num = |i: usize| v.get(i).and_then(|s| s.parse::<f64>().ok());
-            Some([num(cols[0])?, num(cols[1])?, num(cols[2])?])
-        })
-        .collect()
+    gcs::truth_columns(path, ["x_m", "y_m", "z_m"])
 }
 
 #[test]

@@ -60,18 +60,7 @@ fn pulses(dir: &Path) -> Vec<(f64, [f64; 3])> {
 
 /// The truth log's `t_s`, `z_m` and `yaw_rad` rows.
 fn truth_rows(path: &Path) -> Vec<[f64; 3]> {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let col = |name: &str| head.iter().position(|c| *c == name).unwrap();
-    let (t, z, yaw) = (col("t_s"), col("z_m"), col("yaw_rad"));
-    lines
-        .filter_map(|l| {
-            let v: Vec<&str> = l.split(',').collect();
-            let num = |i: usize| v.get(i).and_then(|s| s.parse::<f64>().ok());
-            Some([num(t)?, num(z)?, num(yaw)?])
-        })
-        .collect()
+    gcs::truth_columns(path, ["t_s", "z_m", "yaw_rad"])
 }
 
 /// The runs (start, end time) of consecutive rows for which `on` holds.

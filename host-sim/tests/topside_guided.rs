@@ -96,20 +96,7 @@ fn heartbeat(gcs: &Gcs, timeout: Duration) -> Option<(u32, bool)> {
 
 /// The truth log's `x_m, y_m, z_m` rows.
 fn truth_rows(path: &Path) -> Vec<[f64; 3]> {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let col = |name: &str| head.iter().position(|c| *c == name).unwrap();
-    let (x, y, z) = (col("x_m"), col("y_m"), col("z_m"));
-    lines
-        .filter_map(|l| {
-            let v: Vec<f64> = l
-                .split(',')
-                .map(|s| s.parse().unwrap_or(f64::NAN))
-                .collect();
-            (v.len() == head.len()).then(|| [v[x], v[y], v[z]])
-        })
-        .collect()
+    gcs::truth_columns(path, ["x_m", "y_m", "z_m"])
 }
 
 /// Distance of the truth's last row from `p` (m).

@@ -329,3 +329,29 @@ pub fn wait<T>(
     }
     None
 }
+
+/// The served vehicle's truth log (`host-sim vehicle`'s CSV) as rows of the columns `names`;
+/// a row cut short (a killed process's last line) or with one of them not a number is left
+/// out.
+pub fn truth_columns<const N: usize>(path: &Path, names: [&str; N]) -> Vec<[f64; N]> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let cols = names.map(|n| {
+        head.iter()
+            .position(|c| *c == n)
+            .unwrap_or_else(|| panic!("no column {n} in {}", path.display()))
+    });
+    lines
+        .filter_map(|l| {
+            let v: Vec<&str> = l.split(',').collect();
+            if v.len() != head.len() {
+                return None;
+            }
+            let row = cols.map(|c| v[c].parse::<f64>().ok());
+            row.iter()
+                .all(Option::is_some)
+                .then(|| row.map(|x| x.unwrap_or(f64::NAN)))
+        })
+        .collect()
+}
