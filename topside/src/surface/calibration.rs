@@ -63,7 +63,7 @@ impl Topside {
             SwingOutcome::Accepted { cal, residual_rad } => {
                 let deg = CompassDeviationDeg::of(&cal);
                 self.v.settings.compass = deg;
-                params::save(&self.params_file, &self.v.settings)?;
+                super::params_file::save(&self.params_file, &self.v.settings)?;
                 self.gcs.text(
                     MavSeverity::MAV_SEVERITY_INFO,
                     &format!(

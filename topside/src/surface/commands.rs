@@ -244,7 +244,10 @@ impl Topside {
                 // The operator's value wins over a saved one still waiting.
                 let group = params::group(param);
                 self.pending.forget(group);
-                params::save(&self.params_file, &self.pending.merged(&self.v.settings))?;
+                super::params_file::save(
+                    &self.params_file,
+                    &self.pending.merged(&self.v.settings),
+                )?;
                 if name == "SYSID_THISMAV"
                     && self.v.settings.surface.system_id() != Some(self.gcs.system_id())
                 {

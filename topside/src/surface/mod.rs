@@ -67,6 +67,7 @@ mod missions;
 mod motor_test;
 pub mod navigation;
 pub mod params;
+pub mod params_file;
 mod start;
 mod streams;
 mod telemetry;

@@ -196,7 +196,7 @@ pub fn start_with(
     }
     let nav = super::navigation::SurfaceNav::open(&o.nav).map_err(refused)?;
     let (tlog, tlog_path, tether_path) = open_logs(&o.tlog, o.tether_log.as_deref())?;
-    let saved_id = params::saved_system_id(&o.params);
+    let saved_id = super::params_file::saved_system_id(&o.params);
     let system_id = o.system_id.or(saved_id).unwrap_or(1);
     let gcs = Gcs::open(&o.mavlink, system_id, tlog)?;
     let (v, what) = vehicle(&tether_path)?;
@@ -232,7 +232,7 @@ fn run_topside(
     };
     let params_used;
     if a.params.exists() {
-        match params::load(&a.params, v.settings) {
+        match super::params_file::load(&a.params, v.settings) {
             Err(e) => {
                 let text = format!("Saved parameters not used: {e:#}");
                 eprintln!("topside: {text}");
@@ -281,7 +281,9 @@ fn run_topside(
     }
     // SYSID_THISMAV shows the system id in force (`--system-id` wins over a saved one).
     let system_id = gcs.system_id();
-    if let Some(saved) = params::saved_system_id(&a.params).filter(|&id| id != system_id) {
+    if let Some(saved) =
+        super::params_file::saved_system_id(&a.params).filter(|&id| id != system_id)
+    {
         let text = format!("--system-id {system_id} is used, not the saved SYSID_THISMAV {saved}");
         eprintln!("topside: {text}");
         gcs.text(MavSeverity::MAV_SEVERITY_INFO, &text)?;

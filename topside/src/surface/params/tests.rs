@@ -1,6 +1,7 @@
 //! The parameter list: names, checks, the saved file.
 
 use super::*;
+use crate::surface::params_file::{load, save, saved_system_id};
 
 #[test]
 fn names_fit_mavlink_and_are_unique() {
