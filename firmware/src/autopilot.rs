@@ -37,6 +37,22 @@ mod swing;
 /// the stick gate.
 pub const STICK_CENTRED: f32 = 0.05;
 
+pub use ident_flight::{IdentAbort, IdentFlight, IdentOutcome, IDENT_DURATION_S};
+
+use crate::compass_swing::{SwingFlight, SwingOutcome};
+use crate::health::HealthMonitor;
+pub use crate::protocol::Failsafe;
+use crate::protocol::{fault, Command, ManualThrust, Mode, MotorTest, NackReason, NavSample};
+use controller_core::alloc::Allocation;
+use controller_core::controller::{ControlMode, Controller};
+use controller_core::law::pilot::Sticks;
+use controller_core::nav::compass_cal::CompassCalibration;
+use controller_core::nav::onboard::OnboardNav;
+use controller_core::params::VehicleParams;
+use controller_core::reference::mission::{MissionPath, MAX_WAYPOINTS};
+use controller_core::reference::{Bounds, Reference};
+use controller_core::state::{BodyForces, NavState, TrackingErrors};
+
 /// The number the vehicle's own readings are handled under (`App::read_sensors`,
 /// `App::read_dvl`): never a tether command's.
 pub const OWN_READING: u16 = 0;
@@ -49,14 +65,14 @@ pub const MISSION_TURN_RADIUS_M: f32 = 1.5;
 /// Waypoints in the local NED frame and the speed to fly them.
 #[derive(Debug, Clone, Default)]
 struct Mission {
-    waypoints: heapless::Vec<[f32; 3], { controller_core::reference::mission::MAX_WAYPOINTS }>,
+    waypoints: heapless::Vec<[f32; 3], MAX_WAYPOINTS>,
     speed_m_s: f32,
 }
 
 /// A motor test in force (`motor_test.rs`): the request, its end and the mode it started in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct MotorTestRun {
-    test: crate::protocol::MotorTest,
+    test: MotorTest,
     until_us: u64,
     mode: Mode,
 }
@@ -70,21 +86,6 @@ enum SurfacePhase {
     /// At the top, holding the depth it arrived at (`SURFACE_END` hold).
     Holding,
 }
-pub use ident_flight::{IdentAbort, IdentFlight, IdentOutcome, IDENT_DURATION_S};
-
-use crate::compass_swing::{SwingFlight, SwingOutcome};
-use crate::health::HealthMonitor;
-pub use crate::protocol::Failsafe;
-use crate::protocol::{fault, Command, ManualThrust, Mode, NackReason, NavSample};
-use controller_core::alloc::Allocation;
-use controller_core::controller::{ControlMode, Controller};
-use controller_core::law::pilot::Sticks;
-use controller_core::nav::compass_cal::CompassCalibration;
-use controller_core::nav::onboard::OnboardNav;
-use controller_core::params::VehicleParams;
-use controller_core::reference::mission::MissionPath;
-use controller_core::reference::{Bounds, Reference};
-use controller_core::state::{BodyForces, NavState, TrackingErrors};
 
 /// Largest magnitudes accepted in a `NavState` (anything beyond is a broken estimator).
 pub mod nav_limits {

@@ -36,11 +36,7 @@ pub fn long_test_all(module: &str, name: &str, wall_s: u32) -> bool {
     if std::env::var_os("ROV_LONG").is_some_and(|v| v == "all") {
         return true;
     }
-    let _ = writeln!(
-        std::io::stderr(),
-        "SKIPPED {name} (long test, ~{wall_s} s on 2 cores; run with ROV_LONG=all cargo test \
-         -p host-sim --test it {module}::{name})"
-    );
+    skipped("it", &format!("{module}::{name}"), wall_s, "all");
     false
 }
 
@@ -52,14 +48,19 @@ pub fn long_test_of(binary: &str, path: &str, wall_s: u32) -> bool {
         return true;
     }
     let tier = if wall_s <= CI_WALL_S { "1" } else { "all" };
+    skipped(binary, path, wall_s, tier);
+    false
+}
+
+/// The `SKIPPED` line of the long test `path` of `binary`, with the `ROV_LONG` `tier` that
+/// runs it, written to the stream itself (the harness captures only `print!` / `eprint!`).
+fn skipped(binary: &str, path: &str, wall_s: u32, tier: &str) {
     let name = path.rsplit("::").next().unwrap_or(path);
-    // Written to the stream itself: the harness captures only `print!` / `eprint!`.
     let _ = writeln!(
         std::io::stderr(),
         "SKIPPED {name} (long test, ~{wall_s} s on 2 cores; run with ROV_LONG={tier} cargo test \
          -p host-sim --test {binary} {path})"
     );
-    false
 }
 
 /// The number of draws of the statistical campaign `name` (a Monte Carlo, a sweep) of the
