@@ -15,8 +15,8 @@ use std::time::{Duration, Instant};
 
 // This file uses the scratch folders only.
 #[allow(dead_code)]
-mod common;
-mod gcs;
+use crate::common;
+use crate::gcs;
 use gcs::{dive, free_udp_port, stop, Dive};
 
 /// The built-in `nav-circle-3d` (the estimator on the full sensor suite: IMU, depth,

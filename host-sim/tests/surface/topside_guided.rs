@@ -4,7 +4,7 @@
 //! (ArduSub's custom mode 4 in its `HEARTBEAT`, armed), the vehicle reaches the point it was
 //! sent to before the restart, and the restarted surface takes a new target in GUIDED.
 
-mod gcs;
+use crate::gcs;
 
 use gcs::{dive, free_udp_port, stop, wait};
 use mavlink::dialects::ardupilotmega::{

@@ -12,7 +12,7 @@
 //! Without pymavlink or MAVProxy: SKIPPED with the fix (a failure with
 //! `ROV_REQUIRE_PYMAVLINK=1`).
 
-mod gcs;
+use crate::gcs;
 
 use gcs::{dive, free_udp_port, pymavlink_or_skip, stop, wait};
 use mavlink::dialects::ardupilotmega::{MavMessage, PARAM_REQUEST_READ_DATA};

@@ -10,7 +10,7 @@
 //! Without Python 3 or pymavlink this test prints SKIPPED with the fix; with
 //! `ROV_REQUIRE_PYMAVLINK=1` (set by `.ci/run`) it fails instead.
 
-mod gcs;
+use crate::gcs;
 // The probes with a ground station's raw bytes, and the flights on the vehicle's own
 // estimator (in the folder beside this file, not test binaries of their own).
 #[path = "topside_clients/estimator.rs"]

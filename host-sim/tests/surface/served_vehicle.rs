@@ -9,7 +9,7 @@
 //! a point and disarmed through `rov-topside --tcp`, held against the served vehicle's truth
 //! log and against the same session through the former lock-step surface.
 
-mod gcs;
+use crate::gcs;
 
 use firmware::protocol::{Command as Cmd, Reply};
 use gcs::{free_udp_port, pymavlink_or_skip, rov_topside, serve_vehicle as vehicle, stop};

@@ -6,7 +6,7 @@
 //! Without the `mavsdk` package: SKIPPED with the fix (`python3 -m pip install mavsdk`), a
 //! failure with `ROV_REQUIRE_PYMAVLINK=1`.
 
-mod gcs;
+use crate::gcs;
 
 use gcs::{dive, free_udp_port, stop};
 use std::path::{Path, PathBuf};
