@@ -5,6 +5,12 @@
 //! (they wait on real time more than they compute) and the simulator is linked once.
 //!
 //! `cargo test -p host-sim --test surface MODULE::` runs one module (e.g. `topside_safety::`).
+//! The README's command runs the quick ones: each kind of session (safety, pymavlink, MAVProxy,
+//! missions, the buttons, the motor test, parameters and failsafes, the compass turn, the
+//! identification manoeuvre's start and stop, both layouts, a serial line); the longer flights
+//! (GUIDED go-tos, the global-frame and MAVProxy missions, MAVSDK, the emulated board behind
+//! the surface, the mission on the vehicle's own estimate, the restart in GUIDED) run where
+//! `ROV_LONG` is set, as in CI, and print a `SKIPPED` line with their command elsewhere.
 
 // Shared with `it`: this binary uses its scratch folders only.
 #[allow(dead_code)]
@@ -30,3 +36,9 @@ mod topside_layout;
 mod topside_layout_serial;
 mod topside_safety;
 mod topside_serial;
+
+/// Whether the long test `path` (`module::name`, about `wall_s` of wall time on 2 cores) runs
+/// here: where `ROV_LONG` is set (CI); elsewhere it prints its `SKIPPED` line with the command.
+fn long_test(path: &str, wall_s: u32) -> bool {
+    long_emulated::long_test_of("surface", path, wall_s)
+}

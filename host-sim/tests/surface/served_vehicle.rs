@@ -294,6 +294,12 @@ fn guided_errors(path: &Path, target: [f64; 3], after_s: f64) -> (f64, f64) {
 
 #[test]
 fn pymavlink_flies_a_served_vehicle_through_topside_tcp() {
+    if !crate::long_test(
+        "served_vehicle::pymavlink_flies_a_served_vehicle_through_topside_tcp",
+        90,
+    ) {
+        return;
+    }
     if !pymavlink_or_skip() {
         return;
     }

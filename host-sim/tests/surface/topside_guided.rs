@@ -108,6 +108,12 @@ fn last_distance(rows: &[[f64; 3]], p: [f32; 3]) -> f64 {
 
 #[test]
 fn a_restarted_surface_reads_guided_back_and_the_go_to_goes_on() {
+    if !crate::long_test(
+        "topside_guided::a_restarted_surface_reads_guided_back_and_the_go_to_goes_on",
+        35,
+    ) {
+        return;
+    }
     let d = dir("restart");
     let port = free_udp_port();
     let flight = dive(

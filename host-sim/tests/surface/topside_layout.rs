@@ -296,6 +296,12 @@ fn fly(scenario: &Path, dir: &Path) -> Flight {
 /// 20 s is held against the target, and against the same flight of the onboard layout.
 #[test]
 fn a_ground_station_flies_the_topside_layout_to_a_guided_target() {
+    if !crate::long_test(
+        "topside_layout::a_ground_station_flies_the_topside_layout_to_a_guided_target",
+        80,
+    ) {
+        return;
+    }
     let dir = common::scratch("topside-layout", "fly");
     let layout_dir = dir.join("layout");
     let onboard_dir = dir.join("onboard");
