@@ -54,6 +54,7 @@ mod buttons;
 mod calibration;
 mod commander;
 mod commands;
+mod dvl_report;
 mod faults;
 mod frames;
 mod gcs_failsafe;

@@ -207,6 +207,7 @@ fn run_topside(
         js_gain,
         buttons: Default::default(),
         gcs_watch: Default::default(),
+        dvl_sent_us: 0,
     };
     t.run(a, speedup)
 }

@@ -83,6 +83,8 @@ pub(super) struct Topside {
     pub(super) motor_test_until: Option<(f64, protocol::MotorTest)>,
     /// The ground stations' heartbeat, for `FS_GCS_*`.
     pub(super) gcs_watch: GcsWatch,
+    /// The time of validity of the last DVL report sent to the stations (`dvl_report`).
+    pub(super) dvl_sent_us: u64,
 }
 
 impl Topside {
@@ -158,6 +160,7 @@ impl Topside {
             self.missions
                 .tick(&mut self.gcs, &self.v.tel, k.is_multiple_of(per_second))?;
             self.send_streams(k)?;
+            self.forward_dvl()?;
             if self.guided() && k.is_multiple_of(per_second) {
                 self.send_position_target()?;
             }
