@@ -101,9 +101,16 @@ fn fly_logged(truth: &VehicleParams, seed: u64, tag: &str, tether_log: Option<&P
     rec
 }
 
+#[path = "identification/thrust_anchor.rs"]
+mod thrust_anchor;
+
 /// The truth's values in `MODEL_NAMES`' order, against the Observer's thrust curve.
 fn truth_values(t: &VehicleParams) -> [f64; 12] {
-    let o = VehicleParams::OBSERVER;
+    truth_values_against(t, &VehicleParams::OBSERVER)
+}
+
+/// The truth's values in `MODEL_NAMES`' order, the thrust scales against `o`'s curve.
+fn truth_values_against(t: &VehicleParams, o: &VehicleParams) -> [f64; 12] {
     let f = f64::from;
     [
         f(t.mass_kg - t.x_udot_kg),
