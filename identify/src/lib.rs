@@ -9,22 +9,27 @@
 //!   nominal thrust.
 //! - [`tether_record`]: a dive's raw tether log as the same record (the vehicle's telemetry:
 //!   its own estimate and the pulses it wrote).
-//! - [`fit`]: the per-axis integral-form regressions, the anchor that gives them newtons,
-//!   the physical model with 95 % intervals.
+//! - [`fit`]: the per-axis integral-form regressions.
+//! - [`physical`]: the anchor that gives them newtons, the physical model with 95 %
+//!   intervals.
+//! - [`thrusters`]: the installed thrusters' published curve (a thruster file), the
+//!   anchor a builder has without weighing the vehicle.
 //! - [`validate`]: the held-out blocks simulated with the identified model and the prior;
 //!   RMS figures.
 //! - [`vehicle_file`]: the identified vehicle file.
 
 pub mod fit;
+pub mod physical;
 pub mod record;
 pub mod regression;
 pub mod tether_record;
+pub mod thrusters;
 pub mod validate;
 pub mod vehicle_file;
 
 use anyhow::Result;
 use controller_core::params::VehicleParams;
-pub use fit::{Anchor, Identified};
+pub use physical::{Anchor, Identified};
 pub use record::Record;
 
 /// Everything one identification gives.
@@ -46,7 +51,7 @@ pub fn identify(rec: &Record, prior: &VehicleParams, anchor: Anchor) -> Result<O
     fit::check_excitation(rec, &rec.nominal_thrust_n(prior)?, prior)?;
     let (axes, lag_s) = fit::fit_axes_with_lag(rec, prior)?;
     let thrust = rec.nominal_thrust_lagged_n(prior, lag_s)?;
-    let mut identified = fit::physical(axes, anchor);
+    let mut identified = physical::physical(axes, anchor);
     identified.thruster_time_constant_s = lag_s;
     let params = vehicle_file::identified_params(&identified, prior);
     let lever = f64::from(prior.thruster_lever_arm_m);

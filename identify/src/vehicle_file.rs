@@ -4,7 +4,8 @@
 //! buoyancy, the thrust limits scaled, sway scaled from surge (the prior's ratios), each
 //! with its interval in a comment.
 
-use super::fit::{Identified, MODEL_NAMES};
+use super::physical::{Anchor, Identified, MODEL_NAMES};
+use super::regression::Z_95;
 use controller_core::params::VehicleParams;
 
 /// Relative uncertainty stated for the sway terms taken from the prior's ratios (no sway
@@ -66,6 +67,7 @@ pub fn to_toml(params: &VehicleParams, id: &Identified, source: &str) -> anyhow:
             "#   {name:<22} {v:>10.4} [{lo:.4}, {hi:.4}] {unit}\n"
         ));
     }
+    head.push_str(&format!("# Force scale: {}.\n", anchor_text(id.anchor)));
     head.push_str(&format!(
         "# Sway (y_vdot_kg, y_v, y_vv): the prior's ratios to surge, +-{:.0} % (not measured).\n\
          # Dry mass, rigid inertias, pitch terms, lever arm and pulse curve: the prior's.\n\n",
@@ -73,4 +75,30 @@ pub fn to_toml(params: &VehicleParams, id: &Identified, source: &str) -> anyhow:
     ));
     let body = toml::to_string(params)?;
     Ok(head + &body)
+}
+
+/// What gave the force scale, in words.
+pub fn anchor_text(a: Anchor) -> String {
+    match a {
+        Anchor::ThrustCurve { rel_std } if rel_std > 0.0 => format!(
+            "the installed thrusters' curve ahead, +-{:.1} % (95 %)",
+            rel_std * Z_95 * 100.0
+        ),
+        Anchor::ThrustCurve { .. } => {
+            "the prior's thrust curve ahead, taken as exact (its error scales every force)"
+                .to_string()
+        }
+        Anchor::NetBuoyancy { value_n, std_n } => {
+            format!("the weighed net buoyancy {value_n} N (std {std_n} N)")
+        }
+        Anchor::Both {
+            curve_rel_std,
+            value_n,
+            std_n,
+        } => format!(
+            "the installed thrusters' curve ahead (+-{:.1} %, 95 %) and the weighed net \
+             buoyancy {value_n} N (std {std_n} N), combined by their variances",
+            curve_rel_std * Z_95 * 100.0
+        ),
+    }
 }

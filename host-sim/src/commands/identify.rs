@@ -6,7 +6,9 @@
 
 use crate::checks::refused;
 use anyhow::{anyhow, bail, Context, Result};
-use identify::{fit::MODEL_NAMES, tether_record, Anchor, Record};
+use identify::physical::MODEL_NAMES;
+use identify::thrusters::ThrustCurve;
+use identify::{tether_record, vehicle_file::anchor_text, Anchor, Record};
 use sim_scenario::vehicle;
 use std::path::{Path, PathBuf};
 
@@ -23,9 +25,16 @@ pub struct IdentifyArgs {
     /// rigid inertias and the terms not fitted); the Observer's by default.
     #[arg(long, value_name = "FILE")]
     pub prior: Option<PathBuf>,
+    /// The installed thrusters' published curve (a thruster file: `max_forward_n`,
+    /// `max_reverse_n`, `error` as a 95 % fraction, optional `[pulse]`): the record's thrust
+    /// is computed with it, and its thrust ahead gives the force scale within its error, so
+    /// the net buoyancy is identified.
+    #[arg(long, value_name = "FILE")]
+    pub thrusters: Option<PathBuf>,
     /// The net buoyancy B - W (N, positive floats up) measured by weighing the vehicle in
-    /// water: the fit's force scale, so that the thrust scales are identified too. Without
-    /// it the prior's thrust curve ahead is taken as right.
+    /// water: a force scale, so that the thrust scales are identified too; with
+    /// `--thrusters` the two are combined. With neither, the prior's thrust curve ahead is
+    /// taken as exact.
     #[arg(long, value_name = "N", allow_hyphen_values = true)]
     pub net_buoyancy_n: Option<f64>,
     /// Standard deviation of `--net-buoyancy-n` (N).
@@ -82,8 +91,8 @@ pub fn read_log(log: &Path) -> Result<Record> {
 
 /// Run `host-sim identify`.
 pub fn main(a: IdentifyArgs) -> Result<()> {
-    let anchor = match a.net_buoyancy_n {
-        None => Anchor::ThrustAhead,
+    let weighed = match a.net_buoyancy_n {
+        None => None,
         Some(v) => {
             if !v.is_finite() || v.abs() < 0.2 {
                 return Err(refused(anyhow!(
@@ -96,15 +105,28 @@ pub fn main(a: IdentifyArgs) -> Result<()> {
                     "--net-buoyancy-std-n must be finite and >= 0"
                 )));
             }
-            Anchor::NetBuoyancy {
-                value_n: v,
-                std_n: a.net_buoyancy_std_n,
-            }
+            Some((v, a.net_buoyancy_std_n))
         }
     };
-    let prior = match &a.prior {
+    let flown = match &a.prior {
         Some(p) => vehicle::load(p).map_err(refused)?,
         None => vehicle::parse(vehicle::OBSERVER_TOML, "observer.toml")?,
+    };
+    let (prior, anchor) = match &a.thrusters {
+        Some(file) => {
+            let curve = ThrustCurve::load(file).map_err(refused)?;
+            (
+                curve.installed_in(&flown).map_err(refused)?,
+                curve.anchor(weighed),
+            )
+        }
+        None => (
+            flown,
+            match weighed {
+                Some((value_n, std_n)) => Anchor::NetBuoyancy { value_n, std_n },
+                None => Anchor::ThrustCurve { rel_std: 0.0 },
+            },
+        ),
     };
     let rec = read_log(&a.log).map_err(refused)?;
     let out = identify::identify(&rec, &prior, anchor).map_err(refused)?;
@@ -125,6 +147,7 @@ pub fn main(a: IdentifyArgs) -> Result<()> {
     crate::output::identify_plot::plot(&plot, &out.validation, &out.prior_validation)?;
     let id = &out.identified;
     println!("identified from {source} ({} samples):", rec.samples.len());
+    println!("  force scale: {}", anchor_text(anchor));
     for (((name, unit), v), (lo, hi)) in MODEL_NAMES
         .iter()
         .zip(id.model.values())
