@@ -103,6 +103,8 @@ fn fly_logged(truth: &VehicleParams, seed: u64, tag: &str, tether_log: Option<&P
 
 #[path = "identification/coverage.rs"]
 mod coverage;
+#[path = "identification/sway.rs"]
+mod sway;
 #[path = "identification/thrust_anchor.rs"]
 mod thrust_anchor;
 

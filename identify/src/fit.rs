@@ -45,10 +45,13 @@ pub enum Axis {
     Yaw,
     /// Heave (`w`, the vertical thruster).
     Heave,
+    /// Sway (`v`): no thruster, excited by the turns under way ([`crate::sway`]); not in
+    /// [`Axis::ALL`].
+    Sway,
 }
 
 impl Axis {
-    /// All three, in fit order.
+    /// The three thrust axes, in fit order.
     pub const ALL: [Axis; 3] = [Axis::Surge, Axis::Yaw, Axis::Heave];
 
     /// Its name.
@@ -57,6 +60,7 @@ impl Axis {
             Axis::Surge => "surge",
             Axis::Yaw => "yaw",
             Axis::Heave => "heave",
+            Axis::Sway => "sway",
         }
     }
 
@@ -77,6 +81,15 @@ impl Axis {
                 "heave |w|w",
                 "heave buoyancy",
             ],
+            Axis::Sway => &[
+                "sway u r",
+                "sway p w",
+                "sway roll buoyancy",
+                "sway v",
+                "sway |v|v",
+                "sway q r",
+                "sway roll acceleration",
+            ],
         }
     }
 
@@ -86,6 +99,7 @@ impl Axis {
             Axis::Surge => 0.15,
             Axis::Yaw => 0.2,
             Axis::Heave => 0.1,
+            Axis::Sway => 0.1,
         }
     }
 }
@@ -127,6 +141,15 @@ pub fn prior_theta(axis: Axis, p: &VehicleParams) -> Vec<f64> {
             -m22 / mz,
             a_uq / mz,
         ],
+        Axis::Sway => vec![
+            m11 / m22,
+            mz / m22,
+            f(p.buoyancy_offset_n) / m22,
+            f(p.y_v) / m22,
+            f(p.y_vv) / m22,
+            a_uq / m22,
+            a_uq / m22,
+        ],
     }
 }
 
@@ -139,8 +162,8 @@ pub struct AxisSeries {
     /// Its integrated regressors at each sample.
     pub phi: Vec<Vec<f64>>,
     /// A regressor that enters through its change over a window rather than its integral
-    /// (surge: the pitch rate, whose derivative the surge-pitch mass couples in); empty for
-    /// the other axes.
+    /// (surge: the pitch rate, whose derivative the surge-pitch mass couples in; sway: the
+    /// roll rate, likewise); empty for the other axes.
     pub diff: Vec<f64>,
 }
 
@@ -195,6 +218,20 @@ pub fn axis_series(axis: Axis, rec: &Record, thrust: &[[f64; 3]], lever_arm_m: f
                     p * p + q * q,
                 ],
             ),
+            Axis::Sway => {
+                out.diff.push(p);
+                (
+                    v,
+                    vec![
+                        -u * r,
+                        p * w,
+                        -pitch.cos() * roll.sin(),
+                        -v,
+                        -v.abs() * v,
+                        -q * r,
+                    ],
+                )
+            }
         };
         out.vel.push(vel);
         out.phi.push(phi);

@@ -12,6 +12,7 @@
 //! - [`fit`]: the per-axis integral-form regressions.
 //! - [`physical`]: the anchor that gives them newtons, the physical model with 95 %
 //!   intervals.
+//! - [`sway`]: sway's mass and drags from the turns (no sway thruster).
 //! - [`thrusters`]: the installed thrusters' published curve (a thruster file), the
 //!   anchor a builder has without weighing the vehicle.
 //! - [`validate`]: the held-out blocks simulated with the identified model and the prior;
@@ -22,6 +23,7 @@ pub mod fit;
 pub mod physical;
 pub mod record;
 pub mod regression;
+pub mod sway;
 pub mod tether_record;
 pub mod thrusters;
 pub mod validate;
@@ -42,6 +44,8 @@ pub struct Outcome {
     pub validation: validate::Prediction,
     /// The same with the prior.
     pub prior_validation: validate::Prediction,
+    /// Sway: fitted from the turns, or the prior's ratios and why.
+    pub sway: sway::Sway,
 }
 
 /// Identify a vehicle from a record, starting from `prior`.
@@ -53,8 +57,15 @@ pub fn identify(rec: &Record, prior: &VehicleParams, anchor: Anchor) -> Result<O
     let thrust = rec.nominal_thrust_lagged_n(prior, lag_s)?;
     let mut identified = physical::physical(axes, anchor);
     identified.thruster_time_constant_s = lag_s;
-    let params = vehicle_file::identified_params(&identified, prior);
     let lever = f64::from(prior.thruster_lever_arm_m);
+    let ratios = vehicle_file::identified_params(&identified, prior, None);
+    let known = sway::Known::from_model(&identified.model, identified.lo[0], identified.hi[0]);
+    let sway = sway::fit_sway(rec, &thrust, lever, known, &ratios);
+    let fitted_sway = match &sway {
+        sway::Sway::Fitted(m) => Some(m),
+        sway::Sway::Prior { .. } => None,
+    };
+    let params = vehicle_file::identified_params(&identified, prior, fitted_sway);
     let fitted = identified
         .axes
         .fits
@@ -69,5 +80,6 @@ pub fn identify(rec: &Record, prior: &VehicleParams, anchor: Anchor) -> Result<O
         params,
         validation,
         prior_validation,
+        sway,
     })
 }

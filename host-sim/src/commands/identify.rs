@@ -7,6 +7,7 @@
 use crate::checks::refused;
 use anyhow::{anyhow, bail, Context, Result};
 use identify::physical::MODEL_NAMES;
+use identify::sway::{Sway, SWAY_NAMES};
 use identify::thrusters::ThrustCurve;
 use identify::{tether_record, vehicle_file::anchor_text, Anchor, Record};
 use sim_scenario::vehicle;
@@ -133,7 +134,7 @@ pub fn main(a: IdentifyArgs) -> Result<()> {
     let source = a.log.display().to_string();
     vehicle::check(&out.params)
         .context("the identified vehicle is not flyable; nothing written")?;
-    let text = identify::vehicle_file::to_toml(&out.params, &out.identified, &source)?;
+    let text = identify::vehicle_file::to_toml(&out.params, &out.identified, &out.sway, &source)?;
     // The file must load as written (a round trip through the same parser as `vehicle =`).
     vehicle::parse(&text, "the identified file")?;
     std::fs::write(&a.out, &text).with_context(|| format!("cannot write {}", a.out.display()))?;
@@ -154,6 +155,24 @@ pub fn main(a: IdentifyArgs) -> Result<()> {
         .zip(id.lo.iter().zip(id.hi.iter()))
     {
         println!("  {name:<22} {v:>10.4}  95 % [{lo:.4}, {hi:.4}] {unit}");
+    }
+    match &out.sway {
+        Sway::Fitted(s) => {
+            for (((name, unit), v), (lo, hi)) in SWAY_NAMES
+                .iter()
+                .zip(s.values())
+                .zip(s.lo.iter().zip(s.hi.iter()))
+            {
+                println!("  {name:<22} {v:>10.4}  95 % [{lo:.4}, {hi:.4}] {unit}");
+            }
+            println!(
+                "  sway from the turns: held-out RMS v {:.4} m/s (the prior's ratios: {:.4})",
+                s.held_out_rms_m_s, s.ratios_held_out_rms_m_s
+            );
+        }
+        Sway::Prior { reason } => {
+            println!("  sway: the prior's ratios to surge, +-50 % (not measured: {reason})")
+        }
     }
     let [su, sr, sw] = out.validation.rms();
     let [pu, pr, pw] = out.prior_validation.rms();

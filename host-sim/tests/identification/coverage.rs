@@ -2,10 +2,17 @@
 
 use super::thrust_anchor::{identify_on_curve, JUDGED_ON_CURVE};
 use super::*;
+use identify::sway::Sway;
 use identify::thrusters::ThrustCurve;
 
 /// Per run: which judged intervals hold the truth, and every value's error (%).
 type Run = ([bool; 12], [f64; 12]);
+
+/// Per run, sway's `m22` and `Y_vv`: whether the intervals hold the truth, the errors (%).
+struct SwayRun {
+    inside: [bool; 2],
+    err: [f64; 2],
+}
 
 fn judge(tag: &str, out: &Outcome, t: &[f64; 12], judged: &[usize]) -> Run {
     let id = &out.identified;
@@ -73,7 +80,11 @@ fn intervals_hold_the_truth_in_90_percent_of_50_runs() {
     for file in ["heavy-slow.toml", "light.toml"] {
         let truth = vehicle_file(file);
         let t = truth_values(&truth);
-        let runs: Vec<(Run, Run)> = (100..150u64)
+        let sway_truth = [
+            f64::from(truth.mass_kg - truth.y_vdot_kg),
+            f64::from(truth.y_vv),
+        ];
+        let runs: Vec<(Run, Run, Option<SwayRun>)> = (100..150u64)
             .into_par_iter()
             .map(|seed| {
                 let tag = format!("mc-{}-{seed}", file.trim_end_matches(".toml"));
@@ -81,12 +92,43 @@ fn intervals_hold_the_truth_in_90_percent_of_50_runs() {
                 let out =
                     identify(&rec, &VehicleParams::OBSERVER, buoyancy_anchor(&truth)).unwrap();
                 let weighed = judge(&format!("{tag} weighed"), &out, &t, &JUDGED);
+                let sway = match &out.sway {
+                    Sway::Fitted(s) => {
+                        let v = [s.m22_kg, s.y_vv];
+                        let (lo, hi) = ([s.lo[0], s.lo[2]], [s.hi[0], s.hi[2]]);
+                        Some(SwayRun {
+                            inside: std::array::from_fn(|i| {
+                                (lo[i]..=hi[i]).contains(&sway_truth[i])
+                            }),
+                            err: std::array::from_fn(|i| {
+                                (v[i] / sway_truth[i] - 1.0).abs() * 100.0
+                            }),
+                        })
+                    }
+                    Sway::Prior { reason } => {
+                        eprintln!("mc {tag}: sway not fitted: {reason}");
+                        None
+                    }
+                };
                 let curve = drawn_datasheet(&truth, 0.05, seed);
                 let (out, tc) = identify_on_curve(&rec, &truth, &curve);
                 let on_curve = judge(&format!("{tag} curve"), &out, &tc, &JUDGED_ON_CURVE);
-                (weighed, on_curve)
+                (weighed, on_curve, sway)
             })
             .collect();
+        let sway: Vec<&SwayRun> = runs.iter().filter_map(|r| r.2.as_ref()).collect();
+        for (i, name) in ["m22", "Y_vv"].iter().enumerate() {
+            let n = sway.len().max(1) as f64;
+            eprintln!(
+                "{file} sway: fitted in {}/{}; {name} coverage {:.0} %, within 10 % in {}, \
+                 worst error {:.1} %",
+                sway.len(),
+                runs.len(),
+                sway.iter().filter(|r| r.inside[i]).count() as f64 / n * 100.0,
+                sway.iter().filter(|r| r.err[i] <= 10.0).count(),
+                sway.iter().map(|r| r.err[i]).fold(0.0, f64::max)
+            );
+        }
         let weighed: Vec<Run> = runs.iter().map(|r| r.0).collect();
         let on_curve: Vec<Run> = runs.iter().map(|r| r.1).collect();
         let cov_w = summarise(&format!("{file} weighed"), &weighed, &JUDGED);
