@@ -220,6 +220,11 @@ fn heavy_slow_identified_from_the_tether_log_within_10_percent() {
     let (err, out) = identify_from_tether_log("tether-heavy-slow-all");
     let worst = JUDGED.iter().map(|&i| err[i].abs()).fold(0.0, f64::max);
     assert!(worst <= 10.0, "worst {worst:.1} %");
+    // Sway from the DVL's reports of the turns.
+    let s = sway::fitted("tether", &out);
+    let truth = vehicle_file("heavy-slow.toml");
+    let (sway_err, _) = sway::report_sway("tether", &s, &sway::sway_truth(&truth));
+    assert!(sway_err[0].abs() <= 10.0, "m22 {:+.1} %", sway_err[0]);
     vehicle::check(&out.params).unwrap();
 }
 

@@ -17,8 +17,10 @@
 //! Observer's), so `m z_g` is fitted here. Sway takes the force scale of the thrust axes.
 //!
 //! Not determined (the velocity span below [`MIN_SPAN_M_S`], a regressor not excited, or a
-//! 95 % interval of `m_22` or `Y_vv` wider than [`MAX_REL_HALF_WIDTH`] of its value), the
-//! vehicle file keeps the prior's ratios to surge, and the reason is given.
+//! 95 % interval of `m_22` wider than [`MAX_REL_HALF_WIDTH`] of its value), the vehicle file
+//! keeps the prior's ratios to surge, and the reason is given; `m_22` determined but `Y_vv`'s
+//! interval wider than that, the file takes `m_22` and keeps the prior's drag ratios
+//! ([`SwayModel::drags_not_determined`]).
 
 use super::fit::{axis_series, in_fit_part, prior_theta, windowed, Axis};
 use super::physical::Model;
@@ -63,6 +65,8 @@ pub struct SwayModel {
     pub y_vv: f64,
     /// `m z_g` (kg m), the sway-roll coupling.
     pub m_zg_kg_m: f64,
+    /// Why the drags are not taken (their interval too wide); `None` when they are.
+    pub drags_not_determined: Option<String>,
     /// Lower ends of the 95 % intervals, in [`SWAY_NAMES`]' order.
     pub lo: [f64; 3],
     /// Upper ends.
@@ -139,7 +143,7 @@ pub fn fit_sway(
             (lo.min(v), hi.max(v))
         });
     let span = hi - lo;
-    if !(span >= MIN_SPAN_M_S) {
+    if span.is_nan() || span < MIN_SPAN_M_S {
         return Sway::Prior {
             reason: format!(
                 "the sway velocity spans {span:.3} m/s, needs {MIN_SPAN_M_S}: the turns did not \
@@ -171,17 +175,28 @@ pub fn fit_sway(
     let (point, lo, hi) = physical(&fit, known.scale_rel_std);
     let [m22, y_v, y_vv] = point;
     let rel = |i: usize| 0.5 * (hi[i] - lo[i]) / point[i].abs();
-    if !(m22 > 0.0 && y_vv > 0.0) || rel(0) > MAX_REL_HALF_WIDTH || rel(2) > MAX_REL_HALF_WIDTH {
+    // Positive and its interval within the bound (a NaN is neither).
+    let determined = |i: usize| {
+        point[i].is_finite() && point[i] > 0.0 && rel(i).is_finite() && rel(i) <= MAX_REL_HALF_WIDTH
+    };
+    if !determined(0) {
         return Sway::Prior {
             reason: format!(
-                "sway not determined by the turns: m22 {m22:.3} kg +-{:.0} %, Y_vv {y_vv:.3} \
-                 +-{:.0} % (95 %; at most +-{:.0} % and positive taken)",
+                "sway not determined by the turns: m22 {m22:.3} kg +-{:.0} % (95 %; at most \
+                 +-{:.0} % and positive taken)",
                 rel(0) * 100.0,
-                rel(2) * 100.0,
                 MAX_REL_HALF_WIDTH * 100.0
             ),
         };
     }
+    let drags_not_determined = (!determined(2)).then(|| {
+        format!(
+            "the sway drags are not determined by the turns: Y_vv {y_vv:.3} +-{:.0} % (95 %; at \
+             most +-{:.0} % and positive taken); the prior's drag ratios kept",
+            rel(2) * 100.0,
+            MAX_REL_HALF_WIDTH * 100.0
+        )
+    });
     let g = |i: usize| fit.theta.get(i).copied().unwrap_or(f64::NAN);
     // The raw coefficients for the held-out simulation.
     let theta = vec![
@@ -208,6 +223,7 @@ pub fn fit_sway(
         y_v,
         y_vv,
         m_zg_kg_m,
+        drags_not_determined,
         lo,
         hi,
         fit,

@@ -43,8 +43,10 @@ pub fn identified_params(
     p.y_vv = f(ratio(prior.y_vv, prior.x_uu, m.x_uu).max(0.0));
     if let Some(s) = sway {
         p.y_vdot_kg = f(mass - s.m22_kg);
-        p.y_v = f(s.y_v.max(0.0));
-        p.y_vv = f(s.y_vv.max(0.0));
+        if s.drags_not_determined.is_none() {
+            p.y_v = f(s.y_v.max(0.0));
+            p.y_vv = f(s.y_vv.max(0.0));
+        }
     }
     // Drags are magnitudes: a slightly negative estimate (noise about zero) is written 0.
     p.x_u = f(m.x_u.max(0.0));
@@ -94,6 +96,12 @@ pub fn to_toml(
             {
                 head.push_str(&format!(
                     "#   {name:<22} {v:>10.4} [{lo:.4}, {hi:.4}] {unit}\n"
+                ));
+            }
+            if let Some(why) = &s.drags_not_determined {
+                head.push_str(&format!(
+                    "# y_v, y_vv: the prior's ratios to surge, +-{:.0} % ({why}).\n",
+                    SWAY_PRIOR_REL_UNCERTAINTY * 100.0
                 ));
             }
         }

@@ -165,6 +165,9 @@ pub fn main(a: IdentifyArgs) -> Result<()> {
             {
                 println!("  {name:<22} {v:>10.4}  95 % [{lo:.4}, {hi:.4}] {unit}");
             }
+            if let Some(why) = &s.drags_not_determined {
+                println!("  {why}");
+            }
             println!(
                 "  sway from the turns: held-out RMS v {:.4} m/s (the prior's ratios: {:.4})",
                 s.held_out_rms_m_s, s.ratios_held_out_rms_m_s

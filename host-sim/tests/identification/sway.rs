@@ -6,7 +6,7 @@ use super::*;
 use identify::sway::{Sway, SwayModel, SWAY_NAMES};
 
 /// The truth's sway values in `SWAY_NAMES`' order.
-fn sway_truth(t: &VehicleParams) -> [f64; 3] {
+pub(super) fn sway_truth(t: &VehicleParams) -> [f64; 3] {
     [
         f64::from(t.mass_kg - t.y_vdot_kg),
         f64::from(t.y_v),
@@ -15,7 +15,7 @@ fn sway_truth(t: &VehicleParams) -> [f64; 3] {
 }
 
 /// Print the sway model against the truth; the errors (%) and whether each interval holds it.
-fn report_sway(tag: &str, s: &SwayModel, truth: &[f64; 3]) -> ([f64; 3], [bool; 3]) {
+pub(super) fn report_sway(tag: &str, s: &SwayModel, truth: &[f64; 3]) -> ([f64; 3], [bool; 3]) {
     let v = s.values();
     let err: [f64; 3] = std::array::from_fn(|i| (v[i] / truth[i] - 1.0) * 100.0);
     let inside: [bool; 3] = std::array::from_fn(|i| (s.lo[i]..=s.hi[i]).contains(&truth[i]));
@@ -40,7 +40,7 @@ fn report_sway(tag: &str, s: &SwayModel, truth: &[f64; 3]) -> ([f64; 3], [bool; 
     (err, inside)
 }
 
-fn fitted(tag: &str, out: &Outcome) -> SwayModel {
+pub(super) fn fitted(tag: &str, out: &Outcome) -> SwayModel {
     match &out.sway {
         Sway::Fitted(s) => s.clone(),
         Sway::Prior { reason } => panic!("{tag}: sway not fitted: {reason}"),
@@ -58,6 +58,7 @@ fn sway_mass_and_drag_from_the_turns_within_10_percent() {
         let out = identify(&rec, &VehicleParams::OBSERVER, buoyancy_anchor(&truth)).unwrap();
         let s = fitted(&tag, &out);
         let (err, inside) = report_sway(&tag, &s, &sway_truth(&truth));
+        assert_eq!(s.drags_not_determined, None, "{tag}");
         for i in [0, 2] {
             assert!(
                 err[i].abs() <= 10.0,
@@ -84,7 +85,7 @@ fn a_record_without_turns_keeps_the_prior_ratios_and_says_why() {
     let truth = vehicle_file("heavy-slow.toml");
     let mut rec = fly(&truth, 2, "sway-no-turns");
     for s in &mut rec.samples {
-        s.vel_m_s[1] = 0.01 * s.vel_m_s[1];
+        s.vel_m_s[1] *= 0.01;
     }
     let out = identify(&rec, &VehicleParams::OBSERVER, buoyancy_anchor(&truth)).unwrap();
     match &out.sway {
