@@ -177,6 +177,12 @@ fn identify_vehicle(file: &str, seed: u64) -> (f64, Outcome, VehicleParams) {
         "{tag}: thruster time constant {:.3} s (truth {})",
         out.identified.thruster_time_constant_s, truth.thruster_time_constant_s
     );
+    match &out.sway {
+        identify::sway::Sway::Fitted(s) => {
+            sway::report_sway(&tag, s, &sway::sway_truth(&truth));
+        }
+        identify::sway::Sway::Prior { reason } => eprintln!("{tag}: sway: {reason}"),
+    }
     (worst, out, truth)
 }
 
