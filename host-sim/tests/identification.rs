@@ -107,6 +107,8 @@ mod coverage;
 mod sway;
 #[path = "identification/thrust_anchor.rs"]
 mod thrust_anchor;
+#[path = "identification/tlog.rs"]
+mod tlog;
 
 /// The truth's values in `MODEL_NAMES`' order, against the Observer's thrust curve.
 fn truth_values(t: &VehicleParams) -> [f64; 12] {
