@@ -360,6 +360,7 @@ fn the_emulated_topside_greets_the_pc_and_steps_on_an_uplink() {
         pressure_count: 1,
         status: status::LATCHED,
         counters: NodeCounters::default(),
+        dvl: None,
     };
     let mut out = [0u8; MAX_FRAME_LEN];
     let f = node_link::seal(1, &up, &mut out).unwrap();

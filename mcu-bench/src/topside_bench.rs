@@ -129,6 +129,7 @@ pub fn run_topside<P: Platform>(b: &Bench<'_, P>, p: &P) {
                 pressure_count: (i / 5) as u8,
                 status: status::ARMED,
                 counters: NodeCounters::default(),
+                dvl: None,
             };
             up_seq = up_seq.wrapping_add(1);
             let mut out = [0u8; MAX_FRAME_LEN];

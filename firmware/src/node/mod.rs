@@ -453,6 +453,7 @@ where
             pressure_count: self.pressure_count,
             status: self.status(now),
             counters: self.counters,
+            dvl: None,
         };
         (self.delta_angle_rad, self.delta_velocity_m_s) = ([0.0; 3], [0.0; 3]);
         (self.dt_us, self.samples) = (0, 0);

@@ -113,6 +113,7 @@ fn uplink(echo_seq: u16, pressure_count: u8) -> Uplink {
         pressure_count,
         status: status::ARMED,
         counters: NodeCounters::default(),
+        dvl: None,
     }
 }
 
