@@ -27,10 +27,11 @@
 use crate::app::Monotonic;
 use crate::node_link::{
     low_16, seal, seq_after, status, ArmCommand, Downlink, LinkDecoder, LinkFrame, NodeCounters,
-    Uplink, ESC_MAX_US, ESC_MIN_US, ESC_NEUTRAL_US, MAX_TTL_MS,
+    Uplink, UplinkDvl, ESC_MAX_US, ESC_MIN_US, ESC_NEUTRAL_US, MAX_TTL_MS,
 };
 use crate::protocol::{DropReason, MAX_FRAME_LEN};
 use crate::sensors::Sensors;
+use controller_core::nav::DvlFix;
 use embedded_hal::pwm::SetDutyCycle;
 use embedded_io::{Read, ReadReady, Write, WriteReady};
 
@@ -163,6 +164,10 @@ pub struct Node<P, S, C, N> {
     next_imu_us: u64,
     next_link_us: u64,
     counters: NodeCounters,
+    /// The newest DVL velocity admitted since the last uplink.
+    dvl: Option<DvlFix>,
+    /// Admitted DVL velocities the uplink could not carry (counted as refused).
+    dvl_unsent: u32,
 }
 
 impl<P, S, C, N> Node<P, S, C, N>
@@ -232,12 +237,16 @@ where
             next_imu_us: now,
             next_link_us: now.saturating_add(u64::from(config.link_period_us)),
             counters: NodeCounters::default(),
+            dvl: None,
+            dvl_unsent: 0,
         })
     }
 
     /// One pass of the node's loop: the waiting link bytes (at most
-    /// `max_rx_bytes_per_tick`), the IMU when due, the failsafes and the outputs, the uplink
-    /// when due.
+    /// `max_rx_bytes_per_tick`), the IMU when due, the failsafes and the outputs, then the
+    /// uplink when due or else the DVL's port: a pass that seals an uplink parses no DVL
+    /// line (the DVL's bytes wait in its port's ring for the next pass, 2.5 ms at most), so
+    /// each of the two keeps its own time budget.
     pub fn tick(&mut self) {
         self.flush_tx();
         let mut budget = self.config.max_rx_bytes_per_tick;
@@ -265,6 +274,8 @@ where
         if now >= self.next_link_us {
             self.next_link_us = next_due(self.next_link_us, now, self.config.link_period_us);
             self.send_uplink(now);
+        } else if let Some(fix) = self.sensors.dvl(now) {
+            self.dvl = Some(fix);
         }
     }
 
@@ -440,6 +451,15 @@ where
             (1.., Some((t, _, _))) => now.saturating_sub(t).min(u64::from(u32::MAX)) as u32,
             _ => 0,
         };
+        let dvl = self.dvl.take().and_then(|f| {
+            let d = UplinkDvl::from_fix(&f, now);
+            if d.is_none() {
+                self.dvl_unsent = self.dvl_unsent.wrapping_add(1);
+            }
+            d
+        });
+        // The low byte of the count: the topside sums the differences.
+        self.counters.dvl_refused = self.sensors.dvl_refused().wrapping_add(self.dvl_unsent) as u8;
         let up = Uplink {
             session: self.session,
             echo_seq: low_16(self.last_seq.unwrap_or(0)),
@@ -453,7 +473,7 @@ where
             pressure_count: self.pressure_count,
             status: self.status(now),
             counters: self.counters,
-            dvl: None,
+            dvl,
         };
         (self.delta_angle_rad, self.delta_velocity_m_s) = ([0.0; 3], [0.0; 3]);
         (self.dt_us, self.samples) = (0, 0);

@@ -36,9 +36,12 @@ impl UplinkDvl {
     pub fn from_fix(fix: &DvlFix, now_us: u64) -> Option<Self> {
         let age_us = now_us.checked_sub(fix.t_us)?;
         let age_ms = u16::try_from(age_us.saturating_add(500) / 1_000).ok()?;
+        // Rounded to the nearest millimetre a second (half away from zero: the cast
+        // truncates), within +-`max`; NaN fails the comparison.
         let mm = |v: f32, max: f32| {
-            let x = (v * 1e3).round();
-            (x.abs() <= max).then_some(x) // NaN fails the comparison
+            let x = v * 1e3;
+            let r = if x >= 0.0 { x + 0.5 } else { x - 0.5 };
+            (r.abs() < max + 1.0).then_some(r)
         };
         let [u, v] = fix.velocity_m_s;
         let max_v = f32::from(i16::MAX);
