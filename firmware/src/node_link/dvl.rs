@@ -58,8 +58,8 @@ impl UplinkDvl {
         let [u, v] = self.velocity_mm_s;
         DvlFix {
             t_us,
-            velocity_m_s: [f32::from(u) * 1e-3, f32::from(v) * 1e-3],
-            std_m_s: f32::from(self.std_mm_s.max(1)) * 1e-3,
+            velocity_m_s: [f32::from(u) / 1e3, f32::from(v) / 1e3],
+            std_m_s: f32::from(self.std_mm_s.max(1)) / 1e3,
         }
     }
 }
