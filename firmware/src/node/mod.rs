@@ -31,7 +31,6 @@ use crate::node_link::{
 };
 use crate::protocol::{DropReason, MAX_FRAME_LEN};
 use crate::sensors::Sensors;
-use controller_core::nav::DvlFix;
 use embedded_hal::pwm::SetDutyCycle;
 use embedded_io::{Read, ReadReady, Write, WriteReady};
 
@@ -164,8 +163,9 @@ pub struct Node<P, S, C, N> {
     next_imu_us: u64,
     next_link_us: u64,
     counters: NodeCounters,
-    /// The newest DVL velocity admitted since the last uplink.
-    dvl: Option<DvlFix>,
+    /// The newest DVL velocity admitted since the last uplink, in the uplink's integers, and
+    /// its time of validity (converted in the DVL's pass, not the uplink's).
+    dvl: Option<(UplinkDvl, u64)>,
     /// Admitted DVL velocities the uplink could not carry (counted as refused).
     dvl_unsent: u32,
 }
@@ -274,9 +274,22 @@ where
         if now >= self.next_link_us {
             self.next_link_us = next_due(self.next_link_us, now, self.config.link_period_us);
             self.send_uplink(now);
-        } else if let Some(fix) = self.sensors.dvl(now) {
-            self.dvl = Some(fix);
+        } else {
+            self.read_dvl(now);
         }
+    }
+
+    /// The DVL's port: its newest admitted velocity kept for the next uplink, in integers;
+    /// the refused count updated.
+    fn read_dvl(&mut self, now: u64) {
+        if let Some(fix) = self.sensors.dvl(now) {
+            match UplinkDvl::ageless(&fix) {
+                Some(d) => self.dvl = Some((d, fix.t_us)),
+                None => self.dvl_unsent = self.dvl_unsent.wrapping_add(1),
+            }
+        }
+        // The low byte of the count: the topside sums the differences.
+        self.counters.dvl_refused = self.sensors.dvl_refused().wrapping_add(self.dvl_unsent) as u8;
     }
 
     /// Check and apply one frame from the link at `now`; a refused frame changes nothing
@@ -451,15 +464,14 @@ where
             (1.., Some((t, _, _))) => now.saturating_sub(t).min(u64::from(u32::MAX)) as u32,
             _ => 0,
         };
-        let dvl = self.dvl.take().and_then(|f| {
-            let d = UplinkDvl::from_fix(&f, now);
+        let dvl = self.dvl.take().and_then(|(d, t_us)| {
+            let d = d.aged(t_us, now);
             if d.is_none() {
                 self.dvl_unsent = self.dvl_unsent.wrapping_add(1);
+                self.counters.dvl_refused = self.counters.dvl_refused.wrapping_add(1);
             }
             d
         });
-        // The low byte of the count: the topside sums the differences.
-        self.counters.dvl_refused = self.sensors.dvl_refused().wrapping_add(self.dvl_unsent) as u8;
         let up = Uplink {
             session: self.session,
             echo_seq: low_16(self.last_seq.unwrap_or(0)),

@@ -34,8 +34,11 @@ impl UplinkDvl {
     /// is older than [`MAX_UPLINK_DVL_AGE_MS`], stamped after `now_us`, or has a value that
     /// does not fit (NaN, a speed over 32.7 m/s, a figure of merit over 0.255 m/s).
     pub fn from_fix(fix: &DvlFix, now_us: u64) -> Option<Self> {
-        let age_us = now_us.checked_sub(fix.t_us)?;
-        let age_ms = u16::try_from(age_us.saturating_add(500) / 1_000).ok()?;
+        Self::ageless(fix)?.aged(fix.t_us, now_us)
+    }
+
+    /// `fix`'s velocity and figure of merit, its age left at 0 ([`Self::aged`] sets it).
+    pub fn ageless(fix: &DvlFix) -> Option<Self> {
         // Rounded to the nearest millimetre a second (half away from zero: the cast
         // truncates), within +-`max`; NaN fails the comparison.
         let mm = |v: f32, max: f32| {
@@ -46,10 +49,19 @@ impl UplinkDvl {
         let [u, v] = fix.velocity_m_s;
         let max_v = f32::from(i16::MAX);
         Some(Self {
-            age_ms,
+            age_ms: 0,
             velocity_mm_s: [mm(u, max_v)? as i16, mm(v, max_v)? as i16],
             std_mm_s: mm(fix.std_m_s, f32::from(u8::MAX)).filter(|s| *s >= 0.0)? as u8,
         })
+    }
+
+    /// With its age at `now_us` of a time of validity `t_us` (rounded to the millisecond,
+    /// 32-bit arithmetic: cheap in the pass that seals the uplink); `None` when `t_us` is
+    /// after `now_us` or older than [`MAX_UPLINK_DVL_AGE_MS`].
+    pub fn aged(self, t_us: u64, now_us: u64) -> Option<Self> {
+        let age_us = u32::try_from(now_us.checked_sub(t_us)?).ok()?;
+        let age_ms = u16::try_from(age_us.saturating_add(500) / 1_000).ok()?;
+        Some(Self { age_ms, ..self })
     }
 
     /// The fix again, its time of validity `t_us` on the receiver's clock (a figure of
