@@ -1,8 +1,9 @@
 //! The node role: the vehicle's thin image in the paper's layout, where the
 //! control loop runs at the surface. The node reads its IMU at its own rate (at least
 //! 400 Hz) and integrates the increments (delta angle, delta velocity), reads the pressure
-//! sensor, sends both up the node link once a link period, and applies the pulse widths the
-//! topside sends. Nothing of the controller core runs here.
+//! sensor and its DVL's port ([`Sensors::dvl`]: the A50's reports parsed and gated here, only
+//! an admitted velocity travels), sends them up the node link once a link period, and applies
+//! the pulse widths the topside sends. Nothing of the controller core runs here.
 //!
 //! Generic over three `embedded_hal::pwm::SetDutyCycle` (the ESCs), an `embedded_io` port
 //! (the link), a [`Monotonic`] clock and the firmware's [`Sensors`], so the same code runs on
@@ -20,6 +21,7 @@
 //! | a pulse outside 1100-1900 us, a time to live outside 1..=100 ms | never applied; `out_of_range` | |
 //! | another topside's session (crossed wires, two topsides), session 0 | never applied; `foreign` | |
 //! | a sequence not above the last applied one of the session (a replay, at any distance: the `u64` sequence never wraps) | never applied; `replayed` | |
+//! | a DVL line refused (bad checksum, malformed, no bottom lock, a poor figure of merit, overlong), or a velocity the uplink cannot carry | no velocity sent (a DVL gap for the topside's estimator); `dvl_refused` | |
 //!
 //! A refused frame changes nothing: not the outputs, the session, the sequence, the arm
 //! state nor the silence timer.
