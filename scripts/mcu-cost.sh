@@ -23,7 +23,8 @@
 #    RAM of `node` and `node-emu` (linked into 32 KiB / 8 KiB by memory-node.x), no soft f64
 #    and no controller-core symbol in `node`; then the `node-bench` build of the same image in
 #    QEMU: instructions per pass (the IMU-rate pass alone, with a downlink frame decoded and
-#    applied, with the uplink encoded; TIM2 under -icount) and the stack it used (painting).
+#    applied, with the uplink encoded, with a DVL `wrz` line ended, parsed and gated; TIM2
+#    under -icount) and the stack it used (painting).
 # 4d. The topside images: the loop pass `loop.topside_3d` (mcu-bench built with
 #    `--features topside`: the App over the node link, the uplink decoded, the step, the
 #    downlink encoded; -icount as above), flash and static RAM of `topside` and `topside-emu`.
@@ -33,7 +34,8 @@
 #    period), `loop.onboard_3d` (the board's pass with the estimator and its sensors) and
 #    `loop.topside_3d` included; each image's flash <= 256 KiB and RAM (static + measured
 #    stack) <= 64 KiB; the node image flash <= 32 KiB, static RAM + measured stack <= 8 KiB,
-#    each node pass <= 5,000 instructions (its IMU runs at 400 Hz on a small part). A figure
+#    each node pass <= 5,000 instructions (its IMU runs at 400 Hz on a small part), the pass
+#    that parses a DVL line <= 20,000 (within the 2.5 ms IMU period at 16 MHz). A figure
 #    over a budget prints OVER and makes the script exit 1. Below a budget the clearest code
 #    wins: the control steps' figures are printed, not judged.
 #
@@ -292,7 +294,7 @@ fi
 
 # ---- 5. against the budgets ----------------------------------------------------------------
 echo
-echo "== against the budgets (loop and estimator <= 100,000 instructions, image flash <= 256 KiB, RAM <= 64 KiB; node 32 KiB / 8 KiB, 5,000 a pass)"
+echo "== against the budgets (loop and estimator <= 100,000 instructions, image flash <= 256 KiB, RAM <= 64 KiB; node 32 KiB / 8 KiB, 5,000 a pass, 20,000 the DVL line's)"
 over=0
 check() { # LABEL VALUE LIMIT UNIT
   local v=${2%.*}
@@ -352,9 +354,18 @@ if [ -n "$NODE_FLASH" ]; then
   check "node flash" "$NODE_FLASH" $((32 * 1024)) B
   check "node RAM (static $NODE_RAM + bench stack ${NODE_STACK:-?})" "$((NODE_RAM + ${NODE_STACK:-8192}))" $((8 * 1024)) B
 fi
+# A node pass: 5,000 instructions; the pass in which a DVL line ends and is parsed (never the
+# uplink's pass), and so the worst of all passes, 20,000: the node chip is taken to be a
+# Cortex-M4F at the 16 MHz the image runs on (no PLL), whose 2.5 ms IMU period is 40,000
+# cycles; at up to 2 cycles an instruction (loads, branches) the pass ends within the IMU
+# period, so the next sample is on time.
 while read -r line; do
   name=$(echo "$line" | awk '{print $2}')
-  check "$name (max)" "$(echo "$line" | field max)" 5000 instructions
+  case "$name" in
+    node.imu_pass_dvl_line|node.pass_all) limit=20000 ;;
+    *) limit=5000 ;;
+  esac
+  check "$name (max)" "$(echo "$line" | field max)" $limit instructions
 done < <(grep -a '^BENCH node\.' "$OUT/node-bench.log" 2>/dev/null || true)
 [ "$NODE_OK" = 1 ] && echo "  ok    node image: links in its budget, no controller core" || echo "  FAIL  node image (see above)"
 [ "$NM_OK" = 1 ] && echo "  ok    no soft f64 in the control path nor the firmware images" || echo "  FAIL  soft f64 in the control path or a firmware image"

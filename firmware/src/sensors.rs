@@ -27,6 +27,11 @@ pub trait Sensors {
     fn dvl(&mut self, _now_us: u64) -> Option<DvlFix> {
         None
     }
+    /// DVL lines and reports refused so far (bad checksum, malformed, no bottom lock, a poor
+    /// figure of merit, over-long); 0 without a DVL port.
+    fn dvl_refused(&self) -> u32 {
+        0
+    }
     /// The health inputs read now (the power-sense module's ADC pins, the leak probe, the
     /// enclosure's sensor), or `None` on a board without them
     /// (`health::WithHealth` adds them).

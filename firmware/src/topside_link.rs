@@ -5,7 +5,10 @@
 //!   downlink frame (one per ESC, the three sharing a [`NodeBridge`]);
 //! - [`LinkSensors`]: the firmware's [`Sensors`], fed by the node's uplink: the increments of
 //!   a link period become one IMU sample (their mean rate and specific force,
-//!   `delta / dt`), a new pressure reading its pressure;
+//!   `delta / dt`), a new pressure reading its pressure, the DVL velocity the node admitted
+//!   a [`DvlFix`] on the IMU samples' timeline (the increments' newest sample is
+//!   `imu_age_us` before the uplink was sealed, the velocity's time of validity `age_ms`
+//!   before it);
 //! - [`TopsideLink`]: owns the node link's port; decodes and checks the uplinks, sends a
 //!   downlink after every control step (and at least once a link period), measures the
 //!   round trip (the downlink's send time, echoed with the node's holding time) and the
@@ -24,19 +27,19 @@
 //! | no valid uplink for 3 link periods (60 ms) | the estimator gets no pressure and, until 250 ms, the last accepted IMU sample again (prediction only) | [`fault::NODE_LINK_LOST`] |
 //! | no valid uplink for 250 ms | neutral pulses sent to the node; the estimator gets no IMU sample (its own `SENSOR_LOST` then runs) | [`fault::NODE_LINK_LOST`] |
 //! | armed, and the node reports itself latched or timed out to neutral | (the node needs a `Disarmed` then `Armed`: disarm and arm again) | [`fault::NODE_NOT_ARMED`] |
-//! | an uplink with NaN, a rate above 40 rad/s, a specific force above 160 m/s^2, a `dt` of 0 or above 4 periods, a pressure outside 10 kPa-4 MPa | refused, counted ([`TopsideCounters::bad_data`]); the estimate unchanged | |
+//! | an uplink with NaN, a rate above 40 rad/s, a specific force above 160 m/s^2, a `dt` of 0 or above 4 periods, a pressure outside 10 kPa-4 MPa, a DVL speed above 20 m/s | refused, counted ([`TopsideCounters::bad_data`]); the estimate unchanged | |
 //! | an uplink of another session (crossed wires), a repeated or older sequence, another version, a bad CRC | refused, counted | |
 //! | after 250 ms without a valid uplink | the next uplink's sequence is taken whatever it is (a node restarted by its watchdog counts from 0) | |
 
 use crate::node_link::{
     check_link_period, default_link_period_us, low_16, seal, seq_newer, status, wire_time_us,
-    ArmCommand, Downlink, LinkDecoder, LinkFrame, LinkPeriodError, NodeCounters, Uplink,
+    ArmCommand, Downlink, LinkDecoder, LinkFrame, LinkPeriodError, NodeCounters, Uplink, UplinkDvl,
     ESC_MAX_US, ESC_MIN_US, ESC_NEUTRAL_US, LINK_BAUD, LINK_PERIOD_US, MAX_DOWNLINK_FRAME_LEN,
     MAX_TTL_MS, MAX_UPLINK_FRAME_LEN,
 };
 use crate::protocol::{DropReason, MAX_FRAME_LEN};
 use crate::sensors::Sensors;
-use controller_core::nav::ImuSample;
+use controller_core::nav::{DvlFix, ImuSample};
 use core::cell::Cell;
 use embedded_hal::pwm::SetDutyCycle;
 use embedded_io::{Read, ReadReady, Write, WriteReady};
@@ -54,6 +57,8 @@ pub const MAX_RATE_RAD_S: f32 = 40.0;
 pub const MAX_ACCEL_M_S2: f32 = 160.0;
 /// Pressure accepted from the node, Pa (the MS5837-30BA reads to 30 bar).
 pub const PRESSURE_RANGE_PA: (f32, f32) = (1.0e4, 4.0e6);
+/// Largest DVL speed accepted from the node, mm/s (the A50 reads to 20 m/s).
+pub const MAX_DVL_MM_S: i16 = 20_000;
 
 /// The time an uplink's IMU sample is stamped with for the estimator.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -134,6 +139,8 @@ pub struct NodeBridge {
     lag_us: Cell<u32>,
     last_stamp_us: Cell<Option<u64>>,
     pressure_pa: Cell<Option<f32>>,
+    /// The latest DVL velocity from the node not yet read, stamped.
+    dvl: Cell<Option<DvlFix>>,
     /// The uplink is silent past the prediction limit / the neutral limit.
     predict_only: Cell<bool>,
     neutral: Cell<bool>,
@@ -160,6 +167,7 @@ impl NodeBridge {
             lag_us: Cell::new(0),
             last_stamp_us: Cell::new(None),
             pressure_pa: Cell::new(None),
+            dvl: Cell::new(None),
             predict_only: Cell::new(true),
             neutral: Cell::new(true),
             faults: Cell::new(fault::NODE_LINK_LOST),
@@ -254,6 +262,11 @@ impl Sensors for LinkSensors<'_> {
         self.bridge.pressure_pa.take()
     }
 
+    /// The node's newest admitted DVL velocity, once.
+    fn dvl(&mut self, _now_us: u64) -> Option<DvlFix> {
+        self.bridge.dvl.take()
+    }
+
     fn faults(&self) -> u16 {
         self.bridge.faults()
     }
@@ -292,6 +305,10 @@ pub struct TopsideCounters {
     pub bad_data: u32,
     /// Downlinks sent.
     pub sent: u32,
+    /// DVL velocities taken from the node's uplinks (handed to the estimator).
+    pub dvl_fixes: u32,
+    /// DVL lines and reports the node refused, summed from its wrapping count.
+    pub node_dvl_refused: u32,
 }
 
 /// Longest round trip taken, microseconds (10 s: the wire model's latency limit, twice;
@@ -313,6 +330,7 @@ pub struct TopsideLink<'a, S> {
     last_uplink_us: Option<u64>,
     last_up_seq: Option<u16>,
     last_pressure_count: Option<u8>,
+    last_dvl_refused: Option<u8>,
     round_trip_us: Option<u32>,
     one_way_us: Option<u32>,
     node_status: u8,
@@ -339,6 +357,7 @@ where
             last_uplink_us: None,
             last_up_seq: None,
             last_pressure_count: None,
+            last_dvl_refused: None,
             round_trip_us: None,
             one_way_us: None,
             node_status: 0,
@@ -421,6 +440,14 @@ where
         if new_pressure && up.pressure_count != 0 && !(lo..=hi).contains(&up.pressure_pa) {
             return Err(UplinkRefusal::BadData);
         }
+        let dvl_in_range = |d: &UplinkDvl| {
+            d.velocity_mm_s
+                .iter()
+                .all(|v| v.unsigned_abs() <= MAX_DVL_MM_S.unsigned_abs())
+        };
+        if up.dvl.as_ref().is_some_and(|d| !dvl_in_range(d)) {
+            return Err(UplinkRefusal::BadData);
+        }
         Ok((seq, up))
     }
 
@@ -458,6 +485,30 @@ where
                 .saturating_add(up.imu_age_us.min(MAX_ROUND_TRIP_US)),
         };
         self.bridge.lag_us.set(lag);
+        if let Some(d) = up.dvl {
+            // On the IMU samples' timeline: the increments' newest sample is stamped now less
+            // the lag, and was `imu_age_us` old at the sealing; the velocity `age_ms` old (never
+            // after that sample: the estimator's newest time).
+            let imu_age_us = if up.samples > 0 {
+                u64::from(up.imu_age_us.min(MAX_ROUND_TRIP_US))
+            } else {
+                0
+            };
+            let age_us = u64::from(d.age_ms) * 1_000;
+            let t_us = now
+                .saturating_sub(u64::from(lag))
+                .saturating_sub(age_us.saturating_sub(imu_age_us));
+            self.bridge.dvl.set(Some(d.to_fix(t_us)));
+            self.counters.dvl_fixes = self.counters.dvl_fixes.wrapping_add(1);
+        }
+        // The node counts from its boot (0); after a silence (a restarted node) from 0 again.
+        let refused = up.counters.dvl_refused;
+        let new_refused = refused.wrapping_sub(self.last_dvl_refused.unwrap_or(0));
+        self.counters.node_dvl_refused = self
+            .counters
+            .node_dvl_refused
+            .wrapping_add(u32::from(new_refused));
+        self.last_dvl_refused = Some(refused);
         self.node_status = up.status;
         self.node_counters = up.counters;
     }
@@ -476,6 +527,7 @@ where
             // A node reset by its watchdog numbers its uplinks from 0 again: after 250 ms
             // without a valid uplink, any sequence is taken (the replay check restarts).
             self.last_up_seq = None;
+            self.last_dvl_refused = None;
         }
         let mut f = 0;
         if b.predict_only.get() {

@@ -11,7 +11,7 @@ use firmware::autopilot::IDENT_DURATION_S;
 use host_sim::commands::hil::{run_hil, HilOptions, HilTarget};
 use host_sim::commands::identify::read_log;
 use host_sim::output::write_csv;
-use identify::fit::MODEL_NAMES;
+use identify::physical::MODEL_NAMES;
 use identify::{identify, Anchor, Outcome, Record};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -101,9 +101,22 @@ fn fly_logged(truth: &VehicleParams, seed: u64, tag: &str, tether_log: Option<&P
     rec
 }
 
+#[path = "identification/coverage.rs"]
+mod coverage;
+#[path = "identification/sway.rs"]
+mod sway;
+#[path = "identification/thrust_anchor.rs"]
+mod thrust_anchor;
+#[path = "identification/tlog.rs"]
+mod tlog;
+
 /// The truth's values in `MODEL_NAMES`' order, against the Observer's thrust curve.
 fn truth_values(t: &VehicleParams) -> [f64; 12] {
-    let o = VehicleParams::OBSERVER;
+    truth_values_against(t, &VehicleParams::OBSERVER)
+}
+
+/// The truth's values in `MODEL_NAMES`' order, the thrust scales against `o`'s curve.
+fn truth_values_against(t: &VehicleParams, o: &VehicleParams) -> [f64; 12] {
     let f = f64::from;
     [
         f(t.mass_kg - t.x_udot_kg),
@@ -166,6 +179,12 @@ fn identify_vehicle(file: &str, seed: u64) -> (f64, Outcome, VehicleParams) {
         "{tag}: thruster time constant {:.3} s (truth {})",
         out.identified.thruster_time_constant_s, truth.thruster_time_constant_s
     );
+    match &out.sway {
+        identify::sway::Sway::Fitted(s) => {
+            sway::report_sway(&tag, s, &sway::sway_truth(&truth));
+        }
+        identify::sway::Sway::Prior { reason } => eprintln!("{tag}: sway: {reason}"),
+    }
     (worst, out, truth)
 }
 
@@ -209,6 +228,11 @@ fn heavy_slow_identified_from_the_tether_log_within_10_percent() {
     let (err, out) = identify_from_tether_log("tether-heavy-slow-all");
     let worst = JUDGED.iter().map(|&i| err[i].abs()).fold(0.0, f64::max);
     assert!(worst <= 10.0, "worst {worst:.1} %");
+    // Sway from the DVL's reports of the turns.
+    let s = sway::fitted("tether", &out);
+    let truth = vehicle_file("heavy-slow.toml");
+    let (sway_err, _) = sway::report_sway("tether", &s, &sway::sway_truth(&truth));
+    assert!(sway_err[0].abs() <= 10.0, "m22 {:+.1} %", sway_err[0]);
     vehicle::check(&out.params).unwrap();
 }
 
@@ -221,74 +245,18 @@ fn a_record_without_heave_is_refused_naming_it() {
         s.pulse_us[2] = 1500.0;
         s.vel_m_s[2] = 0.0;
     }
-    let e = identify(&rec, &VehicleParams::OBSERVER, Anchor::ThrustAhead)
-        .err()
-        .expect("refused");
+    let e = identify(
+        &rec,
+        &VehicleParams::OBSERVER,
+        Anchor::ThrustCurve { rel_std: 0.0 },
+    )
+    .err()
+    .expect("refused");
     let msg = format!("{e:#}");
     assert!(
         msg.contains("heave") && !msg.contains("surge") && !msg.contains("yaw"),
         "{msg}"
     );
-}
-
-/// 50 manoeuvres on each simulated vehicle (noise seeds 100-149): the share of runs whose
-/// 95 % interval holds the truth, per judged value; at least 90 % asked. A long test (about
-/// 70 s of CPU, 160 s of wall on a loaded 2-core machine): it runs where `ROV_LONG` is set
-/// (CI), and says SKIPPED with its command elsewhere.
-#[test]
-fn intervals_hold_the_truth_in_90_percent_of_50_runs() {
-    use rayon::prelude::*;
-    if !long_test("intervals_hold_the_truth_in_90_percent_of_50_runs", 160) {
-        return;
-    }
-    for file in ["heavy-slow.toml", "light.toml"] {
-        let truth = vehicle_file(file);
-        let t = truth_values(&truth);
-        let runs: Vec<([bool; 12], [f64; 12])> = (100..150u64)
-            .into_par_iter()
-            .map(|seed| {
-                let tag = format!("mc-{}-{seed}", file.trim_end_matches(".toml"));
-                let rec = fly(&truth, seed, &tag);
-                let out =
-                    identify(&rec, &VehicleParams::OBSERVER, buoyancy_anchor(&truth)).unwrap();
-                let id = &out.identified;
-                let inside: [bool; 12] =
-                    std::array::from_fn(|i| (id.lo[i]..=id.hi[i]).contains(&t[i]));
-                let err: [f64; 12] =
-                    std::array::from_fn(|i| (id.model.values()[i] / t[i] - 1.0).abs() * 100.0);
-                let judged_in = JUDGED.iter().filter(|&&i| inside[i]).count();
-                let worst = JUDGED.iter().map(|&i| err[i]).fold(0.0, f64::max);
-                let out: Vec<&str> = JUDGED
-                    .iter()
-                    .filter(|&&i| !inside[i])
-                    .map(|&i| MODEL_NAMES[i].0)
-                    .collect();
-                eprintln!(
-                    "mc {tag}: {judged_in}/{} judged intervals hold the truth; worst error {worst:.1} %; out: {out:?}",
-                    JUDGED.len()
-                );
-                (inside, err)
-            })
-            .collect();
-        let mut worst_cov: f64 = 1.0;
-        for i in JUDGED {
-            let cov = runs.iter().filter(|r| r.0[i]).count() as f64 / runs.len() as f64;
-            let max_err = runs.iter().map(|r| r.1[i]).fold(0.0, f64::max);
-            let within = runs.iter().filter(|r| r.1[i] <= 10.0).count();
-            eprintln!(
-                "{file}: {:<22} coverage {:.0} %, within 10 % in {within}/{}, worst error {max_err:.1} %",
-                MODEL_NAMES[i].0,
-                cov * 100.0,
-                runs.len()
-            );
-            worst_cov = worst_cov.min(cov);
-        }
-        assert!(
-            worst_cov >= 0.9,
-            "{file}: worst coverage {:.0} %",
-            worst_cov * 100.0
-        );
-    }
 }
 
 /// RMS tracking error over the last 80 % (m) of `scenario` flown on the plant `truth` by

@@ -18,17 +18,14 @@
 //! coupling, each coefficient fitted free: left out or taken from the prior, they biased
 //! the heave mass by 11 % on the heavy vehicle).
 //! with `X = F1x + F2x`, `N = l (F1x - F2x)`, `Z = F3z`. Each axis gives its parameters
-//! divided by its mass: one force has to be known to give them in newtons. The anchor is
-//! either the prior's thrust curve ahead (`k_a = 1`), or the net buoyancy measured by
-//! weighing the vehicle in water (then `m_z = (B - W) / theta`, and `k_a` follows).
+//! divided by its mass: one force has to be known to give them in newtons
+//! ([`crate::physical`]).
 
 use super::record::Record;
 use super::regression::{least_squares, FitError, LinearFit};
 use anyhow::{bail, Result};
 use controller_core::params::VehicleParams;
 use nalgebra::{DMatrix, DVector};
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 
 /// Length of one regression window (s): many thruster time constants. A longer window
 /// raises the velocity change against the DVL's noise at its two ends (measured on
@@ -38,23 +35,6 @@ pub const WINDOW_S: f64 = 1.0;
 pub const BLOCK_S: f64 = 10.0;
 /// One block in this many is kept from the fit for the validation.
 pub const HOLD_OUT_EVERY: usize = 4;
-/// Draws of the parameters' distribution that give the derived values' intervals.
-const DRAWS: usize = 4000;
-
-/// What gives the fit its force scale.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Anchor {
-    /// The prior's thrust curve ahead is right (`k_a = 1`).
-    ThrustAhead,
-    /// The net buoyancy `B - W` (N, positive floats up) measured by weighing in water,
-    /// with its standard deviation (N).
-    NetBuoyancy {
-        /// The measured value.
-        value_n: f64,
-        /// Its standard deviation.
-        std_n: f64,
-    },
-}
 
 /// One of the three fitted axes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -65,10 +45,13 @@ pub enum Axis {
     Yaw,
     /// Heave (`w`, the vertical thruster).
     Heave,
+    /// Sway (`v`): no thruster, excited by the turns under way ([`crate::sway`]); not in
+    /// [`Axis::ALL`].
+    Sway,
 }
 
 impl Axis {
-    /// All three, in fit order.
+    /// The three thrust axes, in fit order.
     pub const ALL: [Axis; 3] = [Axis::Surge, Axis::Yaw, Axis::Heave];
 
     /// Its name.
@@ -77,6 +60,7 @@ impl Axis {
             Axis::Surge => "surge",
             Axis::Yaw => "yaw",
             Axis::Heave => "heave",
+            Axis::Sway => "sway",
         }
     }
 
@@ -97,6 +81,15 @@ impl Axis {
                 "heave |w|w",
                 "heave buoyancy",
             ],
+            Axis::Sway => &[
+                "sway u r",
+                "sway p w",
+                "sway roll buoyancy",
+                "sway v",
+                "sway |v|v",
+                "sway q r",
+                "sway roll acceleration",
+            ],
         }
     }
 
@@ -106,6 +99,7 @@ impl Axis {
             Axis::Surge => 0.15,
             Axis::Yaw => 0.2,
             Axis::Heave => 0.1,
+            Axis::Sway => 0.1,
         }
     }
 }
@@ -147,6 +141,15 @@ pub fn prior_theta(axis: Axis, p: &VehicleParams) -> Vec<f64> {
             -m22 / mz,
             a_uq / mz,
         ],
+        Axis::Sway => vec![
+            m11 / m22,
+            mz / m22,
+            f(p.buoyancy_offset_n) / m22,
+            f(p.y_v) / m22,
+            f(p.y_vv) / m22,
+            a_uq / m22,
+            a_uq / m22,
+        ],
     }
 }
 
@@ -159,8 +162,8 @@ pub struct AxisSeries {
     /// Its integrated regressors at each sample.
     pub phi: Vec<Vec<f64>>,
     /// A regressor that enters through its change over a window rather than its integral
-    /// (surge: the pitch rate, whose derivative the surge-pitch mass couples in); empty for
-    /// the other axes.
+    /// (surge: the pitch rate, whose derivative the surge-pitch mass couples in; sway: the
+    /// roll rate, likewise); empty for the other axes.
     pub diff: Vec<f64>,
 }
 
@@ -215,6 +218,20 @@ pub fn axis_series(axis: Axis, rec: &Record, thrust: &[[f64; 3]], lever_arm_m: f
                     p * p + q * q,
                 ],
             ),
+            Axis::Sway => {
+                out.diff.push(p);
+                (
+                    v,
+                    vec![
+                        -u * r,
+                        p * w,
+                        -pitch.cos() * roll.sin(),
+                        -v,
+                        -v.abs() * v,
+                        -q * r,
+                    ],
+                )
+            }
         };
         out.vel.push(vel);
         out.phi.push(phi);
@@ -383,207 +400,4 @@ pub fn fit_axes_with_lag(rec: &Record, prior: &VehicleParams) -> Result<(AxisFit
         Some((_, fits, tc)) => Ok((fits, tc)),
         None => bail!("no thruster time constant tried"),
     }
-}
-
-/// The identified model in physical units.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Model {
-    /// `m - X_udot` (kg).
-    pub m11_kg: f64,
-    /// `I_z - N_rdot` (kg m^2).
-    pub m33_kg_m2: f64,
-    /// `m - Z_wdot` (kg).
-    pub mz_kg: f64,
-    /// `X_u`, `X_uu`.
-    pub x_u: f64,
-    /// Quadratic surge drag.
-    pub x_uu: f64,
-    /// `N_r`.
-    pub n_r: f64,
-    /// `N_rr`.
-    pub n_rr: f64,
-    /// `Z_w`.
-    pub z_w: f64,
-    /// `Z_ww`.
-    pub z_ww: f64,
-    /// `B - W` (N).
-    pub net_buoyancy_n: f64,
-    /// Thrust scale ahead against the prior's curve.
-    pub thrust_scale_ahead: f64,
-    /// Thrust scale astern against the prior's curve.
-    pub thrust_scale_astern: f64,
-}
-
-/// Names and units of [`Model`]'s values, in [`Model::values`]'s order.
-pub const MODEL_NAMES: [(&str, &str); 12] = [
-    ("m11 = m - X_udot", "kg"),
-    ("m33 = I_z - N_rdot", "kg m^2"),
-    ("mz = m - Z_wdot", "kg"),
-    ("X_u", "N s/m"),
-    ("X_uu", "N s^2/m^2"),
-    ("N_r", "N m s/rad"),
-    ("N_rr", "N m s^2/rad^2"),
-    ("Z_w", "N s/m"),
-    ("Z_ww", "N s^2/m^2"),
-    ("B - W", "N"),
-    ("thrust scale ahead", "-"),
-    ("thrust scale astern", "-"),
-];
-
-impl Model {
-    /// The values in [`MODEL_NAMES`]' order.
-    pub fn values(&self) -> [f64; 12] {
-        [
-            self.m11_kg,
-            self.m33_kg_m2,
-            self.mz_kg,
-            self.x_u,
-            self.x_uu,
-            self.n_r,
-            self.n_rr,
-            self.z_w,
-            self.z_ww,
-            self.net_buoyancy_n,
-            self.thrust_scale_ahead,
-            self.thrust_scale_astern,
-        ]
-    }
-
-    /// The physical model from the three axes' parameters and the anchor's value. The
-    /// astern/ahead ratio is each axis's `theta_1 / theta_0`, combined with `weights`.
-    fn from_thetas(th: [&[f64]; 3], anchor_n: Option<f64>, weights: [f64; 3]) -> Self {
-        let g = |v: &[f64], i: usize| v.get(i).copied().unwrap_or(f64::NAN);
-        let [s, y, h] = th;
-        let ahead = match anchor_n {
-            None => 1.0,
-            Some(b) => g(h, 0) * b / g(h, 4),
-        };
-        let ratios = [g(s, 1) / g(s, 0), g(y, 1) / g(y, 0), g(h, 1) / g(h, 0)];
-        let wsum: f64 = weights.iter().sum();
-        let ratio = ratios.iter().zip(weights).map(|(r, w)| r * w).sum::<f64>() / wsum;
-        let m11 = ahead / g(s, 0);
-        let m33 = ahead / g(y, 0);
-        let mz = ahead / g(h, 0);
-        Self {
-            m11_kg: m11,
-            m33_kg_m2: m33,
-            mz_kg: mz,
-            x_u: g(s, 2) * m11,
-            x_uu: g(s, 3) * m11,
-            n_r: g(y, 2) * m33,
-            n_rr: g(y, 3) * m33,
-            z_w: g(h, 2) * mz,
-            z_ww: g(h, 3) * mz,
-            net_buoyancy_n: g(h, 4) * mz,
-            thrust_scale_ahead: ahead,
-            thrust_scale_astern: ahead * ratio,
-        }
-    }
-}
-
-/// The identified model with 95 % intervals.
-#[derive(Debug, Clone)]
-pub struct Identified {
-    /// The point estimate.
-    pub model: Model,
-    /// Lower ends of the 95 % intervals, in [`MODEL_NAMES`]' order.
-    pub lo: [f64; 12],
-    /// Upper ends.
-    pub hi: [f64; 12],
-    /// The axes' regressions.
-    pub axes: AxisFits,
-    /// The thruster time constant the fits were made with (s).
-    pub thruster_time_constant_s: f64,
-}
-
-/// Draws of a fit's parameters: `theta + L z`, `L L^T` the covariance.
-fn draws(fit: &LinearFit, rng: &mut ChaCha8Rng) -> Vec<Vec<f64>> {
-    let p = fit.theta.len();
-    let l = fit
-        .covariance
-        .clone()
-        .cholesky()
-        .map(|c| c.l())
-        .unwrap_or_else(|| {
-            DMatrix::from_diagonal(&fit.covariance.diagonal().map(|v| v.max(0.0).sqrt()))
-        });
-    (0..DRAWS)
-        .map(|_| {
-            let z = DVector::from_fn(p, |_, _| gauss(rng));
-            (&fit.theta + &l * z).iter().copied().collect()
-        })
-        .collect()
-}
-
-/// Percentile `q` (0-1) of `v` (sorted in place).
-fn percentile(v: &mut [f64], q: f64) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let i = ((v.len() as f64 - 1.0) * q).round() as usize;
-    v.get(i).copied().unwrap_or(f64::NAN)
-}
-
-/// The physical model and its intervals from the axes' fits.
-pub fn physical(axes: AxisFits, anchor: Anchor) -> Identified {
-    let mut rng = ChaCha8Rng::seed_from_u64(0x1D);
-    let d: Vec<Vec<Vec<f64>>> = axes.fits.iter().map(|f| draws(f, &mut rng)).collect();
-    let anchor_draws: Vec<Option<f64>> = (0..DRAWS)
-        .map(|_| match anchor {
-            Anchor::ThrustAhead => None,
-            Anchor::NetBuoyancy { value_n, std_n } => Some(value_n + std_n * gauss(&mut rng)),
-        })
-        .collect();
-    // Inverse-variance weights of the three astern/ahead ratios, from the draws.
-    let mut weights = [1.0; 3];
-    for (w, axis_draws) in weights.iter_mut().zip(&d) {
-        let r: Vec<f64> = axis_draws
-            .iter()
-            .map(|t| t.get(1).copied().unwrap_or(0.0) / t.first().copied().unwrap_or(1.0))
-            .collect();
-        let mean = r.iter().sum::<f64>() / r.len() as f64;
-        let var = r.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / r.len() as f64;
-        *w = 1.0 / var.max(1e-12);
-    }
-    let point = [
-        axes.fits[0].theta.as_slice(),
-        axes.fits[1].theta.as_slice(),
-        axes.fits[2].theta.as_slice(),
-    ];
-    let anchor_n = match anchor {
-        Anchor::ThrustAhead => None,
-        Anchor::NetBuoyancy { value_n, .. } => Some(value_n),
-    };
-    let model = Model::from_thetas(point, anchor_n, weights);
-    let mut cols: Vec<Vec<f64>> = (0..12).map(|_| Vec::with_capacity(DRAWS)).collect();
-    for (k, a) in anchor_draws.iter().enumerate() {
-        let th = [
-            d[0].get(k).map_or(&[][..], Vec::as_slice),
-            d[1].get(k).map_or(&[][..], Vec::as_slice),
-            d[2].get(k).map_or(&[][..], Vec::as_slice),
-        ];
-        let m = Model::from_thetas(th, *a, weights);
-        for (c, v) in cols.iter_mut().zip(m.values()) {
-            c.push(v);
-        }
-    }
-    let mut lo = [0.0; 12];
-    let mut hi = [0.0; 12];
-    for ((c, l), h) in cols.iter_mut().zip(lo.iter_mut()).zip(hi.iter_mut()) {
-        *l = percentile(c, 0.025);
-        *h = percentile(c, 0.975);
-    }
-    Identified {
-        model,
-        lo,
-        hi,
-        axes,
-        thruster_time_constant_s: f64::NAN,
-    }
-}
-
-/// Standard normal draw (Box-Muller; one of the pair is dropped), the simulator's own draw
-/// (`sim_world::noise::gauss`), so that a seed gives the same fit there and here.
-fn gauss(rng: &mut ChaCha8Rng) -> f64 {
-    let u1: f64 = rng.random::<f64>().max(1e-300);
-    let u2: f64 = rng.random::<f64>();
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }

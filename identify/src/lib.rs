@@ -9,22 +9,29 @@
 //!   nominal thrust.
 //! - [`tether_record`]: a dive's raw tether log as the same record (the vehicle's telemetry:
 //!   its own estimate and the pulses it wrote).
-//! - [`fit`]: the per-axis integral-form regressions, the anchor that gives them newtons,
-//!   the physical model with 95 % intervals.
+//! - [`fit`]: the per-axis integral-form regressions.
+//! - [`physical`]: the anchor that gives them newtons, the physical model with 95 %
+//!   intervals.
+//! - [`sway`]: sway's mass and drags from the turns (no sway thruster).
+//! - [`thrusters`]: the installed thrusters' published curve (a thruster file), the
+//!   anchor a builder has without weighing the vehicle.
 //! - [`validate`]: the held-out blocks simulated with the identified model and the prior;
 //!   RMS figures.
 //! - [`vehicle_file`]: the identified vehicle file.
 
 pub mod fit;
+pub mod physical;
 pub mod record;
 pub mod regression;
+pub mod sway;
 pub mod tether_record;
+pub mod thrusters;
 pub mod validate;
 pub mod vehicle_file;
 
 use anyhow::Result;
 use controller_core::params::VehicleParams;
-pub use fit::{Anchor, Identified};
+pub use physical::{Anchor, Identified};
 pub use record::Record;
 
 /// Everything one identification gives.
@@ -37,6 +44,8 @@ pub struct Outcome {
     pub validation: validate::Prediction,
     /// The same with the prior.
     pub prior_validation: validate::Prediction,
+    /// Sway: fitted from the turns, or the prior's ratios and why.
+    pub sway: sway::Sway,
 }
 
 /// Identify a vehicle from a record, starting from `prior`.
@@ -46,10 +55,17 @@ pub fn identify(rec: &Record, prior: &VehicleParams, anchor: Anchor) -> Result<O
     fit::check_excitation(rec, &rec.nominal_thrust_n(prior)?, prior)?;
     let (axes, lag_s) = fit::fit_axes_with_lag(rec, prior)?;
     let thrust = rec.nominal_thrust_lagged_n(prior, lag_s)?;
-    let mut identified = fit::physical(axes, anchor);
+    let mut identified = physical::physical(axes, anchor);
     identified.thruster_time_constant_s = lag_s;
-    let params = vehicle_file::identified_params(&identified, prior);
     let lever = f64::from(prior.thruster_lever_arm_m);
+    let ratios = vehicle_file::identified_params(&identified, prior, None);
+    let known = sway::Known::from_model(&identified.model, identified.lo[0], identified.hi[0]);
+    let sway = sway::fit_sway(rec, &thrust, lever, known, &ratios);
+    let fitted_sway = match &sway {
+        sway::Sway::Fitted(m) => Some(m),
+        sway::Sway::Prior { .. } => None,
+    };
+    let params = vehicle_file::identified_params(&identified, prior, fitted_sway);
     let fitted = identified
         .axes
         .fits
@@ -64,5 +80,6 @@ pub fn identify(rec: &Record, prior: &VehicleParams, anchor: Anchor) -> Result<O
         params,
         validation,
         prior_validation,
+        sway,
     })
 }

@@ -195,7 +195,17 @@ fn set_horizontal(s: &mut RecordSample, uv_m_s: [f64; 2]) {
 /// time; the samples outside the reports' span are dropped (nothing is extrapolated). The
 /// estimate's velocities stay when the span holds no DVL report.
 fn dvl_velocities(record: &mut Record, span: &[&Telemetry], path: &Path) -> Result<VelocitySource> {
-    let reports = dvl_reports(span);
+    with_dvl_reports(record, &dvl_reports(span), path)
+}
+
+/// Surge and sway of `record` replaced by the DVL's `reports` (time of validity on the
+/// vehicle's clock (s), measured surge and sway (m/s), in time order), as
+/// [`dvl_velocities`] does; `path` names the log in the errors.
+pub fn with_dvl_reports(
+    record: &mut Record,
+    reports: &[(f64, [f64; 2])],
+    path: &Path,
+) -> Result<VelocitySource> {
     let (Some(&(first, _)), Some(&(last, _))) = (reports.first(), reports.last()) else {
         return Ok(VelocitySource::Estimate);
     };
@@ -203,7 +213,8 @@ fn dvl_velocities(record: &mut Record, span: &[&Telemetry], path: &Path) -> Resu
         if let [(ta, _), (tb, _)] = pair {
             if tb - ta > MAX_DVL_GAP_S {
                 bail!(
-                    "{}: no DVL report for {:.3} s after t = {ta:.3} s on the vehicle's clock                      (at most {MAX_DVL_GAP_S} s is bridged)",
+                    "{}: no DVL report for {:.3} s after t = {ta:.3} s on the vehicle's clock \
+                     (at most {MAX_DVL_GAP_S} s is bridged)",
                     path.display(),
                     tb - ta
                 );

@@ -23,17 +23,24 @@ fn accel(
         Axis::Surge => s.vel_m_s[0] = x,
         Axis::Yaw => s.rate_rad_s[2] = x,
         Axis::Heave => s.vel_m_s[2] = x,
+        Axis::Sway => s.vel_m_s[1] = x,
     }
     let one = Record { samples: vec![s] };
     let series = axis_series(axis, &one, &thrust[k..=k], lever_arm_m);
     let mut a: f64 = series.phi[0].iter().zip(theta).map(|(p, t)| p * t).sum();
-    if axis == Axis::Surge {
+    // The rate whose derivative the axis's mass couples in: pitch for surge, roll for sway.
+    let coupled = match axis {
+        Axis::Surge => Some(1),
+        Axis::Sway => Some(0),
+        Axis::Yaw | Axis::Heave => None,
+    };
+    if let Some(j) = coupled {
         let lo = k.saturating_sub(1);
         let hi = (k + 1).min(rec.samples.len() - 1);
         let dt = rec.samples[hi].t_s - rec.samples[lo].t_s;
         if dt > 0.0 {
-            let q_dot = (rec.samples[hi].rate_rad_s[1] - rec.samples[lo].rate_rad_s[1]) / dt;
-            a += theta.last().copied().unwrap_or(0.0) * q_dot;
+            let rate_dot = (rec.samples[hi].rate_rad_s[j] - rec.samples[lo].rate_rad_s[j]) / dt;
+            a += theta.last().copied().unwrap_or(0.0) * rate_dot;
         }
     }
     a
@@ -45,6 +52,7 @@ fn recorded(axis: Axis, rec: &Record, k: usize) -> f64 {
         Axis::Surge => s.vel_m_s[0],
         Axis::Yaw => s.rate_rad_s[2],
         Axis::Heave => s.vel_m_s[2],
+        Axis::Sway => s.vel_m_s[1],
     }
 }
 
@@ -80,11 +88,40 @@ pub struct Prediction {
 impl Prediction {
     /// RMS of simulated minus recorded, per axis.
     pub fn rms(&self) -> [f64; 3] {
-        self.traces.clone().map(|t| {
-            let n = t.len().max(1) as f64;
-            (t.iter().map(|(_, a, b)| (b - a).powi(2)).sum::<f64>() / n).sqrt()
-        })
+        self.traces.each_ref().map(|t| trace_rms(t))
     }
+}
+
+/// Simulate `axis` through the held-out blocks under its parameters `theta` (Heun's method
+/// at the record's period) with the nominal thrust `thrust`: `(t, recorded, simulated)`.
+pub fn predict_axis(
+    axis: Axis,
+    theta: &[f64],
+    lever_arm_m: f64,
+    rec: &Record,
+    thrust: &[[f64; 3]],
+) -> Vec<(f64, f64, f64)> {
+    let dt = rec.period_s();
+    let mut trace = Vec::new();
+    for block in held_out_blocks(rec) {
+        let mut x = recorded(axis, rec, block.start);
+        for k in block.clone() {
+            trace.push((rec.samples[k].t_s, recorded(axis, rec, k), x));
+            if k + 1 < rec.samples.len() {
+                let a0 = accel(axis, theta, rec, thrust, lever_arm_m, k, x);
+                let xp = x + dt * a0;
+                let a1 = accel(axis, theta, rec, thrust, lever_arm_m, k + 1, xp);
+                x += 0.5 * dt * (a0 + a1);
+            }
+        }
+    }
+    trace
+}
+
+/// RMS of simulated minus recorded over a trace of [`predict_axis`].
+pub fn trace_rms(trace: &[(f64, f64, f64)]) -> f64 {
+    let n = trace.len().max(1) as f64;
+    (trace.iter().map(|(_, a, b)| (b - a).powi(2)).sum::<f64>() / n).sqrt()
 }
 
 /// Simulate the held-out blocks under the three axes' parameters `thetas` (Heun's method
@@ -95,21 +132,12 @@ pub fn predict(
     rec: &Record,
     thrust: &[[f64; 3]],
 ) -> Prediction {
-    let dt = rec.period_s();
-    let mut traces: [Vec<(f64, f64, f64)>; 3] = Default::default();
-    for block in held_out_blocks(rec) {
-        for ((axis, trace), theta) in Axis::ALL.iter().zip(traces.iter_mut()).zip(thetas) {
-            let mut x = recorded(*axis, rec, block.start);
-            for k in block.clone() {
-                trace.push((rec.samples[k].t_s, recorded(*axis, rec, k), x));
-                if k + 1 < rec.samples.len() {
-                    let a0 = accel(*axis, theta, rec, thrust, lever_arm_m, k, x);
-                    let xp = x + dt * a0;
-                    let a1 = accel(*axis, theta, rec, thrust, lever_arm_m, k + 1, xp);
-                    x += 0.5 * dt * (a0 + a1);
-                }
-            }
-        }
+    let [s, y, h] = thetas;
+    Prediction {
+        traces: [
+            predict_axis(Axis::Surge, s, lever_arm_m, rec, thrust),
+            predict_axis(Axis::Yaw, y, lever_arm_m, rec, thrust),
+            predict_axis(Axis::Heave, h, lever_arm_m, rec, thrust),
+        ],
     }
-    Prediction { traces }
 }

@@ -4,15 +4,22 @@
 //! buoyancy, the thrust limits scaled, sway scaled from surge (the prior's ratios), each
 //! with its interval in a comment.
 
-use super::fit::{Identified, MODEL_NAMES};
+use super::physical::{Anchor, Identified, MODEL_NAMES};
+use super::regression::Z_95;
+use super::sway::{Sway, SwayModel, SWAY_NAMES};
 use controller_core::params::VehicleParams;
 
 /// Relative uncertainty stated for the sway terms taken from the prior's ratios (no sway
 /// thruster: the record does not measure them).
 pub const SWAY_PRIOR_REL_UNCERTAINTY: f64 = 0.5;
 
-/// The identified vehicle's parameters.
-pub fn identified_params(id: &Identified, prior: &VehicleParams) -> VehicleParams {
+/// The identified vehicle's parameters; sway from `sway` when the turns determined it, else
+/// the prior's ratios to the identified surge.
+pub fn identified_params(
+    id: &Identified,
+    prior: &VehicleParams,
+    sway: Option<&SwayModel>,
+) -> VehicleParams {
     let m = &id.model;
     let mut p = *prior;
     let f = |v: f64| v as f32;
@@ -34,6 +41,13 @@ pub fn identified_params(id: &Identified, prior: &VehicleParams) -> VehicleParam
     };
     p.y_v = f(ratio(prior.y_v, prior.x_u, m.x_u).max(0.0));
     p.y_vv = f(ratio(prior.y_vv, prior.x_uu, m.x_uu).max(0.0));
+    if let Some(s) = sway {
+        p.y_vdot_kg = f(mass - s.m22_kg);
+        if s.drags_not_determined.is_none() {
+            p.y_v = f(s.y_v.max(0.0));
+            p.y_vv = f(s.y_vv.max(0.0));
+        }
+    }
     // Drags are magnitudes: a slightly negative estimate (noise about zero) is written 0.
     p.x_u = f(m.x_u.max(0.0));
     p.x_uu = f(m.x_uu.max(0.0));
@@ -51,7 +65,12 @@ pub fn identified_params(id: &Identified, prior: &VehicleParams) -> VehicleParam
 }
 
 /// The vehicle file's text: a header with the fit's intervals, then every field.
-pub fn to_toml(params: &VehicleParams, id: &Identified, source: &str) -> anyhow::Result<String> {
+pub fn to_toml(
+    params: &VehicleParams,
+    id: &Identified,
+    sway: &Sway,
+    source: &str,
+) -> anyhow::Result<String> {
     let mut head = String::new();
     head.push_str(&format!(
         "# Identified by `host-sim identify` from {source} (docs/identification.md).\n\
@@ -66,11 +85,61 @@ pub fn to_toml(params: &VehicleParams, id: &Identified, source: &str) -> anyhow:
             "#   {name:<22} {v:>10.4} [{lo:.4}, {hi:.4}] {unit}\n"
         ));
     }
-    head.push_str(&format!(
-        "# Sway (y_vdot_kg, y_v, y_vv): the prior's ratios to surge, +-{:.0} % (not measured).\n\
-         # Dry mass, rigid inertias, pitch terms, lever arm and pulse curve: the prior's.\n\n",
-        SWAY_PRIOR_REL_UNCERTAINTY * 100.0
-    ));
+    head.push_str(&format!("# Force scale: {}.\n", anchor_text(id.anchor)));
+    match sway {
+        Sway::Fitted(s) => {
+            head.push_str("# Sway, from the turns (the DVL's sway velocity):\n");
+            for (((name, unit), v), (lo, hi)) in SWAY_NAMES
+                .iter()
+                .zip(s.values())
+                .zip(s.lo.iter().zip(s.hi.iter()))
+            {
+                head.push_str(&format!(
+                    "#   {name:<22} {v:>10.4} [{lo:.4}, {hi:.4}] {unit}\n"
+                ));
+            }
+            if let Some(why) = &s.drags_not_determined {
+                head.push_str(&format!(
+                    "# y_v, y_vv: the prior's ratios to surge, +-{:.0} % ({why}).\n",
+                    SWAY_PRIOR_REL_UNCERTAINTY * 100.0
+                ));
+            }
+        }
+        Sway::Prior { reason } => head.push_str(&format!(
+            "# Sway (y_vdot_kg, y_v, y_vv): the prior's ratios to surge, +-{:.0} % (not \
+             measured: {reason}).\n",
+            SWAY_PRIOR_REL_UNCERTAINTY * 100.0
+        )),
+    }
+    head.push_str(
+        "# Dry mass, rigid inertias, pitch terms, lever arm and pulse curve: the prior's.\n\n",
+    );
     let body = toml::to_string(params)?;
     Ok(head + &body)
+}
+
+/// What gave the force scale, in words.
+pub fn anchor_text(a: Anchor) -> String {
+    match a {
+        Anchor::ThrustCurve { rel_std } if rel_std > 0.0 => format!(
+            "the installed thrusters' curve ahead, +-{:.1} % (95 %)",
+            rel_std * Z_95 * 100.0
+        ),
+        Anchor::ThrustCurve { .. } => {
+            "the prior's thrust curve ahead, taken as exact (its error scales every force)"
+                .to_string()
+        }
+        Anchor::NetBuoyancy { value_n, std_n } => {
+            format!("the weighed net buoyancy {value_n} N (std {std_n} N)")
+        }
+        Anchor::Both {
+            curve_rel_std,
+            value_n,
+            std_n,
+        } => format!(
+            "the installed thrusters' curve ahead (+-{:.1} %, 95 %) and the weighed net \
+             buoyancy {value_n} N (std {std_n} N), combined by their variances",
+            curve_rel_std * Z_95 * 100.0
+        ),
+    }
 }

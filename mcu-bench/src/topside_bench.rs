@@ -6,7 +6,9 @@
 //! untimed; decoded, checked and turned into an IMU sample and a pressure in the timed
 //! pass), the PC's frames of that period are decoded and handled (the same schedule as
 //! `loop.onboard_3d`: a heartbeat and a compass heading at 10 Hz, a DVL velocity at 5 Hz, a
-//! USBL fix at 1 Hz, 0.3 s late), the uplink runs the control step (`App::step_now`: the
+//! USBL fix at 1 Hz, 0.3 s late; and the node's DVL velocity in the uplink at 5 Hz, on other
+//! passes than the tether's: more fixes than a vehicle gets, whose DVL is on one side), the
+//! uplink runs the control step (`App::step_now`: the
 //! estimator's prediction and the fixes, the 3-D tracking law, the allocation), the
 //! downlink is encoded, and `Telemetry` goes out at 10 Hz. Built only with the `topside`
 //! feature, so that the default image (the other figures) is unchanged.
@@ -20,7 +22,7 @@ use controller_core::nav::GRAVITY_M_S2;
 use controller_core::params::Vehicle;
 use controller_core::state::NavState;
 use core::cell::Cell;
-use firmware::node_link::{seal, status, NodeCounters, Uplink, LINK_PERIOD_US};
+use firmware::node_link::{seal, status, NodeCounters, Uplink, UplinkDvl, LINK_PERIOD_US};
 use firmware::protocol::{fault, Board, Command, Mode, MAX_FRAME_LEN};
 use firmware::topside_link::{LinkSensors, LinkThruster, NodeBridge, TopsideConfig, TopsideLink};
 use firmware::{App, Config, Monotonic, Timing};
@@ -129,6 +131,12 @@ pub fn run_topside<P: Platform>(b: &Bench<'_, P>, p: &P) {
                 pressure_count: (i / 5) as u8,
                 status: status::ARMED,
                 counters: NodeCounters::default(),
+                // At rest: a few mm/s, 60 ms old.
+                dvl: (i % 10 == 7).then_some(UplinkDvl {
+                    age_ms: 60,
+                    velocity_mm_s: [(i % 7) as i16 - 3, 2 - (i % 5) as i16],
+                    std_mm_s: 10,
+                }),
             };
             up_seq = up_seq.wrapping_add(1);
             let mut out = [0u8; MAX_FRAME_LEN];

@@ -7,12 +7,19 @@
 //! - USART2 (`-serial` 1): the harness, polled ([`firmware::harness`]): each
 //!   [`NodeStep`] gives the node its time, an IMU sample and a pressure; the node runs at that
 //!   time and answers with a [`NodeReport`], the pulses it applies;
+//! - USART3 (`-serial` 2, PB10 / PB11): the DVL, its A50 `wrz` lines as the instrument sends
+//!   them, into a 256-byte interrupt-driven ring (the emulated onboard board's receive-only
+//!   USART3 port, [`firmware::board::health_pins::HealthUart`]), read by the node image's
+//!   [`DvlPort`] ([`crate::board::node_dvl_port`]); its bytes are not counted in the step (a
+//!   line that reaches the node after its step is read at the next one, stamped then);
 //! - ESCs: TIM3 CH1/CH2/CH3 on PA6/PA7/PB0, as the real node (QEMU drives no pin; the report
 //!   is what the host reads);
 //! - default clocks (no PLL), no watchdog (the host paces the node and may pause it).
 
 use core::cell::Cell;
 use core::sync::atomic::Ordering;
+use firmware::board::dvl_uart::DVL_US_PER_BYTE;
+use firmware::board::health_pins::HealthUart;
 use firmware::board::{start_tether, tether_rx_pending, Tim2Clock, RX_LOST};
 use firmware::harness::uart::{wait_for, HarnessUart};
 use firmware::harness::{
@@ -20,6 +27,7 @@ use firmware::harness::{
 };
 use firmware::node::{Node, NodeConfig};
 use firmware::node_link::LINK_BAUD;
+use firmware::sensors::dvl::{a50::VelocityGate, DvlPort, WithDvl};
 use stm32f4xx_hal::{
     pac::{self, TIM3},
     prelude::*,
@@ -57,6 +65,18 @@ pub fn run() -> ! {
     };
     let (tx, rx) = harness.split();
     let mut harness = HarnessUart::new(rx, tx);
+    let Ok(dvl) = dp
+        .USART3
+        .serial::<u8>((gpiob.pb10, gpiob.pb11), LINK_BAUD.bps(), &mut rcc)
+    else {
+        halt()
+    };
+    let (_dvl_tx, dvl_rx) = dvl.split();
+    let dvl = crate::board::node_dvl_port(DvlPort::new(
+        HealthUart::start(dvl_rx),
+        VelocityGate::default(),
+        DVL_US_PER_BYTE,
+    ));
     let tim2 = Tim2Clock::start(dp.TIM2.counter::<16_000_000>(&mut rcc));
     let now_us = Cell::new(0u64);
     let inputs = HarnessInputs::new();
@@ -64,7 +84,10 @@ pub fn run() -> ! {
         pwm,
         CountingPort::new(tether),
         HostClock::new(&now_us, tim2),
-        inputs.sensors(),
+        WithDvl {
+            inner: inputs.sensors(),
+            dvl,
+        },
         config,
     ) {
         Ok(n) => n,

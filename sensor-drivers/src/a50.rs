@@ -14,6 +14,9 @@
 //!   deviation (m), roll, pitch, yaw (degrees), status (0 good, 1 not).
 //!
 //! The fixed-point fields must carry their documented number of decimals (see [`parse`]).
+//! The other numbers (the covariance, `wrp`'s fields) are read by
+//! `fields::parse_f32_compact`: the nearest `f32` for the forms the DVL prints, without
+//! `f32::from_str`'s tables, so that the parser fits a 32 KiB node image.
 //!
 //! Other reports (`wru`, `wrs`, `wrx`, `wrt`, acknowledgements) pass the checksum check and
 //! come back as [`Report::Other`] with their letter; the vehicle uses only `wrz`.
@@ -180,7 +183,9 @@ fn parse_wrz(body: &[u8]) -> Result<VelocityReport, FrameError> {
     let mut covariance = [0.0_f32; 9];
     let mut c = Fields::new(cov_field, b';');
     for slot in covariance.iter_mut() {
-        *slot = c.next_f32().map_err(|_| FieldError::Malformed(cov_idx))?;
+        *slot = c
+            .next_f32_compact()
+            .map_err(|_| FieldError::Malformed(cov_idx))?;
     }
     c.end().map_err(|_| FieldError::Malformed(cov_idx))?;
     let time_of_validity_us = f.next_int::<u64>()?;
@@ -215,9 +220,17 @@ fn parse_wrz(body: &[u8]) -> Result<VelocityReport, FrameError> {
 fn parse_wrp(body: &[u8]) -> Result<DeadReckoningReport, FrameError> {
     let mut f = Fields::new(body, b',');
     let time_us = time_us(f.next_str()?).ok_or(FieldError::Malformed(0))?;
-    let position_m = [f.next_f32()?, f.next_f32()?, f.next_f32()?];
-    let position_std_m = f.next_f32()?;
-    let attitude_deg = [f.next_f32()?, f.next_f32()?, f.next_f32()?];
+    let position_m = [
+        f.next_f32_compact()?,
+        f.next_f32_compact()?,
+        f.next_f32_compact()?,
+    ];
+    let position_std_m = f.next_f32_compact()?;
+    let attitude_deg = [
+        f.next_f32_compact()?,
+        f.next_f32_compact()?,
+        f.next_f32_compact()?,
+    ];
     let status = f.next_int::<u8>()?;
     f.end()?;
     if position_std_m < 0.0 || attitude_deg.iter().any(|a| a.abs() > 360.0) {

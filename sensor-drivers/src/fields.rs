@@ -83,6 +83,13 @@ impl<'a> Fields<'a> {
         parse_f32(self.next_str()?).ok_or(FieldError::Malformed(idx))
     }
 
+    /// The next field as a finite `f32` read by [`parse_f32_compact`] (no `f32::from_str`:
+    /// the instrument parsers of a small MCU's image).
+    pub fn next_f32_compact(&mut self) -> Result<f32, FieldError> {
+        let idx = self.index;
+        parse_f32_compact(self.next_str()?).ok_or(FieldError::Malformed(idx))
+    }
+
     /// The next field as a fixed-point decimal printed with exactly `decimals` digits after
     /// the point (an optional `-`, digits without a superfluous leading zero, `.`,
     /// `decimals` digits): its value times 10^`decimals` and whether it had a minus sign.
@@ -95,14 +102,16 @@ impl<'a> Fields<'a> {
     /// The next field as a finite `f32` printed with exactly `decimals` digits after the
     /// point (see [`Fields::next_fixed`]). The value is the integer over 10^`decimals`, both
     /// exact in `f32` up to 2^24 and 10^10, so the one rounded division gives the nearest
-    /// `f32`, as `f32::from_str` does; larger values go through `f32::from_str`.
+    /// `f32`, as `f32::from_str` does; larger values through [`nearest_f32`] (the same).
     pub fn next_fixed_f32(&mut self, decimals: usize) -> Result<f32, FieldError> {
         let idx = self.index;
         let s = self.next_str()?;
         let (units, negative) = fixed_point(s, decimals).ok_or(FieldError::Malformed(idx))?;
         let magnitude = match POW10_F32.get(decimals) {
             Some(&scale) if units < (1 << 24) => units as f32 / scale,
-            _ => parse_f32(s.strip_prefix('-').unwrap_or(s)).ok_or(FieldError::Malformed(idx))?,
+            _ => {
+                nearest_f32(units, -(decimals.min(19) as i32)).ok_or(FieldError::Malformed(idx))?
+            }
         };
         Ok(if negative { -magnitude } else { magnitude })
     }
@@ -194,6 +203,158 @@ pub fn parse_f32(s: &str) -> Option<f32> {
         return None;
     }
     s.parse::<f32>().ok().filter(|v| v.is_finite())
+}
+
+/// A finite `f32` from decimal text (`[+-]digits[.digits][(e|E)[+-]digits]`), without
+/// `f32::from_str`, whose algorithm links 18 KiB of code and tables (more than half of a
+/// 32 KiB node image). The significand's digits, at most 19 without the leading zeros (else
+/// `None`), make an integer `m` and the point and the exponent a power of ten `e`: for
+/// `|e| <= 19` the value is the nearest `f32` to `m x 10^e`, as `f32::from_str` gives it
+/// (integer arithmetic, [`nearest_f32`]); beyond, that of `10^+-19` is scaled by the rest in
+/// `f32` steps, a few units in the last place from the nearest. `None` for anything else,
+/// and for a value beyond `f32::MAX`.
+pub fn parse_f32_compact(s: &str) -> Option<f32> {
+    let (negative, body) = match s.as_bytes() {
+        [b'-', rest @ ..] => (true, rest),
+        [b'+', rest @ ..] => (false, rest),
+        rest => (false, rest),
+    };
+    let (significand, exponent) = match body.iter().position(|&b| matches!(b, b'e' | b'E')) {
+        Some(i) => (body.get(..i)?, Some(body.get(i + 1..)?)),
+        None => (body, None),
+    };
+    let (mut m, mut digits, mut e10) = (0_u64, 0_u32, 0_i32);
+    let (mut point, mut any_digit) = (false, false);
+    for &b in significand {
+        match b {
+            b'.' if !point => point = true,
+            b'0'..=b'9' => {
+                any_digit = true;
+                if m != 0 || b != b'0' {
+                    if digits == 19 {
+                        return None;
+                    }
+                    m = m * 10 + u64::from(b - b'0');
+                    digits += 1;
+                }
+                if point {
+                    e10 -= 1;
+                }
+            }
+            _ => return None,
+        }
+    }
+    if !any_digit {
+        return None;
+    }
+    if let Some(e) = exponent {
+        let (e_negative, e_digits) = match e {
+            [b'-', rest @ ..] => (true, rest),
+            [b'+', rest @ ..] => (false, rest),
+            rest => (false, rest),
+        };
+        if e_digits.is_empty() || e_digits.len() > 4 {
+            return None;
+        }
+        let mut v = 0_i32;
+        for &b in e_digits {
+            if !b.is_ascii_digit() {
+                return None;
+            }
+            v = v * 10 + i32::from(b - b'0');
+        }
+        e10 += if e_negative { -v } else { v };
+    }
+    let magnitude = scale_pow10(m, e10)?;
+    Some(if negative { -magnitude } else { magnitude })
+}
+
+/// `10^k` for `k` in `0..=19` (all of them below `u64::MAX`).
+const POW10_U64: [u64; 20] = [
+    1,
+    10,
+    100,
+    1_000,
+    10_000,
+    100_000,
+    1_000_000,
+    10_000_000,
+    100_000_000,
+    1_000_000_000,
+    10_000_000_000,
+    100_000_000_000,
+    1_000_000_000_000,
+    10_000_000_000_000,
+    100_000_000_000_000,
+    1_000_000_000_000_000,
+    10_000_000_000_000_000,
+    100_000_000_000_000_000,
+    1_000_000_000_000_000_000,
+    10_000_000_000_000_000_000,
+];
+
+/// `2^-n` for `n` in `0..=126` (a normal `f32`).
+const fn pow2_neg(n: u32) -> f32 {
+    f32::from_bits((127 - n) << 23)
+}
+
+/// The nearest `f32` to `m x 10^e10` for `|e10| <= 19` (else `None`), by integers: for
+/// `e10 >= 0` the product exactly in `u128`, converted once (round to nearest, ties to
+/// even); for `e10 < 0` the quotient of `m x 2^s` (its top bit at bit 127) by `10^-e10`,
+/// 64 bits or more, with a sticky bit for the remainder, converted once and scaled back by
+/// two exact powers of two. Infinite (beyond `f32::MAX`) is `None`.
+pub fn nearest_f32(m: u64, e10: i32) -> Option<f32> {
+    let k = e10.unsigned_abs() as usize;
+    let pow = u128::from(*POW10_U64.get(k)?);
+    if m == 0 {
+        return Some(0.0);
+    }
+    let x = match POW10_F32.get(k) {
+        // Both exact in `f32`: one rounded operation is the nearest (the common case, and
+        // the cheap one: no 128-bit division on a 32-bit MCU).
+        Some(&p) if m < (1 << 24) => {
+            if e10 >= 0 {
+                m as f32 * p
+            } else {
+                m as f32 / p
+            }
+        }
+        _ if e10 >= 0 => (u128::from(m) * pow) as f32,
+        _ => {
+            let s = m.leading_zeros() + 64;
+            let num = u128::from(m) << s;
+            let q = num / pow;
+            let sticky = u128::from(q * pow != num);
+            let h = s / 2;
+            ((q | sticky) as f32) * pow2_neg(h) * pow2_neg(s - h)
+        }
+    };
+    x.is_finite().then_some(x)
+}
+
+/// `m x 10^e10` as a finite `f32` (see [`parse_f32_compact`]).
+fn scale_pow10(m: u64, e10: i32) -> Option<f32> {
+    if m == 0 || e10 < -80 {
+        // Below the smallest subnormal whatever the 19 digits: zero, as `f32::from_str`.
+        return Some(0.0);
+    }
+    if e10 > 40 {
+        return None;
+    }
+    let mut x = nearest_f32(m, e10.clamp(-19, 19))?;
+    let mut e = e10 - e10.clamp(-19, 19);
+    let pow = |k: i32| POW10_F32.get(k.unsigned_abs() as usize).copied();
+    while e > 0 {
+        let k = e.min(10);
+        x *= pow(k)?;
+        e -= k;
+    }
+    while e < 0 {
+        let k = e.max(-10);
+        x /= pow(k)?;
+        e -= k;
+    }
+    x.is_finite().then_some(x)
 }
 
 /// A finite `f64` from decimal text, as [`parse_f32`].

@@ -357,6 +357,7 @@ fn the_topside_steps_on_uplinks_at_the_hosts_time() {
         pressure_count: 1,
         status: status::LATCHED,
         counters: NodeCounters::default(),
+        dvl: None,
     };
     let f = crate::node_link::encode_frame_for_tests(NODE_LINK_VERSION, 1, &up);
     link_in += f.len() as u32;

@@ -1,8 +1,9 @@
 //! The node role: the vehicle's thin image in the paper's layout, where the
 //! control loop runs at the surface. The node reads its IMU at its own rate (at least
 //! 400 Hz) and integrates the increments (delta angle, delta velocity), reads the pressure
-//! sensor, sends both up the node link once a link period, and applies the pulse widths the
-//! topside sends. Nothing of the controller core runs here.
+//! sensor and its DVL's port ([`Sensors::dvl`]: the A50's reports parsed and gated here, only
+//! an admitted velocity travels), sends them up the node link once a link period, and applies
+//! the pulse widths the topside sends. Nothing of the controller core runs here.
 //!
 //! Generic over three `embedded_hal::pwm::SetDutyCycle` (the ESCs), an `embedded_io` port
 //! (the link), a [`Monotonic`] clock and the firmware's [`Sensors`], so the same code runs on
@@ -20,6 +21,7 @@
 //! | a pulse outside 1100-1900 us, a time to live outside 1..=100 ms | never applied; `out_of_range` | |
 //! | another topside's session (crossed wires, two topsides), session 0 | never applied; `foreign` | |
 //! | a sequence not above the last applied one of the session (a replay, at any distance: the `u64` sequence never wraps) | never applied; `replayed` | |
+//! | a DVL line refused (bad checksum, malformed, no bottom lock, a poor figure of merit, overlong), or a velocity the uplink cannot carry | no velocity sent (a DVL gap for the topside's estimator); `dvl_refused` | |
 //!
 //! A refused frame changes nothing: not the outputs, the session, the sequence, the arm
 //! state nor the silence timer.
@@ -27,7 +29,7 @@
 use crate::app::Monotonic;
 use crate::node_link::{
     low_16, seal, seq_after, status, ArmCommand, Downlink, LinkDecoder, LinkFrame, NodeCounters,
-    Uplink, ESC_MAX_US, ESC_MIN_US, ESC_NEUTRAL_US, MAX_TTL_MS,
+    Uplink, UplinkDvl, ESC_MAX_US, ESC_MIN_US, ESC_NEUTRAL_US, MAX_TTL_MS,
 };
 use crate::protocol::{DropReason, MAX_FRAME_LEN};
 use crate::sensors::Sensors;
@@ -163,6 +165,11 @@ pub struct Node<P, S, C, N> {
     next_imu_us: u64,
     next_link_us: u64,
     counters: NodeCounters,
+    /// The newest DVL velocity admitted since the last uplink, in the uplink's integers, and
+    /// its time of validity (converted in the DVL's pass, not the uplink's).
+    dvl: Option<(UplinkDvl, u64)>,
+    /// Admitted DVL velocities the uplink could not carry (counted as refused).
+    dvl_unsent: u32,
 }
 
 impl<P, S, C, N> Node<P, S, C, N>
@@ -232,12 +239,16 @@ where
             next_imu_us: now,
             next_link_us: now.saturating_add(u64::from(config.link_period_us)),
             counters: NodeCounters::default(),
+            dvl: None,
+            dvl_unsent: 0,
         })
     }
 
     /// One pass of the node's loop: the waiting link bytes (at most
-    /// `max_rx_bytes_per_tick`), the IMU when due, the failsafes and the outputs, the uplink
-    /// when due.
+    /// `max_rx_bytes_per_tick`), the IMU when due, the failsafes and the outputs, then the
+    /// uplink when due or else the DVL's port: a pass that seals an uplink parses no DVL
+    /// line (the DVL's bytes wait in its port's ring for the next pass, 2.5 ms at most), so
+    /// each of the two keeps its own time budget.
     pub fn tick(&mut self) {
         self.flush_tx();
         let mut budget = self.config.max_rx_bytes_per_tick;
@@ -265,7 +276,22 @@ where
         if now >= self.next_link_us {
             self.next_link_us = next_due(self.next_link_us, now, self.config.link_period_us);
             self.send_uplink(now);
+        } else {
+            self.read_dvl(now);
         }
+    }
+
+    /// The DVL's port: its newest admitted velocity kept for the next uplink, in integers;
+    /// the refused count updated.
+    fn read_dvl(&mut self, now: u64) {
+        if let Some(fix) = self.sensors.dvl(now) {
+            match UplinkDvl::ageless(&fix) {
+                Some(d) => self.dvl = Some((d, fix.t_us)),
+                None => self.dvl_unsent = self.dvl_unsent.wrapping_add(1),
+            }
+        }
+        // The low byte of the count: the topside sums the differences.
+        self.counters.dvl_refused = self.sensors.dvl_refused().wrapping_add(self.dvl_unsent) as u8;
     }
 
     /// Check and apply one frame from the link at `now`; a refused frame changes nothing
@@ -440,6 +466,14 @@ where
             (1.., Some((t, _, _))) => now.saturating_sub(t).min(u64::from(u32::MAX)) as u32,
             _ => 0,
         };
+        let dvl = self.dvl.take().and_then(|(d, t_us)| {
+            let d = d.aged(t_us, now);
+            if d.is_none() {
+                self.dvl_unsent = self.dvl_unsent.wrapping_add(1);
+                self.counters.dvl_refused = self.counters.dvl_refused.wrapping_add(1);
+            }
+            d
+        });
         let up = Uplink {
             session: self.session,
             echo_seq: low_16(self.last_seq.unwrap_or(0)),
@@ -453,6 +487,7 @@ where
             pressure_count: self.pressure_count,
             status: self.status(now),
             counters: self.counters,
+            dvl,
         };
         (self.delta_angle_rad, self.delta_velocity_m_s) = ([0.0; 3], [0.0; 3]);
         (self.dt_us, self.samples) = (0, 0);

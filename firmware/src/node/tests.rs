@@ -574,3 +574,5 @@ fn a_downlink_replayed_at_any_distance_is_refused() {
         assert_eq!(b.out(), [1700, 1500, 1500], "{distance}");
     }
 }
+
+mod dvl;

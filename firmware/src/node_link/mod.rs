@@ -12,7 +12,8 @@
 //! - [`Uplink`] (node -> topside, every link period): the session the node serves, the
 //!   low bits of the sequence of the latest downlink it applied, the IMU
 //!   increments integrated over the period (delta angle, delta velocity, their dt), the latest
-//!   pressure, the node's status and counters.
+//!   pressure, the node's status and counters, and the DVL's velocity admitted since the last
+//!   uplink ([`UplinkDvl`]: parsed and gated on the node).
 //!
 //! Sequences: a downlink carries the topside's sequence as a `u64` that counts up from 1 and
 //! never wraps (at 200 frames a second it would take 2.9e9 years), and the node applies only a
@@ -29,9 +30,11 @@
 //! [`LINK_BAUD`] at most half of the [`LINK_PERIOD_US`] (`docs/deployment.md`).
 
 mod decoder;
+mod dvl;
 mod wire;
 
 pub use decoder::{LinkDecoder, LinkFrame};
+pub use dvl::{UplinkDvl, MAX_UPLINK_DVL_AGE_MS, MAX_UPLINK_DVL_STD_M_S};
 pub use wire::{
     MAX_DOWNLINK_FRAME_LEN, MAX_LINK_FRAME_LEN, MAX_UPLINK_FRAME_LEN, NODE_LINK_VERSION,
 };
@@ -208,6 +211,10 @@ pub struct NodeCounters {
     pub ttl_expired: u16,
     /// IMU reads that failed.
     pub imu_errors: u16,
+    /// DVL lines and reports the node refused (bad checksum, malformed, no bottom lock, a
+    /// poor figure of merit, over-long; wrapping at 256: the topside sums the differences,
+    /// at most a few a link period).
+    pub dvl_refused: u8,
 }
 
 /// Node -> topside, once a link period.
@@ -240,6 +247,8 @@ pub struct Uplink {
     pub status: u8,
     /// Counters.
     pub counters: NodeCounters,
+    /// The newest DVL velocity the node admitted since the previous uplink (`None`: none).
+    pub dvl: Option<UplinkDvl>,
 }
 
 /// Encode `msg` as a node-link frame with envelope sequence `seq` into `out`; returns the

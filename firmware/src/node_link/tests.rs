@@ -34,7 +34,13 @@ fn largest_uplink() -> Uplink {
             version: u16::MAX,
             ttl_expired: u16::MAX,
             imu_errors: u16::MAX,
+            dvl_refused: u8::MAX,
         },
+        dvl: Some(UplinkDvl {
+            age_ms: u16::MAX,
+            velocity_mm_s: [i16::MIN, i16::MIN],
+            std_mm_s: u8::MAX,
+        }),
     }
 }
 
@@ -61,6 +67,22 @@ fn largest_messages_fit_their_frame_lengths() {
     assert!(up.len() <= MAX_UPLINK_FRAME_LEN, "{}", up.len());
     assert!(MAX_DOWNLINK_FRAME_LEN - down.len() <= 5);
     assert!(MAX_UPLINK_FRAME_LEN - up.len() <= 5);
+    // The DVL's velocity keeps the uplink within its budget (docs/drivers.md): 109 B.
+    const { assert!(MAX_UPLINK_FRAME_LEN <= 109) };
+    assert!(up.len() <= 109, "{}", up.len());
+    let without = frame_of(
+        u16::MAX,
+        &Uplink {
+            dvl: None,
+            ..largest_uplink()
+        },
+    );
+    // `Some` at its largest less `None` (its tag alone).
+    assert_eq!(
+        up.len() - without.len(),
+        10,
+        "the DVL's velocity at its largest"
+    );
     println!(
         "largest downlink frame {} B (bound {MAX_DOWNLINK_FRAME_LEN}), uplink {} B (bound {MAX_UPLINK_FRAME_LEN})",
         down.len(),
@@ -252,9 +274,9 @@ fn the_default_link_period_follows_the_rate() {
     // 115,200 Bd: 5 and 10 ms would be over half busy; the images' 20 ms.
     assert_eq!(default_link_period_us(115_200), 20_000);
     assert!(busy_per_mille(10_000, 115_200) > 500);
-    // 1 Mbd: 5 ms (the uplink takes 0.96 ms of it).
+    // 1 Mbd: 5 ms (the 108-byte uplink with the DVL's velocity takes 1.08 ms of it).
     assert_eq!(default_link_period_us(1_000_000), 5_000);
-    assert!(busy_per_mille(5_000, 1_000_000) <= 200);
+    assert_eq!(busy_per_mille(5_000, 1_000_000), 216);
     // A rate too slow for any: 20 ms, which the check then refuses.
     assert_eq!(default_link_period_us(9_600), 20_000);
     assert_eq!(
@@ -266,12 +288,16 @@ fn the_default_link_period_follows_the_rate() {
 #[test]
 fn a_link_period_is_refused_below_the_imu_period_above_half_busy_or_below_50_hz() {
     assert_eq!(check_link_period(20_000, 2_500, 115_200), Ok(()));
-    // The shortest at 115,200 Bd within half busy, in IMU periods: 17.5 ms (57 Hz).
-    assert_eq!(check_link_period(17_500, 2_500, 115_200), Ok(()));
-    assert_eq!(
-        check_link_period(15_000, 2_500, 115_200),
-        Err(LinkPeriodError::OverHalfBusy)
-    );
+    // The shortest at 115,200 Bd within half busy: 18.75 ms (53 Hz; twice the 108-byte
+    // uplink's 9.375 ms); in IMU periods, 20 ms.
+    assert_eq!(check_link_period(18_750, 2_500, 115_200), Ok(()));
+    for short in [18_749, 17_500, 15_000] {
+        assert_eq!(
+            check_link_period(short, 2_500, 115_200),
+            Err(LinkPeriodError::OverHalfBusy),
+            "{short} us"
+        );
+    }
     assert_eq!(
         check_link_period(2_000, 2_500, 1_000_000),
         Err(LinkPeriodError::BelowImuPeriod)
@@ -281,4 +307,79 @@ fn a_link_period_is_refused_below_the_imu_period_above_half_busy_or_below_50_hz(
         check_link_period(25_000, 2_500, 115_200),
         Err(LinkPeriodError::Below50Hz)
     );
+}
+
+#[test]
+fn a_dvl_velocity_round_trips_in_millimetres() {
+    use controller_core::nav::DvlFix;
+    let fix = DvlFix {
+        t_us: 9_950_000,
+        velocity_m_s: [0.2504, -1.2346],
+        std_m_s: 0.0105,
+    };
+    let up = UplinkDvl::from_fix(&fix, 10_000_400).unwrap();
+    assert_eq!(
+        up,
+        UplinkDvl {
+            age_ms: 50,
+            velocity_mm_s: [250, -1235],
+            std_mm_s: 11,
+        }
+    );
+    let back = up.to_fix(5_000_000);
+    assert_eq!(back.t_us, 5_000_000);
+    for (a, b) in back.velocity_m_s.iter().zip(fix.velocity_m_s) {
+        assert!((a - b).abs() <= 0.5e-3 + 1e-6, "{back:?}");
+    }
+    assert!((back.std_m_s - fix.std_m_s).abs() <= 0.5e-3 + 1e-6);
+    // In a frame, both ways through the decoder.
+    let msg = Uplink {
+        dvl: Some(up),
+        pressure_pa: 101_325.0,
+        ..largest_uplink()
+    };
+    let mut d = LinkDecoder::<Uplink>::new();
+    assert_eq!(
+        decode_all(&mut d, &frame_of(1, &msg)),
+        vec![LinkFrame::Frame { seq: 1, msg }]
+    );
+    // A figure of merit of 0 is the resolution, 1 mm/s, for the estimator.
+    let zero = UplinkDvl { std_mm_s: 0, ..up };
+    assert_eq!(zero.to_fix(0).std_m_s, 1e-3);
+}
+
+#[test]
+fn a_dvl_velocity_that_does_not_fit_is_not_sent() {
+    use controller_core::nav::DvlFix;
+    let ok = DvlFix {
+        t_us: 1_000,
+        velocity_m_s: [20.0, -20.0],
+        std_m_s: MAX_UPLINK_DVL_STD_M_S,
+    };
+    assert!(UplinkDvl::from_fix(&ok, 1_000).is_some());
+    let bad = [
+        DvlFix {
+            velocity_m_s: [f32::NAN, 0.0],
+            ..ok
+        },
+        DvlFix {
+            velocity_m_s: [0.0, 32.8],
+            ..ok
+        },
+        DvlFix {
+            std_m_s: 0.256,
+            ..ok
+        },
+        DvlFix {
+            std_m_s: -0.002,
+            ..ok
+        },
+    ];
+    for f in bad {
+        assert_eq!(UplinkDvl::from_fix(&f, 2_000), None, "{f:?}");
+    }
+    // Stamped after the sealing, or older than 65.5 s.
+    assert_eq!(UplinkDvl::from_fix(&ok, 999), None);
+    assert_eq!(UplinkDvl::from_fix(&ok, 1_000 + 65_536_000), None);
+    assert!(UplinkDvl::from_fix(&ok, 1_000 + 65_535_000).is_some());
 }

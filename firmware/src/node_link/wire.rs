@@ -2,11 +2,12 @@
 //! buffers' size), shared by the link's messages and its decoder.
 
 /// Version of the node link's messages; a frame of another version is never applied.
-/// Version 3: both messages carry their sender's `u64` sequence (replays refused at any
+/// Version 4: the uplink carries the DVL's admitted velocity (`UplinkDvl`) and the node's
+/// count of refused DVL reports. Version 3: both messages carry their sender's `u64` sequence (replays refused at any
 /// distance). Version 2: the downlink carries the topside's send time and the uplink
 /// echoes it with the node's holding time and the age of its newest IMU sample, so the
 /// topside knows the round trip and the sample's time on its own clock at any latency.
-pub const NODE_LINK_VERSION: u8 = 3;
+pub const NODE_LINK_VERSION: u8 = 4;
 
 /// Largest downlink frame on the wire, both delimiters included (every field at its
 /// largest postcard encoding; tested).
@@ -32,8 +33,16 @@ const MAX_DOWNLINK_PAYLOAD_LEN: usize = ENVELOPE_MAX + 5 + SEQ_MAX + 3 * 3 + 1 +
 /// Uplink postcard payload at most: envelope, session (5), echoed sequence (`u16`, 3),
 /// echoed time (`u32`, 5), IMU age (`u32`, 5), dt (`u32`, 5), samples (`u16`, 3), delta angle
 /// and velocity (6 `f32`, 24), pressure (4), pressure count (1), status (1), eight `u16`
-/// counters (24).
-const MAX_UPLINK_PAYLOAD_LEN: usize = ENVELOPE_MAX + 5 + 3 + 5 + 5 + 5 + 3 + 24 + 4 + 1 + 1 + 8 * 3;
+/// counters (24) and the DVL's refused count (`u8`, 1), the DVL's velocity (
+/// [`UPLINK_DVL_MAX`]).
+const MAX_UPLINK_PAYLOAD_LEN: usize =
+    ENVELOPE_MAX + 5 + 3 + 5 + 5 + 5 + 3 + 24 + 4 + 1 + 1 + 8 * 3 + 1 + UPLINK_DVL_MAX;
+/// `Option<UplinkDvl>` at most: the option's tag (1), the age (`u16`, 3), two `i16`
+/// velocities (zigzag varints, 3 each), the figure of merit (`u8`, 1).
+const UPLINK_DVL_MAX: usize = 1 + 3 + 2 * 3 + 1;
+/// The uplink's budget (`docs/drivers.md`, "The DVL on the node"): 109 B at most, 47.3 % of
+/// the 115,200 Bd link at 50 Hz.
+const _: () = assert!(MAX_UPLINK_FRAME_LEN <= 109);
 
 /// Frame length for a payload: CRC-32 appended, COBS, two delimiters.
 const fn frame_len(payload: usize) -> usize {

@@ -67,6 +67,9 @@ impl DvlStats {
     }
 }
 
+/// Bytes read from the UART at a time.
+const CHUNK: usize = 64;
+
 /// A DVL on a UART.
 pub struct DvlPort<U> {
     uart: U,
@@ -74,6 +77,13 @@ pub struct DvlPort<U> {
     gate: VelocityGate,
     wire_us_per_byte: u32,
     stats: DvlStats,
+    /// Bytes read from the UART and not yet taken into a line (a poll that stops at a line's
+    /// end leaves the rest here for the next).
+    chunk: [u8; CHUNK],
+    chunk_at: usize,
+    chunk_len: usize,
+    max_bytes_per_poll: usize,
+    max_lines_per_poll: usize,
 }
 
 impl<U: Read + ReadReady> DvlPort<U> {
@@ -86,7 +96,21 @@ impl<U: Read + ReadReady> DvlPort<U> {
             gate,
             wire_us_per_byte,
             stats: DvlStats::default(),
+            chunk: [0; CHUNK],
+            chunk_at: 0,
+            chunk_len: 0,
+            max_bytes_per_poll: DVL_MAX_BYTES_PER_POLL,
+            max_lines_per_poll: usize::MAX,
         }
+    }
+
+    /// The port with at most `max_bytes` taken and `max_lines` lines ended (parsed) per
+    /// [`Self::poll`] (at least one of each): bounds a poll's time on a small MCU (the node
+    /// parses one line a pass). The defaults: [`DVL_MAX_BYTES_PER_POLL`], every line.
+    pub fn with_poll_limits(mut self, max_bytes: usize, max_lines: usize) -> Self {
+        self.max_bytes_per_poll = max_bytes.max(1);
+        self.max_lines_per_poll = max_lines.max(1);
+        self
     }
 
     /// The counts so far.
@@ -102,89 +126,122 @@ impl<U: Read + ReadReady> DvlPort<U> {
         &mut self.uart
     }
 
-    /// Drain what the UART holds (at most [`DVL_MAX_BYTES_PER_POLL`]) at `now_us`; the
-    /// newest admitted report of those lines as a fix, else `None`.
+    /// Drain what the UART holds (at most [`DVL_MAX_BYTES_PER_POLL`], or the limits of
+    /// [`Self::with_poll_limits`]) at `now_us`; the newest admitted report of those lines as
+    /// a fix, else `None`.
     pub fn poll(&mut self, now_us: u64) -> Option<DvlFix> {
         let mut newest = None;
-        let mut budget = DVL_MAX_BYTES_PER_POLL;
-        let mut chunk = [0_u8; 64];
-        while budget > 0 {
-            match self.uart.read_ready() {
-                Ok(true) => {}
-                Ok(false) => break,
-                Err(_) => {
-                    self.stats.uart_errors = self.stats.uart_errors.saturating_add(1);
-                    self.line.clear();
-                    break;
-                }
+        let mut budget = self.max_bytes_per_poll;
+        let mut lines = self.max_lines_per_poll;
+        while budget > 0 && lines > 0 {
+            if self.chunk_at >= self.chunk_len && !self.refill(budget) {
+                break;
             }
-            let want = chunk.len().min(budget);
-            let n = match self.uart.read(chunk.get_mut(..want).unwrap_or_default()) {
-                Ok(0) => break,
-                Ok(n) => n.min(want),
-                Err(_) => {
-                    self.stats.uart_errors = self.stats.uart_errors.saturating_add(1);
-                    self.line.clear();
-                    break;
-                }
+            let Some(&b) = self.chunk.get(self.chunk_at) else {
+                break;
             };
-            budget = budget.saturating_sub(n);
-            for &b in chunk.get(..n).unwrap_or_default() {
-                if let Some(fix) = self.on_byte(b, now_us) {
-                    newest = Some(fix);
+            self.chunk_at += 1;
+            budget -= 1;
+            if let Some(judged) = self.on_byte(b, now_us) {
+                lines -= 1;
+                if judged.is_some() {
+                    newest = judged;
                 }
             }
         }
         newest
     }
 
-    fn on_byte(&mut self, byte: u8, now_us: u64) -> Option<DvlFix> {
-        let line = self.line.push(byte)?;
-        let wire_us = u64::from(self.wire_us_per_byte).saturating_mul(line.len() as u64 + 2);
-        let stats = &mut self.stats;
-        let bump = |c: &mut u32| *c = c.saturating_add(1);
-        let report = match a50::parse(line) {
-            Ok(Report::Velocity(v)) => v,
-            Ok(_) => {
-                bump(&mut stats.other);
-                return None;
+    /// Read at most `want` bytes (and [`CHUNK`]) into the chunk; `false` when none came.
+    fn refill(&mut self, want: usize) -> bool {
+        (self.chunk_at, self.chunk_len) = (0, 0);
+        match self.uart.read_ready() {
+            Ok(true) => {}
+            Ok(false) => return false,
+            Err(_) => {
+                self.stats.uart_errors = self.stats.uart_errors.saturating_add(1);
+                self.line.clear();
+                return false;
             }
-            Err(FrameError::Checksum { .. }) => {
-                bump(&mut stats.bad_checksum);
-                return None;
+        }
+        let want = want.min(CHUNK);
+        match self
+            .uart
+            .read(self.chunk.get_mut(..want).unwrap_or_default())
+        {
+            Ok(0) => false,
+            Ok(n) => {
+                self.chunk_len = n.min(want);
+                true
             }
             Err(_) => {
-                bump(&mut stats.malformed);
-                return None;
+                self.stats.uart_errors = self.stats.uart_errors.saturating_add(1);
+                self.line.clear();
+                false
             }
-        };
-        let admitted = match self.gate.admit(&report) {
-            Ok(r) => r,
-            Err(Refusal::NoBottomLock) => {
-                bump(&mut stats.no_lock);
-                return None;
-            }
-            Err(Refusal::PoorFigureOfMerit { .. }) => {
-                bump(&mut stats.poor_fom);
-                return None;
-            }
-            Err(Refusal::Inconsistent) => {
-                bump(&mut stats.malformed);
-                return None;
-            }
-        };
-        // At most `a50::MAX_LATENCY_US` (checked by the parser).
-        let latency_us = admitted
-            .time_of_transmission_us
-            .saturating_sub(admitted.time_of_validity_us);
-        bump(&mut stats.accepted);
-        let [vx, vy, _] = admitted.velocity_m_s;
-        Some(DvlFix {
-            t_us: now_us.saturating_sub(latency_us.saturating_add(wire_us)),
-            velocity_m_s: [vx, vy],
-            std_m_s: admitted.fom_m_s.max(DVL_MIN_STD_M_S),
-        })
+        }
     }
+
+    /// Take one byte; `Some` when it ended a line, with the fix when the line was an
+    /// admitted report.
+    fn on_byte(&mut self, byte: u8, now_us: u64) -> Option<Option<DvlFix>> {
+        let line = self.line.push(byte)?;
+        let wire_us = u64::from(self.wire_us_per_byte).saturating_mul(line.len() as u64 + 2);
+        Some(judge(line, &self.gate, &mut self.stats, wire_us, now_us))
+    }
+}
+
+/// A line judged and counted in `stats`: an admitted report's fix, stamped with its time of
+/// validity on the clock of `now_us` (the line ended then, after `wire_us` on the wire).
+fn judge(
+    line: &[u8],
+    gate: &VelocityGate,
+    stats: &mut DvlStats,
+    wire_us: u64,
+    now_us: u64,
+) -> Option<DvlFix> {
+    let bump = |c: &mut u32| *c = c.saturating_add(1);
+    let report = match a50::parse(line) {
+        Ok(Report::Velocity(v)) => v,
+        Ok(_) => {
+            bump(&mut stats.other);
+            return None;
+        }
+        Err(FrameError::Checksum { .. }) => {
+            bump(&mut stats.bad_checksum);
+            return None;
+        }
+        Err(_) => {
+            bump(&mut stats.malformed);
+            return None;
+        }
+    };
+    let admitted = match gate.admit(&report) {
+        Ok(r) => r,
+        Err(Refusal::NoBottomLock) => {
+            bump(&mut stats.no_lock);
+            return None;
+        }
+        Err(Refusal::PoorFigureOfMerit { .. }) => {
+            bump(&mut stats.poor_fom);
+            return None;
+        }
+        Err(Refusal::Inconsistent) => {
+            bump(&mut stats.malformed);
+            return None;
+        }
+    };
+    // At most `a50::MAX_LATENCY_US` (checked by the parser).
+    let latency_us = admitted
+        .time_of_transmission_us
+        .saturating_sub(admitted.time_of_validity_us);
+    bump(&mut stats.accepted);
+    let [vx, vy, _] = admitted.velocity_m_s;
+    Some(DvlFix {
+        t_us: now_us.saturating_sub(latency_us.saturating_add(wire_us)),
+        velocity_m_s: [vx, vy],
+        std_m_s: admitted.fom_m_s.max(DVL_MIN_STD_M_S),
+    })
 }
 
 /// Sensors `N` plus a DVL on a UART.
@@ -206,6 +263,10 @@ impl<N: Sensors, U: Read + ReadReady> Sensors for WithDvl<N, U> {
 
     fn dvl(&mut self, now_us: u64) -> Option<DvlFix> {
         self.dvl.poll(now_us)
+    }
+
+    fn dvl_refused(&self) -> u32 {
+        self.dvl.stats().refused()
     }
 
     fn own_sensors(&self) -> bool {
@@ -351,6 +412,31 @@ mod tests {
         }
         assert_eq!(last.velocity_m_s[0], 0.019);
         assert_eq!(port.stats().accepted, 20);
+    }
+
+    #[test]
+    fn a_port_limited_to_one_line_a_poll_keeps_the_rest_for_the_next() {
+        // Three lines in one read: the first poll ends at the first line's end.
+        let mut text = wrz(GOOD);
+        text += "garbage*00\r\n";
+        text += &wrz(GOOD);
+        let mut port = DvlPort::new(Uart::new(text.as_bytes(), 512), VelocityGate::default(), 0)
+            .with_poll_limits(64, 1);
+        let mut polls = Vec::new();
+        for _ in 0..20 {
+            let before = port.stats();
+            let fix = port.poll(1_000_000);
+            let after = port.stats();
+            let lines = (after.accepted + after.refused()) - (before.accepted + before.refused());
+            assert!(lines <= 1, "{before:?} -> {after:?}");
+            polls.push(fix.is_some());
+        }
+        let s = port.stats();
+        assert_eq!((s.accepted, s.bad_checksum + s.malformed), (2, 1), "{s:?}");
+        assert_eq!(polls.iter().filter(|&&f| f).count(), 2);
+        // 64 bytes at most a poll: a line of 150+ bytes ends at the third poll.
+        let first = polls.iter().position(|&f| f).unwrap();
+        assert_eq!(first, wrz(GOOD).len().div_ceil(64) - 1);
     }
 
     #[test]

@@ -113,6 +113,7 @@ fn uplink(echo_seq: u16, pressure_count: u8) -> Uplink {
         pressure_count,
         status: status::ARMED,
         counters: NodeCounters::default(),
+        dvl: None,
     }
 }
 
@@ -601,3 +602,5 @@ fn a_restarted_node_is_heard_again_after_250_ms() {
     assert_eq!(heard, Some(240_000), "{:?}", b.link.counters());
     assert_eq!(b.link.counters().replayed, 12);
 }
+
+mod dvl;
