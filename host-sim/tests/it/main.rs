@@ -6,7 +6,8 @@
 //! apart, as binaries of their own: `qemu_skip.rs` (it sets process-wide environment
 //! variables), `hil_link.rs` (a console session on the emulated board in wall-clock time: it
 //! needs the emulator to itself, and failed beside the other emulated runs of this binary),
-//! the surface program's tests (`topside_*.rs`, `served_vehicle.rs`).
+//! `identification.rs`, and the tests that fly the surface program against a served vehicle
+//! (`surface/`: they wait on real time, and run side by side in their own binary).
 
 // Shared with the surface program's tests (`topside_layout.rs`).
 #[path = "../common/mod.rs"]
@@ -21,7 +22,9 @@ mod current_sweep;
 mod currents;
 mod deployment;
 mod deployment_qemu;
+mod emulated_instruments;
 mod exit_codes;
+mod health;
 mod hil_qemu;
 mod in_process;
 mod instruments;

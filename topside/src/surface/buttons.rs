@@ -4,7 +4,8 @@
 //! ("#Gain is 75%"); a function with no meaning here is said once per press.
 
 use super::joystick::Action;
-use super::{StationId, Topside};
+use super::topside::Topside;
+use super::transport::StationId;
 use anyhow::Result;
 use mavlink::dialects::ardupilotmega::MavSeverity;
 

@@ -13,7 +13,7 @@
 
 use super::params::{self, CompassDeviationDeg};
 use super::telemetry;
-use super::Topside;
+use super::topside::Topside;
 use anyhow::Result;
 use firmware::compass_swing::SwingOutcome;
 use mavlink::dialects::ardupilotmega::{MavCmd, MavResult, MavSeverity};
@@ -27,7 +27,7 @@ pub const TIME_LIMIT_S: f32 = 60.0;
 impl Topside {
     /// `MAV_CMD_DO_START_MAG_CAL` from `station`: the turn asked of the vehicle; accepted or
     /// refused with the vehicle's reason.
-    pub(super) fn start_mag_cal(&mut self, station: super::StationId) -> Result<()> {
+    pub(super) fn start_mag_cal(&mut self, station: super::transport::StationId) -> Result<()> {
         let cmd = MavCmd::MAV_CMD_DO_START_MAG_CAL;
         match self.v.command(&Command::StartCompassCal {
             yaw_rate_rad_s: YAW_RATE_RAD_S,

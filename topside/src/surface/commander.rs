@@ -74,7 +74,7 @@ pub fn is_command(msg: &MavMessage) -> bool {
         msg,
         MavMessage::COMMAND_LONG(COMMAND_LONG_DATA { command, .. })
             | MavMessage::COMMAND_INT(COMMAND_INT_DATA { command, .. })
-            if !super::inquiry::is_query(*command)
+            if !super::queries::is_query(*command)
     ) || matches!(
         msg,
         MavMessage::SET_MODE(_)

@@ -3,7 +3,9 @@
 //! `PARAM_VALUE`) and every refusal said in words with what is needed.
 
 use super::params;
-use super::{ardusub_mode, telemetry, StationId, Topside};
+use super::topside::Topside;
+use super::transport::StationId;
+use super::{ardusub_mode, telemetry};
 use anyhow::Result;
 use mavlink::dialects::ardupilotmega::{
     MavCmd, MavResult, MavSeverity, COMMAND_INT_DATA, COMMAND_LONG_DATA, PARAM_SET_DATA,
@@ -81,7 +83,7 @@ impl Topside {
 
     /// `COMMAND_LONG`: each command answered with a `COMMAND_ACK`.
     pub(super) fn command_long(&mut self, station: StationId, c: COMMAND_LONG_DATA) -> Result<()> {
-        if super::inquiry::is_query(c.command) {
+        if super::queries::is_query(c.command) {
             return self.query(station, c.command, c.param1, c.param2);
         }
         self.gcs.stats.handled += 1;
@@ -137,7 +139,7 @@ impl Topside {
 
     /// `COMMAND_INT`: each command answered with a `COMMAND_ACK`.
     pub(super) fn command_int(&mut self, station: StationId, c: COMMAND_INT_DATA) -> Result<()> {
-        if super::inquiry::is_query(c.command) {
+        if super::queries::is_query(c.command) {
             return self.query(station, c.command, c.param1, c.param2);
         }
         match c.command {

@@ -5,7 +5,7 @@
 //! mode the vehicle refuses is a disarm, as ArduSub's. A heartbeat heard again ends it.
 
 use super::params::surface::GcsFailsafe;
-use super::Topside;
+use super::topside::Topside;
 use anyhow::Result;
 use mavlink::dialects::ardupilotmega::MavSeverity;
 use protocol::{Command, Mode};
@@ -13,29 +13,6 @@ use std::time::{Duration, Instant};
 
 /// How often the lost heartbeat is said again while it lasts.
 const REMINDER: Duration = Duration::from_secs(30);
-
-/// The failsafe's state.
-#[derive(Debug, Default)]
-pub(super) struct GcsWatch {
-    /// When a station's heartbeat was last heard (none yet: the failsafe waits for one).
-    heard_at: Option<Instant>,
-    /// The failsafe holds (the heartbeat lost), and when it was last said.
-    lost_said_at: Option<Instant>,
-    /// The action was taken in this loss.
-    acted: bool,
-}
-
-impl GcsWatch {
-    /// A station's heartbeat.
-    pub(super) fn heard(&mut self) {
-        self.heard_at = Some(Instant::now());
-    }
-
-    /// The failsafe holds with the depth held: the surface sends centred sticks.
-    pub(super) fn holding_depth(&self, action: GcsFailsafe) -> bool {
-        self.acted && self.lost_said_at.is_some() && action == GcsFailsafe::DepthHold
-    }
-}
 
 impl Topside {
     /// Every control period: the ground stations' heartbeat against `FS_GCS_TIMEOUT`.

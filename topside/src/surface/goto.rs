@@ -14,7 +14,8 @@
 //! from the origin, a global target before `SET_GPS_GLOBAL_ORIGIN`.
 
 use super::geodesy::{item_position, GlobalOrigin};
-use super::{StationId, Topside};
+use super::topside::Topside;
+use super::transport::StationId;
 use anyhow::Result;
 use controller_core::state::NavState;
 use mavlink::dialects::ardupilotmega::{

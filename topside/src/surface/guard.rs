@@ -10,22 +10,14 @@
 //!   operator; the saved parameters it has not taken yet tried again.
 
 use super::missions::Missions;
+use super::sticks::{sticks_centred, MANUAL_CONTROL_TIMEOUT, STICK_CENTRED};
+use super::topside::Topside;
 use super::transport::{StationId, UnknownItem};
-use super::{vehicle, Topside, MANUAL_CONTROL_TIMEOUT};
+use super::vehicle;
 use anyhow::Result;
 use mavlink::dialects::ardupilotmega::{MavMessage, MavMissionResult, MavSeverity};
 use mavlink::MavHeader;
-use protocol::{Command, ManualThrust, Mode};
-
-/// Largest stick deflection that counts as centred (fraction of full scale): the vehicle's.
-pub const STICK_CENTRED: f32 = firmware::autopilot::STICK_CENTRED;
-
-/// Are all three sticks centred?
-pub fn sticks_centred(m: &ManualThrust) -> bool {
-    [m.surge, m.yaw, m.heave]
-        .iter()
-        .all(|v| v.abs() <= STICK_CENTRED)
-}
+use protocol::{Command, Mode};
 
 /// Our MAVLink component id (`MAV_COMP_ID_AUTOPILOT1`).
 pub(super) const COMPONENT_ID: u8 = 1;

@@ -15,7 +15,9 @@
 //! telemetry does not show (a brief excursion out of the band) is not said, and the surface
 //! reports progress until the schedule's end.
 
-use super::{StationId, Topside};
+use super::ident_run::IdentRun;
+use super::topside::Topside;
+use super::transport::StationId;
 use anyhow::Result;
 use firmware::autopilot::IDENT_DURATION_S;
 use mavlink::dialects::ardupilotmega::{MavCmd, MavResult, MavSeverity};
@@ -34,16 +36,6 @@ const STOPPING_FAULTS: u16 = fault::HEARTBEAT_LOST
     | fault::NAV_STALE
     | fault::SENSOR_LOST
     | fault::MANUAL_STALE;
-
-/// A manoeuvre flying: when it started, where, its room, the next progress report.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) struct IdentRun {
-    started_s: f64,
-    start_m: [f32; 3],
-    radius_m: f32,
-    depth_band_m: f32,
-    next_report_s: f64,
-}
 
 /// param1 / param2 as the room, or why they are refused.
 pub fn room_of(param1: f32, param2: f32) -> Result<(f32, f32), String> {
@@ -114,7 +106,7 @@ impl Topside {
         let s = self.v.state;
         let elapsed = self.v.t_s - run.started_s;
         let off_m = (s.x_m - run.start_m[0]).hypot(s.y_m - run.start_m[1]);
-        let stick = self.manual_at.is_some() && !super::sticks_centred(&self.manual);
+        let stick = self.manual_at.is_some() && !super::sticks::sticks_centred(&self.manual);
         let stopped = if !tel.armed || tel.mode != Mode::Hold {
             Some("the vehicle disarmed or left POSHOLD".to_string())
         } else if tel.faults & STOPPING_FAULTS != 0 {

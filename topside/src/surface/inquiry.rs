@@ -11,7 +11,9 @@
 #![allow(deprecated)]
 
 use super::streams::{self as ids, Rate};
-use super::{telemetry, StationId, Topside};
+use super::telemetry;
+use super::topside::Topside;
+use super::transport::StationId;
 use anyhow::Result;
 use controller_core::nav::POSITION_READY_STD_M;
 use mavlink::dialects::ardupilotmega::{
@@ -43,18 +45,6 @@ fn flight_sw_version() -> u32 {
         | (part(env!("CARGO_PKG_VERSION_MINOR")) << 16)
         | (part(env!("CARGO_PKG_VERSION_PATCH")) << 8)
         | 255
-}
-
-/// The informational commands: answered to any station, never taking control.
-pub fn is_query(command: MavCmd) -> bool {
-    matches!(
-        command,
-        MavCmd::MAV_CMD_REQUEST_MESSAGE
-            | MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL
-            | MavCmd::MAV_CMD_GET_MESSAGE_INTERVAL
-            | MavCmd::MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES
-            | MavCmd::MAV_CMD_GET_HOME_POSITION
-    )
 }
 
 impl Topside {

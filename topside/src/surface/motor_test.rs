@@ -16,7 +16,7 @@
 //! window's end the vehicle disarms, as ArduSub does ("Motor test timed out!"), and every
 //! station is told. A station not in control is refused by the commander as for any command.
 
-use super::Topside;
+use super::topside::Topside;
 use anyhow::Result;
 use mavlink::dialects::ardupilotmega::{MavCmd, MavResult, MavSeverity};
 use protocol::{Command, MotorTest};
@@ -119,7 +119,7 @@ impl Topside {
     /// vehicle's own check (armed); `COMMAND_ACK` accepted or denied with a `STATUSTEXT`.
     pub(super) fn motor_test(
         &mut self,
-        station: super::StationId,
+        station: super::transport::StationId,
         p: &MotorTestParams,
     ) -> Result<()> {
         let cmd = MavCmd::MAV_CMD_DO_MOTOR_TEST;

@@ -10,144 +10,26 @@
 //! applied when the vehicle takes it, the operator told either way.
 
 use super::commander::Commander;
+use super::logs::open_logs;
 use super::missions::Missions;
-use super::params::{Group, Settings};
+use super::options::{SurfaceOptions, TopsideArgs};
+use super::params;
+use super::params::Group;
+use super::pending::Pending;
+use super::topside::Topside;
 use super::transport::Gcs;
 use super::vehicle::Vehicle;
-use super::{open_logs, params, Topside};
-use crate::port::VehicleLink;
 use crate::refusal::refused;
 use anyhow::Result;
 use mavlink::dialects::ardupilotmega::MavSeverity;
 use protocol::ManualThrust;
-use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+use std::path::Path;
+use std::time::Duration;
 
 /// The longest a read of the vehicle's port waits for a byte: the surface's loop drains what
 /// has arrived every control period, and a vehicle that talks faster than the port's usual
 /// 20 ms wait (a simulated one served faster than real time) must not hold it there.
 const DRAIN_POLL: Duration = Duration::from_millis(1);
-
-/// Saved parameters waiting for the vehicle to take them, said again this often.
-const PENDING_REMINDER: Duration = Duration::from_secs(30);
-
-/// Saved parameter groups the vehicle refused at start: the saved values and the groups
-/// still to apply.
-#[derive(Debug, Default)]
-pub(super) struct Pending {
-    saved: Option<Settings>,
-    groups: Vec<Group>,
-    said_at: Option<Instant>,
-}
-
-impl Pending {
-    /// `settings` with the waiting groups' saved values (what the file keeps).
-    pub(super) fn merged(&self, settings: &Settings) -> Settings {
-        let mut s = *settings;
-        if let Some(saved) = &self.saved {
-            for &g in &self.groups {
-                s.take_group(saved, g);
-            }
-        }
-        s
-    }
-
-    /// The operator set a parameter of `group`: its saved values no longer wait.
-    pub(super) fn forget(&mut self, group: Group) {
-        self.groups.retain(|&g| g != group);
-    }
-
-    /// Try the waiting groups again; each the vehicle takes is said, and what still waits
-    /// is said again every [`PENDING_REMINDER`].
-    pub(super) fn retry(&mut self, v: &mut Vehicle, gcs: &mut Gcs) -> Result<()> {
-        let Some(saved) = self.saved else {
-            return Ok(());
-        };
-        let mut waiting = Vec::new();
-        let mut last_why = None;
-        for g in std::mem::take(&mut self.groups) {
-            match v.apply(saved, g)? {
-                Ok(()) => {
-                    let text = format!("Saved {} parameters applied", g.names());
-                    eprintln!("topside: {text}");
-                    gcs.text(MavSeverity::MAV_SEVERITY_INFO, &text)?;
-                }
-                Err(why) => {
-                    waiting.push(g);
-                    last_why = Some(why);
-                }
-            }
-        }
-        self.groups = waiting;
-        if let Some(why) = last_why {
-            if self.said_at.is_none_or(|t| t.elapsed() >= PENDING_REMINDER) {
-                self.said_at = Some(Instant::now());
-                let text = format!(
-                    "Saved {} parameters wait: the vehicle refuses them now ({why}); \
-                     applied when it takes them",
-                    params::group_names(&self.groups)
-                );
-                eprintln!("topside: {text}");
-                gcs.text(MavSeverity::MAV_SEVERITY_WARNING, &text)?;
-            }
-        }
-        Ok(())
-    }
-}
-
-/// `rov-topside` options: where the vehicle is, and the surface's own.
-#[derive(clap::Args, Debug, Clone)]
-pub struct TopsideArgs {
-    /// Where the vehicle is.
-    #[command(flatten)]
-    pub link: VehicleLink,
-    /// The surface's own options.
-    #[command(flatten)]
-    pub surface: SurfaceOptions,
-}
-
-/// The surface program's options beside the vehicle's link.
-#[derive(clap::Args, Debug, Clone)]
-pub struct SurfaceOptions {
-    /// MAVLink address: udpout:HOST:PORT (to a ground station listening, QGroundControl's
-    /// default 14550), udpin:HOST:PORT, tcpin:HOST:PORT, tcpout:HOST:PORT. Give it again
-    /// for more ground stations: each gets everything the vehicle says, and one at a time
-    /// commands (see `commander`).
-    #[arg(long, default_value = "udpout:127.0.0.1:14550")]
-    pub mavlink: Vec<String>,
-    /// Stop after this long (s); default: run until stopped.
-    #[arg(long)]
-    pub duration: Option<f64>,
-    /// Where the .tlog goes: each start a new file beside this name, time-stamped
-    /// (`out/topside-20261126-101500.tlog`, UTC); an existing file is never truncated.
-    #[arg(long, default_value = "out/topside.tlog")]
-    pub tlog: PathBuf,
-    /// MAVLink system id of the vehicle (1-255). Without it, the saved `SYSID_THISMAV`
-    /// (set from a ground station, taken at the next start), else 1.
-    #[arg(long, value_parser = clap::value_parser!(u8).range(1..))]
-    pub system_id: Option<u8>,
-    /// The parameters set from the ground station: restored from this file at start, saved
-    /// to it after every accepted `PARAM_SET`.
-    #[arg(long, default_value = "out/topside-params.json")]
-    pub params: PathBuf,
-    /// The vehicle's description (a vehicle file, `vehicles/observer.toml`'s format), sent
-    /// to the vehicle at start. Without it the vehicle keeps its own.
-    #[arg(long)]
-    pub vehicle: Option<PathBuf>,
-    /// The surface's heartbeat to the vehicle, per second (1-50): the vehicle's link failsafe
-    /// trips after 0.5 s of its own time without one. A simulated vehicle served faster than
-    /// real time needs it faster by as much.
-    #[arg(long, default_value_t = 10)]
-    pub heartbeat_hz: u32,
-    /// Where the raw tether log goes (every byte both ways, time-stamped; `tether_log`).
-    /// Default: the `.tlog`'s time-stamped name with the extension `.tether`; a name given
-    /// here is time-stamped the same way.
-    #[arg(long)]
-    pub tether_log: Option<PathBuf>,
-    /// The vehicle's navigation from the surface (USBL, the estimator's start).
-    #[command(flatten)]
-    pub nav: super::navigation::NavOptions,
-}
 
 /// Run the surface program until `--duration` (or forever): the vehicle on the link given.
 pub fn main(a: TopsideArgs) -> Result<()> {
@@ -325,6 +207,7 @@ fn run_topside(
         js_gain,
         buttons: Default::default(),
         gcs_watch: Default::default(),
+        dvl_sent_us: 0,
     };
     t.run(a, speedup)
 }

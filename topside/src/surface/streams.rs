@@ -3,7 +3,7 @@
 //! link): counted in the surface's control periods (the wall clock in front of a vehicle
 //! on its own clock, the simulated one in lock-step).
 
-use super::StationId;
+use super::transport::StationId;
 use std::collections::HashMap;
 
 /// The streamed messages (MAVLink ids) and their default intervals (s); `None`: sent only

@@ -1,10 +1,11 @@
 //! What the ground stations are sent every period: `HEARTBEAT` and `SYS_STATUS` at 1 Hz,
 //! the state streams at 10 Hz, parameters on request.
 
+use super::ardusub_mode::custom_mode_of;
 use super::geodesy::GlobalOrigin;
 use super::transport::Gcs;
+use super::transport::StationId;
 use super::vehicle::Vehicle;
-use super::{custom_mode_of, StationId};
 use crate::surface::params::{self, Settings};
 use anyhow::Result;
 use mavlink::dialects::ardupilotmega::{

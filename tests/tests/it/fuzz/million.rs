@@ -166,14 +166,26 @@ fn absurd(r: &mut Rng, now_us: u64) -> Command {
 }
 
 /// Inputs of each kind (at least a million by default; `SAFETY_FUZZ_INPUTS` to change).
+/// The inputs of each kind: `SAFETY_FUZZ_INPUTS`, else 1 M where `ROV_LONG` is set (CI) and
+/// 200 k elsewhere (the README's command: the same checks on the first fifth of the draws).
 fn inputs_per_kind() -> usize {
-    std::env::var("SAFETY_FUZZ_INPUTS")
+    if let Some(n) = std::env::var("SAFETY_FUZZ_INPUTS")
         .ok()
         .and_then(|v| v.parse().ok())
-        .unwrap_or(1_000_000)
+    {
+        return n;
+    }
+    if std::env::var_os("ROV_LONG").is_some_and(|v| v != "0") {
+        return 1_000_000;
+    }
+    eprintln!(
+        "QUICK a_million_inputs_of_each_kind: 200 k of its 1 M inputs of each kind (all of \
+         them: ROV_LONG=1 cargo test -p rov-tests --test it fuzz::million)"
+    );
+    200_000
 }
 
-/// At least 1 M inputs of each kind: bursts, multi-byte damage,
+/// At least 1 M inputs of each kind (CI; 200 k in the README's command): bursts, multi-byte damage,
 /// truncation, glued frames (the decoder the App uses), replays and valid frames with absurd
 /// values (through the App). Asserted: 0 corrupted frames accepted, 0 replays accepted, 0
 /// pulses outside the ESC's 1100-1900 us, 0 panics (a panic fails the test).

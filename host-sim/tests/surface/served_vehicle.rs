@@ -9,7 +9,7 @@
 //! a point and disarmed through `rov-topside --tcp`, held against the served vehicle's truth
 //! log and against the same session through the former lock-step surface.
 
-mod gcs;
+use crate::gcs;
 
 use firmware::protocol::{Command as Cmd, Reply};
 use gcs::{free_udp_port, pymavlink_or_skip, rov_topside, serve_vehicle as vehicle, stop};
@@ -294,6 +294,12 @@ fn guided_errors(path: &Path, target: [f64; 3], after_s: f64) -> (f64, f64) {
 
 #[test]
 fn pymavlink_flies_a_served_vehicle_through_topside_tcp() {
+    if !crate::long_test(
+        "served_vehicle::pymavlink_flies_a_served_vehicle_through_topside_tcp",
+        90,
+    ) {
+        return;
+    }
     if !pymavlink_or_skip() {
         return;
     }

@@ -45,7 +45,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-mod gcs;
+use crate::gcs;
 use gcs::wait;
 
 /// Both MCUs' clock: the host's, since the thread started (us).

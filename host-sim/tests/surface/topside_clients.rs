@@ -10,7 +10,7 @@
 //! Without Python 3 or pymavlink this test prints SKIPPED with the fix; with
 //! `ROV_REQUIRE_PYMAVLINK=1` (set by `.ci/run`) it fails instead.
 
-mod gcs;
+use crate::gcs;
 // The probes with a ground station's raw bytes, and the flights on the vehicle's own
 // estimator (in the folder beside this file, not test binaries of their own).
 #[path = "topside_clients/estimator.rs"]
@@ -36,6 +36,9 @@ fn pymavlink_flies_the_simulated_vehicle_and_reads_the_tlog() {
 /// `host-sim vehicle --qemu=ELF`.
 #[test]
 fn pymavlink_flies_the_emulated_board() {
+    if !crate::long_test("topside_clients::pymavlink_flies_the_emulated_board", 50) {
+        return;
+    }
     if !pymavlink_or_skip() {
         return;
     }
@@ -333,6 +336,12 @@ fn pymavlink_uploads_a_mission_and_flies_it_in_auto() {
 /// to its last waypoint, `GLOBAL_POSITION_INT` on the map's terms.
 #[test]
 fn pymavlink_flies_a_mission_in_a_global_frame_after_setting_the_origin() {
+    if !crate::long_test(
+        "topside_clients::pymavlink_flies_a_mission_in_a_global_frame_after_setting_the_origin",
+        15,
+    ) {
+        return;
+    }
     if !pymavlink_or_skip() {
         return;
     }

@@ -6,7 +6,7 @@
 //!
 //! Without pymavlink: SKIPPED with the fix (a failure with `ROV_REQUIRE_PYMAVLINK=1`).
 
-mod gcs;
+use crate::gcs;
 
 use gcs::{dive, free_udp_port, pymavlink_or_skip, stop};
 use std::path::{Path, PathBuf};
@@ -101,6 +101,12 @@ fn the_ground_station_failsafe_warns_disarms_and_holds_depth_when_its_heartbeat_
 
 #[test]
 fn pilot_speed_dn_bounds_the_descent_the_heave_stick_asks_in_alt_hold() {
+    if !crate::long_test(
+        "topside_gcs_params::pilot_speed_dn_bounds_the_descent_the_heave_stick_asks_in_alt_hold",
+        30,
+    ) {
+        return;
+    }
     if !pymavlink_or_skip() {
         return;
     }

@@ -10,7 +10,7 @@
 //! flies again within 5 s; a quiet vehicle does not end the surface program; vehicle frames
 //! out of range are refused and counted.
 
-mod gcs;
+use crate::gcs;
 
 use firmware::protocol::{
     decode_frame, encode, Command as Cmd, Decoded, Mode, Reply, MAX_FRAME_LEN,

@@ -15,8 +15,8 @@ use std::time::{Duration, Instant};
 
 // This file uses the scratch folders only.
 #[allow(dead_code)]
-mod common;
-mod gcs;
+use crate::common;
+use crate::gcs;
 use gcs::{dive, free_udp_port, stop, Dive};
 
 /// The built-in `nav-circle-3d` (the estimator on the full sensor suite: IMU, depth,
@@ -296,6 +296,12 @@ fn fly(scenario: &Path, dir: &Path) -> Flight {
 /// 20 s is held against the target, and against the same flight of the onboard layout.
 #[test]
 fn a_ground_station_flies_the_topside_layout_to_a_guided_target() {
+    if !crate::long_test(
+        "topside_layout::a_ground_station_flies_the_topside_layout_to_a_guided_target",
+        80,
+    ) {
+        return;
+    }
     let dir = common::scratch("topside-layout", "fly");
     let layout_dir = dir.join("layout");
     let onboard_dir = dir.join("onboard");

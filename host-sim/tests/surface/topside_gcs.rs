@@ -12,7 +12,7 @@
 //! Without pymavlink or MAVProxy: SKIPPED with the fix (a failure with
 //! `ROV_REQUIRE_PYMAVLINK=1`).
 
-mod gcs;
+use crate::gcs;
 
 use gcs::{dive, free_udp_port, pymavlink_or_skip, stop, wait};
 use mavlink::dialects::ardupilotmega::{MavMessage, PARAM_REQUEST_READ_DATA};
@@ -158,6 +158,9 @@ fn texts_in_words(stdout: &str) -> Vec<&str> {
 
 #[test]
 fn a_ground_station_gets_what_it_asks_at_connection_goes_to_points_and_reads_refusals_in_words() {
+    if !crate::long_test("topside_gcs::a_ground_station_gets_what_it_asks_at_connection_goes_to_points_and_reads_refusals_in_words", 55) {
+        return;
+    }
     if !pymavlink_or_skip() {
         return;
     }
@@ -185,6 +188,9 @@ fn a_ground_station_gets_what_it_asks_at_connection_goes_to_points_and_reads_ref
 
 #[test]
 fn mavproxy_flies_local_and_global_missions_and_its_guided_and_position_commands() {
+    if !crate::long_test("topside_gcs::mavproxy_flies_local_and_global_missions_and_its_guided_and_position_commands", 100) {
+        return;
+    }
     if !pymavlink_or_skip() {
         return;
     }

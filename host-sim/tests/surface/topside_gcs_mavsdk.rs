@@ -6,7 +6,7 @@
 //! Without the `mavsdk` package: SKIPPED with the fix (`python3 -m pip install mavsdk`), a
 //! failure with `ROV_REQUIRE_PYMAVLINK=1`.
 
-mod gcs;
+use crate::gcs;
 
 use gcs::{dive, free_udp_port, stop};
 use std::path::{Path, PathBuf};
@@ -38,6 +38,9 @@ fn truth_rows(path: &Path) -> Vec<[f64; 3]> {
 
 #[test]
 fn mavsdk_connects_reads_parameters_flies_a_mission_goes_to_a_point_tests_a_motor_and_disarms() {
+    if !crate::long_test("topside_gcs_mavsdk::mavsdk_connects_reads_parameters_flies_a_mission_goes_to_a_point_tests_a_motor_and_disarms", 45) {
+        return;
+    }
     if !mavsdk_or_skip() {
         return;
     }

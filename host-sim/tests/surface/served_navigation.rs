@@ -17,9 +17,8 @@
     clippy::indexing_slicing
 )]
 
-mod gcs;
-#[path = "it/long_emulated/mod.rs"]
-mod long_emulated;
+use crate::gcs;
+use crate::long_emulated;
 
 use gcs::{dive, free_udp_port, pymavlink_or_skip, stop};
 use host_sim::closed_loop::runner::{run, RunOptions};
@@ -57,7 +56,9 @@ fn read_truth(path: &Path) -> Vec<(f64, [f64; 3], [f64; 3])> {
 #[test]
 fn the_lawnmower_survey_with_the_dvl_and_usbl_on_their_wires_matches_software() {
     let name = "the_lawnmower_survey_with_the_dvl_and_usbl_on_their_wires_matches_software";
-    if !long_emulated::long_test_of("served_navigation", name, 90) || !pymavlink_or_skip() {
+    if !long_emulated::long_test_of("surface", &format!("served_navigation::{name}"), 90)
+        || !pymavlink_or_skip()
+    {
         return;
     }
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("served-navigation");

@@ -6,7 +6,7 @@
 //! ground station, within 1 deg of the truth. Refused while disarmed, with the old values
 //! kept. Without pymavlink: SKIPPED with the fix (a failure with `ROV_REQUIRE_PYMAVLINK=1`).
 
-mod gcs;
+use crate::gcs;
 
 use gcs::{dive, free_udp_port, pymavlink_or_skip, stop};
 use std::path::PathBuf;

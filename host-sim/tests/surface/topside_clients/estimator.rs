@@ -46,6 +46,12 @@ fn read_truth(path: &std::path::Path) -> Vec<Row> {
 /// estimator converges on the USBL fixes).
 #[test]
 fn pymavlink_flies_a_mission_on_the_vehicles_own_estimator() {
+    if !crate::long_test(
+        "topside_clients::estimator::pymavlink_flies_a_mission_on_the_vehicles_own_estimator",
+        45,
+    ) {
+        return;
+    }
     if !pymavlink_or_skip() {
         return;
     }

@@ -22,7 +22,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-mod gcs;
+use crate::gcs;
 use gcs::{free_udp_port, wait};
 
 fn send(gcs: &mavlink::Connection<MavMessage>, msg: &MavMessage) {

@@ -30,7 +30,6 @@ use host_sim::tether::qemu::image_or_skip;
 use sim_scenario::Scenario;
 use sim_world::battery::VehicleElectrics;
 use sim_world::clock::us;
-use std::io::Write;
 use std::time::Duration;
 
 /// A 5 m circle at 2 m depth on the plant's truth, with `extra` TOML tables, for
@@ -122,6 +121,14 @@ fn a_leak_on_the_emulated_board_surfaces_within_half_a_second() {
 
 #[test]
 fn a_critical_battery_charge_on_the_emulated_board_surfaces_within_a_second() {
+    // The leak test flies the same health wires on the board everywhere; this one in CI.
+    if !crate::long_emulated::long_test(
+        "emulated_instruments",
+        "a_critical_battery_charge_on_the_emulated_board_surfaces_within_a_second",
+        85,
+    ) {
+        return;
+    }
     // The vehicle counts from a full battery at boot (as ArduPilot does): a 200 mAh pack,
     // critical at 195 mAh left, crossed after 5 mAh of a circle's draw (the hotel load and
     // the thrusters, about 1 A).
@@ -167,14 +174,11 @@ fn a_critical_battery_charge_on_the_emulated_board_surfaces_within_a_second() {
 
 #[test]
 fn nav_circle_with_the_dvl_on_its_uart_on_the_emulated_board_matches_software() {
-    if std::env::var_os("ROV_LONG").is_none_or(|v| v != "all") {
-        // Written to the stream itself: the harness captures only `print!` / `eprint!`.
-        let _ = writeln!(
-            std::io::stderr(),
-            "SKIPPED nav_circle_with_the_dvl_on_its_uart_on_the_emulated_board_matches_software \
-             (long test, ~780 s on 2 cores; run with ROV_LONG=all cargo test -p host-sim --test \
-             emulated_instruments nav_circle)"
-        );
+    if !crate::long_emulated::long_test_all(
+        "emulated_instruments",
+        "nav_circle_with_the_dvl_on_its_uart_on_the_emulated_board_matches_software",
+        780,
+    ) {
         return;
     }
     let sc = Scenario::load("nav-circle-3d").unwrap();

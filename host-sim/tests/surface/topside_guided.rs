@@ -4,7 +4,7 @@
 //! (ArduSub's custom mode 4 in its `HEARTBEAT`, armed), the vehicle reaches the point it was
 //! sent to before the restart, and the restarted surface takes a new target in GUIDED.
 
-mod gcs;
+use crate::gcs;
 
 use gcs::{dive, free_udp_port, stop, wait};
 use mavlink::dialects::ardupilotmega::{
@@ -108,6 +108,12 @@ fn last_distance(rows: &[[f64; 3]], p: [f32; 3]) -> f64 {
 
 #[test]
 fn a_restarted_surface_reads_guided_back_and_the_go_to_goes_on() {
+    if !crate::long_test(
+        "topside_guided::a_restarted_surface_reads_guided_back_and_the_go_to_goes_on",
+        35,
+    ) {
+        return;
+    }
     let d = dir("restart");
     let port = free_udp_port();
     let flight = dive(
