@@ -34,6 +34,11 @@ struct Coeffs {
     zg: f64,
     weight: f64,
     buoyancy: f64,
+    /// `W - B`.
+    weight_net: f64,
+    /// `W z_g` and `-W z_g` (the righting moment's factors).
+    weight_zg: f64,
+    neg_weight_zg: f64,
     /// Added mass (positive) `[A1..A6]`.
     a: [f64; 6],
     /// Rigid-body inertia about the origin.
@@ -76,11 +81,15 @@ impl Coeffs {
         let i = [w(p.i_x_kg_m2), w(p.i_y_kg_m2), w(p.i_z_kg_m2)];
         let [a1, a2, a3, a4, a5, a6] = a;
         let [ix, iy, iz] = i;
+        let buoyancy = weight + w(p.buoyancy_offset_n);
         Self {
             m,
             zg,
             weight,
-            buoyancy: weight + w(p.buoyancy_offset_n),
+            buoyancy,
+            weight_net: weight - buoyancy,
+            weight_zg: weight * zg,
+            neg_weight_zg: -weight * zg,
             a,
             i,
             dl: [w(p.x_u), w(p.y_v), w(p.z_w), w(p.m_q), w(p.m_q), w(p.n_r)],
@@ -111,9 +120,22 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 /// State layout: `[x, y, z, e0, e1, e2, e3, u, v, w, p, q, r]`.
 type X = [f64; 13];
 
-/// `x_dot` for the delivered thrusts `f = [F1x, F2x, F3z]`.
+/// The generalized thrust `[X, Z, N]` of the delivered thrusts `f = [F1x, F2x, F3z]`:
+/// `X = F1 + F2`, `Z = F3`, `N = l (F1 - F2)` (the sway force, roll and pitch moments are 0).
 #[inline(always)]
-fn deriv(k: &Coeffs, vc: [f64; 3], s: &X, f: [f64; 3]) -> X {
+fn thrust_xzn(k: &Coeffs, f: [f64; 3]) -> [f64; 3] {
+    let [f1, f2, f3] = f;
+    [f1 + f2, f3, k.lever * (f1 - f2)]
+}
+
+/// `x_dot` for the generalized thrust `tau = [X, Z, N]` ([`thrust_xzn`]).
+///
+/// Written for this vehicle's structure: the CG on the z axis (`r_g = [0, 0, z_g]`), no roll
+/// added mass (`A4 = 0`), thrust only in surge, heave and yaw. The terms these make zero are
+/// left out; every other term is the vector form's, operation for operation, in its order
+/// (so the trajectory is the same to the bit as the cross products written out in full).
+#[inline(always)]
+fn deriv(k: &Coeffs, vc: [f64; 3], s: &X, tau: [f64; 3]) -> X {
     let [_, _, _, e0, e1, e2, e3, u, v, w, p, q, r] = *s;
     let [r0, r1, r2] = rot([e0, e1, e2, e3]);
     // Kinematics.
@@ -135,27 +157,27 @@ fn deriv(k: &Coeffs, vc: [f64; 3], s: &X, f: [f64; 3]) -> X {
     ];
     let vr = [u - vcb[0], v - vcb[1], w - vcb[2]];
     let om = [p, q, r];
-    let [a1, a2, a3, a4, a5, a6] = k.a;
+    let [a1, a2, a3, _, a5, a6] = k.a;
     let [ix, iy, iz] = k.i;
-    let m = k.m;
-    let rg = [0.0, 0.0, k.zg];
-    // Rigid body Coriolis.
+    let (m, zg) = (k.m, k.zg);
+    // Rigid body Coriolis: `w x v + w x (w x r_g)` with `w x r_g = [q z_g, -p z_g, 0]`.
     let wv = cross(om, nu1);
-    let wwr = cross(om, cross(om, rg));
+    let wwr = [r * (p * zg), r * (q * zg), -(p * (p * zg)) - q * (q * zg)];
     let f_rb = [
         m * (wv[0] + wwr[0]),
         m * (wv[1] + wwr[1]),
         m * (wv[2] + wwr[2]),
     ];
+    // `w x (I w) + m r_g x (w x v)`, `r_g x (w x v) = [-z_g wv_y, z_g wv_x, 0]`.
     let iw = cross(om, [ix * p, iy * q, iz * r]);
-    let rwv = cross(rg, wv);
-    let m_rb = [iw[0] + m * rwv[0], iw[1] + m * rwv[1], iw[2] + m * rwv[2]];
-    // Added mass Coriolis (Munk moment in v_r x a).
+    let m_rb = [iw[0] - m * (zg * wv[1]), iw[1] + m * (zg * wv[0]), iw[2]];
+    // Added mass Coriolis (Munk moment in v_r x a); `b = [0, A5 q, A6 r]`, so
+    // `w x b = [q b_z - r b_y, -p b_z, p b_y]`.
     let am = [a1 * vr[0], a2 * vr[1], a3 * vr[2]];
-    let bm = [a4 * p, a5 * q, a6 * r];
+    let (by, bz) = (a5 * q, a6 * r);
     let f_a = cross(om, am);
     let vra = cross(vr, am);
-    let wb = cross(om, bm);
+    let wb = [q * bz - r * by, -(p * bz), p * by];
     // Turning current: M_A [w x v_c; 0] moved to the right-hand side.
     let wvc = cross(om, vcb);
     // Drag.
@@ -169,21 +191,19 @@ fn deriv(k: &Coeffs, vc: [f64; 3], s: &X, f: [f64; 3]) -> X {
     {
         *di = (l + qd_ * x.abs()) * x;
     }
-    // Restoring: g_b = R^T e3 (third row of R).
+    // Restoring: g_b = R^T e3 (third row of R); the righting moment has no yaw part.
     let gb = r2;
-    let wb_net = k.weight - k.buoyancy;
+    let wb_net = k.weight_net;
     let fg = [wb_net * gb[0], wb_net * gb[1], wb_net * gb[2]];
-    let mg = [-k.weight * k.zg * gb[1], k.weight * k.zg * gb[0], 0.0];
-    // Thrust.
-    let [f1, f2, f3] = f;
-    let tau = [f1 + f2, 0.0, f3, 0.0, 0.0, k.lever * (f1 - f2)];
+    let mg = [k.neg_weight_zg * gb[1], k.weight_zg * gb[0]];
+    let [tau_x, tau_z, tau_n] = tau;
     let rhs = [
-        tau[0] - f_rb[0] - f_a[0] - d[0] + fg[0] - a1 * wvc[0],
-        tau[1] - f_rb[1] - f_a[1] - d[1] + fg[1] - a2 * wvc[1],
-        tau[2] - f_rb[2] - f_a[2] - d[2] + fg[2] - a3 * wvc[2],
-        tau[3] - m_rb[0] - vra[0] - wb[0] - d[3] + mg[0],
-        tau[4] - m_rb[1] - vra[1] - wb[1] - d[4] + mg[1],
-        tau[5] - m_rb[2] - vra[2] - wb[2] - d[5] + mg[2],
+        tau_x - f_rb[0] - f_a[0] - d[0] + fg[0] - a1 * wvc[0],
+        -f_rb[1] - f_a[1] - d[1] + fg[1] - a2 * wvc[1],
+        tau_z - f_rb[2] - f_a[2] - d[2] + fg[2] - a3 * wvc[2],
+        -m_rb[0] - vra[0] - wb[0] - d[3] + mg[0],
+        -m_rb[1] - vra[1] - wb[1] - d[4] + mg[1],
+        tau_n - m_rb[2] - vra[2] - wb[2] - d[5],
     ];
     let [iuu, iuq, iqq] = k.inv_uq;
     let [ivv, ivp, ipp] = k.inv_vp;
@@ -265,7 +285,12 @@ impl SixDof {
     /// State derivative `[x, y, z, e0..e3, u, v, w, p, q, r]` for delivered thrusts `f`
     /// (for tests against the planar models).
     pub fn derivative(&self, thrust_n: [f64; 3]) -> [f64; 13] {
-        deriv(&self.k, self.env.current_m_s, &self.x, thrust_n)
+        deriv(
+            &self.k,
+            self.env.current_m_s,
+            &self.x,
+            thrust_xzn(&self.k, thrust_n),
+        )
     }
 
     /// Kinetic energy `nu^T M nu / 2` (ground-relative velocities) plus the pendulum energy
@@ -322,10 +347,11 @@ impl Plant for SixDof {
         let vc = self.env.current_m_s;
         let h = dt_s;
         let x = &self.x;
-        let k1 = deriv(k, vc, x, fs);
-        let k2 = deriv(k, vc, &axpy(x, 0.5 * h, &k1), fh);
-        let k3 = deriv(k, vc, &axpy(x, 0.5 * h, &k2), fh);
-        let k4 = deriv(k, vc, &axpy(x, h, &k3), fe);
+        let (ts, th, te) = (thrust_xzn(k, fs), thrust_xzn(k, fh), thrust_xzn(k, fe));
+        let k1 = deriv(k, vc, x, ts);
+        let k2 = deriv(k, vc, &axpy(x, 0.5 * h, &k1), th);
+        let k3 = deriv(k, vc, &axpy(x, 0.5 * h, &k2), th);
+        let k4 = deriv(k, vc, &axpy(x, h, &k3), te);
         let mut o = *x;
         for ((((oi, a), b), c), d) in o
             .iter_mut()
