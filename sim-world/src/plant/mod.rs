@@ -9,6 +9,7 @@
 //! - [`six_dof`]: the full 6-DOF rigid body.
 //! - [`state`]: the state ([`PlantState`]) and the state before the conversion to Euler
 //!   angles ([`RawState`]).
+//! - [`lanes`]: arithmetic on several plants at once, lane for lane the scalar's.
 //! - [`thrusters`]: the thruster lag and limits shared by the planar plants.
 
 pub use state::{PlantState, RawState};
@@ -33,6 +34,11 @@ pub trait Plant: Send {
     fn set_bounds(&mut self, _surface: bool, _seabed_depth_m: Option<f64>) {}
     /// The first boundary the vehicle met, if any (sticky).
     fn contact(&self) -> Option<Boundary> {
+        None
+    }
+    /// The 6-DOF plant, when this is one: several of them step side by side
+    /// ([`six_dof::SixDof::step_lanes`]).
+    fn as_six_dof_mut(&mut self) -> Option<&mut six_dof::SixDof> {
         None
     }
 }
@@ -70,6 +76,7 @@ impl Boundary {
     }
 }
 
+pub mod lanes;
 pub mod six_dof;
 pub mod state;
 pub mod thrusters;
