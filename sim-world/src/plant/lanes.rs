@@ -4,7 +4,7 @@
 //! The 6-DOF derivative is a long chain of dependent operations: one plant's RK4 step
 //! mostly waits on its own results. [`Lanes`] holds the same quantity of `W` plants; every
 //! operation is the IEEE operation of `f64` on each lane (add, subtract, multiply, divide,
-//! negate, absolute value), with no reassociation and no fused multiply-add, so lane `i`
+//! negate, absolute value, square root), with no reassociation and no fused multiply-add, so lane `i`
 //! of a lane computation is the bits of the scalar computation of plant `i`. The compiler
 //! turns the element-wise loops into packed instructions, and the `W` chains fill each
 //! other's waits.
@@ -24,6 +24,8 @@ pub trait Lane:
     fn splat(x: f64) -> Self;
     /// `|x|` in every lane.
     fn abs(self) -> Self;
+    /// The square root in every lane (IEEE, correctly rounded).
+    fn sqrt(self) -> Self;
 }
 
 impl Lane for f64 {
@@ -35,6 +37,11 @@ impl Lane for f64 {
     #[inline(always)]
     fn abs(self) -> Self {
         f64::abs(self)
+    }
+
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        f64::sqrt(self)
     }
 }
 
@@ -108,6 +115,11 @@ impl<const W: usize> Lane for Lanes<W> {
     fn abs(self) -> Self {
         self.map(f64::abs)
     }
+
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        self.map(f64::sqrt)
+    }
 }
 
 #[cfg(test)]
@@ -120,13 +132,14 @@ mod tests {
         let b = [3.0, 1.0e300, -0.0, 7.25];
         let (la, lb) = (Lanes(a), Lanes(b));
         type Scalar = fn(f64, f64) -> f64;
-        let ops: [(Lanes<4>, Scalar); 6] = [
+        let ops: [(Lanes<4>, Scalar); 7] = [
             (la + lb, |x, y| x + y),
             (la - lb, |x, y| x - y),
             (la * lb, |x, y| x * y),
             (la / lb, |x, y| x / y),
             (-la, |x, _| -x),
             (Lane::abs(lb), |_, y| y.abs()),
+            (Lane::sqrt(lb), |_, y| y.sqrt()),
         ];
         for (got, scalar) in ops {
             for ((g, x), y) in got.0.iter().zip(a).zip(b) {

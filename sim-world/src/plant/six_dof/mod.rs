@@ -28,7 +28,9 @@ use super::state::{rot, RawState};
 use super::thrusters::Thrusters;
 use super::{Boundary, Environment, Plant, PlantState};
 use controller_core::params::VehicleParams;
-use model::{deriv, deriv_lanes, from_lanes, rk4, thrust_xzn, to_lanes, Coeffs, X};
+use model::{
+    deriv, deriv_lanes, from_lanes, rk4, thrust_xzn, to_lanes, unit_quaternion, Coeffs, X,
+};
 
 /// Euler angles (ZYX) to a unit quaternion.
 fn quat_from_euler(roll: f64, pitch: f64, yaw: f64) -> [f64; 4] {
@@ -152,15 +154,14 @@ impl SixDof {
         )
     }
 
-    /// The end of a step: the RK4 result `o` renormalized, held in the water, and kept with
-    /// the thrusters' delivered forces `fe`.
-    fn end_step(&mut self, mut o: X, fe: [f64; 3]) {
-        // Renormalize the quaternion.
-        let [_, _, _, e0, e1, e2, e3, ..] = o;
-        let n = (e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3).sqrt();
+    /// The end of a step: the RK4 result `o` renormalized (`unit`: its quaternion divided by
+    /// the norm, and the norm, [`unit_quaternion`]), held in the water, and kept with the
+    /// thrusters' delivered forces `fe`.
+    fn end_step(&mut self, mut o: X, unit: ([f64; 4], f64), fe: [f64; 3]) {
+        let (q, n) = unit;
         if n > 0.0 && n.is_finite() {
-            for e in o.iter_mut().skip(3).take(4) {
-                *e /= n;
+            for (e, qi) in o.iter_mut().skip(3).take(4).zip(q) {
+                *e = qi;
             }
         }
         // The surface and the seabed: z clamped, the inertial velocity through them removed
@@ -203,9 +204,12 @@ impl SixDof {
             to_lanes(thrust.map(|([_, t, _], _)| t)),
             to_lanes(thrust.map(|([_, _, t], _)| t)),
         ];
-        let o = from_lanes(rk4(&k, vc, &x, tau, dt_s, deriv_lanes));
-        for ((p, o), (_, fe)) in plants.iter_mut().zip(o).zip(thrust) {
-            p.end_step(o, fe);
+        let o = rk4(&k, vc, &x, tau, dt_s, deriv_lanes);
+        let (q, n) = unit_quaternion(&o);
+        let units = from_lanes(q).into_iter().zip(n.0);
+        for (((p, o), unit), (_, fe)) in plants.iter_mut().zip(from_lanes(o)).zip(units).zip(thrust)
+        {
+            p.end_step(o, unit, fe);
         }
     }
 }
@@ -214,7 +218,8 @@ impl Plant for SixDof {
     fn step(&mut self, thrust_cmd_n: [f64; 3], dt_s: f64) {
         let (tau, fe) = self.thrust_over_step(thrust_cmd_n, dt_s);
         let o = rk4(&self.k, self.env.current_m_s, &self.x, tau, dt_s, deriv);
-        self.end_step(o, fe);
+        let unit = unit_quaternion(&o);
+        self.end_step(o, unit, fe);
     }
 
     fn set_current(&mut self, current_m_s: [f64; 3]) {

@@ -244,6 +244,15 @@ pub(super) fn deriv_lanes<const W: usize>(
     deriv(k, vc, s, tau)
 }
 
+/// The quaternion of the state `o` divided by its norm, and the norm (the step keeps the
+/// divided one when the norm is positive and finite).
+#[inline(always)]
+pub(super) fn unit_quaternion<T: Lane>(o: &X<T>) -> ([T; 4], T) {
+    let [_, _, _, e0, e1, e2, e3, ..] = *o;
+    let n = (e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3).sqrt();
+    ([e0 / n, e1 / n, e2 / n, e3 / n], n)
+}
+
 /// `W` plants' rows side by side: row `j` of the result holds element `j` of every plant's.
 #[inline(always)]
 pub(super) fn to_lanes<const N: usize, const W: usize>(rows: [[f64; N]; W]) -> [Lanes<W>; N] {
