@@ -226,8 +226,14 @@ pub(super) fn rk4<T: Lane>(
     let k4 = deriv(k, vc, &axpy(x, T::splat(h), &k3), te);
     let (h6, two) = (T::splat(h / 6.0), T::splat(2.0));
     let mut o = *x;
-    for ((((oi, a), b), c), d) in o.iter_mut().zip(k1).zip(k2).zip(k3).zip(k4) {
-        *oi = *oi + h6 * (a + two * b + two * c + d);
+    for ((((oi, a), b), c), d) in o
+        .iter_mut()
+        .zip(k1.iter())
+        .zip(k2.iter())
+        .zip(k3.iter())
+        .zip(k4.iter())
+    {
+        *oi = *oi + h6 * (*a + two * *b + two * *c + *d);
     }
     o
 }
