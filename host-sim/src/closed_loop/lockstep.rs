@@ -95,3 +95,59 @@ pub fn run_closed_loop_pair(
     run_pair(&mut a, &mut b)?;
     Ok([a.finish().0, b.finish().0])
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::closed_loop::report::Summary;
+    use crate::closed_loop::runner::{nominal_plant_params, run, run_two, RunOptions};
+    use sim_scenario::Scenario;
+
+    /// A summary and its log without the wall time (the one figure in which two runs of the
+    /// same bits differ).
+    fn figures(s: &Summary, log: &[crate::closed_loop::Sample]) -> String {
+        let mut s = s.clone();
+        s.wall_time_s = 0.0;
+        format!("{s:?} {log:?}")
+    }
+
+    /// Two different runs of the Monte Carlo case (plant, current, noise seed, length: the
+    /// shorter one stops first and the other goes on alone) stepped together give, tick for
+    /// tick, the bits of each run alone.
+    #[test]
+    fn two_runs_stepped_together_are_the_bits_of_each_alone() {
+        let sc = Scenario::load_setup("mc-circle-3d").unwrap();
+        let nominal = nominal_plant_params(&sc);
+        let mut heavy = nominal;
+        heavy.mass_kg *= 1.15;
+        heavy.z_g_m *= 0.8;
+        heavy.n_rdot_kg_m2 *= 1.2;
+        let run_a = RunOptions {
+            record: true,
+            plant_params: Some(nominal),
+            current_m_s: Some([0.1, 0.0, 0.0]),
+            noise_seed: Some(3),
+            duration_s: Some(12.0),
+            ..RunOptions::default()
+        };
+        let run_b = RunOptions {
+            plant_params: Some(heavy),
+            current_m_s: Some([0.0, -0.1, 0.0]),
+            noise_seed: Some(4),
+            duration_s: Some(8.0),
+            ..run_a
+        };
+        let together = run_two(&sc, [&run_a, &run_b]).unwrap();
+        for (pair, opts) in together.iter().zip([&run_a, &run_b]) {
+            let alone = run(&sc, opts).unwrap();
+            assert!(alone.log.len() > 700, "{} ticks", alone.log.len());
+            assert_eq!(
+                figures(&pair.summary, &pair.log),
+                figures(&alone.summary, &alone.log)
+            );
+        }
+        assert_ne!(
+            together[0].summary.final_state,
+            together[1].summary.final_state
+        );
+    }
+}
