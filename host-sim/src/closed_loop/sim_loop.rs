@@ -404,7 +404,9 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
 
     /// The plant, when it is the 6-DOF one.
     pub(super) fn six_dof_mut(&mut self) -> Option<&mut SixDof> {
-        self.plant.as_six_dof_mut()
+        self.plant
+            .as_any_mut()
+            .and_then(|p| p.downcast_mut::<SixDof>())
     }
 
     /// The control tick of [`step`](Self::step): the thrust the plant gets over the period,

@@ -36,9 +36,9 @@ pub trait Plant: Send {
     fn contact(&self) -> Option<Boundary> {
         None
     }
-    /// The 6-DOF plant, when this is one: several of them step side by side
-    /// ([`six_dof::SixDof::step_lanes`]).
-    fn as_six_dof_mut(&mut self) -> Option<&mut six_dof::SixDof> {
+    /// The plant as [`std::any::Any`], for a caller that steps several plants of its kind
+    /// side by side (the 6-DOF plant's `step_lanes`); `None` for a plant without such a step.
+    fn as_any_mut(&mut self) -> Option<&mut dyn std::any::Any> {
         None
     }
 }

@@ -29,7 +29,7 @@ use super::thrusters::Thrusters;
 use super::{Boundary, Environment, Plant, PlantState};
 use controller_core::params::VehicleParams;
 use model::{
-    deriv, deriv_lanes, from_lanes, rk4, thrust_xzn, to_lanes, unit_quaternion, Coeffs, X,
+    deriv, from_lanes, rk4, thrust_xzn, to_lanes, unit_quaternion, Coeffs, Inlined, Shared, X,
 };
 
 /// Euler angles (ZYX) to a unit quaternion.
@@ -204,7 +204,7 @@ impl SixDof {
             to_lanes(thrust.map(|([_, t, _], _)| t)),
             to_lanes(thrust.map(|([_, _, t], _)| t)),
         ];
-        let o = rk4(&k, vc, &x, tau, dt_s, deriv_lanes);
+        let o = rk4::<_, Shared>(&k, vc, &x, tau, dt_s);
         let (q, n) = unit_quaternion(&o);
         let units = from_lanes(q).into_iter().zip(n.0);
         for (((p, o), unit), (_, fe)) in plants.iter_mut().zip(from_lanes(o)).zip(units).zip(thrust)
@@ -217,7 +217,7 @@ impl SixDof {
 impl Plant for SixDof {
     fn step(&mut self, thrust_cmd_n: [f64; 3], dt_s: f64) {
         let (tau, fe) = self.thrust_over_step(thrust_cmd_n, dt_s);
-        let o = rk4(&self.k, self.env.current_m_s, &self.x, tau, dt_s, deriv);
+        let o = rk4::<_, Inlined>(&self.k, self.env.current_m_s, &self.x, tau, dt_s);
         let unit = unit_quaternion(&o);
         self.end_step(o, unit, fe);
     }
@@ -235,7 +235,7 @@ impl Plant for SixDof {
         self.contact
     }
 
-    fn as_six_dof_mut(&mut self) -> Option<&mut SixDof> {
+    fn as_any_mut(&mut self) -> Option<&mut dyn std::any::Any> {
         Some(self)
     }
 
@@ -308,7 +308,11 @@ mod tests {
             b.step(cmd(1, i), 0.001);
             SixDof::step_lanes(&mut [&mut la, &mut lb], [cmd(0, i), cmd(1, i)], 0.001);
         }
-        assert_eq!(b.contact(), Some(Boundary::Surface), "the test reaches the surface");
+        assert_eq!(
+            b.contact(),
+            Some(Boundary::Surface),
+            "the test reaches the surface"
+        );
         for (one, two) in [(&a, &la), (&b, &lb)] {
             let bits = |p: &SixDof| p.x.map(f64::to_bits);
             assert_eq!(bits(one), bits(two));

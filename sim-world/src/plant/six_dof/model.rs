@@ -211,14 +211,14 @@ fn axpy<T: Lane>(x: &X<T>, h: T, d: &X<T>) -> X<T> {
 /// `tau = [at the start, at the half step, at the end]`, before the quaternion's
 /// renormalization.
 #[inline(always)]
-pub(super) fn rk4<T: Lane>(
+pub(super) fn rk4<T: Lane, S: Stages<T>>(
     k: &Coeffs<T>,
     vc: [T; 3],
     x: &X<T>,
     tau: [[T; 3]; 3],
     h: f64,
-    deriv: impl Fn(&Coeffs<T>, [T; 3], &X<T>, [T; 3]) -> X<T>,
 ) -> X<T> {
+    let deriv = S::deriv;
     let [ts, th, te] = tau;
     let k1 = deriv(k, vc, x, ts);
     let k2 = deriv(k, vc, &axpy(x, T::splat(0.5 * h), &k1), th);
@@ -238,16 +238,36 @@ pub(super) fn rk4<T: Lane>(
     o
 }
 
-/// [`deriv`] of `W` plants side by side, out of line: the four RK4 stages share one copy
-/// of its code (a few kilobytes for two plants) instead of four.
-#[inline(never)]
-pub(super) fn deriv_lanes<const W: usize>(
-    k: &Coeffs<Lanes<W>>,
-    vc: [Lanes<W>; 3],
-    s: &X<Lanes<W>>,
-    tau: [Lanes<W>; 3],
-) -> X<Lanes<W>> {
-    deriv(k, vc, s, tau)
+/// How an RK4 step evaluates [`deriv`].
+pub(super) trait Stages<T: Lane> {
+    /// [`deriv`] of the state `s`.
+    fn deriv(k: &Coeffs<T>, vc: [T; 3], s: &X<T>, tau: [T; 3]) -> X<T>;
+}
+
+/// One plant: [`deriv`] inlined in each of the four stages.
+pub(super) struct Inlined;
+
+impl Stages<f64> for Inlined {
+    #[inline(always)]
+    fn deriv(k: &Coeffs, vc: [f64; 3], s: &X, tau: [f64; 3]) -> X {
+        deriv(k, vc, s, tau)
+    }
+}
+
+/// `W` plants side by side: [`deriv`] out of line, the four stages sharing one copy of its
+/// code (a few kilobytes for two plants) instead of four.
+pub(super) struct Shared;
+
+impl<const W: usize> Stages<Lanes<W>> for Shared {
+    #[inline(never)]
+    fn deriv(
+        k: &Coeffs<Lanes<W>>,
+        vc: [Lanes<W>; 3],
+        s: &X<Lanes<W>>,
+        tau: [Lanes<W>; 3],
+    ) -> X<Lanes<W>> {
+        deriv(k, vc, s, tau)
+    }
 }
 
 /// The quaternion of the state `o` divided by its norm, and the norm (the step keeps the
