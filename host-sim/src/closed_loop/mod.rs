@@ -4,11 +4,13 @@
 //! - [`sim_loop`]: the loop itself; [`navigation`]: the navigation stages' trait and the
 //!   truth path; [`estimator_nav`]: the vehicle's estimator on simulated sensors;
 //!   [`endpoint`]: the controller end (the core in process); [`report`]: the summary, targets
-//!   and verdicts; [`rules`]: the rules that judge a run; [`runner`]: a software run.
+//!   and verdicts; [`rules`]: the rules that judge a run; [`runner`]: a software run;
+//!   [`lockstep`]: two runs stepped together (campaigns).
 
 pub mod endpoint;
 pub mod estimator_nav;
 pub mod floor;
+pub mod lockstep;
 pub mod navigation;
 pub mod report;
 pub mod rules;

@@ -10,7 +10,6 @@ use sim_scenario::NoiseStd;
 use sim_world::noise::gauss;
 use sim_world::plant::{PlantState, RawState};
 use sim_world::sensors::Measurement;
-use std::collections::VecDeque;
 
 /// One USBL fix as the estimator saw it, for plots and logs.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -60,7 +59,10 @@ pub trait Navigation {
 /// steps have passed), converted to the core's `f32` [`NavState`], with Gaussian noise.
 #[derive(Debug, Clone)]
 pub struct TruthNav {
-    history: VecDeque<RawState>,
+    /// The last `delay_steps + 1` plant states, a ring: `oldest` is the one the
+    /// measurement reads, and the slot the next state overwrites.
+    history: Vec<RawState>,
+    oldest: usize,
     noise: Option<NoiseStd>,
     rng: ChaCha8Rng,
 }
@@ -74,12 +76,9 @@ impl TruthNav {
         noise: Option<NoiseStd>,
         seed: u64,
     ) -> Self {
-        let mut history = VecDeque::with_capacity(delay_steps + 1);
-        for _ in 0..=delay_steps {
-            history.push_back(RawState::Euler(initial));
-        }
         Self {
-            history,
+            history: vec![RawState::Euler(initial); delay_steps + 1],
+            oldest: 0,
             noise,
             rng: ChaCha8Rng::seed_from_u64(seed),
         }
@@ -96,11 +95,22 @@ impl TruthNav {
         )
     }
 
+    /// The newest plant state in, the oldest out (overwritten in place).
+    fn push(&mut self, truth: RawState) {
+        if let Some(slot) = self.history.get_mut(self.oldest) {
+            *slot = truth;
+        }
+        self.oldest += 1;
+        if self.oldest == self.history.len() {
+            self.oldest = 0;
+        }
+    }
+
     /// The measurement now.
     pub fn measure(&mut self) -> NavState {
         let st = self
             .history
-            .front()
+            .get(self.oldest)
             .map(RawState::state)
             .unwrap_or_default();
         let mut nav = to_nav(&st);
@@ -126,13 +136,11 @@ impl TruthNav {
 
 impl Navigation for TruthNav {
     fn observe(&mut self, _t_s: f64, truth: &PlantState) {
-        self.history.pop_front();
-        self.history.push_back(RawState::Euler(*truth));
+        self.push(RawState::Euler(*truth));
     }
 
     fn observe_raw(&mut self, _t_s: f64, truth: &RawState) {
-        self.history.pop_front();
-        self.history.push_back(*truth);
+        self.push(*truth);
     }
 
     fn estimate(&mut self, _t_s: f64, _thrust_cmd_n: [f64; 3]) -> NavState {

@@ -8,6 +8,7 @@
 //! [`Controller`]: controller_core::controller::Controller
 
 use crate::closed_loop::estimator_nav::navigation_for;
+use crate::closed_loop::lockstep::run_closed_loop_pair;
 use crate::closed_loop::{run_closed_loop, CoreEndpoint};
 use anyhow::{bail, Result};
 use sim_scenario::deployment::Control;
@@ -24,6 +25,27 @@ pub use sim_world::frames::body_to_inertial;
 /// is an endpoint of the tether layer (`tether::topside_layout::run_layout`), which
 /// `host-sim run` and `hil --in-process` fly.
 pub fn run(sc: &RunSetup, opts: &RunOptions) -> Result<RunOutput> {
+    refuse_topside(sc)?;
+    let mut endpoint = CoreEndpoint::for_scenario(sc)?;
+    let mut nav = navigation_for(sc, opts.noise_seed)?;
+    run_closed_loop(sc, opts, nav.as_mut(), &mut endpoint)
+}
+
+/// Two runs of one resolved scenario, as [`run`] of each, stepped together
+/// ([`crate::closed_loop::lockstep`]): the same outputs, in less CPU time.
+pub fn run_two(sc: &RunSetup, opts: [&RunOptions; 2]) -> Result<[RunOutput; 2]> {
+    refuse_topside(sc)?;
+    let [oa, ob] = opts;
+    let (mut ea, mut eb) = (
+        CoreEndpoint::for_scenario(sc)?,
+        CoreEndpoint::for_scenario(sc)?,
+    );
+    let mut na = navigation_for(sc, oa.noise_seed)?;
+    let mut nb = navigation_for(sc, ob.noise_seed)?;
+    run_closed_loop_pair(sc, opts, [na.as_mut(), nb.as_mut()], [&mut ea, &mut eb])
+}
+
+fn refuse_topside(sc: &RunSetup) -> Result<()> {
     if sc.deployment.control == Control::Topside {
         bail!(
             "{}: deployment.control = \"topside\" flies the topside layout \
@@ -31,7 +53,5 @@ pub fn run(sc: &RunSetup, opts: &RunOptions) -> Result<RunOutput> {
             sc.name
         );
     }
-    let mut endpoint = CoreEndpoint::for_scenario(sc)?;
-    let mut nav = navigation_for(sc, opts.noise_seed)?;
-    run_closed_loop(sc, opts, nav.as_mut(), &mut endpoint)
+    Ok(())
 }

@@ -378,8 +378,42 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
     /// run stops here, the plant through the period with the endpoint's thrust held. Returns
     /// whether the run goes on.
     pub fn step(&mut self) -> Result<bool> {
+        Ok(match self.control()? {
+            Some(applied_n) => {
+                self.advance(applied_n);
+                true
+            }
+            None => false,
+        })
+    }
+
+    /// The plant through the period with `applied_n` held, the navigation stage seeing each
+    /// of its steps.
+    pub(super) fn advance(&mut self, applied_n: [f64; 3]) {
+        for i in 0..self.n_sub {
+            self.plant.step(applied_n, self.dt);
+            self.after_plant_step(i);
+        }
+        self.end_period();
+    }
+
+    /// Plant steps per control period and their length (s).
+    pub(super) fn plant_steps(&self) -> (usize, f64) {
+        (self.n_sub, self.dt)
+    }
+
+    /// The plant, when it is the 6-DOF one.
+    pub(super) fn six_dof_mut(&mut self) -> Option<&mut SixDof> {
+        self.plant
+            .as_any_mut()
+            .and_then(|p| p.downcast_mut::<SixDof>())
+    }
+
+    /// The control tick of [`step`](Self::step): the thrust the plant gets over the period,
+    /// or `None` when the run stops here.
+    pub(super) fn control(&mut self) -> Result<Option<[f64; 3]>> {
         if self.done {
-            return Ok(false);
+            return Ok(None);
         }
         let k = self.k;
         let t = k as f64 * self.tc;
@@ -464,7 +498,7 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
                 text: s.stop_reason.clone(),
             });
             self.done = true;
-            return Ok(false);
+            return Ok(None);
         }
         m.all.add(pen);
         if t >= m.t_tail {
@@ -517,11 +551,11 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
             s.stop_reason = rule.text.clone();
             s.rule = Some(rule);
             self.done = true;
-            return Ok(false);
+            return Ok(None);
         }
         if Some(k) == self.n_ctrl {
             self.done = true;
-            return Ok(false);
+            return Ok(None);
         }
 
         if self.water.current_varies() {
@@ -530,12 +564,20 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
         }
         // Zero-order hold over the plant steps of this period.
         self.held_cmd = out.applied_n;
-        for i in 0..self.n_sub {
-            self.plant.step(out.applied_n, self.dt);
-            self.s.sim_steps += 1;
-            self.nav
-                .observe_raw(t + (i + 1) as f64 * self.dt, &self.plant.raw_state());
-        }
+        Ok(Some(out.applied_n))
+    }
+
+    /// After the plant's step `i` (0-based) of this period: the navigation stage sees it.
+    pub(super) fn after_plant_step(&mut self, i: usize) {
+        let t = self.k as f64 * self.tc;
+        self.s.sim_steps += 1;
+        self.nav
+            .observe_raw(t + (i + 1) as f64 * self.dt, &self.plant.raw_state());
+    }
+
+    /// The end of the period: the first boundary met, the next tick.
+    pub(super) fn end_period(&mut self) {
+        let t = self.k as f64 * self.tc;
         if self.s.boundary_contact.is_none() {
             let t_end = t + self.tc;
             self.s.boundary_contact = self.plant.contact().map(|b| match b {
@@ -548,7 +590,6 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
             });
         }
         self.k += 1;
-        Ok(true)
     }
 
     /// The summary of the run so far (the end-of-run judgements included), with the log and

@@ -17,7 +17,7 @@
 //! run of the whole campaign, byte for byte (`docs/monte-carlo.md`: a Slurm job array and a
 //! Kubernetes indexed Job).
 
-use crate::closed_loop::runner::{run, RunOptions};
+use crate::closed_loop::runner::{run, run_two, RunOptions, RunOutput};
 use anyhow::{Context, Result};
 use controller_core::params::VehicleParams;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -309,6 +309,28 @@ fn percentiles(values: &[f64]) -> Percentiles {
     }
 }
 
+/// The figures a campaign keeps of run `index` (its current `current_m_s`).
+fn mc_run(index: usize, current_m_s: [f64; 3], out: RunOutput) -> McRun {
+    let s = out.summary;
+    let lost = s.diverged || s.nan_detected;
+    let rule = s.rule.filter(|_| lost);
+    McRun {
+        index,
+        current_m_s,
+        rms_position_error_m: s.rms_position_error_m,
+        rms_position_error_last80_m: s.rms_position_error_last80_m,
+        final_position_error_m: s.final_position_error_m,
+        max_abs_thruster_force_n: s.max_abs_thruster_force_n,
+        saturated_fraction: s.saturated_fraction,
+        diverged: s.diverged,
+        nan_detected: s.nan_detected,
+        rms_estimation_error_m: s.rms_estimation_error_m,
+        nees_in_bounds_fraction: s.navigation.nees_in_bounds_fraction.unwrap_or(f64::NAN),
+        rule_figure: rule.as_ref().map(|r| r.figure),
+        rule: rule.map(|r| r.name),
+    }
+}
+
 /// Run a batch: the whole campaign (`shard = (0, 1)`) or one slice of it. Returns the
 /// summary of the runs done and the runs.
 pub fn run_batch(
@@ -347,48 +369,51 @@ pub fn run_batch(
         .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     pb.set_message(format!("monte-carlo {}", sc.name));
-    let results: Vec<Result<McRun>> = indices
-        .into_par_iter()
-        .map(|i| {
-            let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
-            rng.set_stream(i as u64);
-            let params = perturb_params(&base, cfg.perturb, &mut rng);
-            let current = random_current(sc.plane, mag, &mut rng);
-            let noise_seed: u64 = rng.random();
-            let out = run(
-                sc,
-                &RunOptions {
-                    record: false,
-                    plant_params: Some(params),
-                    current_m_s: Some(current),
-                    noise_seed: Some(noise_seed),
-                    ..RunOptions::default()
-                },
-            )
-            .with_context(|| format!("monte-carlo run {i}"))?;
-            pb.inc(1);
-            let s = out.summary;
-            let lost = s.diverged || s.nan_detected;
-            let rule = s.rule.filter(|_| lost);
-            Ok(McRun {
-                index: i,
-                current_m_s: current,
-                rms_position_error_m: s.rms_position_error_m,
-                rms_position_error_last80_m: s.rms_position_error_last80_m,
-                final_position_error_m: s.final_position_error_m,
-                max_abs_thruster_force_n: s.max_abs_thruster_force_n,
-                saturated_fraction: s.saturated_fraction,
-                diverged: s.diverged,
-                nan_detected: s.nan_detected,
-                rms_estimation_error_m: s.rms_estimation_error_m,
-                nees_in_bounds_fraction: s.navigation.nees_in_bounds_fraction.unwrap_or(f64::NAN),
-                rule_figure: rule.as_ref().map(|r| r.figure),
-                rule: rule.map(|r| r.name),
-            })
+    // Run `i`'s draws: its plant parameters, its current, its noise seed.
+    let draw = |i: usize| {
+        let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
+        rng.set_stream(i as u64);
+        let params = perturb_params(&base, cfg.perturb, &mut rng);
+        let current = random_current(sc.plane, mag, &mut rng);
+        let noise_seed: u64 = rng.random();
+        let opts = RunOptions {
+            record: false,
+            plant_params: Some(params),
+            current_m_s: Some(current),
+            noise_seed: Some(noise_seed),
+            ..RunOptions::default()
+        };
+        (i, current, opts)
+    };
+    // Two runs at a time, stepped together (`run_two`: each run's figures are those of the
+    // run alone, whichever run it is paired with).
+    let indices: Vec<usize> = indices.collect();
+    let results: Vec<Result<Vec<McRun>>> = indices
+        .par_chunks(2)
+        .map(|pair| {
+            let draws: Vec<_> = pair.iter().map(|&i| draw(i)).collect();
+            let outs: Vec<RunOutput> = match draws.as_slice() {
+                [(i, _, a), (j, _, b)] => run_two(sc, [a, b])
+                    .with_context(|| format!("monte-carlo runs {i} and {j}"))?
+                    .into(),
+                [(i, _, a)] => vec![run(sc, a).with_context(|| format!("monte-carlo run {i}"))?],
+                _ => Vec::new(),
+            };
+            pb.inc(pair.len() as u64);
+            Ok(draws
+                .iter()
+                .zip(outs)
+                .map(|(&(i, current, _), out)| mc_run(i, current, out))
+                .collect())
         })
         .collect();
     pb.finish_and_clear();
-    let runs: Vec<McRun> = results.into_iter().collect::<Result<_>>()?;
+    let runs: Vec<McRun> = results
+        .into_iter()
+        .collect::<Result<Vec<_>>>()?
+        .into_iter()
+        .flatten()
+        .collect();
     let shard_runs = ShardRuns {
         campaign,
         shard: [shard.0, shard.1],

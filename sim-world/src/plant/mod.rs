@@ -9,6 +9,7 @@
 //! - [`six_dof`]: the full 6-DOF rigid body.
 //! - [`state`]: the state ([`PlantState`]) and the state before the conversion to Euler
 //!   angles ([`RawState`]).
+//! - [`lanes`]: arithmetic on several plants at once, lane for lane the scalar's.
 //! - [`thrusters`]: the thruster lag and limits shared by the planar plants.
 
 pub use state::{PlantState, RawState};
@@ -33,6 +34,11 @@ pub trait Plant: Send {
     fn set_bounds(&mut self, _surface: bool, _seabed_depth_m: Option<f64>) {}
     /// The first boundary the vehicle met, if any (sticky).
     fn contact(&self) -> Option<Boundary> {
+        None
+    }
+    /// The plant as [`std::any::Any`], for a caller that steps several plants of its kind
+    /// side by side (the 6-DOF plant's `step_lanes`); `None` for a plant without such a step.
+    fn as_any_mut(&mut self) -> Option<&mut dyn std::any::Any> {
         None
     }
 }
@@ -70,6 +76,7 @@ impl Boundary {
     }
 }
 
+pub mod lanes;
 pub mod six_dof;
 pub mod state;
 pub mod thrusters;

@@ -3,6 +3,8 @@
 //! [`PlantState`] cost two `atan2` and an `asin`. A reader that keeps many states and looks at few (a delay line) stores these and
 //! converts only the one it reads.
 
+use super::lanes::Lane;
+
 /// Pose and body velocities of the plant, `f64`, SI units.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct PlantState {
@@ -62,25 +64,27 @@ impl RawState {
     }
 }
 
-/// Body -> NED rotation matrix rows of a unit quaternion `[e0, e1, e2, e3]` (`e0` scalar).
+/// Body -> NED rotation matrix rows of a unit quaternion `[e0, e1, e2, e3]` (`e0` scalar),
+/// for one plant (`f64`) or several ([`super::lanes::Lanes`]).
 #[inline(always)]
-pub(crate) fn rot(q: [f64; 4]) -> [[f64; 3]; 3] {
+pub(crate) fn rot<T: Lane>(q: [T; 4]) -> [[T; 3]; 3] {
     let [e0, e1, e2, e3] = q;
+    let (one, two) = (T::splat(1.0), T::splat(2.0));
     [
         [
-            1.0 - 2.0 * (e2 * e2 + e3 * e3),
-            2.0 * (e1 * e2 - e0 * e3),
-            2.0 * (e1 * e3 + e0 * e2),
+            one - two * (e2 * e2 + e3 * e3),
+            two * (e1 * e2 - e0 * e3),
+            two * (e1 * e3 + e0 * e2),
         ],
         [
-            2.0 * (e1 * e2 + e0 * e3),
-            1.0 - 2.0 * (e1 * e1 + e3 * e3),
-            2.0 * (e2 * e3 - e0 * e1),
+            two * (e1 * e2 + e0 * e3),
+            one - two * (e1 * e1 + e3 * e3),
+            two * (e2 * e3 - e0 * e1),
         ],
         [
-            2.0 * (e1 * e3 - e0 * e2),
-            2.0 * (e2 * e3 + e0 * e1),
-            1.0 - 2.0 * (e1 * e1 + e2 * e2),
+            two * (e1 * e3 - e0 * e2),
+            two * (e2 * e3 + e0 * e1),
+            one - two * (e1 * e1 + e2 * e2),
         ],
     ]
 }
