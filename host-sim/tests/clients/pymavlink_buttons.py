@@ -52,8 +52,10 @@ def press(m, button, held=0.25):
 
 
 def state(m):
-    """(armed, custom mode) from the vehicle's HEARTBEATs over a second of centred frames."""
-    hb = frames(m, 1.1)
+    """(armed, custom mode) from the vehicle's last HEARTBEAT over two seconds of centred
+    frames: at 1 Hz, the last one is at least a second after what was pressed, so a command
+    still on its way over the tether (a loaded machine) is not read as refused."""
+    hb = frames(m, 2.1)
     expect(hb is not None, "a HEARTBEAT")
     return bool(hb.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED), hb.custom_mode
 
