@@ -17,15 +17,16 @@
 //!   `app.step_now()`, `link.send_if_due()`), with the board's 25 ms fallback period;
 //! - the node: [`Node`], sampling the plant's IMU at 400 Hz (host-sim's simulated IMU, run
 //!   at 400 Hz in this layout) and the plant's pressure (the simulated depth sensor, as the
-//!   pressure it would read), and writing the pulses it applies to three PWM outputs whose
-//!   thrust the plant gets (the core's ESC map);
+//!   pressure it would read), reading the simulated DVL's A50 reports on its DVL port
+//!   ([`DvlWire`]: parsed and gated on the node, carried in its next uplink, as the
+//!   `node-emu` image reads them on its USART3), and writing the pulses it applies to three
+//!   PWM outputs whose thrust the plant gets (the core's ESC map);
 //! - the PC: what `host-sim hil` sends the onboard App (the vehicle, `StartNav`, the
-//!   reference, the mode, arm, heartbeats, and the USBL, DVL and compass fixes) goes to the
-//!   topside over an in-memory tether (the PC sits next to the topside box); the node link
-//!   carries only the IMU and pressure, as the issue specifies. The USBL is measured at the
-//!   surface and reaches the topside at once; the compass and the DVL are on the vehicle, so
-//!   their readings reach it the tether's one-way latency later (their own cable, or a
-//!   later version of the node link; the wire times of the node link are not added).
+//!   reference, the mode, arm, heartbeats, and the USBL and compass fixes) goes to the
+//!   topside over an in-memory tether (the PC sits next to the topside box). The USBL is
+//!   measured at the surface and reaches the topside at once; the compass is on the
+//!   vehicle without a port on the node, so its readings reach it the tether's one-way
+//!   latency later (their own cable; the wire times of the node link are not added).
 //!
 //! In process, both MCUs run one pass of their main loop every [`PASS_US`] of virtual time
 //! (emulated: see `emulated.rs`). Each loop tick of the closed loop runs the passes since
@@ -61,6 +62,7 @@ use controller_core::reference::Reference;
 pub use emulated::{EmulatedRoles, BOARD_TIMEOUT, TOPSIDE_GRID_US};
 use firmware::node::{Node, NodeConfig};
 use firmware::node_link::{Downlink, LinkDecoder, Uplink};
+use firmware::sensors::dvl::{a50::VelocityGate, DvlPort, WithDvl};
 use firmware::topside_link::{ImuStamp, NodeBridge, TopsideConfig, TopsideLink};
 use firmware::{App, Config, Timing};
 pub use ports::{ExternalPc, PlantSensors, VClock, WirePort};
@@ -73,6 +75,7 @@ pub use roles::{
 use sim_scenario::setup::RunSetup;
 use sim_scenario::Scenario;
 use sim_world::clock::us;
+use sim_world::sensors::DvlWire;
 use sim_world::tether_wire::Duplex;
 
 pub use sim_scenario::deployment::{told_delay_s, Control, DeploymentSpec, MAX_TOLD_DELAY_S};
@@ -125,8 +128,8 @@ pub struct TopsideLayout {
     /// Sequence numbers of the USBL fixes sent and not yet answered (their refusals on the
     /// estimator's gate are the summary's `usbl_fixes_rejected`).
     usbl_seqs: BTreeSet<u16>,
-    /// The one-way latency of the tether (us): the vehicle's compass and DVL readings reach
-    /// the surface that much later.
+    /// The one-way latency of the tether (us): the vehicle's compass readings reach the
+    /// surface that much later.
     vehicle_fix_delay_us: u64,
     // Setup.
     mode: Mode,
@@ -237,6 +240,12 @@ impl TopsideLayout {
             link_period_us: d.link_period_us(),
             ..NodeConfig::DEFAULT
         };
+        // The DVL's line in memory takes no time per byte.
+        let dvl_wire = DvlWire::default();
+        let sensors = WithDvl {
+            inner: sensors,
+            dvl: DvlPort::new(dvl_wire.clone(), VelocityGate::default(), 0),
+        };
         let node = Node::new(
             [SimPwm::default(), SimPwm::default(), SimPwm::default()],
             node_port.clone(),
@@ -254,6 +263,7 @@ impl TopsideLayout {
             feed,
             node_port,
             top_port,
+            dvl_wire,
         };
         let mut layout = Self::with_roles(sc, Box::new(roles), told);
         layout.report.roles = layout.roles.describe().into();
