@@ -28,6 +28,15 @@
 //!   vehicle without a port on the node, so its readings reach it the tether's one-way
 //!   latency later (their own cable; the wire times of the node link are not added).
 //!
+//! The DVL takes one of two paths ([`DvlPath`]): its A50 reports on the node's DVL UART
+//! ([`DvlPath::NodeUart`], [`run_layout_dvl`]: the real path, the node's `DvlPort` in
+//! process, the `node-emu`'s USART3 emulated), or, by default, as the PC's `DvlFix`
+//! commands the tether's one-way latency after the measurement ([`DvlPath::Tether`]: its
+//! own cable). The default stays the tether: at 115,200 Bd the uplinks that carry a DVL
+//! velocity (5 Hz: 10 % of them) take the latency from an IMU sample to its pulse to
+//! 11.3 ms, which is then the p99 (`host-sim deployment`'s 60 s latency run), over the
+//! layout's 10 ms.
+//!
 //! In process, both MCUs run one pass of their main loop every [`PASS_US`] of virtual time
 //! (emulated: see `emulated.rs`). Each loop tick of the closed loop runs the passes since
 //! the previous tick; the node's outputs at the tick are held over the next period. So that holding adds little delay of its own,
@@ -107,6 +116,18 @@ pub fn layout_scenario(sc: &Scenario) -> Scenario {
     sc
 }
 
+/// How the simulated DVL's measurements reach the topside's estimator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum DvlPath {
+    /// As the PC's `DvlFix` commands over the tether, the tether's one-way latency after
+    /// the measurement (the DVL on its own cable).
+    #[default]
+    Tether,
+    /// As the A50's `wrz` reports on the node's DVL UART: parsed and gated on the node,
+    /// carried in its uplinks (the node link's DVL velocity).
+    NodeUart,
+}
+
 /// The topside layout as the loop's controller endpoint.
 pub struct TopsideLayout {
     /// The two MCUs: in process or emulated.
@@ -128,9 +149,11 @@ pub struct TopsideLayout {
     /// Sequence numbers of the USBL fixes sent and not yet answered (their refusals on the
     /// estimator's gate are the summary's `usbl_fixes_rejected`).
     usbl_seqs: BTreeSet<u16>,
-    /// The one-way latency of the tether (us): the vehicle's compass readings reach the
-    /// surface that much later.
+    /// The one-way latency of the tether (us): the vehicle's compass readings (and the
+    /// DVL's, on [`DvlPath::Tether`]) reach the surface that much later.
     vehicle_fix_delay_us: u64,
+    /// The DVL's path to the topside.
+    dvl_path: DvlPath,
     // Setup.
     mode: Mode,
     reference: Reference,
@@ -320,6 +343,7 @@ impl TopsideLayout {
             pending_pc: Vec::new(),
             usbl_seqs: BTreeSet::new(),
             vehicle_fix_delay_us: us(d.tether_latency_s),
+            dvl_path: DvlPath::default(),
             mode: Mode::from(sc.mode()),
             reference: *sc.reference(),
             vehicle: sc.vehicle_params,
@@ -431,6 +455,11 @@ impl TopsideLayout {
         &mut self.wire
     }
 
+    /// The DVL's path to the topside from now on.
+    pub fn set_dvl_path(&mut self, path: DvlPath) {
+        self.dvl_path = path;
+    }
+
     /// A PC command sent at the next pass (a test disarms and arms again).
     pub fn queue_command(&mut self, cmd: Command) {
         self.pending_pc.push((0, cmd));
@@ -473,11 +502,22 @@ pub fn run_layout_on(
     opts: &RunOptions,
     target: &LayoutTarget,
 ) -> Result<LayoutOutput> {
+    run_layout_dvl(sc, opts, target, DvlPath::default())
+}
+
+/// [`run_layout_on`] with the DVL on `dvl`.
+pub fn run_layout_dvl(
+    sc: &Scenario,
+    opts: &RunOptions,
+    target: &LayoutTarget,
+    dvl: DvlPath,
+) -> Result<LayoutOutput> {
     let sc = layout_scenario(sc).resolve()?;
     let mut endpoint = match target {
         LayoutTarget::InProcess => TopsideLayout::for_scenario(&sc)?,
         LayoutTarget::Emulated { elfs, qemu } => TopsideLayout::emulated(&sc, elfs, qemu)?,
     };
+    endpoint.set_dvl_path(dvl);
     let mut nav =
         VehicleNav::for_scenario(&sc, opts.noise_seed.unwrap_or(sc.disturbance.noise_seed));
     let run = run_closed_loop(&sc, opts, &mut nav, &mut endpoint)?;
