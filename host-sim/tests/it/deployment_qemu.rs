@@ -197,7 +197,7 @@ fn the_emulated_topside_layouts_dvl_reaches_the_node_on_its_uart() {
         "{DVL_DURATION_S} s of nav-circle-3d, topside layout, the DVL on the node's UART: \
          uplinks with a DVL velocity in process {} / emulated {}, refused {} / {}, fixes in \
          the ground's telemetry {} / {}; true-position RMS (last 80 %) {:.4} / {:.4} m; \
-         emulated run {:.1} s wall",
+         latency IMU sample -> pulse p50/p99/max {:?} / {:?} ms; emulated run {:.1} s wall",
         ri.dvl_uplinks,
         re.dvl_uplinks,
         ri.node_counters.dvl_refused,
@@ -206,6 +206,8 @@ fn the_emulated_topside_layouts_dvl_reaches_the_node_on_its_uart() {
         re.dvl_fixes_on_ground,
         rms(&ip),
         rms(&emu),
+        ri.latency_p50_p99_max_ms,
+        re.latency_p50_p99_max_ms,
         t0.elapsed().as_secs_f64()
     );
     // 5 Hz over 5 s: 25 reports, the last maybe still on its way.
