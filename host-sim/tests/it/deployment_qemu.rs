@@ -18,7 +18,9 @@ use crate::long_emulated;
 use common::{host_sim, scratch};
 use host_sim::closed_loop::RunOptions;
 use host_sim::tether::qemu::layout_images_or_skip;
-use host_sim::tether::topside_layout::{run_layout_on, Control, LayoutTarget};
+use host_sim::tether::topside_layout::{
+    run_layout_dvl, run_layout_on, Control, DvlPath, LayoutOutput, LayoutTarget,
+};
 use sim_scenario::Scenario;
 use std::time::Instant;
 
@@ -162,4 +164,66 @@ fn a_cut_node_link_goes_neutral_and_latches_on_the_emulated_node() {
     let ground = r.ground_saw_loss_s.unwrap() - 1.0;
     assert!(ground > 0.0 && ground <= 0.25, "{ground} s: {r:?}");
     assert_eq!(r.wrong_commands_applied, 0);
+}
+
+/// The simulated DVL on the real path of the emulated topside layout: its A50 `wrz` reports
+/// on the `node-emu`'s DVL UART (USART3), parsed and gated on the node, carried in its
+/// uplinks and taken by the `topside-emu`'s estimator, as the in-process layout's node reads
+/// them on its DVL port. 5 s of `nav-circle-3d` (the DVL at 5 Hz), each way: every report in
+/// an uplink (none refused), the estimator's DVL reading in the ground station's telemetry
+/// following them, and the tracking of the two within 10 % + 1 cm.
+#[test]
+fn the_emulated_topside_layouts_dvl_reaches_the_node_on_its_uart() {
+    let Some(elfs) = layout_images_or_skip().unwrap() else {
+        return;
+    };
+    const DVL_DURATION_S: f64 = 5.0;
+    let mut sc = Scenario::load("nav-circle-3d").unwrap();
+    sc.deployment.control = Control::Topside;
+    let opts = RunOptions {
+        duration_s: Some(DVL_DURATION_S),
+        ..RunOptions::default()
+    };
+    let ip = run_layout_dvl(&sc, &opts, &LayoutTarget::InProcess, DvlPath::NodeUart).unwrap();
+    let t0 = Instant::now();
+    let target = LayoutTarget::Emulated {
+        elfs,
+        qemu: "qemu-system-arm".into(),
+    };
+    let emu = run_layout_dvl(&sc, &opts, &target, DvlPath::NodeUart).unwrap();
+    let rms = |o: &LayoutOutput| o.run.summary.rms_position_error_last80_m;
+    let (ri, re) = (&ip.report, &emu.report);
+    println!(
+        "{DVL_DURATION_S} s of nav-circle-3d, topside layout, the DVL on the node's UART: \
+         uplinks with a DVL velocity in process {} / emulated {}, refused {} / {}, fixes in \
+         the ground's telemetry {} / {}; true-position RMS (last 80 %) {:.4} / {:.4} m; \
+         latency IMU sample -> pulse p50/p99/max {:?} / {:?} ms; emulated run {:.1} s wall",
+        ri.dvl_uplinks,
+        re.dvl_uplinks,
+        ri.node_counters.dvl_refused,
+        re.node_counters.dvl_refused,
+        ri.dvl_fixes_on_ground,
+        re.dvl_fixes_on_ground,
+        rms(&ip),
+        rms(&emu),
+        ri.latency_p50_p99_max_ms,
+        re.latency_p50_p99_max_ms,
+        t0.elapsed().as_secs_f64()
+    );
+    // 5 Hz over 5 s: 25 reports, the last maybe still on its way.
+    let reports = (5.0 * DVL_DURATION_S) as u64;
+    for r in [ri, re] {
+        assert!(r.dvl_uplinks >= reports - 2, "{r:?}");
+        assert!(r.dvl_uplinks <= reports + 1, "{r:?}");
+        assert_eq!(r.node_counters.dvl_refused, 0, "{r:?}");
+        // The telemetry (10 Hz) shows each fix the estimator took.
+        assert!(r.dvl_fixes_on_ground >= reports - 3, "{r:?}");
+        assert_eq!(r.wrong_commands_applied, 0);
+    }
+    let (rms_ip, rms_emu) = (rms(&ip), rms(&emu));
+    assert!(
+        rms_emu.is_finite() && (rms_emu - rms_ip).abs() <= 0.1 * rms_ip + 0.01,
+        "emulated {rms_emu} m vs in process {rms_ip} m"
+    );
+    assert!(!emu.run.summary.diverged, "{:?}", emu.run.summary);
 }

@@ -5,7 +5,10 @@
 //! The host is the one clock: a [`NodeStep`] / [`TopsideStep`] gives a board its time, the
 //! byte counts delivered on its other UARTs and (the node) the plant's IMU and pressure; the
 //! board answers, once it has run its loop at that time, with its report, whose byte counts
-//! say how many bytes to read from its other UARTs. Runs are deterministic.
+//! say how many bytes to read from its other UARTs. Runs are deterministic, but for the
+//! node's DVL UART (USART3): the simulated DVL's A50 reports are written to it before the
+//! node's step and are not counted in it (as on the emulated onboard board), so a line
+//! QEMU has not delivered by the step is read at the node's next one, 2.5 ms later.
 //!
 //! A pass steps only the boards that have something to do, as each exchange costs a round
 //! trip to QEMU (milliseconds of wall time): the node at each of its IMU times (every
@@ -21,7 +24,7 @@
 use super::roles::{ControlView, NodePass, Roles, TopsidePass, NODE_IMU_PERIOD_US};
 use crate::tether::qemu::{start_qemu_serials, LayoutElfs, QemuChild};
 use anyhow::{anyhow, bail, Context, Result};
-use controller_core::nav::ImuSample;
+use controller_core::nav::{DvlFix, ImuSample};
 use firmware::harness::{
     seal, HarnessDecoder, HarnessImu, NodeReport, NodeStep, TopsideReport, TopsideStep,
 };
@@ -30,6 +33,7 @@ use firmware::protocol::MAX_FRAME_LEN;
 use firmware::topside_link::TopsideCounters;
 use serde::de::DeserializeOwned;
 use serde::Serialize;
+use sim_world::sensors::DvlWire;
 use std::collections::{BTreeSet, VecDeque};
 use std::io::{BufReader, Read, Write};
 use std::net::TcpStream;
@@ -103,6 +107,10 @@ fn take(s: &mut TcpStream, n: u32, what: &str) -> Result<Vec<u8>> {
 /// The two emulated boards.
 pub struct EmulatedRoles {
     node_link: TcpStream,
+    /// The node's DVL UART (USART3, `-serial` 2) and the simulated DVL's reports waiting
+    /// for it.
+    node_dvl: TcpStream,
+    dvl: DvlWire,
     node_h: Harness,
     node_reports: HarnessDecoder<NodeReport>,
     top_tether: TcpStream,
@@ -142,11 +150,11 @@ pub struct EmulatedRoles {
 impl EmulatedRoles {
     /// Boot both images (`qemu`: the QEMU binary) and wait for their hellos.
     pub fn start(elfs: &LayoutElfs, qemu: &str) -> Result<Self> {
-        let (nq, mut ns) = start_qemu_serials(qemu, &elfs.node, 2, None, BOARD_TIMEOUT)
+        let (nq, mut ns) = start_qemu_serials(qemu, &elfs.node, 3, None, BOARD_TIMEOUT)
             .context("starting the emulated node")?;
         let (tq, mut ts) = start_qemu_serials(qemu, &elfs.topside, 3, None, BOARD_TIMEOUT)
             .context("starting the emulated topside")?;
-        let (Some(node_h), Some(node_link)) = (ns.pop(), ns.pop()) else {
+        let (Some(node_dvl), Some(node_h), Some(node_link)) = (ns.pop(), ns.pop(), ns.pop()) else {
             bail!("the emulated node's serial ports did not connect");
         };
         let (Some(top_h), Some(top_link), Some(top_tether)) = (ts.pop(), ts.pop(), ts.pop()) else {
@@ -154,6 +162,8 @@ impl EmulatedRoles {
         };
         let mut r = Self {
             node_link,
+            node_dvl,
+            dvl: DvlWire::default(),
             node_h: Harness::new(node_h)?,
             node_reports: HarnessDecoder::new(),
             top_tether,
@@ -193,11 +203,17 @@ impl EmulatedRoles {
         Ok(r)
     }
 
-    /// Send the node its step at `t_us`: the link bytes first, then the step.
+    /// Send the node its step at `t_us`: the link's and the DVL's bytes first, then the
+    /// step.
     fn node_send(&mut self, t_us: u64, link_in: &[u8]) -> Result<()> {
         self.node_link
             .write_all(link_in)
             .context("writing the node link to the emulated node")?;
+        let mut dvl = vec![0u8; self.dvl.pending()];
+        let n = embedded_io::Read::read(&mut self.dvl, &mut dvl).unwrap_or(0);
+        self.node_dvl
+            .write_all(&dvl[..n])
+            .context("writing the DVL's UART to the emulated node")?;
         self.node_link_in = self.node_link_in.wrapping_add(link_in.len() as u32);
         while self.imu.front().is_some_and(|s| s.t_us <= t_us) {
             self.current_imu = self.imu.pop_front();
@@ -346,6 +362,10 @@ impl Roles for EmulatedRoles {
 
     fn push_pressure(&mut self, t_us: u64, pressure_pa: f32) {
         self.pressure.push_back((t_us, pressure_pa));
+    }
+
+    fn push_dvl(&mut self, fix: &DvlFix) {
+        self.dvl.send_wrz(fix);
     }
 
     fn pass_period_us(&self) -> Option<u64> {

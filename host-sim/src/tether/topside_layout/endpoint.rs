@@ -2,7 +2,7 @@
 //! the MCUs run to each tick, the plant's measurements to the node and the surface's fixes
 //! to the topside.
 
-use super::{ControlView, TopsideLayout, HEARTBEAT_PERIOD_US};
+use super::{ControlView, DvlPath, TopsideLayout, HEARTBEAT_PERIOD_US};
 use crate::closed_loop::{ControllerEndpoint, StepReply};
 use anyhow::{bail, Result};
 use controller_core::reference::RefSample;
@@ -94,8 +94,9 @@ impl ControllerEndpoint for TopsideLayout {
         })
     }
 
-    /// IMU and depth to the node's sensors (available from their time stamps); the fixes
-    /// that come from the surface to the topside over the PC's tether.
+    /// IMU and depth to the node's sensors (available from their time stamps), the DVL's
+    /// reports to its UART on the node ([`DvlPath::NodeUart`]); the fixes that come from
+    /// the surface to the topside over the PC's tether.
     fn forward(&mut self, measurements: &[Measurement]) -> Result<()> {
         for m in measurements {
             match *m {
@@ -104,13 +105,17 @@ impl ControllerEndpoint for TopsideLayout {
                     let p = self.onboard.pressure.pressure_pa(d.depth_m);
                     self.roles.push_pressure(d.t_us, p);
                 }
-                // On the vehicle: they share the tether's latency.
+                // On the vehicle, without a port on the node: it shares the tether's latency.
                 Measurement::Heading(h) => self
                     .pending_pc
                     .push((self.t_us + self.vehicle_fix_delay_us, Command::Compass(h))),
-                Measurement::Dvl(d) => self
-                    .pending_pc
-                    .push((self.t_us + self.vehicle_fix_delay_us, Command::DvlFix(d))),
+                // On the vehicle: its A50 reports on the node's DVL UART, or its own cable.
+                Measurement::Dvl(d) => match self.dvl_path {
+                    DvlPath::NodeUart => self.roles.push_dvl(&d),
+                    DvlPath::Tether => self
+                        .pending_pc
+                        .push((self.t_us + self.vehicle_fix_delay_us, Command::DvlFix(d))),
+                },
                 // At the surface: at once.
                 Measurement::Position(p, _) => self.pending_pc.push((0, Command::UsblFix(p))),
             }

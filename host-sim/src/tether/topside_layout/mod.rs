@@ -17,15 +17,25 @@
 //!   `app.step_now()`, `link.send_if_due()`), with the board's 25 ms fallback period;
 //! - the node: [`Node`], sampling the plant's IMU at 400 Hz (host-sim's simulated IMU, run
 //!   at 400 Hz in this layout) and the plant's pressure (the simulated depth sensor, as the
-//!   pressure it would read), and writing the pulses it applies to three PWM outputs whose
-//!   thrust the plant gets (the core's ESC map);
+//!   pressure it would read), reading the simulated DVL's A50 reports on its DVL port
+//!   ([`DvlWire`]: parsed and gated on the node, carried in its next uplink, as the
+//!   `node-emu` image reads them on its USART3), and writing the pulses it applies to three
+//!   PWM outputs whose thrust the plant gets (the core's ESC map);
 //! - the PC: what `host-sim hil` sends the onboard App (the vehicle, `StartNav`, the
-//!   reference, the mode, arm, heartbeats, and the USBL, DVL and compass fixes) goes to the
-//!   topside over an in-memory tether (the PC sits next to the topside box); the node link
-//!   carries only the IMU and pressure, as the issue specifies. The USBL is measured at the
-//!   surface and reaches the topside at once; the compass and the DVL are on the vehicle, so
-//!   their readings reach it the tether's one-way latency later (their own cable, or a
-//!   later version of the node link; the wire times of the node link are not added).
+//!   reference, the mode, arm, heartbeats, and the USBL and compass fixes) goes to the
+//!   topside over an in-memory tether (the PC sits next to the topside box). The USBL is
+//!   measured at the surface and reaches the topside at once; the compass is on the
+//!   vehicle without a port on the node, so its readings reach it the tether's one-way
+//!   latency later (their own cable; the wire times of the node link are not added).
+//!
+//! The DVL takes one of two paths ([`DvlPath`]): its A50 reports on the node's DVL UART
+//! ([`DvlPath::NodeUart`], [`run_layout_dvl`]: the real path, the node's `DvlPort` in
+//! process, the `node-emu`'s USART3 emulated), or, by default, as the PC's `DvlFix`
+//! commands the tether's one-way latency after the measurement ([`DvlPath::Tether`]: its
+//! own cable). The default stays the tether: at 115,200 Bd the uplinks that carry a DVL
+//! velocity (5 Hz: 10 % of them) take the latency from an IMU sample to its pulse to
+//! 11.3 ms, which is then the p99 (`host-sim deployment`'s 60 s latency run), over the
+//! layout's 10 ms.
 //!
 //! In process, both MCUs run one pass of their main loop every [`PASS_US`] of virtual time
 //! (emulated: see `emulated.rs`). Each loop tick of the closed loop runs the passes since
@@ -61,6 +71,7 @@ use controller_core::reference::Reference;
 pub use emulated::{EmulatedRoles, BOARD_TIMEOUT, TOPSIDE_GRID_US};
 use firmware::node::{Node, NodeConfig};
 use firmware::node_link::{Downlink, LinkDecoder, Uplink};
+use firmware::sensors::dvl::{a50::VelocityGate, DvlPort, WithDvl};
 use firmware::topside_link::{ImuStamp, NodeBridge, TopsideConfig, TopsideLink};
 use firmware::{App, Config, Timing};
 pub use ports::{ExternalPc, PlantSensors, VClock, WirePort};
@@ -73,6 +84,7 @@ pub use roles::{
 use sim_scenario::setup::RunSetup;
 use sim_scenario::Scenario;
 use sim_world::clock::us;
+use sim_world::sensors::DvlWire;
 use sim_world::tether_wire::Duplex;
 
 pub use sim_scenario::deployment::{told_delay_s, Control, DeploymentSpec, MAX_TOLD_DELAY_S};
@@ -104,6 +116,18 @@ pub fn layout_scenario(sc: &Scenario) -> Scenario {
     sc
 }
 
+/// How the simulated DVL's measurements reach the topside's estimator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum DvlPath {
+    /// As the PC's `DvlFix` commands over the tether, the tether's one-way latency after
+    /// the measurement (the DVL on its own cable).
+    #[default]
+    Tether,
+    /// As the A50's `wrz` reports on the node's DVL UART: parsed and gated on the node,
+    /// carried in its uplinks (the node link's DVL velocity).
+    NodeUart,
+}
+
 /// The topside layout as the loop's controller endpoint.
 pub struct TopsideLayout {
     /// The two MCUs: in process or emulated.
@@ -125,9 +149,11 @@ pub struct TopsideLayout {
     /// Sequence numbers of the USBL fixes sent and not yet answered (their refusals on the
     /// estimator's gate are the summary's `usbl_fixes_rejected`).
     usbl_seqs: BTreeSet<u16>,
-    /// The one-way latency of the tether (us): the vehicle's compass and DVL readings reach
-    /// the surface that much later.
+    /// The one-way latency of the tether (us): the vehicle's compass readings (and the
+    /// DVL's, on [`DvlPath::Tether`]) reach the surface that much later.
     vehicle_fix_delay_us: u64,
+    /// The DVL's path to the topside.
+    dvl_path: DvlPath,
     // Setup.
     mode: Mode,
     reference: Reference,
@@ -237,6 +263,12 @@ impl TopsideLayout {
             link_period_us: d.link_period_us(),
             ..NodeConfig::DEFAULT
         };
+        // The DVL's line in memory takes no time per byte.
+        let dvl_wire = DvlWire::default();
+        let sensors = WithDvl {
+            inner: sensors,
+            dvl: DvlPort::new(dvl_wire.clone(), VelocityGate::default(), 0),
+        };
         let node = Node::new(
             [SimPwm::default(), SimPwm::default(), SimPwm::default()],
             node_port.clone(),
@@ -254,6 +286,7 @@ impl TopsideLayout {
             feed,
             node_port,
             top_port,
+            dvl_wire,
         };
         let mut layout = Self::with_roles(sc, Box::new(roles), told);
         layout.report.roles = layout.roles.describe().into();
@@ -310,6 +343,7 @@ impl TopsideLayout {
             pending_pc: Vec::new(),
             usbl_seqs: BTreeSet::new(),
             vehicle_fix_delay_us: us(d.tether_latency_s),
+            dvl_path: DvlPath::default(),
             mode: Mode::from(sc.mode()),
             reference: *sc.reference(),
             vehicle: sc.vehicle_params,
@@ -421,6 +455,11 @@ impl TopsideLayout {
         &mut self.wire
     }
 
+    /// The DVL's path to the topside from now on.
+    pub fn set_dvl_path(&mut self, path: DvlPath) {
+        self.dvl_path = path;
+    }
+
     /// A PC command sent at the next pass (a test disarms and arms again).
     pub fn queue_command(&mut self, cmd: Command) {
         self.pending_pc.push((0, cmd));
@@ -463,11 +502,22 @@ pub fn run_layout_on(
     opts: &RunOptions,
     target: &LayoutTarget,
 ) -> Result<LayoutOutput> {
+    run_layout_dvl(sc, opts, target, DvlPath::default())
+}
+
+/// [`run_layout_on`] with the DVL on `dvl`.
+pub fn run_layout_dvl(
+    sc: &Scenario,
+    opts: &RunOptions,
+    target: &LayoutTarget,
+    dvl: DvlPath,
+) -> Result<LayoutOutput> {
     let sc = layout_scenario(sc).resolve()?;
     let mut endpoint = match target {
         LayoutTarget::InProcess => TopsideLayout::for_scenario(&sc)?,
         LayoutTarget::Emulated { elfs, qemu } => TopsideLayout::emulated(&sc, elfs, qemu)?,
     };
+    endpoint.set_dvl_path(dvl);
     let mut nav =
         VehicleNav::for_scenario(&sc, opts.noise_seed.unwrap_or(sc.disturbance.noise_seed));
     let run = run_closed_loop(&sc, opts, &mut nav, &mut endpoint)?;

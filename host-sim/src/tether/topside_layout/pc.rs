@@ -37,8 +37,8 @@ impl TopsideLayout {
                 match reply {
                     Reply::Telemetry(t) => {
                         self.report.telemetry_frames += 1;
-                        self.latest_telemetry = Some(t);
                         self.on_ground_telemetry(&t);
+                        self.latest_telemetry = Some(t);
                     }
                     Reply::Ack { seq } => {
                         self.usbl_seqs.remove(&seq);
@@ -63,7 +63,12 @@ impl TopsideLayout {
         out
     }
 
+    /// A `Telemetry` the ground station received (before it becomes the latest).
     pub(super) fn on_ground_telemetry(&mut self, t: &Telemetry) {
+        let previous_dvl = self.latest_telemetry.map_or(0, |p| p.dvl.t_us);
+        if t.dvl.is_some() && t.dvl.t_us != previous_dvl {
+            self.report.dvl_fixes_on_ground += 1;
+        }
         if let Some(cut) = self.cut_at_us {
             let lost = t.faults & link_fault::NODE_LINK_LOST != 0;
             if lost && t.t_us >= cut && self.report.ground_saw_loss_s.is_none() {

@@ -97,4 +97,10 @@ pub struct LayoutReport {
     /// USBL fixes the topside's estimator refused on its innovation gate (the summary's
     /// `navigation.usbl_fixes_rejected`).
     pub usbl_fixes_rejected: u64,
+    /// Uplinks that carried a DVL velocity (the node's DVL port's reports, parsed and
+    /// gated on the node).
+    pub dvl_uplinks: u64,
+    /// DVL measurements the ground station saw the topside's estimator take (distinct
+    /// times of validity of the telemetry's DVL reading).
+    pub dvl_fixes_on_ground: u64,
 }

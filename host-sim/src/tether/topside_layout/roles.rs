@@ -10,13 +10,15 @@
 use super::ports::{PlantSensors, SensorFeed, VClock, WirePort};
 use crate::tether::in_process::{SimPwm, SimSerial};
 use anyhow::Result;
-use controller_core::nav::ImuSample;
+use controller_core::nav::{DvlFix, ImuSample};
 use controller_core::state::{BodyForces, NavState, TrackingErrors};
 use firmware::node::Node;
 use firmware::node_link::NodeCounters;
 use firmware::protocol::Telemetry;
+use firmware::sensors::dvl::WithDvl;
 use firmware::topside_link::{LinkSensors, LinkThruster, NodeBridge, TopsideCounters, TopsideLink};
 use firmware::App;
+use sim_world::sensors::DvlWire;
 use std::cell::{Cell, RefCell};
 use std::rc::Rc;
 
@@ -28,8 +30,9 @@ pub const NODE_IMU_PERIOD_US: u32 = 2_500;
 
 /// The topside's App: its thrusters and sensors the node link.
 pub type TopsideApp = App<LinkThruster<'static>, SimSerial, VClock, LinkSensors<'static>>;
-/// The node role on the simulated PWM outputs, wire port, virtual clock and plant sensors.
-pub type NodeRole = Node<SimPwm, WirePort, VClock, PlantSensors>;
+/// The node role on the simulated PWM outputs, wire port, virtual clock, plant sensors and
+/// the simulated DVL's serial line.
+pub type NodeRole = Node<SimPwm, WirePort, VClock, WithDvl<PlantSensors, DvlWire>>;
 
 /// What one pass of the node did, as the harness sees it.
 #[derive(Debug, Clone, Default)]
@@ -122,6 +125,9 @@ pub trait Roles {
     fn push_imu(&mut self, s: ImuSample);
     /// A pressure conversion of the plant at `t_us` (Pa).
     fn push_pressure(&mut self, t_us: u64, pressure_pa: f32);
+    /// A reading of the vehicle's DVL: its A50 report on the node's DVL UART, which the
+    /// node parses, gates and carries in its next uplink.
+    fn push_dvl(&mut self, fix: &DvlFix);
     /// One pass of both every this much time (us), or `None`: passes at the times the
     /// harness's events need (the node's IMU times, the loop's ticks, frame arrivals).
     fn pass_period_us(&self) -> Option<u64>;
@@ -157,6 +163,8 @@ pub struct InProcessRoles {
     pub(super) feed: Rc<RefCell<SensorFeed>>,
     pub(super) node_port: WirePort,
     pub(super) top_port: WirePort,
+    /// The node's DVL UART (the node's `DvlPort` reads the other end).
+    pub(super) dvl_wire: DvlWire,
 }
 
 impl InProcessRoles {
@@ -254,6 +262,10 @@ impl Roles for InProcessRoles {
             .borrow_mut()
             .pressure
             .push_back((t_us, pressure_pa));
+    }
+
+    fn push_dvl(&mut self, fix: &DvlFix) {
+        self.dvl_wire.send_wrz(fix);
     }
 
     fn pass_period_us(&self) -> Option<u64> {

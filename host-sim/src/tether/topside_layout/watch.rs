@@ -111,6 +111,7 @@ impl TopsideLayout {
             for &b in &np.written {
                 if let Some(LinkFrame::Frame { seq, msg }) = self.node_tx_dec.push(b) {
                     self.uplink_counters = Some(msg.counters);
+                    self.report.dvl_uplinks += u64::from(msg.dvl.is_some());
                     self.uplink_samples += u64::from(msg.samples);
                     self.uplink_dt_us += u64::from(msg.dt_us);
                     if let Some(imu) = imu {
