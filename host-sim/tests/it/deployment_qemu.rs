@@ -174,6 +174,15 @@ fn a_cut_node_link_goes_neutral_and_latches_on_the_emulated_node() {
 /// following them, and the tracking of the two within 10 % + 1 cm.
 #[test]
 fn the_emulated_topside_layouts_dvl_reaches_the_node_on_its_uart() {
+    // The node's DVL on the emulated boards is flown everywhere by firmware's
+    // `emulated_layout`; this closed-loop version in CI.
+    if !long_emulated::long_test(
+        "deployment_qemu",
+        "the_emulated_topside_layouts_dvl_reaches_the_node_on_its_uart",
+        40,
+    ) {
+        return;
+    }
     let Some(elfs) = layout_images_or_skip().unwrap() else {
         return;
     };
