@@ -164,13 +164,14 @@ mod bench {
         }
     }
 
-    /// The link in RAM: the bench queues downlink frames; the node's uplink is discarded.
-    struct RamPort<'a>(&'a core::cell::RefCell<Deque<u8, 64>>);
+    /// A port in RAM: the bench queues the bytes the wire brings (`N` of them at most); what
+    /// the node writes is discarded. The node link's port and the DVL's UART.
+    struct RamPort<'a, const N: usize>(&'a core::cell::RefCell<Deque<u8, N>>);
 
-    impl embedded_io::ErrorType for RamPort<'_> {
+    impl<const N: usize> embedded_io::ErrorType for RamPort<'_, N> {
         type Error = core::convert::Infallible;
     }
-    impl embedded_io::Read for RamPort<'_> {
+    impl<const N: usize> embedded_io::Read for RamPort<'_, N> {
         fn read(&mut self, buf: &mut [u8]) -> Result<usize, Self::Error> {
             let Ok(mut q) = self.0.try_borrow_mut() else {
                 return Ok(0);
@@ -184,12 +185,12 @@ mod bench {
             Ok(n)
         }
     }
-    impl embedded_io::ReadReady for RamPort<'_> {
+    impl<const N: usize> embedded_io::ReadReady for RamPort<'_, N> {
         fn read_ready(&mut self) -> Result<bool, Self::Error> {
             Ok(self.0.try_borrow().is_ok_and(|q| !q.is_empty()))
         }
     }
-    impl embedded_io::Write for RamPort<'_> {
+    impl<const N: usize> embedded_io::Write for RamPort<'_, N> {
         fn write(&mut self, buf: &[u8]) -> Result<usize, Self::Error> {
             Ok(buf.len())
         }
@@ -197,35 +198,9 @@ mod bench {
             Ok(())
         }
     }
-    impl embedded_io::WriteReady for RamPort<'_> {
+    impl<const N: usize> embedded_io::WriteReady for RamPort<'_, N> {
         fn write_ready(&mut self) -> Result<bool, Self::Error> {
             Ok(true)
-        }
-    }
-
-    /// The DVL's UART in RAM: the bench queues a line's bytes as the wire brings them.
-    struct DvlRam<'a>(&'a core::cell::RefCell<Deque<u8, 256>>);
-
-    impl embedded_io::ErrorType for DvlRam<'_> {
-        type Error = core::convert::Infallible;
-    }
-    impl embedded_io::Read for DvlRam<'_> {
-        fn read(&mut self, buf: &mut [u8]) -> Result<usize, Self::Error> {
-            let Ok(mut q) = self.0.try_borrow_mut() else {
-                return Ok(0);
-            };
-            let mut n = 0;
-            for b in buf.iter_mut() {
-                let Some(x) = q.pop_front() else { break };
-                *b = x;
-                n += 1;
-            }
-            Ok(n)
-        }
-    }
-    impl embedded_io::ReadReady for DvlRam<'_> {
-        fn read_ready(&mut self) -> Result<bool, Self::Error> {
-            Ok(self.0.try_borrow().is_ok_and(|q| !q.is_empty()))
         }
     }
 
@@ -425,7 +400,7 @@ mod bench {
         let dvl_q = core::cell::RefCell::new(Deque::<u8, 256>::new());
         let sensors = WithDvl {
             inner: SyntheticImu(0),
-            dvl: node_dvl_port(DvlPort::new(DvlRam(&dvl_q), VelocityGate::default(), 87)),
+            dvl: node_dvl_port(DvlPort::new(RamPort(&dvl_q), VelocityGate::default(), 87)),
         };
         let Ok(mut node) = Node::new(
             pwm,
