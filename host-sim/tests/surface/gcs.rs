@@ -116,39 +116,44 @@ pub fn exits_at_duration(mut child: Child, timeout: std::time::Duration) {
     assert!(status.success(), "topside exit {status:?}");
 }
 
-/// The `rov-topside` binary of this build profile, built if needed (`cargo test --workspace`
-/// builds it; a test run alone with `-p host-sim` gets it built here, once, with the same
-/// profile).
+/// The `rov-topside` binary of this build profile, as `cargo test --workspace` builds it.
+///
+/// The binary is built by cargo for the topside package's own integration test
+/// (`conventions`); asking for that test with `--workspace` resolves the dependencies'
+/// features across the whole workspace, as the README's `cargo test --workspace` does, so the
+/// binary that command built is found current and nothing is rebuilt. (`cargo build -p
+/// topside` resolves them for that package alone: other features of `num-traits`, `serde`
+/// and `serde_json`, a second build of MAVLink's dialect and the surface program, ~130
+/// CPU-seconds on a fresh clone.) A test run alone with `-p host-sim` gets it built here,
+/// once.
 pub fn rov_topside() -> PathBuf {
     static BIN: OnceLock<PathBuf> = OnceLock::new();
     BIN.get_or_init(|| {
         let exe = std::env::current_exe().unwrap();
         // <target>/<profile>/deps/<test binary>
         let profile_dir = exe.parent().and_then(Path::parent).unwrap().to_path_buf();
-        // The test profile's folder is `debug` too: `cargo test --workspace` has built the
-        // program there with that profile, which `cargo build` (the dev profile) would
-        // build again, MAVLink's dialect and all.
-        let profile = if profile_dir.file_name().is_some_and(|n| n == "release") {
-            "release"
-        } else {
-            "test"
-        };
         let mut cargo = Command::new(env!("CARGO"));
         cargo.args([
-            "build",
+            "test",
             "-q",
-            "--profile",
-            profile,
-            "-p",
-            "topside",
-            "--bin",
-            "rov-topside",
+            "--workspace",
+            "--no-run",
+            "--test",
+            "conventions",
         ]);
+        // The test profile's folder is `debug`; `release` when the tests run with `--release`.
+        if profile_dir.file_name().is_some_and(|n| n == "release") {
+            cargo.arg("--release");
+        }
         let ok = cargo
             .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .stdout(std::process::Stdio::null())
             .status()
             .is_ok_and(|s| s.success());
-        assert!(ok, "cargo build -p topside --bin rov-topside failed");
+        assert!(
+            ok,
+            "cargo test --workspace --no-run --test conventions (builds rov-topside) failed"
+        );
         profile_dir.join("rov-topside")
     })
     .clone()
