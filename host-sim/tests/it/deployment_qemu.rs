@@ -136,6 +136,17 @@ fn hil_flies_the_emulated_topside_layout_as_the_in_process_one() {
 /// node at its failsafes' times, not only at its IMU times).
 #[test]
 fn a_cut_node_link_goes_neutral_and_latches_on_the_emulated_node() {
+    // Two boards in lock-step: 2.5 s simulated cost ~115 CPU-seconds. The README's command
+    // flies the two emulated boards joined (firmware's `emulated_layout`) and the surface
+    // program on them (`surface`'s `topside_layout`); the cut on the node's own clock is
+    // CI's, and the in-process layout's cut is tested everywhere (`deployment`).
+    if !long_emulated::long_test(
+        "deployment_qemu",
+        "a_cut_node_link_goes_neutral_and_latches_on_the_emulated_node",
+        85,
+    ) {
+        return;
+    }
     let Some(elfs) = layout_images_or_skip().unwrap() else {
         return;
     };

@@ -93,10 +93,12 @@ fn depth_at(out: &HilOutput, t_s: f64) -> f64 {
 
 #[test]
 fn a_leak_on_the_emulated_board_surfaces_within_half_a_second() {
-    let leak_at_s = 6.0;
+    // The leak 2 s into the circle, the flight 10 s after it to rise.
+    let leak_at_s = 2.0;
+    let end_s = leak_at_s + 10.0;
     let sc = circle(
         &format!("[health]\nleak_at_s = {leak_at_s}\nfs_leak_enable = 2\n"),
-        16.0,
+        end_s,
     );
     let Some(out) = on_the_board(&sc) else {
         return;
@@ -108,11 +110,12 @@ fn a_leak_on_the_emulated_board_surfaces_within_half_a_second() {
     let t_surface =
         first_row(&out, 0.0, |r| r.telemetry.mode == Mode::Surface).expect("SURFACE never entered");
     let t_fault = first_row(&out, 0.0, |r| r.telemetry.faults & fault::LEAK != 0).unwrap();
-    let (z_leak, z_end) = (depth_at(&out, t_surface), depth_at(&out, 15.9));
+    let (z_leak, z_end) = (depth_at(&out, t_surface), depth_at(&out, end_s - 0.1));
     println!(
         "leak at {leak_at_s:.2} s: SURFACE at {t_surface:.2} s (+{:.2} s), LEAK fault at \
-         {t_fault:.2} s; depth {z_leak:.2} m -> {z_end:.2} m at 15.9 s",
-        t_surface - leak_at_s
+         {t_fault:.2} s; depth {z_leak:.2} m -> {z_end:.2} m at {:.1} s",
+        t_surface - leak_at_s,
+        end_s - 0.1
     );
     assert!(t_surface - leak_at_s <= 0.5);
     assert!(t_fault - leak_at_s <= 1.0);

@@ -456,23 +456,53 @@ fn a_quiet_vehicle_does_not_end_the_surface_program() {
         "the operator is told: {said:?}"
     );
 
-    // Back: said, and commands go through again.
-    let msgs = gather(&gcs, Duration::from_secs(2));
+    // Back: said, and once the vehicle has cleared the failsafe its silence set (its own
+    // tether heartbeat loss), commands go through again.
+    let msgs = gather_until(&gcs, Duration::from_secs(10), |said| {
+        said.iter().any(|t| t.contains("answers again"))
+            && said.iter().any(|t| t.starts_with("Cleared: tether heartbeat lost"))
+    });
     send(&gcs, &set_mode(19));
-    let ack = wait(&gcs, Duration::from_secs(3), |m| match m {
+    let after = gather_until(&gcs, Duration::from_secs(3), |_| false);
+    let ack = after.iter().find_map(|(_, m)| match m {
         MavMessage::COMMAND_ACK(a) if a.command == MavCmd::MAV_CMD_DO_SET_MODE => Some(a.result),
         _ => None,
     });
     let alive = topside.try_wait().unwrap().is_none();
     stop(topside);
-    let said = texts(&msgs);
-    println!("back: {said:?}, ack {ack:?}");
+    let (said, said_after) = (texts(&msgs), texts(&after));
+    println!("back: {said:?}, ack {ack:?}, then {said_after:?}");
     assert!(alive);
     assert!(said.iter().any(|t| t.contains("answers again")), "{said:?}");
     assert_eq!(
         ack,
-        Some(mavlink::dialects::ardupilotmega::MavResult::MAV_RESULT_ACCEPTED)
+        Some(mavlink::dialects::ardupilotmega::MavResult::MAV_RESULT_ACCEPTED),
+        "the mode change after the vehicle answers again; said {said_after:?}"
     );
+}
+
+/// What arrives for up to `span`, until `done` holds for the status texts so far (then
+/// 0.5 s more: what a command's answer brings with it).
+fn gather_until(
+    gcs: &mavlink::Connection<MavMessage>,
+    span: Duration,
+    done: impl Fn(&[String]) -> bool,
+) -> Vec<(Instant, MavMessage)> {
+    let end = Instant::now() + span;
+    let mut out = Vec::new();
+    while Instant::now() < end {
+        match gcs.try_recv() {
+            Ok((_, m)) => {
+                out.push((Instant::now(), m));
+                if done(&texts(&out)) {
+                    out.extend(gather(gcs, Duration::from_millis(500)));
+                    break;
+                }
+            }
+            Err(_) => std::thread::sleep(Duration::from_millis(2)),
+        }
+    }
+    out
 }
 
 /// The vehicle's telemetry tampered for 5 s (AUTO, 65,535 waypoints reached, a NaN position,
