@@ -89,7 +89,7 @@ impl TruthNav {
         let d = &sc.disturbance;
         Self::new(
             sc.initial(),
-            (d.delay_s / sc.plant_dt_s).round() as usize,
+            (d.delay_s / sc.plant_steps().1).round() as usize,
             d.noise.then_some(d.noise_std),
             seed.unwrap_or(d.noise_seed),
         )
