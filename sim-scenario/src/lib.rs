@@ -321,9 +321,15 @@ pub struct Scenario {
     /// Controller period (s), default 0.01.
     #[serde(default = "d_ctrl")]
     pub control_period_s: f64,
-    /// Plant RK4 step (s), default 0.001.
+    /// The world's step (s), default 0.001: sensors sample and the delay line keeps the
+    /// plant at it, and the plant takes RK4 steps of it, except on the truth path where
+    /// nothing reads the plant between control ticks (`RunSetup::plant_steps`).
     #[serde(default = "d_plant")]
     pub plant_dt_s: f64,
+    /// The plant steps at `plant_dt_s` on the truth path too (default false: there it takes
+    /// one RK4 step per control period, at most 10 ms, when the delay is whole such steps).
+    #[serde(default)]
+    pub fixed_plant_dt: bool,
     /// The reference.
     pub reference: ReferenceSpec,
     /// Initial state.
