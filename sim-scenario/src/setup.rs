@@ -33,14 +33,14 @@ pub struct RunSetup {
 pub const MAX_TICK_STEP_S: f64 = 0.01;
 
 /// The plant's steps per control period and its RK4 step: on the truth path (unless the
-/// scenario says `fixed_plant_dt`), when the
+/// scenario writes `plant_dt_s`), when the
 /// delay is a whole number of the control period's even slices of at most
 /// [`MAX_TICK_STEP_S`] (and no finer than `plant_dt_s`), those slices, since no sensor and no
 /// delay line reads the plant between them; otherwise `plant_dt_s`, so every sensor sample
 /// and delayed state falls on a step.
 fn plant_steps(s: &Scenario) -> (usize, f64) {
     let fine = (s.plant_steps_per_control().max(1), s.plant_dt_s);
-    if s.fixed_plant_dt || s.navigation.source != NavSource::Truth {
+    if s.plant_dt_written || s.navigation.source != NavSource::Truth {
         return fine;
     }
     let n = (s.control_period_s / MAX_TICK_STEP_S - 1e-9)
@@ -170,8 +170,8 @@ mod tests {
     }
 
     /// The truth path steps the plant once a control period (in slices of at most 10 ms)
-    /// when the delay is whole steps of it; a delay between steps, `fixed_plant_dt`, or
-    /// sensors (which sample at `plant_dt_s`) keep the world's step.
+    /// when the delay is whole steps of it; a delay between steps, a `plant_dt_s` written,
+    /// or sensors (which sample at `plant_dt_s`) keep `plant_dt_s`.
     #[test]
     fn the_truth_path_steps_the_plant_once_a_tick_when_nothing_reads_it_between() {
         assert_eq!(steps(""), (1, 0.01));
@@ -182,11 +182,8 @@ mod tests {
         );
         assert_eq!(steps("[disturbance]\ndelay_s = 0.3"), (1, 0.01));
         assert_eq!(steps("[disturbance]\ndelay_s = 0.015"), (10, 0.001));
-        assert_eq!(steps("fixed_plant_dt = true"), (10, 0.001));
-        assert_eq!(
-            steps("fixed_plant_dt = true\nplant_dt_s = 0.0001"),
-            (100, 0.0001)
-        );
+        assert_eq!(steps("plant_dt_s = 0.001"), (10, 0.001));
+        assert_eq!(steps("plant_dt_s = 0.0001"), (100, 0.0001));
         let nav = Scenario::load_setup("nav-circle-3d").unwrap();
         assert_eq!(nav.plant_steps(), (10, 0.001));
         let mc = Scenario::load_setup("mc-circle-3d").unwrap();

@@ -62,7 +62,7 @@ mod tests {
     use sim_scenario::Scenario;
 
     /// The Monte Carlo case on the truth path (one RK4 step a control period, 10 ms) against
-    /// the same run at a tenth of a millisecond (`fixed_plant_dt`): the trajectory and the
+    /// the same run at a tenth of a millisecond (`plant_dt_s` set): the trajectory and the
     /// tracking figures agree to well under a micrometre (measured: nanometres).
     #[test]
     fn one_step_a_tick_tracks_a_fine_step_reference() {
@@ -70,7 +70,7 @@ mod tests {
             let mut sc = Scenario::load("mc-circle-3d").unwrap();
             sc.duration_s = 30.0;
             if !extra.is_empty() {
-                sc.fixed_plant_dt = true;
+                sc.plant_dt_written = true;
                 sc.plant_dt_s = 1e-4;
             }
             sc.resolve().unwrap()

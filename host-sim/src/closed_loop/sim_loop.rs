@@ -417,6 +417,7 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
         let k = self.k;
         let t = k as f64 * self.tc;
         let truth = self.plant.state();
+        self.nav.observed_as(&truth);
         let nav_state = self.nav.estimate(t, self.held_cmd);
         if k == 0 {
             self.endpoint.start(&nav_state)?;
