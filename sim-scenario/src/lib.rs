@@ -321,9 +321,16 @@ pub struct Scenario {
     /// Controller period (s), default 0.01.
     #[serde(default = "d_ctrl")]
     pub control_period_s: f64,
-    /// Plant RK4 step (s), default 0.001.
+    /// The plant's RK4 step (s), default 0.001; sensors sample and the delay line keeps the
+    /// plant at it. Unless the file writes it ([`Self::plant_dt_written`]), the truth path,
+    /// where nothing reads the plant between control ticks, steps the plant once a control
+    /// period instead (`RunSetup::plant_steps`).
     #[serde(default = "d_plant")]
     pub plant_dt_s: f64,
+    /// The scenario's file writes `plant_dt_s`: the plant steps at it on the truth path too.
+    /// Code that sets `plant_dt_s` sets this to keep its step.
+    #[serde(skip)]
+    pub plant_dt_written: bool,
     /// The reference.
     pub reference: ReferenceSpec,
     /// Initial state.
@@ -417,6 +424,8 @@ impl Scenario {
     fn parse_in(text: &str, origin: &str, dir: Option<&Path>) -> Result<Self> {
         let mut s: Scenario = toml::from_str(text)
             .map_err(|e| anyhow!("scenario {origin}: {}", e.to_string().trim_end()))?;
+        s.plant_dt_written =
+            toml::from_str::<toml::Table>(text).is_ok_and(|table| table.contains_key("plant_dt_s"));
         if let Some(file) = &s.vehicle {
             let beside = dir.map(|d| d.join(file)).filter(|p| p.exists());
             let path = beside.unwrap_or_else(|| Path::new(file).to_path_buf());

@@ -128,7 +128,10 @@ impl CoreEndpoint {
         Ok(Self {
             controller,
             mode: sc.mode(),
-            period_s: (sc.plant_dt_s * sc.plant_steps_per_control().max(1) as f64) as f32,
+            period_s: {
+                let (n, dt) = sc.plant_steps();
+                (dt * n as f64) as f32
+            },
             pwm: PwmMap::for_vehicle(sc.vehicle()),
         })
     }

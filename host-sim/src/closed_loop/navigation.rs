@@ -35,6 +35,10 @@ pub trait Navigation {
     fn observe_raw(&mut self, t_s: f64, truth: &RawState) {
         self.observe(t_s, &truth.state());
     }
+    /// At each control tick, before [`estimate`](Self::estimate): the state last observed
+    /// (the plant's now), as the loop converted it for its metrics. A stage that keeps
+    /// states may keep this form instead of converting the same state again.
+    fn observed_as(&mut self, _truth: &PlantState) {}
     /// At each control tick: the state handed to the controller. `thrust_cmd_n` is the
     /// command `[F1x, F2x, F3z]` (N) held over the period that just ended.
     fn estimate(&mut self, t_s: f64, thrust_cmd_n: [f64; 3]) -> NavState;
@@ -89,7 +93,7 @@ impl TruthNav {
         let d = &sc.disturbance;
         Self::new(
             sc.initial(),
-            (d.delay_s / sc.plant_dt_s).round() as usize,
+            (d.delay_s / sc.plant_steps().1).round() as usize,
             d.noise.then_some(d.noise_std),
             seed.unwrap_or(d.noise_seed),
         )
@@ -104,6 +108,12 @@ impl TruthNav {
         if self.oldest == self.history.len() {
             self.oldest = 0;
         }
+    }
+
+    /// The newest state's slot in the ring (the one before `oldest`).
+    fn newest(&mut self) -> Option<&mut RawState> {
+        let n = self.history.len();
+        self.history.get_mut((self.oldest + n - 1) % n.max(1))
     }
 
     /// The measurement now.
@@ -141,6 +151,17 @@ impl Navigation for TruthNav {
 
     fn observe_raw(&mut self, _t_s: f64, truth: &RawState) {
         self.push(*truth);
+    }
+
+    fn observed_as(&mut self, truth: &PlantState) {
+        // The plant's state pushed by the last step, converted by the loop with the same
+        // function: the delayed measurement reads it without a second conversion (`atan2`,
+        // `asin`). A state that is already Euler angles (the initial one) stays as it is.
+        if let Some(slot) = self.newest() {
+            if matches!(slot, RawState::Quaternion { .. }) {
+                *slot = RawState::Euler(*truth);
+            }
+        }
     }
 
     fn estimate(&mut self, _t_s: f64, _thrust_cmd_n: [f64; 3]) -> NavState {
@@ -184,6 +205,9 @@ macro_rules! forward_navigation {
             fn observe_raw(&mut self, t_s: f64, truth: &RawState) {
                 (**self).observe_raw(t_s, truth)
             }
+            fn observed_as(&mut self, truth: &PlantState) {
+                (**self).observed_as(truth)
+            }
             fn estimate(&mut self, t_s: f64, thrust_cmd_n: [f64; 3]) -> NavState {
                 (**self).estimate(t_s, thrust_cmd_n)
             }
@@ -206,3 +230,43 @@ macro_rules! forward_navigation {
 forward_navigation!(impl<T: Navigation + ?Sized> Navigation for &mut T);
 
 forward_navigation!(impl<T: Navigation + ?Sized> Navigation for Box<T>);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The delayed measurement of a state the loop converted is the bits of the state
+    /// converted by the truth path itself, the initial state (Euler angles) untouched.
+    #[test]
+    fn a_state_converted_once_measures_as_converted_twice() {
+        let initial = PlantState {
+            eta: [1.0, 2.0, 3.0, 0.1, -0.2, 2.9],
+            nu: [0.1, 0.0, -0.1, 0.01, 0.02, 0.3],
+        };
+        let raw = |i: u32| RawState::Quaternion {
+            pos_m: [f64::from(i), 0.5, 2.0],
+            quat: [0.9, 0.1 * f64::from(i), -0.3, 0.2].map(|e| e / 0.984_885_780_179_610_5),
+            nu: [0.2, 0.0, 0.0, 0.0, 0.0, 0.1 * f64::from(i)],
+        };
+        for delay in [0, 1, 3] {
+            let noise = Some(NoiseStd::default());
+            let (mut once, mut twice) = (
+                TruthNav::new(initial, delay, noise, 7),
+                TruthNav::new(initial, delay, noise, 7),
+            );
+            once.observed_as(&initial);
+            for i in 0..8 {
+                let a = once.estimate(0.0, [0.0; 3]);
+                let b = twice.estimate(0.0, [0.0; 3]);
+                assert_eq!(
+                    format!("{a:?}"),
+                    format!("{b:?}"),
+                    "delay {delay}, tick {i}"
+                );
+                once.observe_raw(0.0, &raw(i));
+                twice.observe_raw(0.0, &raw(i));
+                once.observed_as(&raw(i).state());
+            }
+        }
+    }
+}

@@ -254,8 +254,7 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
         let mut plant = make_plant(sc.plane, &plant_params, env, saturate, sc.initial())?;
         plant.set_bounds(sc.water.surface, sc.water.seabed_depth_m);
 
-        let n_sub = sc.plant_steps_per_control().max(1);
-        let dt = sc.plant_dt_s;
+        let (n_sub, dt) = sc.plant_steps();
         let tc = dt * n_sub as f64;
         let duration = opts.duration_s.unwrap_or(sc.duration_s);
         let n_ctrl = if opts.open_ended {
@@ -418,6 +417,7 @@ impl<N: Navigation, E: ControllerEndpoint> ClosedLoop<N, E> {
         let k = self.k;
         let t = k as f64 * self.tc;
         let truth = self.plant.state();
+        self.nav.observed_as(&truth);
         let nav_state = self.nav.estimate(t, self.held_cmd);
         if k == 0 {
             self.endpoint.start(&nav_state)?;
