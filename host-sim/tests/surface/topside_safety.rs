@@ -460,7 +460,9 @@ fn a_quiet_vehicle_does_not_end_the_surface_program() {
     // tether heartbeat loss), commands go through again.
     let msgs = gather_until(&gcs, Duration::from_secs(10), |said| {
         said.iter().any(|t| t.contains("answers again"))
-            && said.iter().any(|t| t.starts_with("Cleared: tether heartbeat lost"))
+            && said
+                .iter()
+                .any(|t| t.starts_with("Cleared: tether heartbeat lost"))
     });
     send(&gcs, &set_mode(19));
     let after = gather_until(&gcs, Duration::from_secs(3), |_| false);
