@@ -133,6 +133,13 @@ impl OnboardNav {
         })
     }
 
+    /// Keep what `from`, the estimator this one restarts, learned of the instruments and the
+    /// water, when this one starts where `from` agrees it is ([`Estimator::keep_learned`]);
+    /// whether it was kept.
+    pub fn keep_learned(&mut self, from: &OnboardNav) -> bool {
+        self.estimator.keep_learned(&from.estimator)
+    }
+
     /// An IMU sample with the thrust commanded since the last one. After a gap the
     /// prediction restarts at the sample (the gap is refused and reported, not integrated).
     pub fn imu(
