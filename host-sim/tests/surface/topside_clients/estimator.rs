@@ -86,7 +86,10 @@ fn fly_on_the_estimator(name: &str, restart_s: Option<f64>) {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let port = free_udp_port();
-    // The ground station first, listening before the dive starts (`READY`).
+    // The surface program built first (a build after a change takes longer than the ground
+    // station waits for a heartbeat), then the ground station, listening before the dive
+    // starts (`READY`).
+    gcs::rov_topside();
     let mut client = Command::new("python3")
         .arg(concat!(
             env!("CARGO_MANIFEST_DIR"),
