@@ -22,8 +22,9 @@
 //! USBL fix (north, east and depth; the heading from the vehicle, with the start's heading
 //! uncertainty widened to 90 deg). A surface restarted mid-dive finds the estimator running
 //! and leaves it. `MAV_CMD_USER_1` with param1 = 1 from a ground station restarts it: at the
-//! latest fix when the estimate disagrees with it (beyond three standard deviations), else
-//! at the estimate's own position (its depth and heading the vehicle's estimate), with the
+//! latest fix when the estimate disagrees with it (beyond three standard deviations), known
+//! to the fix's accuracy, else at the estimate's own position, known as well as the estimate
+//! knew it (its depth and heading the vehicle's estimate; an EKF's position reset), with the
 //! settings of
 //! `--nav-config FILE` (the vehicle's instruments' figures as JSON, `OnboardConfig`) or the
 //! defaults.
