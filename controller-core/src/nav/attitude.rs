@@ -36,6 +36,11 @@ impl Tilt {
         (self.roll_rad, self.pitch_rad)
     }
 
+    /// Take `from`'s learned gyro biases of `p` and `q` (the angles stay).
+    pub(super) fn keep_learned(&mut self, from: &Self) {
+        (self.bias_p_rad_s, self.bias_q_rad_s) = from.bias();
+    }
+
     pub(super) fn bias(&self) -> (f32, f32) {
         (self.bias_p_rad_s, self.bias_q_rad_s)
     }

@@ -175,6 +175,26 @@ impl Horizontal {
         (self.kf.x[BC], self.kf.var(BC))
     }
 
+    /// Take `from`'s current and gyro and compass biases, with their variances (their
+    /// correlations with the rest cleared): what a running filter learned of the water and
+    /// the instruments, kept across a restart of the position and heading.
+    pub(super) fn keep_learned(&mut self, from: &Self) {
+        for i in [CN, CE, BR, BC] {
+            let x = from.kf.x.get(i).copied().unwrap_or(0.0);
+            self.kf.reset_state(i, x, from.kf.var(i));
+        }
+        // The learned states among themselves keep their correlations.
+        for i in [CN, CE, BR, BC] {
+            for j in [CN, CE, BR, BC] {
+                if i != j {
+                    if let Some(o) = self.kf.p.get_mut(i).and_then(|r| r.get_mut(j)) {
+                        *o = from.kf.cov(i, j);
+                    }
+                }
+            }
+        }
+    }
+
     /// Move the compass bias estimate by `d_rad`.
     pub(super) fn shift_compass_bias(&mut self, d_rad: f32) {
         self.kf.x[BC] = wrap_angle(self.kf.x[BC] + d_rad);

@@ -140,6 +140,10 @@ pub const POSITION_READY_STD_M: f32 = 1.0;
 /// Largest heading standard deviation (rad, 10 degrees) at which the estimate is ready.
 pub const HEADING_READY_STD_RAD: f32 = 0.175;
 
+/// A restart keeps what the running estimator learned when it starts within this many
+/// standard deviations of the running estimate ([`Estimator::keep_learned`]).
+pub const RESTART_AGREE_SIGMAS: f32 = 3.0;
+
 /// Why the estimate is not ready for a mode that needs a position (like ArduSub's "EKF not
 /// ready"): the vehicle refuses `Track`, `Hold`, AUTO and GUIDED until it is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -276,6 +280,31 @@ impl Estimator {
             health: NavHealth::default(),
             streaks: Streaks::default(),
         })
+    }
+
+    /// Keep what `from`, the estimator this one replaces, learned of the instruments and
+    /// the water: the gyro biases, the accelerometer's, the compass's and the current, with
+    /// their variances. The position, depth, heading and velocities stay this one's start
+    /// (an EKF's position and heading reset, as ArduPilot's resets keep the bias states).
+    /// Only when this one starts where `from` agrees it is (within three standard deviations
+    /// of both horizontally): a start elsewhere says `from` went wrong, and what it learned
+    /// is not trusted either. Whether it was kept.
+    pub fn keep_learned(&mut self, from: &Estimator) -> bool {
+        let [[a_nn, _], [_, a_ee]] = self.horizontal.position_covariance();
+        let [[b_nn, _], [_, b_ee]] = from.horizontal.position_covariance();
+        let [an, ae] = self.horizontal.position();
+        let [bn, be] = from.horizontal.position();
+        let off2 = (an - bn) * (an - bn) + (ae - be) * (ae - be);
+        let var = a_nn.max(a_ee) + b_nn.max(b_ee);
+        // A NaN compares false: not kept.
+        let agrees = off2 <= RESTART_AGREE_SIGMAS * RESTART_AGREE_SIGMAS * var;
+        if !agrees {
+            return false;
+        }
+        self.tilt.keep_learned(&from.tilt);
+        self.vertical.keep_learned(&from.vertical);
+        self.horizontal.keep_learned(&from.horizontal);
+        true
     }
 
     /// Time of the last IMU sample (us).

@@ -133,6 +133,13 @@ impl OnboardNav {
         })
     }
 
+    /// Keep what `from`, the estimator this one restarts, learned of the instruments and the
+    /// water, when this one starts where `from` agrees it is ([`Estimator::keep_learned`]);
+    /// whether it was kept.
+    pub fn keep_learned(&mut self, from: &OnboardNav) -> bool {
+        self.estimator.keep_learned(&from.estimator)
+    }
+
     /// An IMU sample with the thrust commanded since the last one. After a gap the
     /// prediction restarts at the sample (the gap is refused and reported, not integrated).
     pub fn imu(
@@ -272,6 +279,30 @@ mod tests {
             0,
         )
         .unwrap()
+    }
+
+    fn start_at(x_m: f32) -> OnboardNav {
+        let at = NavState {
+            x_m,
+            ..NavState::default()
+        };
+        OnboardNav::new(Vehicle::observer(), OnboardConfig::default(), &at, 0, 0).unwrap()
+    }
+
+    #[test]
+    fn a_restart_where_the_estimate_agrees_keeps_what_it_learned() {
+        let mut running = start();
+        running.estimator.shift_compass_bias(0.05);
+        let learned = running.estimator.compass_bias_rad();
+        assert!((learned.0 - 0.05).abs() < 1e-6);
+        // 0.1 m from the running estimate (each known to 0.5 m): kept, bias and variance.
+        let mut near = start_at(0.1);
+        assert!(near.keep_learned(&running));
+        assert_eq!(near.estimator.compass_bias_rad(), learned);
+        // 10 m off (beyond three standard deviations): the running one went wrong.
+        let mut far = start_at(10.0);
+        assert!(!far.keep_learned(&running));
+        assert_eq!(far.estimator.compass_bias_rad().0, 0.0);
     }
 
     fn level_imu(t_us: u64) -> ImuSample {

@@ -62,6 +62,11 @@ impl Vertical {
             .propagate(&phi, &[0.25 * n * n * dt * dt * dt, n * n * dt, w * w * dt]);
     }
 
+    /// Take `from`'s accelerometer bias and its variance (a restart of the depth keeps it).
+    pub(super) fn keep_learned(&mut self, from: &Self) {
+        self.kf.reset_state(BA, from.kf.x[BA], from.kf.var(BA));
+    }
+
     /// Depth to the fix, its variance to the fix's, its correlations cleared.
     pub(super) fn reset_depth(&mut self, depth_m: f32, std_m: f32) {
         self.kf.reset_state(Z, depth_m, std_m * std_m);

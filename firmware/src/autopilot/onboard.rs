@@ -46,6 +46,12 @@ impl Autopilot {
                 // Checked when it was set.
                 o.set_compass_calibration(&self.compass_cal)
                     .map_err(NackReason::CompassCal)?;
+                // A restart (an estimator running) re-seeds the position, depth and heading;
+                // where the running estimate agrees with the new start, it keeps what the
+                // running one learned of the instruments and the water.
+                if let Some(running) = self.onboard.as_ref() {
+                    o.keep_learned(running);
+                }
                 self.onboard = Some(o);
                 self.onboard_seq = seq;
                 Ok(())

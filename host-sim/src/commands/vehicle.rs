@@ -54,6 +54,12 @@ pub struct VehicleArgs {
     /// `--launch`) and `<scenario>.nav-config.json` (its `--nav-config`).
     #[arg(long, value_name = "HOST:PORT")]
     pub usbl_to: Option<String>,
+    /// The simulated clock stands at time 0 until the first surface connects, as ArduPilot's
+    /// SITL waits on its first serial port (the files the surface needs, `.launch` and
+    /// `.nav-config.json`, are written before): the dive starts with its surface, however
+    /// long the surface took to start.
+    #[arg(long)]
+    pub wait_surface: bool,
     /// The firmware image in QEMU instead of the library: ELF, or without one the `qemu`
     /// image built from this workspace (as `host-sim hil` builds it). A topside-layout
     /// scenario: its two images (topside-emu, node-emu) built from the workspace (no ELF).
@@ -86,6 +92,7 @@ pub fn main(a: VehicleArgs) -> Result<std::process::ExitCode> {
         out: a.out.clone(),
         start_nav: a.start_nav,
         usbl_to: a.usbl_to.clone(),
+        wait_surface: a.wait_surface,
     };
     check(&o).map_err(refused)?;
     let layout = sc.deployment.control == Control::Topside;
@@ -191,7 +198,8 @@ fn run<E: ServedEndpoint>(
     let rep = serve(sc, o, listener, endpoint)?;
     println!(
         "vehicle: {:.1} s simulated in {:.1} s of wall time ({:.2}x, {}x asked); late ticks \
-         {}, largest lag {:.1} ms, slip {:.1} ms; surfaces served {}; vehicle inputs refused {}",
+         {}, largest lag {:.1} ms, slip {:.1} ms; waited {:.2} s for the first surface; surfaces \
+         served {}; vehicle inputs refused {}",
         rep.sim_s,
         rep.wall_s,
         rep.sim_s / rep.wall_s.max(1e-9),
@@ -199,6 +207,7 @@ fn run<E: ServedEndpoint>(
         rep.late_ticks,
         rep.max_lag_s * 1e3,
         rep.slip_s * 1e3,
+        rep.waited_s,
         rep.surfaces,
         rep.own_refused
     );

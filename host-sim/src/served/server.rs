@@ -39,6 +39,9 @@ const LAG_NOTE_EVERY: Duration = Duration::from_secs(10);
 /// a burst far inside the failsafes' timeouts.
 const LATE_MIN: Duration = Duration::from_millis(10);
 
+/// How often the listener is polled while the clock waits for the first surface.
+const WAIT_POLL: Duration = Duration::from_millis(2);
+
 /// Bytes for a surface that does not read, at most: past this it is disconnected.
 const MAX_UNSENT: usize = 1 << 20;
 
@@ -58,6 +61,10 @@ pub struct ServeOptions {
     /// The simulated USBL's NMEA to this UDP address (`HOST:PORT`), for the surface program;
     /// `None`: its fixes go into the vehicle's inputs.
     pub usbl_to: Option<String>,
+    /// The simulated clock stands at its first tick until the first surface connects (as
+    /// ArduPilot's SITL waits on its first serial port): a dive starts with its surface,
+    /// however long the surface took to start.
+    pub wait_surface: bool,
 }
 
 /// What a served run did.
@@ -73,6 +80,8 @@ pub struct ServeReport {
     pub max_lag_s: f64,
     /// The wall time the schedule slipped by, in all (s).
     pub slip_s: f64,
+    /// The wall time the clock stood at its first tick waiting for the first surface (s).
+    pub waited_s: f64,
     /// Surfaces that connected.
     pub surfaces: u64,
     /// The vehicle's own inputs the App refused.
@@ -166,6 +175,10 @@ pub fn serve<E: ServedEndpoint>(
                 launch_written = true;
             }
         }
+        if o.wait_surface && rep.surfaces == 0 {
+            rep.waited_s = wait_for_surface(listener, &mut surface, &mut rep.surfaces);
+            (anchor_wall, anchor_t) = (Instant::now(), run.t_s());
+        }
         let out = run.endpoint_mut().take_surface_out();
         if let Some(s) = surface.as_mut() {
             s.unsent.extend(out);
@@ -235,6 +248,19 @@ fn accept(listener: &TcpListener, surface: &mut Option<Surface>, count: &mut u64
             unsent: Vec::new(),
         });
     }
+}
+
+/// Block until the first surface connects (polling the listener); the wall time waited (s).
+fn wait_for_surface(listener: &TcpListener, surface: &mut Option<Surface>, count: &mut u64) -> f64 {
+    let t0 = Instant::now();
+    eprintln!("vehicle: the clock waits for a surface");
+    while surface.is_none() {
+        accept(listener, surface, count);
+        if surface.is_none() {
+            std::thread::sleep(WAIT_POLL);
+        }
+    }
+    t0.elapsed().as_secs_f64()
 }
 
 /// Everything the surface sent, into `into`; false when it disconnected.

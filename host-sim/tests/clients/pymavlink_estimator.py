@@ -8,7 +8,8 @@ surface program; holds, flies the mission, then holds its last waypoint until th
 clock reads SECONDS (the scenario's duration, for a figure over the same span as its software
 run). With RESTART_S, the vehicle's estimator is restarted from the surface
 (`MAV_CMD_USER_1`, param1 = 1) when the vehicle's clock passes it. Prints PASS lines and one
-`POS time_boot_ms x y z` line per LOCAL_POSITION_NED; exits 0, or raises.
+`POS time_boot_ms x y z` line per LOCAL_POSITION_NED; exits 0, or raises. Prints `READY` first,
+once it listens.
 """
 import sys
 import time
@@ -25,11 +26,12 @@ def main():
     port, seconds = int(sys.argv[1]), float(sys.argv[2])
     restart_s = float(sys.argv[3]) if len(sys.argv) > 3 else None
     m = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=255)
+    # Listening: the test starts the dive now, so that the vehicle's clock starts with its
+    # ground station ready (not after this interpreter's start-up, which a loaded machine
+    # stretches by seconds of the vehicle's time).
+    print("READY", flush=True)
     expect(m.wait_heartbeat(timeout=30) is not None, "a HEARTBEAT arrives")
-    p0 = wait(m, "LOCAL_POSITION_NED", 5)
-    expect(p0 is not None, "LOCAL_POSITION_NED streams")
-    # A triangle 3 m on a side from where the vehicle is, 0.5 m deeper at the end.
-    pts = [(p0.x + 3, p0.y, p0.z), (p0.x + 3, p0.y + 3, p0.z), (p0.x, p0.y + 3, p0.z + 0.5)]
+    expect(wait(m, "LOCAL_POSITION_NED", 5) is not None, "LOCAL_POSITION_NED streams")
     # POSHOLD once the vehicle's estimate is ready (refused NavNotReady before).
     held = False
     end = time.time() + 60
@@ -41,6 +43,11 @@ def main():
         if not held:
             time.sleep(0.5)
     expect(held, "POSHOLD accepted on the vehicle's estimate")
+    # A triangle 3 m on a side from where the vehicle's estimate (ready now) puts it, 0.5 m
+    # deeper at the end.
+    p0 = wait(m, "LOCAL_POSITION_NED", 5)
+    expect(p0 is not None, "LOCAL_POSITION_NED after POSHOLD")
+    pts = [(p0.x + 3, p0.y, p0.z), (p0.x + 3, p0.y + 3, p0.z), (p0.x, p0.y + 3, p0.z + 0.5)]
     r = upload(m, pts)
     expect(r == mav.MAV_MISSION_ACCEPTED, f"a 3-waypoint mission is accepted ({r})")
     arm_and_auto(m)

@@ -187,8 +187,8 @@ pub fn serve_vehicle(scenario: impl AsRef<OsStr>, out: &Path, extra: &[&str]) ->
 
 /// A simulated dive flown the way a real one is: `host-sim vehicle SCENARIO` served on a free
 /// port, and `rov-topside --tcp` sending MAVLink to `udpout:127.0.0.1:PORT`, its tlog and
-/// parameters file where the test says. Of `extra`, `--speedup K`, `--start-nav` and
-/// `--vehicle-duration S` (its `--duration`) go to the vehicle, everything else to the
+/// parameters file where the test says. Of `extra`, `--speedup K`, `--start-nav`,
+/// `--wait-surface` and `--vehicle-duration S` (its `--duration`) go to the vehicle, everything else to the
 /// surface (`--duration`, `--mavlink`, `--vehicle`); `--qemu` or `--qemu=ELF` serves the
 /// firmware image in QEMU (a topside-layout scenario: its two images). With
 /// `--speedup K` the surface's tether heartbeat goes K times faster (at most 50 Hz), so that
@@ -211,7 +211,7 @@ pub fn dive(
                 speedup = k.parse().unwrap();
                 vehicle_args.extend(["--speedup", k]);
             }
-            "--start-nav" => vehicle_args.push(a),
+            "--start-nav" | "--wait-surface" => vehicle_args.push(a),
             // The firmware image in QEMU (`--qemu` or `--qemu=ELF`): the vehicle's.
             _ if a == "--qemu" || a.starts_with("--qemu=") => vehicle_args.push(a),
             // The USBL at the surface: the served vehicle's as NMEA to the surface program,

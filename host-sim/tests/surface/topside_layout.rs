@@ -216,6 +216,10 @@ fn fly(scenario: &Path, dir: &Path) -> Flight {
             "--speedup",
             "2",
             "--start-nav",
+            // The vehicle's clock starts when the surface connects, not when the process
+            // does: the go-to starts at the same time of the vehicle's clock, whatever the
+            // load when the two programs start.
+            "--wait-surface",
         ],
     );
     let gcs = Station(mavlink::connect::<MavMessage>(&format!("udpin:127.0.0.1:{port}")).unwrap());

@@ -22,8 +22,9 @@
 //! USBL fix (north, east and depth; the heading from the vehicle, with the start's heading
 //! uncertainty widened to 90 deg). A surface restarted mid-dive finds the estimator running
 //! and leaves it. `MAV_CMD_USER_1` with param1 = 1 from a ground station restarts it: at the
-//! latest fix when the estimate disagrees with it (beyond three standard deviations), else
-//! at the estimate's own position (its depth and heading the vehicle's estimate), with the
+//! latest fix when the estimate disagrees with it (beyond three standard deviations), known
+//! to the fix's accuracy, else at the estimate's own position, known as well as the estimate
+//! knew it (its depth and heading the vehicle's estimate; an EKF's position reset), with the
 //! settings of
 //! `--nav-config FILE` (the vehicle's instruments' figures as JSON, `OnboardConfig`) or the
 //! defaults.
@@ -217,7 +218,15 @@ pub struct SurfaceNav {
     pub stats: UsblStats,
     /// Estimator starts sent and taken.
     pub starts: u32,
+    /// When the vehicle last took a start of ours: its new estimator counts no IMU sample
+    /// until its next one, so a `Status` of that instant does not mean it stopped.
+    started_at: Option<Instant>,
 }
+
+/// How long after a start the surface does not take "no IMU sample yet" for an estimator
+/// that stopped (wall clock): a new estimator integrates its first sample within a control
+/// period; a `Status` answered between the start and that sample says zero.
+const START_SETTLE: Duration = Duration::from_secs(2);
 
 /// `N,E,D,HEADING_DEG` as the launch point.
 fn parse_launch(s: &str) -> Result<NavState> {
@@ -243,6 +252,21 @@ fn parse_launch(s: &str) -> Result<NavState> {
 
 /// Does `fix` agree with the vehicle's estimate `nav` (within three standard deviations of the
 /// fix and the start's position uncertainty)?
+/// The smallest position uncertainty a restart starts from (m): a fresh estimate's 1 cm at
+/// least, so that the fixes after it still move it.
+const RESTART_MIN_STD_M: f32 = 0.01;
+
+/// A restart's position uncertainty: its source's `std_m` (the estimate's or the fix's),
+/// within [`RESTART_MIN_STD_M`] and the configured start's `configured_m`; the configured one
+/// when the source's is not a number.
+fn restart_std_m(std_m: f32, configured_m: f32) -> f32 {
+    if std_m.is_finite() && std_m > 0.0 {
+        std_m.clamp(RESTART_MIN_STD_M.min(configured_m), configured_m)
+    } else {
+        configured_m
+    }
+}
+
 fn agrees_with_estimate(fix: &SurfaceFix, nav: &NavState, config: &OnboardConfig) -> bool {
     let sigma = fix.std_m.hypot(config.nav.initial_position_std_m);
     let off = (fix.ned_m[0] - nav.x_m).hypot(fix.ned_m[1] - nav.y_m);
@@ -312,6 +336,7 @@ impl SurfaceNav {
             start_refused_at: None,
             stats: UsblStats::default(),
             starts: 0,
+            started_at: None,
         })
     }
 
@@ -403,6 +428,7 @@ impl SurfaceNav {
             && self
                 .start_refused_at
                 .is_none_or(|t| t.elapsed() >= Duration::from_secs(1))
+            && self.started_at.is_none_or(|t| t.elapsed() >= START_SETTLE)
         {
             if let Some(text) = self.start(v, false)? {
                 said.push(text);
@@ -425,11 +451,19 @@ impl SurfaceNav {
             (false, Some(l), _) => l,
             (true, _, Some(f)) if agrees_with_estimate(&f, &v.state, &config) => {
                 // The estimate agrees with the fixes: the restart keeps its position (a
-                // single fix carries the USBL's 0.3 m) and resets the rest.
+                // single fix carries the USBL's 0.3 m), known as well as the estimate knew
+                // it (an EKF's position reset takes its source's accuracy), and the vehicle
+                // keeps what its estimator learned of the instruments and the water.
+                let [sx, sy, _] = v.tel.nav_pos_std_m;
+                config.nav.initial_position_std_m =
+                    restart_std_m(sx.max(sy), config.nav.initial_position_std_m);
                 v.state
             }
             (_, _, Some(f)) => {
                 let (depth_m, yaw_rad) = if restart {
+                    // At the fix, known as well as the fix is.
+                    config.nav.initial_position_std_m =
+                        restart_std_m(f.std_m, config.nav.initial_position_std_m);
                     (v.state.z_m, v.state.yaw_rad)
                 } else {
                     config.nav.initial_heading_std_rad = config
@@ -461,6 +495,7 @@ impl SurfaceNav {
         })? {
             Ok(()) => {
                 self.starts += 1;
+                self.started_at = Some(Instant::now());
                 self.start_refused_at = None;
                 Ok(Some(format!(
                     "Navigation {} at N {:.2} E {:.2} D {:.2} m",
