@@ -250,8 +250,6 @@ fn parse_launch(s: &str) -> Result<NavState> {
     })
 }
 
-/// Does `fix` agree with the vehicle's estimate `nav` (within three standard deviations of the
-/// fix and the start's position uncertainty)?
 /// The smallest position uncertainty a restart starts from (m): a fresh estimate's 1 cm at
 /// least, so that the fixes after it still move it.
 const RESTART_MIN_STD_M: f32 = 0.01;
@@ -267,6 +265,8 @@ fn restart_std_m(std_m: f32, configured_m: f32) -> f32 {
     }
 }
 
+/// Does `fix` agree with the vehicle's estimate `nav` (within three standard deviations of the
+/// fix and the start's position uncertainty)?
 fn agrees_with_estimate(fix: &SurfaceFix, nav: &NavState, config: &OnboardConfig) -> bool {
     let sigma = fix.std_m.hypot(config.nav.initial_position_std_m);
     let off = (fix.ned_m[0] - nav.x_m).hypot(fix.ned_m[1] - nav.y_m);
