@@ -1,4 +1,4 @@
-"""One commander at a time, and the MAVLink probes of issue 22 (items 4 and the surface's bad input).
+"""One commander at a time, and the MAVLink probes of the surface's bad input.
 
 Usage: pymavlink_commander.py PORT_A PORT_B
 

@@ -1,4 +1,4 @@
-"""A mission in a global frame (issue 13, item 4): refused before an origin is set, flown after.
+"""A mission in a global frame: refused before an origin is set, flown after.
 
 Usage: pymavlink_global.py PORT. The ground station sets the local frame's origin with
 SET_GPS_GLOBAL_ORIGIN, sees GLOBAL_POSITION_INT on the map's terms, uploads two waypoints in

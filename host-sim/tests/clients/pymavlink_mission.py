@@ -140,7 +140,7 @@ def main():
               f"{p.z - d:+.3f}) m")
     off = math.sqrt((p.x - n) ** 2 + (p.y - e) ** 2 + (p.z - d) ** 2)
     # Measured 0.30 m, closing slowly: an underactuated vehicle holding a point it reached
-    # with a sideways error must turn and drive to remove it (the end-of-path hold of issue 14).
+    # with a sideways error must turn and drive to remove it (the end-of-path hold).
     expect(off < 0.5, f"the vehicle holds within 0.5 m of the last waypoint ({off:.3f} m)")
 
     # Clearing is refused while AUTO flies it, accepted after.

@@ -1,4 +1,4 @@
-"""pymavlink reads and writes the topside's parameters (issue 13, item 5).
+"""pymavlink reads and writes the topside's parameters.
 
 Usage: pymavlink_params.py PORT set        -> lists, changes TRK_XY_KP, VEH_MASS and
                                               FS_PILOT_STALE, is refused bad values

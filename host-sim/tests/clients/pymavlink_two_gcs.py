@@ -1,4 +1,4 @@
-"""Two ground stations at once, one of them flooding MANUAL_CONTROL (issue 13, bad input).
+"""Two ground stations at once, one of them flooding MANUAL_CONTROL (bad input).
 
 Usage: pymavlink_two_gcs.py PORT_PILOT PORT_OBSERVER
 
@@ -79,7 +79,7 @@ def main():
                 first_pulse = time.time() - start
         # The observer's own command during the flood: a mode change, answered at once -
         # refused while the pilot is in control, accepted once the observer takes control
-        # (issue 22: one commander at a time).
+        # (one commander at a time).
         observer.mav.command_long_send(observer.target_system, observer.target_component,
                                        mav.MAV_CMD_DO_SET_MODE, 0,
                                        mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, POSHOLD,

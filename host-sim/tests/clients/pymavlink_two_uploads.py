@@ -1,4 +1,4 @@
-"""A mission upload is a transaction of one station (issue 22, item 4).
+"""A mission upload is a transaction of one station.
 
 Usage: pymavlink_two_uploads.py PORT_A PORT_B
 
