@@ -153,24 +153,53 @@ fn a_session_through_the_served_tether_and_a_cut() {
         Ok(()),
         "armed"
     );
-    // A second surface meanwhile: closed at once (it reads the end of the stream).
+    // A second surface meanwhile: closed at once (it reads the end of the stream). The first
+    // keeps its heartbeats going while the second waits (at 2x the vehicle's 1 s heartbeat
+    // timeout is 0.5 s of wall time, which a loaded machine can take to close the second).
     let mut second = TcpStream::connect(("127.0.0.1", port)).unwrap();
     second
-        .set_read_timeout(Some(Duration::from_secs(2)))
+        .set_read_timeout(Some(Duration::from_millis(50)))
         .unwrap();
     let mut b = [0u8; 16];
-    assert_eq!(
-        std::io::Read::read(&mut second, &mut b).unwrap_or(0),
-        0,
-        "a second surface is refused"
-    );
-    // Telemetry flows while the heartbeats come.
+    let refuse_by = Instant::now() + Duration::from_secs(2);
+    let refused = loop {
+        link.send(&Cmd::Heartbeat { t_us: 0 }).unwrap();
+        match std::io::Read::read(&mut second, &mut b) {
+            // The end of the stream: closed.
+            Ok(0) => break true,
+            Ok(_) => break false,
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                ) =>
+            {
+                if Instant::now() >= refuse_by {
+                    break false;
+                }
+            }
+            // Reset: closed too.
+            Err(_) => break true,
+        }
+    };
+    assert!(refused, "a second surface is refused within 2 s");
+    // Telemetry flows while the heartbeats come (one every 40 ms of wall time).
     let mut armed_seen = false;
     for _ in 0..10 {
         link.send(&Cmd::Heartbeat { t_us: 0 }).unwrap();
-        while let Some((_, r)) = link.recv(Duration::from_millis(40)).unwrap() {
+        let next = Instant::now() + Duration::from_millis(40);
+        while let Some((_, r)) = link
+            .recv(
+                next.saturating_duration_since(Instant::now())
+                    .max(Duration::from_millis(1)),
+            )
+            .unwrap()
+        {
             if let Reply::Telemetry(t) = r {
                 armed_seen |= t.armed;
+            }
+            if Instant::now() >= next {
+                break;
             }
         }
     }
