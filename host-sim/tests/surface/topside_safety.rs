@@ -492,11 +492,15 @@ fn gather_until(
 ) -> Vec<(Instant, MavMessage)> {
     let end = Instant::now() + span;
     let mut out = Vec::new();
+    let mut said = Vec::new();
     while Instant::now() < end {
         match gcs.try_recv() {
             Ok((_, m)) => {
+                if let MavMessage::STATUSTEXT(t) = &m {
+                    said.push(t.text.to_str().unwrap_or("").to_string());
+                }
                 out.push((Instant::now(), m));
-                if done(&texts(&out)) {
+                if done(&said) {
                     out.extend(gather(gcs, Duration::from_millis(500)));
                     break;
                 }
