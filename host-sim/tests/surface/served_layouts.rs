@@ -314,8 +314,7 @@ fn check_held(out: &Path, hold_s: f64, to_s: f64) {
     );
 }
 
-#[test]
-fn the_topside_layout_served_in_process() {
+pub(crate) fn the_topside_layout_served_in_process() {
     let d = dir("in-process");
     let sc = scenario(
         &d,
@@ -373,8 +372,7 @@ fn the_topside_layout_served_in_process() {
     check_held(&d, hold_s, 39.5);
 }
 
-#[test]
-fn the_onboard_image_served_in_qemu() {
+pub(crate) fn the_onboard_image_served_in_qemu() {
     let Some(elf) = image_or_skip().unwrap() else {
         return;
     };
@@ -413,10 +411,8 @@ fn the_onboard_image_served_in_qemu() {
 
 /// The two images run well below real time on a loaded machine (10 s simulated in about
 /// 2 minutes on the shared 2-core machine, 0.01x while it was loaded further), so this flight
-/// is not in the default run.
-#[test]
-#[ignore = "the emulated layout runs at 0.01x to 0.09x real time here; cargo test -- --ignored"]
-fn the_topside_layout_served_in_qemu() {
+/// is not in the default run (`cargo test -p host-sim --test surface -- --ignored`).
+pub(crate) fn the_topside_layout_served_in_qemu() {
     let Some(_) = layout_images_or_skip().unwrap() else {
         return;
     };

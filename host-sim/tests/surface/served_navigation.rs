@@ -53,8 +53,7 @@ fn read_truth(path: &Path) -> Vec<(f64, [f64; 3], [f64; 3])> {
         .collect()
 }
 
-#[test]
-fn the_lawnmower_survey_with_the_dvl_and_usbl_on_their_wires_matches_software() {
+pub(crate) fn the_lawnmower_survey_with_the_dvl_and_usbl_on_their_wires_matches_software() {
     let name = "the_lawnmower_survey_with_the_dvl_and_usbl_on_their_wires_matches_software";
     if !long_emulated::long_test_of("surface", &format!("served_navigation::{name}"), 90)
         || !pymavlink_or_skip()

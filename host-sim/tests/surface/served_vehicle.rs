@@ -62,8 +62,7 @@ fn read_csv(path: &Path) -> (HashMap<String, usize>, Vec<Vec<f64>>) {
     (cols, rows)
 }
 
-#[test]
-fn refused_before_start_and_a_busy_port() {
+pub(crate) fn refused_before_start_and_a_busy_port() {
     let d = dir("refused");
     let out = d.to_string_lossy().to_string();
     for (args, why) in [
@@ -123,8 +122,7 @@ fn refused_before_start_and_a_busy_port() {
 /// is cut; the vehicle's failsafe disarms it on its own clock; a second connection while one
 /// is served is closed at once; a new surface after the cut is served; exit 0 at
 /// `--duration`, the truth log one row per control period.
-#[test]
-fn a_session_through_the_served_tether_and_a_cut() {
+pub(crate) fn a_session_through_the_served_tether_and_a_cut() {
     let d = dir("session");
     let (mut child, port) = vehicle("circle-3d", &d, &["--speedup", "2", "--duration", "8"]);
     let t0 = Instant::now();
@@ -321,8 +319,7 @@ fn guided_errors(path: &Path, target: [f64; 3], after_s: f64) -> (f64, f64) {
     (dist(pos(at), target), dist(pos(last), target))
 }
 
-#[test]
-fn pymavlink_flies_a_served_vehicle_through_topside_tcp() {
+pub(crate) fn pymavlink_flies_a_served_vehicle_through_topside_tcp() {
     if !crate::long_test(
         "served_vehicle::pymavlink_flies_a_served_vehicle_through_topside_tcp",
         90,

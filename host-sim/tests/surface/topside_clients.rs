@@ -14,9 +14,9 @@ use crate::gcs;
 // The probes with a ground station's raw bytes, and the flights on the vehicle's own
 // estimator (in the folder beside this file, not test binaries of their own).
 #[path = "topside_clients/estimator.rs"]
-mod estimator;
+pub(crate) mod estimator;
 #[path = "topside_clients/probes.rs"]
-mod probes;
+pub(crate) mod probes;
 
 use gcs::{dive, free_udp_port, pymavlink_or_skip, stop, Dive};
 use std::net::UdpSocket;
@@ -24,8 +24,7 @@ use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-#[test]
-fn pymavlink_flies_the_simulated_vehicle_and_reads_the_tlog() {
+pub(crate) fn pymavlink_flies_the_simulated_vehicle_and_reads_the_tlog() {
     if !pymavlink_or_skip() {
         return;
     }
@@ -34,8 +33,7 @@ fn pymavlink_flies_the_simulated_vehicle_and_reads_the_tlog() {
 
 /// The same session against the firmware image in QEMU (the emulated STM32F405), served by
 /// `host-sim vehicle --qemu=ELF`.
-#[test]
-fn pymavlink_flies_the_emulated_board() {
+pub(crate) fn pymavlink_flies_the_emulated_board() {
     if !crate::long_test("topside_clients::pymavlink_flies_the_emulated_board", 50) {
         return;
     }
@@ -223,8 +221,7 @@ fn client(args: &[&str]) -> String {
     stdout
 }
 
-#[test]
-fn pymavlink_changes_gains_the_vehicle_and_a_timeout_which_survive_a_restart_and_bad_ones_are_refused(
+pub(crate) fn pymavlink_changes_gains_the_vehicle_and_a_timeout_which_survive_a_restart_and_bad_ones_are_refused(
 ) {
     if !pymavlink_or_skip() {
         return;
@@ -292,8 +289,7 @@ fn client_session(name: &str, script: &str, port: u16, extra: &[&str], args: &[&
 
 /// Two ground stations on two connections, one flooding `MANUAL_CONTROL`: neither the tether
 /// loop nor the other station is starved (bad input).
-#[test]
-fn a_manual_control_flood_starves_neither_the_tether_nor_a_second_ground_station() {
+pub(crate) fn a_manual_control_flood_starves_neither_the_tether_nor_a_second_ground_station() {
     if !pymavlink_or_skip() {
         return;
     }
@@ -313,8 +309,7 @@ fn a_manual_control_flood_starves_neither_the_tether_nor_a_second_ground_station
 /// downloads it back, has bad ones refused (too many items, a NaN or unreachable depth, a
 /// global frame) with the mission in use unchanged, flies it in AUTO on the vehicle (each
 /// `MISSION_ITEM_REACHED`, the end within 0.3 m of the last waypoint), and clears it.
-#[test]
-fn pymavlink_uploads_a_mission_and_flies_it_in_auto() {
+pub(crate) fn pymavlink_uploads_a_mission_and_flies_it_in_auto() {
     if !pymavlink_or_skip() {
         return;
     }
@@ -334,8 +329,7 @@ fn pymavlink_uploads_a_mission_and_flies_it_in_auto() {
 /// Global frames: refused before `SET_GPS_GLOBAL_ORIGIN`, then a mission in
 /// `MAV_FRAME_GLOBAL_RELATIVE_ALT_INT` (positions from pymavlink's own geodesy) flown in AUTO
 /// to its last waypoint, `GLOBAL_POSITION_INT` on the map's terms.
-#[test]
-fn pymavlink_flies_a_mission_in_a_global_frame_after_setting_the_origin() {
+pub(crate) fn pymavlink_flies_a_mission_in_a_global_frame_after_setting_the_origin() {
     if !crate::long_test(
         "topside_clients::pymavlink_flies_a_mission_in_a_global_frame_after_setting_the_origin",
         15,
@@ -358,8 +352,7 @@ fn pymavlink_flies_a_mission_in_a_global_frame_after_setting_the_origin() {
 /// MAVProxy (PyPI), typed into as an operator would: ALT_HOLD, `wp load` of a QGC WPL file,
 /// arm, AUTO to the last waypoint, disarm. SKIPPED without `mavproxy.py` unless
 /// `ROV_REQUIRE_PYMAVLINK=1` (`.ci/run` installs both).
-#[test]
-fn mavproxy_flies_a_mission_it_loads_from_a_file() {
+pub(crate) fn mavproxy_flies_a_mission_it_loads_from_a_file() {
     if !pymavlink_or_skip() {
         return;
     }

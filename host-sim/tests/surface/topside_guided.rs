@@ -106,8 +106,7 @@ fn last_distance(rows: &[[f64; 3]], p: [f32; 3]) -> f64 {
     (d(0).powi(2) + d(1).powi(2) + d(2).powi(2)).sqrt()
 }
 
-#[test]
-fn a_restarted_surface_reads_guided_back_and_the_go_to_goes_on() {
+pub(crate) fn a_restarted_surface_reads_guided_back_and_the_go_to_goes_on() {
     if !crate::long_test(
         "topside_guided::a_restarted_surface_reads_guided_back_and_the_go_to_goes_on",
         35,

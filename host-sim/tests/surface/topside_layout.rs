@@ -38,8 +38,7 @@ const TOPSIDE: &str = "[deployment]\ncontrol = \"topside\"\n";
 /// (LOCAL_POSITION_NED), the node is healthy (SYS_STATUS), and the served vehicle exits 0 at
 /// its `--duration`. The images run on the host's clock, several times slower than real time
 /// on a loaded 2-core machine, so the flight is short.
-#[test]
-fn the_topside_program_runs_the_emulated_topside_layout() {
+pub(crate) fn the_topside_program_runs_the_emulated_topside_layout() {
     let Some(_elfs) = host_sim::tether::qemu::layout_images_or_skip().unwrap() else {
         return;
     };
@@ -298,8 +297,7 @@ fn fly(scenario: &Path, dir: &Path) -> Flight {
 /// A served topside-layout scenario is flown from a ground station like any vehicle: the position modes wait for the topside's estimate, the
 /// vehicle is armed, goes to a GUIDED target and holds it. Its true position over the last
 /// 20 s is held against the target, and against the same flight of the onboard layout.
-#[test]
-fn a_ground_station_flies_the_topside_layout_to_a_guided_target() {
+pub(crate) fn a_ground_station_flies_the_topside_layout_to_a_guided_target() {
     if !crate::long_test(
         "topside_layout::a_ground_station_flies_the_topside_layout_to_a_guided_target",
         80,
@@ -342,8 +340,7 @@ const MANUAL: u32 = 19;
 /// streamed at 50 Hz makes both horizontal pulses rise above 1550 us (`SERVO_OUTPUT_RAW`,
 /// the pulses the topside sends the node) and the vehicle move ahead (the truth log); when
 /// the stream stops, the topside App's `MANUAL_STALE` failsafe is shown.
-#[test]
-fn a_pilot_drives_the_topside_layout_in_manual() {
+pub(crate) fn a_pilot_drives_the_topside_layout_in_manual() {
     let dir = common::scratch("topside-layout", "manual");
     let sc = scenario(&dir, "layout", TOPSIDE);
     let port = free_udp_port();
@@ -446,8 +443,7 @@ fn a_pilot_drives_the_topside_layout_in_manual() {
 /// topside program: "Failsafe: node link lost" within the 250 ms of the cut (by the
 /// simulated time of the state messages around it, 10 Hz), and `SYS_STATUS` shows the
 /// node's sensors and motors unhealthy.
-#[test]
-fn the_ground_station_sees_the_node_link_cut_within_250_ms() {
+pub(crate) fn the_ground_station_sees_the_node_link_cut_within_250_ms() {
     use mavlink::dialects::ardupilotmega::MavSysStatusSensor as S;
     let dir = common::scratch("topside-layout", "cut");
     let cut_s = 5.0;

@@ -331,8 +331,7 @@ fn node_healthy(m: &MavMessage) -> Option<bool> {
     }
 }
 
-#[test]
-fn the_topside_drives_a_topside_board_on_a_serial_line_and_shows_its_node_link() {
+pub(crate) fn the_topside_drives_a_topside_board_on_a_serial_line_and_shows_its_node_link() {
     let (mut master, slave) = TTYPort::pair().expect("a pseudo-terminal pair");
     let device = slave.name().expect("the pty's name");
     drop(slave);

@@ -72,8 +72,7 @@ fn simulated_session(name: &str, check: &str, ports: &[u16], extra: &[&str]) -> 
 
 /// `DO_SET_MODE`, `ARM`, `PARAM_SET`, `SET_MODE` and `MANUAL_CONTROL` addressed to system 2 or
 /// to component 5 of system 1 are not answered and change nothing; broadcast (0) is obeyed.
-#[test]
-fn commands_addressed_to_another_system_or_component_change_nothing() {
+pub(crate) fn commands_addressed_to_another_system_or_component_change_nothing() {
     if !pymavlink_or_skip() {
         return;
     }
@@ -84,8 +83,7 @@ fn commands_addressed_to_another_system_or_component_change_nothing() {
 /// Arming in MANUAL with the stick held full ahead for 1 s: refused with the reason in
 /// words, 0 pulses away from neutral within 1 s; a mode change with the stick held: 0 pulses
 /// away from neutral within 1 s until the stick is seen at centre.
-#[test]
-fn arming_or_changing_mode_with_a_stick_held_gives_no_thrust() {
+pub(crate) fn arming_or_changing_mode_with_a_stick_held_gives_no_thrust() {
     if !pymavlink_or_skip() {
         return;
     }
@@ -96,8 +94,8 @@ fn arming_or_changing_mode_with_a_stick_held_gives_no_thrust() {
 /// CHANGE_OPERATOR_CONTROL with the passkey only; the holder told; the new commander's
 /// stick full astern gives 0 pulses away from neutral within 1 s of the grant; two stations
 /// asking at once: one grant; 100 swaps in 2 s: no reversal; anyone may disarm.
-#[test]
-fn control_changes_hands_with_the_passkey_one_grant_at_a_time_and_without_a_thrust_jump() {
+pub(crate) fn control_changes_hands_with_the_passkey_one_grant_at_a_time_and_without_a_thrust_jump()
+{
     if !pymavlink_or_skip() {
         return;
     }
@@ -113,8 +111,7 @@ fn control_changes_hands_with_the_passkey_one_grant_at_a_time_and_without_a_thru
 /// FENCE, RALLY and ALL uploads are refused with `MAV_MISSION_UNSUPPORTED`, a FENCE
 /// `MISSION_CLEAR_ALL` leaves the mission; an item past the count, with an unknown command or
 /// an unknown frame gets its `MISSION_ACK` within 1 s.
-#[test]
-fn fence_and_rally_leave_the_mission_and_every_item_is_answered() {
+pub(crate) fn fence_and_rally_leave_the_mission_and_every_item_is_answered() {
     if !pymavlink_or_skip() {
         return;
     }
@@ -129,8 +126,7 @@ fn fence_and_rally_leave_the_mission_and_every_item_is_answered() {
 /// and fed from the surface, after a parameter was saved; the vehicle dives on, and the
 /// surface restarted with the saved file in front of it flies again (heartbeat, the saved
 /// parameter, MANUAL and arming accepted) within 5 s, with no thrust before a stick asks.
-#[test]
-fn a_restart_mid_dive_with_the_saved_file_flies_again_within_5_s() {
+pub(crate) fn a_restart_mid_dive_with_the_saved_file_flies_again_within_5_s() {
     if !pymavlink_or_skip() {
         return;
     }
@@ -406,8 +402,7 @@ fn texts(msgs: &[(Instant, MavMessage)]) -> Vec<String> {
 /// answers a command at once (refused, the vehicle silent) and says the vehicle is silent;
 /// its heartbeats go on, to the ground station (>= 3) and to the vehicle (>= 20 at 10 Hz);
 /// when the vehicle answers again it says so and a mode change is accepted.
-#[test]
-fn a_quiet_vehicle_does_not_end_the_surface_program() {
+pub(crate) fn a_quiet_vehicle_does_not_end_the_surface_program() {
     let vehicle = SerialVehicle::start();
     let dir = session_dir("quiet");
     let port = free_udp_port();
@@ -516,8 +511,7 @@ fn gather_until(
 /// `MISSION_ITEM_REACHED` (the most a mission holds), no NaN position and no pulse outside
 /// 800-2200 us forwarded, its heartbeat at 1 Hz (>= 4 in 5 s), the refusals counted in
 /// `SYS_STATUS` (`errors_count1`) and said.
-#[test]
-fn vehicle_frames_out_of_range_are_refused_and_counted() {
+pub(crate) fn vehicle_frames_out_of_range_are_refused_and_counted() {
     let vehicle = SerialVehicle::start();
     let dir = session_dir("frames");
     let port = free_udp_port();

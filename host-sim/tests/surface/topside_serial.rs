@@ -34,8 +34,7 @@ fn send(gcs: &mavlink::Connection<MavMessage>, msg: &MavMessage) {
     gcs.send(&h, msg).unwrap();
 }
 
-#[test]
-fn the_topside_drives_a_vehicle_on_a_serial_line() {
+pub(crate) fn the_topside_drives_a_vehicle_on_a_serial_line() {
     let (mut master, slave) = TTYPort::pair().expect("a pseudo-terminal pair");
     // The topside opens the slave end by its name, as its own (exclusive) user.
     let device = slave.name().expect("the pty's name");
@@ -191,16 +190,28 @@ fn the_topside_drives_a_vehicle_on_a_serial_line() {
         tel.len() >= 25,
         "the vehicle's 10 Hz telemetry for more than 3 s"
     );
+    // Before the surface opens its end the vehicle has had no heartbeat, and says so; once
+    // the surface's heartbeats arrive (within the first 2 s of its telemetry, however the
+    // machine is loaded while the surface starts) the failsafe stays quiet to the end.
+    let lost: Vec<bool> = tel
+        .iter()
+        .map(|t| t.faults & fault::HEARTBEAT_LOST != 0)
+        .collect();
+    let quiet_from = lost
+        .iter()
+        .position(|l| !l)
+        .expect("the vehicle's heartbeat failsafe quiet once the surface speaks");
     assert!(
-        tel.iter()
-            .skip(5)
-            .all(|t| t.faults & fault::HEARTBEAT_LOST == 0),
-        "no heartbeat lost on the vehicle"
+        quiet_from <= 20,
+        "heartbeat lost in the first {quiet_from} telemetry frames"
+    );
+    assert!(
+        !lost[quiet_from..].contains(&true),
+        "no heartbeat lost on the vehicle once the surface's heartbeats arrived"
     );
 }
 
-#[test]
-fn a_serial_device_that_is_not_there_is_a_clear_error() {
+pub(crate) fn a_serial_device_that_is_not_there_is_a_clear_error() {
     let out = Command::new(gcs::rov_topside())
         .args([
             "--serial",

@@ -44,8 +44,7 @@ fn read_truth(path: &std::path::Path) -> Vec<Row> {
 /// the truth after 10 s, as in the software run of the same scenario over the same 150 s
 /// (7.6 cm, `out/nav-circle-3d/summary.json`; its first 40 s alone are 11.1 cm: the
 /// estimator converges on the USBL fixes).
-#[test]
-fn pymavlink_flies_a_mission_on_the_vehicles_own_estimator() {
+pub(crate) fn pymavlink_flies_a_mission_on_the_vehicles_own_estimator() {
     if !crate::long_test(
         "topside_clients::estimator::pymavlink_flies_a_mission_on_the_vehicles_own_estimator",
         45,
@@ -63,8 +62,7 @@ fn pymavlink_flies_a_mission_on_the_vehicles_own_estimator() {
 /// restart agrees with the fixes, so it starts at the estimate's own position, known as well
 /// as the estimate knew it, and the vehicle keeps what its estimator learned of the
 /// instruments and the water (docs/navigation.md).
-#[test]
-fn the_surface_restarts_the_vehicles_estimator_mid_dive() {
+pub(crate) fn the_surface_restarts_the_vehicles_estimator_mid_dive() {
     if !crate::long_test(
         "topside_clients::estimator::the_surface_restarts_the_vehicles_estimator_mid_dive",
         45,

@@ -93,8 +93,7 @@ impl RawStation {
 
 /// An empty UDP datagram, garbage bytes and a truncated frame from a ground
 /// station are logged and dropped; the topside lives on and answers the next request.
-#[test]
-fn an_empty_datagram_and_garbage_do_not_end_the_topside() {
+pub(crate) fn an_empty_datagram_and_garbage_do_not_end_the_topside() {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("topside-empty-datagram");
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
@@ -123,8 +122,7 @@ fn an_empty_datagram_and_garbage_do_not_end_the_topside() {
 /// told why), B's commands are refused until it takes control with CHANGE_OPERATOR_CONTROL;
 /// ARM_DISARM with NaN does not disarm, DO_SET_MODE with NaN or -5 does not give STABILIZE,
 /// a GUIDED target 50 m above the surface is refused; anyone may disarm.
-#[test]
-fn one_commander_at_a_time_and_bad_commands_change_nothing() {
+pub(crate) fn one_commander_at_a_time_and_bad_commands_change_nothing() {
     if !pymavlink_or_skip() {
         return;
     }
@@ -142,8 +140,7 @@ fn one_commander_at_a_time_and_bad_commands_change_nothing() {
 
 /// Interleaved uploads from two stations: the second refused, the mission
 /// is the first station's; an upload that stops is abandoned; a new mission in AUTO refused.
-#[test]
-fn a_mission_upload_is_one_stations_transaction_and_auto_keeps_its_mission() {
+pub(crate) fn a_mission_upload_is_one_stations_transaction_and_auto_keeps_its_mission() {
     if !pymavlink_or_skip() {
         return;
     }
@@ -161,8 +158,7 @@ fn a_mission_upload_is_one_stations_transaction_and_auto_keeps_its_mission() {
 
 /// `VEH_PWM_NEUTRAL` is shown but not settable: a `PARAM_SET` to 1150 us is refused with
 /// the reason, the value in force (1500) is answered and nothing is saved.
-#[test]
-fn the_escs_neutral_is_not_a_parameter_a_ground_station_can_move() {
+pub(crate) fn the_escs_neutral_is_not_a_parameter_a_ground_station_can_move() {
     use mavlink::dialects::ardupilotmega::{MavMessage, MavParamType, PARAM_SET_DATA};
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("topside-neutral");
     let _ = std::fs::remove_dir_all(&dir);
@@ -202,8 +198,7 @@ fn the_escs_neutral_is_not_a_parameter_a_ground_station_can_move() {
 
 /// A TCP ground station that disconnects does not end the topside, and
 /// the listener accepts it again: the reconnected station is answered.
-#[test]
-fn a_tcp_ground_station_may_disconnect_and_come_back() {
+pub(crate) fn a_tcp_ground_station_may_disconnect_and_come_back() {
     use std::io::{Read, Write};
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("topside-tcp");
     let _ = std::fs::remove_dir_all(&dir);
@@ -281,8 +276,7 @@ fn a_tcp_ground_station_may_disconnect_and_come_back() {
 
 /// Each start writes new, time-stamped logs; the first start's files are
 /// still there, byte for byte, after the second.
-#[test]
-fn two_starts_write_two_sets_of_logs_and_the_first_is_intact() {
+pub(crate) fn two_starts_write_two_sets_of_logs_and_the_first_is_intact() {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("topside-two-starts");
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
