@@ -33,6 +33,33 @@ pub fn pymavlink_or_skip() -> bool {
     ok
 }
 
+/// A fresh scratch folder `name` under the test target's temporary folder (what an earlier
+/// run left there is removed first).
+pub fn scratch_dir(name: &str) -> PathBuf {
+    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Run the ground-station client `tests/clients/<script>` under python3 with `args`, to its
+/// end: whether it exited 0, and its standard output (both of its streams are printed, for
+/// the test's log).
+pub fn run_client<S: AsRef<OsStr>>(script: &str, args: &[S]) -> (bool, String) {
+    let out = Command::new("python3")
+        .arg(
+            Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("tests/clients")
+                .join(script),
+        )
+        .args(args)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+    println!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
+    (out.status.success(), stdout)
+}
+
 /// A UDP port nobody listens on now.
 pub fn free_udp_port() -> u16 {
     UdpSocket::bind("127.0.0.1:0")

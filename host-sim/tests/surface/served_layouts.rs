@@ -27,10 +27,7 @@ const HELD_HORIZONTAL_M: f64 = 0.4;
 const HELD_VERTICAL_M: f64 = 0.03;
 
 fn dir(name: &str) -> PathBuf {
-    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("served-layouts-{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    crate::gcs::scratch_dir(&format!("served-layouts-{name}"))
 }
 
 /// `nav-circle-3d` with `extra` appended (a `[deployment]` table).

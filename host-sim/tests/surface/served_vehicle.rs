@@ -27,10 +27,7 @@ use std::time::{Duration, Instant};
 const SPEEDUP: &str = "2";
 
 fn dir(name: &str) -> PathBuf {
-    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("served-{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    crate::gcs::scratch_dir(&format!("served-{name}"))
 }
 
 fn host_sim(args: &[&str]) -> Command {

@@ -206,18 +206,8 @@ fn topside(port: u16, tlog: &std::path::Path, params: &std::path::Path, extra: &
 }
 
 fn client(args: &[&str]) -> String {
-    let script = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/tests/clients/pymavlink_params.py"
-    );
-    let out = Command::new("python3")
-        .arg(script)
-        .args(args)
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
-    println!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
-    assert!(out.status.success(), "pymavlink_params.py {args:?} failed");
+    let (passed, stdout) = gcs::run_client("pymavlink_params.py", args);
+    assert!(passed, "pymavlink_params.py {args:?} failed");
     stdout
 }
 

@@ -10,7 +10,6 @@ use crate::gcs;
 
 use gcs::{dive, free_udp_port, pymavlink_or_skip, stop};
 use std::path::PathBuf;
-use std::process::Command;
 
 /// The simulated compass's deviation: `A sin(psi + phase)` = `A cos(phase) sin(psi) +
 /// A sin(phase) cos(psi)`, so `COMPASS_DEV_SIN` = `A cos(phase)`, `COMPASS_DEV_COS` =
@@ -50,20 +49,16 @@ pub(crate) fn pymavlink_starts_the_compass_turn_and_reads_the_fit_back() {
         &dir.join("params.json"),
         &["--duration", "600", "--speedup", "4", "--start-nav"],
     );
-    let out = Command::new("python3")
-        .arg(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/tests/clients/pymavlink_compass_cal.py"
-        ))
-        .arg(port.to_string())
-        .arg(format!("{}", HARD_IRON_DEG * PHASE_RAD.cos()))
-        .arg(format!("{}", HARD_IRON_DEG * PHASE_RAD.sin()))
-        .output()
-        .unwrap();
+    let (passed, stdout) = gcs::run_client(
+        "pymavlink_compass_cal.py",
+        &[
+            port.to_string(),
+            format!("{}", HARD_IRON_DEG * PHASE_RAD.cos()),
+            format!("{}", HARD_IRON_DEG * PHASE_RAD.sin()),
+        ],
+    );
     stop(topside);
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    println!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
-    assert!(out.status.success(), "the pymavlink client failed");
+    assert!(passed, "the pymavlink client failed");
     assert_eq!(stdout.matches("PASS:").count(), 10, "every check ran");
     // The fit was saved with the other parameters (a restart restores it).
     let saved: serde_json::Value = serde_json::from_str(

@@ -14,7 +14,7 @@
 
 use crate::gcs;
 
-use gcs::{dive, free_udp_port, pymavlink_or_skip, stop, wait};
+use gcs::{dive, free_udp_port, pymavlink_or_skip, run_client as client, stop, wait};
 use mavlink::dialects::ardupilotmega::{MavMessage, PARAM_REQUEST_READ_DATA};
 use mavlink::{MavConnection, MavHeader};
 use std::path::{Path, PathBuf};
@@ -25,10 +25,7 @@ use std::time::Duration;
 const SPEEDUP: &str = "2";
 
 fn dir(name: &str) -> PathBuf {
-    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("topside-gcs-{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    crate::gcs::scratch_dir(&format!("topside-gcs-{name}"))
 }
 
 /// A word an operator cannot read: an internal name in CamelCase (`NoReference`,
@@ -125,22 +122,6 @@ pub(crate) fn the_vehicle_given_wins_over_a_saved_parameter_file_and_the_start_s
         "the light vehicle's mass, not the saved 12.5"
     );
     assert_eq!(kp, Some(0.9), "the saved gain is restored");
-}
-
-/// Run a python client with `args`: whether it passed, and its output.
-fn client(script: &str, args: &[String]) -> (bool, String) {
-    let out = Command::new("python3")
-        .arg(
-            Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("tests/clients")
-                .join(script),
-        )
-        .args(args)
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
-    println!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
-    (out.status.success(), stdout)
 }
 
 /// Every `STATUSTEXT` a client printed (`TEXT: ...`), none with an internal name.

@@ -9,14 +9,10 @@
 use crate::gcs;
 
 use gcs::{dive, free_udp_port, pymavlink_or_skip, stop};
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::path::PathBuf;
 
 fn dir(name: &str) -> PathBuf {
-    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("topside-gcs-{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    crate::gcs::scratch_dir(&format!("topside-gcs-{name}"))
 }
 
 pub(crate) fn the_joystick_buttons_act_once_per_press_and_the_gain_scales_the_sticks() {
@@ -33,15 +29,12 @@ pub(crate) fn the_joystick_buttons_act_once_per_press_and_the_gain_scales_the_st
         &d.join("params.json"),
         &["--speedup", "2", "--duration", "600", "--mavlink", &second],
     );
-    let out = Command::new("python3")
-        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/clients/pymavlink_buttons.py"))
-        .args([port.to_string(), port2.to_string()])
-        .output()
-        .unwrap();
+    let (passed, _) = gcs::run_client(
+        "pymavlink_buttons.py",
+        &[port.to_string(), port2.to_string()],
+    );
     stop(flight);
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    println!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
-    assert!(out.status.success(), "pymavlink_buttons.py failed");
+    assert!(passed, "pymavlink_buttons.py failed");
     // The sticks full ahead at a gain of 50 %: the vehicle is sent a surge of 0.5, never more.
     let log = std::fs::read_dir(&d)
         .unwrap()

@@ -11,7 +11,6 @@ use crate::long_emulated;
 
 use gcs::{dive, free_udp_port, pymavlink_or_skip, stop};
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 /// The truth log's `t_s, x_m, y_m, z_m` rows.
 fn truth_rows(path: &Path) -> Vec<[f64; 4]> {
@@ -46,17 +45,12 @@ pub(crate) fn the_identification_manoeuvre_runs_from_a_ground_station_and_is_ref
     // The whole 160 s manoeuvre (40 s of wall at 4x, and the second start) where `ROV_LONG` is
     // set (CI); elsewhere its first 40 s, stopped by the stick.
     let quick = !long_emulated::long_runs_wanted();
-    let out = Command::new("python3")
-        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/clients/pymavlink_ident.py"))
-        .arg(port.to_string())
-        .args(quick.then_some("quick"))
-        .output()
-        .unwrap();
+    let mut args = vec![port.to_string()];
+    args.extend(quick.then(|| "quick".to_string()));
+    let (passed, _) = gcs::run_client("pymavlink_ident.py", &args);
     let truth = flight.truth();
     stop(flight);
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    println!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
-    assert!(out.status.success(), "pymavlink_ident.py failed");
+    assert!(passed, "pymavlink_ident.py failed");
     // The manoeuvre's first minute in Hold (its first 40 s in the quick run) (it may be stopped later by a late sensor on a
     // loaded machine, said by the surface as a failsafe): the truth moves off the
     // start point and stays within the 30 m room and the 6 m band.

@@ -61,16 +61,10 @@ pub(crate) fn mavsdk_connects_reads_parameters_flies_a_mission_goes_to_a_point_t
     for [n, e, z] in waypoints.iter().chain([&goto]) {
         args.push(format!("{n},{e},{z}"));
     }
-    let out = Command::new("python3")
-        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/clients/mavsdk_gcs.py"))
-        .args(&args)
-        .output()
-        .unwrap();
+    let (passed, _) = gcs::run_client("mavsdk_gcs.py", &args);
     let truth = flight.truth();
     stop(flight);
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    println!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
-    assert!(out.status.success(), "mavsdk_gcs.py failed");
+    assert!(passed, "mavsdk_gcs.py failed");
     let rows = truth_rows(&truth);
     let mut worst: f64 = 0.0;
     for (i, [n, e, z]) in waypoints.iter().enumerate() {

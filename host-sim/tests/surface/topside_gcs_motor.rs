@@ -7,34 +7,14 @@
 
 use crate::gcs;
 
-use gcs::{dive, free_udp_port, pymavlink_or_skip, stop};
+use gcs::{dive, free_udp_port, pymavlink_or_skip, run_client as client, stop};
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 /// Simulated time per wall time.
 const SPEEDUP: &str = "2";
 
 fn dir(name: &str) -> PathBuf {
-    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("topside-gcs-{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-/// Run a python client with `args`: whether it passed, and its output.
-fn client(script: &str, args: &[String]) -> (bool, String) {
-    let out = Command::new("python3")
-        .arg(
-            Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("tests/clients")
-                .join(script),
-        )
-        .args(args)
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
-    println!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
-    (out.status.success(), stdout)
+    crate::gcs::scratch_dir(&format!("topside-gcs-{name}"))
 }
 
 /// The vehicle's telemetry in the surface's tether log: its time (s) and the three pulse

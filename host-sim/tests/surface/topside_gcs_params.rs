@@ -9,26 +9,18 @@
 use crate::gcs;
 
 use gcs::{dive, free_udp_port, pymavlink_or_skip, stop};
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::path::PathBuf;
 
 fn dir(name: &str) -> PathBuf {
-    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("topside-gcs-{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    crate::gcs::scratch_dir(&format!("topside-gcs-{name}"))
 }
 
 /// Run the python client in `phase`: whether it passed, and its output.
 fn client(port: u16, phase: &str) -> (bool, String) {
-    let out = Command::new("python3")
-        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/clients/pymavlink_health_params.py"))
-        .args([port.to_string().as_str(), phase])
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
-    println!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
-    (out.status.success(), stdout)
+    gcs::run_client(
+        "pymavlink_health_params.py",
+        &[port.to_string().as_str(), phase],
+    )
 }
 
 pub(crate) fn health_parameters_are_set_refused_in_words_acted_on_and_restored_with_the_system_id()

@@ -19,10 +19,7 @@ use std::time::Duration;
 const GUIDED: u32 = 4;
 
 fn dir(name: &str) -> PathBuf {
-    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("topside-guided-{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    crate::gcs::scratch_dir(&format!("topside-guided-{name}"))
 }
 
 type Gcs = mavlink::Connection<MavMessage>;
