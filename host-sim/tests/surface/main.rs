@@ -5,8 +5,9 @@
 //!
 //! The tests wait on real time (sessions, time-outs, flights at the vehicle's pace) far more
 //! than they compute: at two at a time, libtest's default on two cores, the quick ones took
-//! 173 s of wall time for 75 s of CPU, and 89 s at four. So this binary has its own harness
-//! (`libtest-mimic`, the same command line and output as libtest's) that runs four at a time
+//! 173 s of wall time for 75 s of CPU, 89 s at four and 69-71 s at six (`ROV_LONG=1`: 246 s at
+//! four, 172 s at six, for 131 CPU-s). So this binary has its own harness (`libtest-mimic`, the
+//! same command line and output as libtest's) that runs six at a time
 //! unless `--test-threads` or `RUST_TEST_THREADS` says otherwise. A test is a function here
 //! and is listed in [`TESTS`]; one that is not listed is dead code, which the lints refuse.
 //!
@@ -73,7 +74,7 @@ fn long_test(path: &str, wall_s: u32) -> bool {
 /// filters and `long_test` use them), and whether it is left out unless asked for
 /// (`--ignored`, libtest's `#[ignore]`). The harness starts them in this order: the longest
 /// first (their wall times on 2 cores, quick and `ROV_LONG` runs: docs/testing.md), so that
-/// the last four end together rather than one long flight after the rest.
+/// the last ones end together rather than one long flight after the rest.
 const TESTS: &[(&str, fn(), bool)] = &tests![
     topside_gcs_ident::the_identification_manoeuvre_runs_from_a_ground_station_and_is_refused_in_words,
     topside_gcs::mavproxy_flies_local_and_global_missions_and_its_guided_and_position_commands,
@@ -128,7 +129,7 @@ const TESTS: &[(&str, fn(), bool)] = &tests![
 ];
 
 /// How many tests run at once where neither `--test-threads` nor `RUST_TEST_THREADS` says.
-const DEFAULT_TEST_THREADS: usize = 4;
+const DEFAULT_TEST_THREADS: usize = 6;
 
 fn main() -> std::process::ExitCode {
     let mut args = Arguments::from_args();
