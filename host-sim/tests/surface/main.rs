@@ -4,10 +4,9 @@
 //! crate) drives the surface. One binary, so that the simulator is linked once.
 //!
 //! The tests wait on real time (sessions, time-outs, flights at the vehicle's pace) far more
-//! than they compute: at two at a time, libtest's default on two cores, the quick ones took
-//! 173 s of wall time for 75 s of CPU, 89 s at four and 69-71 s at six (`ROV_LONG=1`: 246 s at
-//! four, 172 s at six, for 131 CPU-s). So this binary has its own harness (`libtest-mimic`, the
-//! same command line and output as libtest's) that runs six at a time
+//! than they compute, so two at a time (libtest's default on two cores) left the machine
+//! mostly idle (docs/testing.md has the figures). This binary has its own harness
+//! (`libtest-mimic`, the same command line and output as libtest's) that runs six at a time
 //! unless `--test-threads` or `RUST_TEST_THREADS` says otherwise. A test is a function here
 //! and is listed in [`TESTS`]; one that is not listed is dead code, which the lints refuse.
 //!
