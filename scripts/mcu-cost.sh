@@ -188,7 +188,8 @@ if [ -f "$QEMU_ELF" ]; then
     # targets, as it must); 2 and 3 are a refusal or a failure (host-sim's exit codes).
     hil_rc=0
     timeout 300 "$HOST_SIM_BIN" hil nav-circle-3d --qemu "$QEMU_ELF" --duration 10 \
-        --out "$OUT/hil-nav-circle-3d" --ram-dump "$OUT/ram.bin" >"$OUT/hil.log" 2>&1 || hil_rc=$?
+        --count-instructions --out "$OUT/hil-nav-circle-3d" --ram-dump "$OUT/ram.bin" \
+        >"$OUT/hil.log" 2>&1 || hil_rc=$?
     if [ "$hil_rc" -le 1 ] && [ -f "$OUT/ram.bin" ]; then
       grep -E '^(nav-circle-3d|board):' "$OUT/hil.log" || true
       SEND=$("$NM" "$QEMU_ELF" | awk '$NF == "_stack_end" {print $1}')

@@ -334,6 +334,11 @@ where
         l
     }
 
+    /// Every reply handed to the port: none queued, none partly written.
+    pub fn replies_sent(&self) -> bool {
+        self.tx_queue.is_empty() && self.tx_sent >= self.tx_len
+    }
+
     /// The PWM outputs, serial port and clock (for tests and the board).
     pub fn parts_mut(&mut self) -> (&mut [P; 3], &mut S, &mut C) {
         (&mut self.pwm, &mut self.serial, &mut self.clock)

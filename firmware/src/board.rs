@@ -480,6 +480,14 @@ where
     let mut next_status_us = 0u64;
     loop {
         loop_pass(&mut app, &mut watchdog);
+        // Lock-step (the emulated board): the firmware's time moves only with the host's
+        // frames, so with no tether byte waiting and every reply handed to the port there
+        // is nothing to do until an interrupt (a byte on one of the UARTs, the transmit ring
+        // emptying).
+        if config.timing == Timing::LockStep {
+            let replies_sent = app.replies_sent();
+            sleep_unless(|| !replies_sent || tether_rx_pending() > 0);
+        }
         // Once a second while armed: what a pilot watching the defmt log wants to see.
         if app.autopilot().armed() && app.now_us() >= next_status_us {
             let now = app.now_us();
@@ -513,6 +521,18 @@ where
             faults = f;
         }
     }
+}
+
+/// Sleep until an interrupt (WFI) unless `work_waiting()`. The check and the WFI share a
+/// critical section: an interrupt raised between them stays pending, ends the WFI at once,
+/// and its handler runs when the section ends. Under QEMU a halted core costs the host
+/// nothing, where a polling loop keeps a host core busy.
+pub fn sleep_unless(work_waiting: impl FnOnce() -> bool) {
+    cortex_m::interrupt::free(|_| {
+        if !work_waiting() {
+            cortex_m::asm::wfi();
+        }
+    });
 }
 
 /// USART1 as the interrupt-driven [`Tether`] (for the node image; the onboard

@@ -8,14 +8,17 @@
 //! - USART1 (QEMU `-serial` 0): the tether to the PC, today's protocol, the interrupt-driven
 //!   [`crate::board::Tether`];
 //! - USART2 (`-serial` 1): the node link, the interrupt-driven [`NodePort`];
-//! - USART3 (`-serial` 2): the harness, polled: the host is the clock
+//! - USART3 (`-serial` 2): the harness, received into an interrupt-driven ring (the core
+//!   sleeps while it waits for a step), sent polled: the host is the clock
 //!   ([`crate::harness::TopsideStep`]). The App runs fixed-rate, as on the surface board (a
 //!   step on each accepted uplink, the 25 ms fallback period), on the host's time
-//!   ([`HostClock`]); TIM2 counts instructions for the App's loop figures (`-icount shift=0`);
+//!   ([`HostClock`]); TIM2 gives the App's loop figures (instructions under `-icount
+//!   shift=0`, as `scripts/mcu-cost.sh` runs it);
 //! - no watchdog: the host paces the board, and may pause it.
 
 use crate::app::{App, Config, Timing};
-use crate::board::{start_tether, tether_rx_pending, Tim2Clock, RX_LOST};
+use crate::board::health_pins::HealthUart;
+use crate::board::{sleep_unless, start_tether, tether_rx_pending, Tim2Clock, RX_LOST};
 use crate::harness::uart::{wait_for, HarnessUart};
 use crate::harness::{
     topside_pass, CountingPort, HarnessDecoder, HostClock, TopsideReport, TopsideStep,
@@ -30,6 +33,7 @@ use controller_core::controller::{Controller, Gains};
 use controller_core::params::Vehicle;
 use core::cell::Cell;
 use core::sync::atomic::Ordering;
+use embedded_io::ReadReady;
 use stm32f4xx_hal::{pac, prelude::*};
 
 fn halt() -> ! {
@@ -37,7 +41,8 @@ fn halt() -> ! {
 }
 
 /// The topside's node-link session on the emulated board: QEMU models no unique id, so the
-/// boot's instruction count (deterministic under `-icount`) mixed, never 0.
+/// boot's TIM2 count (the instruction count under `-icount`, else the host's nanoseconds
+/// since QEMU started) mixed, never 0.
 fn session(ticks: u32) -> u32 {
     (ticks.wrapping_mul(0x9E37_79B9) ^ 0x2570_0000).max(1)
 }
@@ -59,7 +64,8 @@ pub fn run() -> ! {
         halt()
     };
     let (tx, rx) = harness.split();
-    let mut harness = HarnessUart::new(rx, tx);
+    // The harness's receive ring is the onboard image's USART3 ring (its health inputs).
+    let mut harness = HarnessUart::new(HealthUart::start(rx), tx);
     // Default clocks: the timer clock is 16 MHz, prescaler 0, one tick an instruction.
     let mut tim2 = Tim2Clock::start(dp.TIM2.counter::<16_000_000>(&mut rcc));
     let ticks = tim2.ticks();
@@ -106,7 +112,9 @@ pub fn run() -> ! {
     defmt::info!("topside-emu ready: tether USART1, node link USART2, harness USART3");
     let mut decoder = HarnessDecoder::<TopsideStep>::new();
     loop {
-        let step = harness.recv(&mut decoder);
+        let step = harness.recv(&mut decoder, |rx| {
+            sleep_unless(|| rx.read_ready().ok() == Some(true))
+        });
         let tether_in = wait_for(step.tether_rx_bytes, || {
             app.parts_mut()
                 .1

@@ -10,7 +10,7 @@
 
 use firmware::protocol::Reply;
 use host_sim::tether::link::Link;
-use host_sim::tether::qemu::{image_or_skip, start_qemu_link};
+use host_sim::tether::qemu::{image_or_skip, start_qemu_link, QemuClock};
 use std::io::Write;
 use std::path::PathBuf;
 use std::sync::mpsc::Sender;
@@ -103,7 +103,8 @@ fn hil_link_console_arms_streams_and_disarms() {
     let Some(elf) = firmware_elf() else {
         return;
     };
-    let (_qemu, port) = start_qemu_link("qemu-system-arm", &elf, None, false).unwrap();
+    let (_qemu, port) =
+        start_qemu_link("qemu-system-arm", &elf, None, false, QemuClock::Host).unwrap();
     let mut link = Link::new(port, None);
     let hello = link
         .wait_for(

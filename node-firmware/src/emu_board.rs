@@ -4,7 +4,9 @@
 //!
 //! - USART1 (QEMU `-serial` 0): the node link, the interrupt-driven
 //!   [`firmware::board::Tether`] at 115,200 Bd;
-//! - USART2 (`-serial` 1): the harness, polled ([`firmware::harness`]): each
+//! - USART2 (`-serial` 1): the harness ([`firmware::harness`]), received into an
+//!   interrupt-driven ring (the onboard image's DVL ring; the core sleeps while it waits
+//!   for a step), sent polled: each
 //!   [`NodeStep`] gives the node its time, an IMU sample and a pressure; the node runs at that
 //!   time and answers with a [`NodeReport`], the pulses it applies;
 //! - USART3 (`-serial` 2, PB10 / PB11): the DVL, its A50 `wrz` lines as the instrument sends
@@ -18,9 +20,10 @@
 
 use core::cell::Cell;
 use core::sync::atomic::Ordering;
-use firmware::board::dvl_uart::DVL_US_PER_BYTE;
+use embedded_io::ReadReady;
+use firmware::board::dvl_uart::{DvlUart, DVL_US_PER_BYTE};
 use firmware::board::health_pins::HealthUart;
-use firmware::board::{start_tether, tether_rx_pending, Tim2Clock, RX_LOST};
+use firmware::board::{sleep_unless, start_tether, tether_rx_pending, Tim2Clock, RX_LOST};
 use firmware::harness::uart::{wait_for, HarnessUart};
 use firmware::harness::{
     node_pass, CountingPort, HarnessDecoder, HarnessInputs, HostClock, NodeReport, NodeStep,
@@ -64,7 +67,8 @@ pub fn run() -> ! {
         halt()
     };
     let (tx, rx) = harness.split();
-    let mut harness = HarnessUart::new(rx, tx);
+    // The harness's receive ring is the onboard image's USART2 ring (its DVL's).
+    let mut harness = HarnessUart::new(DvlUart::start(rx), tx);
     let Ok(dvl) = dp
         .USART3
         .serial::<u8>((gpiob.pb10, gpiob.pb11), LINK_BAUD.bps(), &mut rcc)
@@ -109,7 +113,9 @@ pub fn run() -> ! {
     defmt::info!("node-emu ready: node link USART1, harness USART2");
     let mut decoder = HarnessDecoder::<NodeStep>::new();
     loop {
-        let step = harness.recv(&mut decoder);
+        let step = harness.recv(&mut decoder, |rx| {
+            sleep_unless(|| rx.read_ready().ok() == Some(true))
+        });
         let received = wait_for(step.link_rx_bytes, || {
             node.parts_mut()
                 .1

@@ -1,11 +1,14 @@
-//! The harness UART of an emulated board: polled both ways (the board has nothing else to
-//! do while it waits for the host's next step; QEMU's USART hands over the next byte only
-//! once the data register has been read, so polling loses none).
+//! The harness UART of an emulated board: the host's steps arrive through the USART's
+//! receive interrupt into a ring (`embedded-io`), and while none is waiting the board sleeps
+//! until an interrupt (the board's own `sleep` closure: a core halted in WFI costs QEMU's
+//! host nothing, where polling the data register kept a host core busy for the whole
+//! flight); the reports are sent polled.
 
 use super::{arrived, seal, HarnessDecoder};
 use crate::node_link::LinkFrame;
 use crate::protocol::MAX_FRAME_LEN;
-use embedded_hal_nb::serial::{Read, Write};
+use embedded_hal_nb::serial::Write;
+use embedded_io::{Read, ReadReady};
 use serde::de::DeserializeOwned;
 use serde::Serialize;
 
@@ -14,25 +17,35 @@ use serde::Serialize;
 /// the step, so they are normally there already.
 pub const WAIT_POLLS: u32 = 2_000_000;
 
-/// A polled harness UART.
+/// A harness UART: an interrupt-driven receive ring and a polled transmitter.
 pub struct HarnessUart<R, W> {
     rx: R,
     tx: W,
     seq: u16,
 }
 
-impl<R: Read<u8>, W: Write<u8>> HarnessUart<R, W> {
-    /// On a started USART's halves.
+impl<R: Read + ReadReady, W: Write<u8>> HarnessUart<R, W> {
+    /// On a started receive ring and a USART's transmitter.
     pub fn new(rx: R, tx: W) -> Self {
         Self { rx, tx, seq: 0 }
     }
 
     /// Wait for the next valid frame of `M`; anything else is skipped (and counted by the
-    /// decoder).
-    pub fn recv<M: DeserializeOwned>(&mut self, decoder: &mut HarnessDecoder<M>) -> M {
+    /// decoder). While the ring is empty, `sleep(rx)` is called: it must return at once if
+    /// `rx` has a byte, else when an interrupt has come.
+    pub fn recv<M: DeserializeOwned>(
+        &mut self,
+        decoder: &mut HarnessDecoder<M>,
+        mut sleep: impl FnMut(&mut R),
+    ) -> M {
         loop {
-            let Ok(b) = self.rx.read() else { continue };
-            if let Some(LinkFrame::Frame { msg, .. }) = decoder.push(b) {
+            let mut b = [0u8; 1];
+            // One byte at a time: the bytes after a frame's end are the next step's.
+            if self.rx.read_ready().ok() != Some(true) || self.rx.read(&mut b).ok() != Some(1) {
+                sleep(&mut self.rx);
+                continue;
+            }
+            if let Some(LinkFrame::Frame { msg, .. }) = decoder.push(b[0]) {
                 return msg;
             }
         }

@@ -52,6 +52,10 @@ pub struct HilOptions {
     pub apply_pulses: bool,
     /// The QEMU binary.
     pub qemu: String,
+    /// On QEMU: count instructions (`-icount`), so that the report's control iteration is
+    /// in instructions; otherwise the board runs on the host's clock, about a third faster
+    /// ([`crate::tether::qemu::QemuClock`]).
+    pub count_instructions: bool,
     /// Wall-clock limit of the whole run.
     pub wall_limit: Duration,
     /// Keep the per-step log (CSV, plots).
@@ -84,6 +88,7 @@ impl HilOptions {
             max_tries: 20,
             apply_pulses: true,
             qemu: "qemu-system-arm".into(),
+            count_instructions: false,
             wall_limit: Duration::from_secs(600),
             record: true,
             ram_dump: None,

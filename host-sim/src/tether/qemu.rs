@@ -13,6 +13,30 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Stdio};
 use std::time::{Duration, Instant};
 
+/// What the emulated board's clock counts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum QemuClock {
+    /// The host's clock. A lock-step image takes its time from the host's frames, so a
+    /// flight is the same either way; TIM2's ticks, and the firmware's loop figures read
+    /// from them, are then nanoseconds of emulation, not instructions.
+    Host,
+    /// `-icount shift=0,align=off,sleep=off`: one nanosecond of emulated time per guest
+    /// instruction, so TIM2 counts instructions and the firmware's loop figures are
+    /// instruction counts (`host-sim hil --count-instructions`, `scripts/mcu-cost.sh`).
+    /// QEMU's accounting costs a flight about a third of its wall time (docs/testing.md).
+    Instructions,
+}
+
+impl QemuClock {
+    /// QEMU's arguments for this clock.
+    fn args(self) -> &'static [&'static str] {
+        match self {
+            Self::Host => &[],
+            Self::Instructions => &["-icount", "shift=0,align=off,sleep=off"],
+        }
+    }
+}
+
 /// A QEMU child that is killed when dropped.
 pub struct QemuChild {
     child: Child,
@@ -36,8 +60,9 @@ impl QemuChild {
         port: u16,
         log: Option<&Path>,
         monitor: bool,
+        clock: QemuClock,
     ) -> Result<Self> {
-        Self::start_serials(qemu, elf, &[port], log, monitor)
+        Self::start_serials(qemu, elf, &[port], log, monitor, clock)
     }
 
     /// Start QEMU with `elf`, its serial ports (`-serial` 0, 1, ...: USART1, USART2, ... on
@@ -48,6 +73,7 @@ impl QemuChild {
         ports: &[u16],
         log: Option<&Path>,
         monitor: bool,
+        clock: QemuClock,
     ) -> Result<Self> {
         if !elf.is_file() {
             bail!("firmware image {} not found", elf.display());
@@ -73,7 +99,7 @@ impl QemuChild {
         cmd.args(["-M", "netduinoplus2", "-nographic", "-monitor"])
             .arg(monitor_arg)
             .args(["-semihosting-config", "enable=on,target=native"])
-            .args(["-icount", "shift=0,align=off,sleep=off"]);
+            .args(clock.args());
         for port in ports {
             cmd.arg("-serial")
                 .arg(format!("tcp:127.0.0.1:{port},nodelay=on"));
@@ -322,10 +348,11 @@ pub fn start_qemu_link(
     elf: &Path,
     log: Option<&Path>,
     monitor: bool,
+    clock: QemuClock,
 ) -> Result<(QemuChild, Box<dyn Port>)> {
     let listener = TcpListener::bind("127.0.0.1:0").context("cannot bind 127.0.0.1:0")?;
     let port = listener.local_addr()?.port();
-    let mut q = QemuChild::start(qemu, elf, port, log, monitor)?;
+    let mut q = QemuChild::start(qemu, elf, port, log, monitor, clock)?;
     let deadline = Instant::now() + Duration::from_secs(30);
     let stream = accept_from(&mut q, &listener, port, deadline)?;
     Ok((q, Box::new(tcp_port(stream)?)))
@@ -340,13 +367,14 @@ pub fn start_qemu_board(
     elf: &Path,
     log: Option<&Path>,
     monitor: bool,
+    clock: QemuClock,
 ) -> Result<(
     QemuChild,
     Box<dyn Port>,
     std::net::TcpStream,
     std::net::TcpStream,
 )> {
-    let (q, streams) = connected_serials(qemu, elf, 3, log, monitor)?;
+    let (q, streams) = connected_serials(qemu, elf, 3, log, monitor, clock)?;
     let mut it = streams.into_iter();
     match (it.next(), it.next(), it.next()) {
         (Some(tether), Some(dvl), Some(health)) => {
@@ -387,7 +415,8 @@ fn accept_from(
 /// Start QEMU with `elf` and `serials` serial ports (`-serial` 0.. in order: USART1,
 /// USART2, USART3 on `netduinoplus2`), each accepted on a port of 127.0.0.1 bound here
 /// first; every read on them times out after `read_timeout` (a hung emulator is an error,
-/// not a hang). The child is killed when the guard is dropped.
+/// not a hang). The board runs on the host's clock (no instruction counts are read from
+/// these images). The child is killed when the guard is dropped.
 pub fn start_qemu_serials(
     qemu: &str,
     elf: &Path,
@@ -395,7 +424,7 @@ pub fn start_qemu_serials(
     log: Option<&Path>,
     read_timeout: Duration,
 ) -> Result<(QemuChild, Vec<std::net::TcpStream>)> {
-    let (q, streams) = connected_serials(qemu, elf, serials, log, false)?;
+    let (q, streams) = connected_serials(qemu, elf, serials, log, false, QemuClock::Host)?;
     for stream in &streams {
         stream.set_nodelay(true)?;
         stream.set_read_timeout(Some(read_timeout))?;
@@ -411,6 +440,7 @@ fn connected_serials(
     count: usize,
     log: Option<&Path>,
     monitor: bool,
+    clock: QemuClock,
 ) -> Result<(QemuChild, Vec<std::net::TcpStream>)> {
     let listeners = (0..count)
         .map(|_| TcpListener::bind("127.0.0.1:0").context("cannot bind 127.0.0.1:0"))
@@ -419,7 +449,7 @@ fn connected_serials(
         .iter()
         .map(|l| Ok(l.local_addr()?.port()))
         .collect::<Result<Vec<_>>>()?;
-    let mut q = QemuChild::start_serials(qemu, elf, &ports, log, monitor)?;
+    let mut q = QemuChild::start_serials(qemu, elf, &ports, log, monitor, clock)?;
     let deadline = Instant::now() + Duration::from_secs(30);
     let mut streams = Vec::new();
     for (l, &port) in listeners.iter().zip(&ports) {
