@@ -85,6 +85,7 @@ const TESTS: &[(&str, fn(), bool)] = &tests![
     topside_clients::estimator::pymavlink_flies_a_mission_on_the_vehicles_own_estimator,
     topside_clients::estimator::the_surface_restarts_the_vehicles_estimator_mid_dive,
     served_layouts::the_topside_layout_served_in_process,
+    served_layouts::the_topside_layout_served_in_qemu,
     topside_gcs_mavsdk::mavsdk_connects_reads_parameters_flies_a_mission_goes_to_a_point_tests_a_motor_and_disarms,
     topside_clients::mavproxy_flies_a_mission_it_loads_from_a_file,
     topside_guided::a_restarted_surface_reads_guided_back_and_the_go_to_goes_on,
@@ -122,9 +123,6 @@ const TESTS: &[(&str, fn(), bool)] = &tests![
     topside_serial::a_serial_device_that_is_not_there_is_a_clear_error,
     topside_clients::probes::an_empty_datagram_and_garbage_do_not_end_the_topside,
     served_vehicle::refused_before_start_and_a_busy_port,
-    // The two images run well below real time on a loaded 2-core machine.
-    #[ignore]
-    served_layouts::the_topside_layout_served_in_qemu,
 ];
 
 /// How many tests run at once where neither `--test-threads` nor `RUST_TEST_THREADS` says.

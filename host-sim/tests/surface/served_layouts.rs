@@ -406,10 +406,12 @@ pub(crate) fn the_onboard_image_served_in_qemu() {
     check_held(&d, hold_s, 10.5);
 }
 
-/// The two images run well below real time on a loaded machine (10 s simulated in about
-/// 2 minutes on the shared 2-core machine, 0.01x while it was loaded further), so this flight
-/// is not in the default run (`cargo test -p host-sim --test surface -- --ignored`).
+/// The topside layout's two images served in real time: a hold, as in process. A long test
+/// (~22 s of wall, 29 CPU-s: two emulators and the plant).
 pub(crate) fn the_topside_layout_served_in_qemu() {
+    if !crate::long_test("served_layouts::the_topside_layout_served_in_qemu", 25) {
+        return;
+    }
     let Some(_) = layout_images_or_skip().unwrap() else {
         return;
     };
