@@ -88,15 +88,15 @@ fn image(package: &str, bin: &str, features: &[&str]) -> Option<PathBuf> {
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let mut cmd = Proc::new(cargo);
     cmd.current_dir(root())
-        .args(["build", "-q", "-p", package, "--release", "--bin", bin])
-        .args(["--target", TARGET, "--target-dir"])
+        .args(["build", "-q", "-p", package, "--bin", bin])
+        .args(["--profile", "hil", "--target", TARGET, "--target-dir"])
         .arg(&dir);
     if !features.is_empty() {
         cmd.args(["--features", &features.join(",")]);
     }
     let st = cmd.status().unwrap();
     assert!(st.success(), "building {package} --bin {bin} failed ({st})");
-    Some(dir.join(TARGET).join("release").join(bin))
+    Some(dir.join(TARGET).join("hil").join(bin))
 }
 
 /// QEMU with `serials` UARTs connected to sockets of this test; killed on drop.

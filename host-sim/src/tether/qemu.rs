@@ -252,8 +252,12 @@ fn target_missing(root: &Path) -> Option<String> {
     })
 }
 
+/// The cargo profile of the emulated images.
+pub const IMAGE_PROFILE: &str = "hil";
+
 /// Build `bin` of `package` (with `features`) from the workspace at `root` into
-/// `<target>/hil-firmware` (`target` = `CARGO_TARGET_DIR` or `root/target`); its path.
+/// `<target>/hil-firmware` (`target` = `CARGO_TARGET_DIR` or `root/target`) with the `hil`
+/// profile (the release profile without debug information: `Cargo.toml`); its path.
 fn build_image(root: &Path, package: &str, bin: &str, features: &[&str]) -> Result<PathBuf> {
     let target = std::env::var_os("CARGO_TARGET_DIR")
         .map(PathBuf::from)
@@ -266,8 +270,9 @@ fn build_image(root: &Path, package: &str, bin: &str, features: &[&str]) -> Resu
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let mut cmd = std::process::Command::new(cargo);
     cmd.current_dir(root)
-        .args(["build", "-q", "-p", package, "--release", "--bin", bin])
-        .args(["--target", FIRMWARE_TARGET, "--target-dir"])
+        .args(["build", "-q", "-p", package, "--bin", bin])
+        .args(["--profile", IMAGE_PROFILE, "--target", FIRMWARE_TARGET])
+        .arg("--target-dir")
         .arg(&dir);
     if !features.is_empty() {
         cmd.args(["--features", &features.join(",")]);
@@ -278,7 +283,7 @@ fn build_image(root: &Path, package: &str, bin: &str, features: &[&str]) -> Resu
     if !st.success() {
         bail!("building the {bin} image ({package}) failed ({st})");
     }
-    Ok(dir.join(FIRMWARE_TARGET).join("release").join(bin))
+    Ok(dir.join(FIRMWARE_TARGET).join(IMAGE_PROFILE).join(bin))
 }
 
 /// The two emulated images of the topside layout: `topside-emu` (crate
