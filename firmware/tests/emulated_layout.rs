@@ -118,7 +118,7 @@ fn start(elf: &Path, serials: usize) -> Board2 {
         .collect();
     // QEMU itself is the child, not `timeout`: killing it on drop must end it, or the
     // guest outlives the test. No `-icount`: these flights read no instruction counts, and
-    // QEMU's instruction accounting costs them about a third of their time.
+    // QEMU's instruction accounting slows them (docs/testing.md).
     let mut q = Proc::new("qemu-system-arm");
     q.args(["-M", "netduinoplus2", "-nographic"]).args([
         "-monitor",

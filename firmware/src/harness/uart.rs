@@ -1,8 +1,8 @@
 //! The harness UART of an emulated board: the host's steps arrive through the USART's
 //! receive interrupt into a ring (`embedded-io`), and while none is waiting the board sleeps
 //! until an interrupt (the board's own `sleep` closure: a core halted in WFI costs QEMU's
-//! host nothing, where polling the data register kept a host core busy for the whole
-//! flight); the reports are sent polled.
+//! host nothing, where polling the data register keeps a host core busy); the reports are
+//! sent polled.
 
 use super::{arrived, seal, HarnessDecoder};
 use crate::node_link::LinkFrame;

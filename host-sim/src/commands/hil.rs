@@ -173,8 +173,8 @@ pub struct HilArgs {
     #[arg(long, default_value = "qemu-system-arm")]
     pub qemu_bin: String,
     /// On QEMU: count instructions (`-icount shift=0`), so that the control iteration is
-    /// reported in instructions. Without it the board runs on the host's clock, about a
-    /// third faster, and the iteration is not reported.
+    /// reported in instructions. Without it the board runs on the host's clock, faster, and
+    /// the iteration is not reported.
     #[arg(long)]
     pub count_instructions: bool,
     /// With --qemu: save the emulated 128 KiB SRAM to FILE at the end (stack high-water).

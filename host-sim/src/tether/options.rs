@@ -53,7 +53,7 @@ pub struct HilOptions {
     /// The QEMU binary.
     pub qemu: String,
     /// On QEMU: count instructions (`-icount`), so that the report's control iteration is
-    /// in instructions; otherwise the board runs on the host's clock, about a third faster
+    /// in instructions; otherwise the board runs on the host's clock, faster
     /// ([`crate::tether::qemu::QemuClock`]).
     pub count_instructions: bool,
     /// Wall-clock limit of the whole run.

@@ -23,7 +23,7 @@ pub enum QemuClock {
     /// `-icount shift=0,align=off,sleep=off`: one nanosecond of emulated time per guest
     /// instruction, so TIM2 counts instructions and the firmware's loop figures are
     /// instruction counts (`host-sim hil --count-instructions`, `scripts/mcu-cost.sh`).
-    /// QEMU's accounting costs a flight about a third of its wall time (docs/testing.md).
+    /// QEMU's accounting slows a flight (docs/testing.md, "The emulated boards' cost").
     Instructions,
 }
 

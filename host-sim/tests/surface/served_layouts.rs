@@ -407,7 +407,7 @@ pub(crate) fn the_onboard_image_served_in_qemu() {
 }
 
 /// The topside layout's two images served in real time: a hold, as in process. A long test
-/// (~22 s of wall, 29 CPU-s: two emulators and the plant).
+/// (two emulators and the plant in real time; its time in docs/testing.md).
 pub(crate) fn the_topside_layout_served_in_qemu() {
     if !crate::long_test("served_layouts::the_topside_layout_served_in_qemu", 25) {
         return;
