@@ -526,7 +526,9 @@ where
 /// Sleep until an interrupt (WFI) unless `work_waiting()`. The check and the WFI share a
 /// critical section: an interrupt raised between them stays pending, ends the WFI at once,
 /// and its handler runs when the section ends. Under QEMU a halted core costs the host
-/// nothing, where a polling loop keeps a host core busy.
+/// nothing, where a polling loop keeps a host core busy. For the emulated images only,
+/// whose clock is the host's frames: a sleeping core does not feed the watchdog, and the
+/// real board's fixed-rate loop must poll its clock.
 pub fn sleep_unless(work_waiting: impl FnOnce() -> bool) {
     cortex_m::interrupt::free(|_| {
         if !work_waiting() {

@@ -225,3 +225,51 @@ fn no_loop_iteration_waits_on_a_115200_baud_port() {
         st.steps
     );
 }
+
+/// `App::replies_sent` (the emulated board sleeps only when it holds): false while a reply is
+/// queued or partly handed to a port that takes one byte at a time, true once the port has
+/// taken every byte, and then every frame on the line is whole.
+#[test]
+fn replies_are_sent_only_once_the_port_has_taken_their_last_byte() {
+    let clock = FakeClock::default();
+    let port = Port::default();
+    port.0.borrow_mut().clock = clock.clone();
+    let pwm = [
+        FakePwm::new(PWM_MAX_DUTY),
+        FakePwm::new(PWM_MAX_DUTY),
+        FakePwm::new(PWM_MAX_DUTY),
+    ];
+    let mut app = App::new(
+        pwm,
+        port.clone(),
+        clock.clone(),
+        controller(),
+        Config::fixed_rate(Board::Host),
+    )
+    .unwrap();
+    app.hello();
+    assert!(!app.replies_sent(), "the hello left in one write");
+    let mut ticks = 0;
+    while !app.replies_sent() {
+        ticks += 1;
+        assert!(ticks < 2_000, "replies still unsent after 100 ms");
+        clock.advance_us(50);
+        app.tick();
+    }
+    let mut d = FrameDecoder::<Reply>::new();
+    let tx = port.0.borrow().tx.clone();
+    let mut frames = 0;
+    let mut last_frame_end = 0;
+    for (i, &b) in tx.iter().enumerate() {
+        match d.push(b) {
+            Some(Decoded::Frame { .. }) => {
+                frames += 1;
+                last_frame_end = i + 1;
+            }
+            Some(other) => panic!("not a whole frame on the line: {other:?}"),
+            None => {}
+        }
+    }
+    assert!(frames >= 1, "no frame sent");
+    assert_eq!(last_frame_end, tx.len(), "a frame cut short on the line");
+}
