@@ -95,8 +95,8 @@ fn frame(session: u32, seq: u16, cmd: &Command) -> Vec<u8> {
     encode(session, seq, cmd, &mut out).unwrap().to_vec()
 }
 
-#[test]
-fn no_loop_iteration_waits_on_a_115200_baud_port() {
+/// The App in fixed-rate mode on a 115,200 Bd port, both timed by one fake clock.
+fn fixed_rate_app() -> (App<FakePwm, Port, FakeClock>, Port, FakeClock) {
     let clock = FakeClock::default();
     let port = Port::default();
     port.0.borrow_mut().clock = clock.clone();
@@ -105,7 +105,7 @@ fn no_loop_iteration_waits_on_a_115200_baud_port() {
         FakePwm::new(PWM_MAX_DUTY),
         FakePwm::new(PWM_MAX_DUTY),
     ];
-    let mut app = App::new(
+    let app = App::new(
         pwm,
         port.clone(),
         clock.clone(),
@@ -113,6 +113,12 @@ fn no_loop_iteration_waits_on_a_115200_baud_port() {
         Config::fixed_rate(Board::Host),
     )
     .unwrap();
+    (app, port, clock)
+}
+
+#[test]
+fn no_loop_iteration_waits_on_a_115200_baud_port() {
+    let (mut app, port, clock) = fixed_rate_app();
     app.hello();
     let tick_us = 50;
     // The session (protocol version 6), opened as the host's link does; its answer comes
@@ -231,22 +237,7 @@ fn no_loop_iteration_waits_on_a_115200_baud_port() {
 /// taken every byte, and then every frame on the line is whole.
 #[test]
 fn replies_are_sent_only_once_the_port_has_taken_their_last_byte() {
-    let clock = FakeClock::default();
-    let port = Port::default();
-    port.0.borrow_mut().clock = clock.clone();
-    let pwm = [
-        FakePwm::new(PWM_MAX_DUTY),
-        FakePwm::new(PWM_MAX_DUTY),
-        FakePwm::new(PWM_MAX_DUTY),
-    ];
-    let mut app = App::new(
-        pwm,
-        port.clone(),
-        clock.clone(),
-        controller(),
-        Config::fixed_rate(Board::Host),
-    )
-    .unwrap();
+    let (mut app, port, clock) = fixed_rate_app();
     app.hello();
     assert!(!app.replies_sent(), "the hello left in one write");
     let mut ticks = 0;
