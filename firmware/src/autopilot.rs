@@ -303,9 +303,19 @@ impl Autopilot {
         }
     }
 
-    /// A new surface session began (the App's handshake): its `Nav` time stamps start a
-    /// new order.
+    /// A new surface's session began (the App's handshake; a surface restarted, or another
+    /// one): its `Nav` time stamps start a new order, a motor test ends, and the pilot's
+    /// input of the session before no longer acts: thrust in a stick mode waits for the new
+    /// session's sticks, seen at centre first (the stick gate, as after an arming).
     pub fn new_session(&mut self) {
+        self.session_renewed();
+        self.manual = None;
+        self.sticks_seen_centred = false;
+    }
+
+    /// The surface in force renewed its session (its numbers near their end): its `Nav` time
+    /// stamps start a new order and a motor test ends; its pilot's input keeps acting.
+    pub fn session_renewed(&mut self) {
         self.nav_order_reset = true;
         self.motor_test = None;
     }

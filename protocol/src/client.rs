@@ -6,7 +6,10 @@
 //!   session, whose number every later frame carries.
 //! - **Rising sequence numbers**: [`Client::send`] numbers commands from 1 in each session
 //!   (the vehicle refuses a number not above the last one it took, `Replayed`); before they
-//!   would wrap, [`Client::needs_session`] says to open a new session.
+//!   would wrap, [`Client::needs_session`] says to renew the session ([`Client::renew`]:
+//!   `OpenSession` framed in the session in force, so the vehicle knows the same surface
+//!   and keeps what its pilot commands; an `OpenSession` in no session is a new surface, and
+//!   the pilot input of the session before stops acting).
 //! - **Acks matched**: an `Ack` or `Nack` naming a number sent in the session is reported as
 //!   that command's [`Answer::Command`]. Replies carry no session, so an answer to an earlier
 //!   session's frame with the same number cannot be told apart; opening a session forgets the
@@ -198,6 +201,11 @@ pub struct Client {
     session: u32,
     /// The `OpenSession` awaiting its answer: nonce and deadline.
     opening: Option<(u32, u64)>,
+    /// The sequence number that `OpenSession` was framed with (a refusal names it).
+    opening_seq: u16,
+    /// A renewal not answered yet: the session it renews and the number a retry is framed
+    /// with.
+    renewing: Option<(u32, u16)>,
     next_seq: u16,
     awaited: [Option<Awaited>; AWAITED],
     forgotten: u32,
@@ -217,6 +225,8 @@ impl Client {
             config,
             session: 0,
             opening: None,
+            opening_seq: OPEN_SEQ,
+            renewing: None,
             next_seq: OPEN_SEQ + 1,
             awaited: [None; AWAITED],
             forgotten: 0,
@@ -265,15 +275,49 @@ impl Client {
         self.forgotten
     }
 
-    /// Open a session (ending the one in force): the `OpenSession` frame with `nonce`, to
-    /// write; awaited until `now_us` plus the open time-out. Sequence numbers start again.
+    /// Open a session as a new surface (ending the one in force): the `OpenSession` frame
+    /// with `nonce`, in no session, to write; awaited until `now_us` plus the open time-out.
+    /// Sequence numbers start again. To the vehicle this is a new surface: the pilot input
+    /// of the session before stops acting ([`renew`](Self::renew) continues a session).
     pub fn open(&mut self, nonce: u32, now_us: u64) -> Result<Frame, EncodeError> {
-        let frame = Frame::encode(0, OPEN_SEQ, &Command::OpenSession { nonce })?;
+        self.renewing = None;
+        self.open_framed(0, OPEN_SEQ, nonce, now_us)
+    }
+
+    /// Renew the session in force (its numbers near their end): `OpenSession` framed in it
+    /// with the next number, which only this surface can frame, so the vehicle takes it as
+    /// the same surface and its pilot's input keeps acting. A retry of a renewal not
+    /// answered is framed in the session it renews with a number above the last one; with
+    /// no session to renew this is [`open`](Self::open).
+    pub fn renew(&mut self, nonce: u32, now_us: u64) -> Result<Frame, EncodeError> {
+        let renewed = match (self.session, self.renewing) {
+            (0, Some(r)) => Some(r),
+            (0, None) => None,
+            (session, _) => Some((session, self.next_seq)),
+        };
+        match renewed {
+            Some((session, seq)) if seq < u16::MAX => {
+                self.renewing = Some((session, seq + 1));
+                self.open_framed(session, seq, nonce, now_us)
+            }
+            _ => self.open(nonce, now_us),
+        }
+    }
+
+    fn open_framed(
+        &mut self,
+        session: u32,
+        seq: u16,
+        nonce: u32,
+        now_us: u64,
+    ) -> Result<Frame, EncodeError> {
+        let frame = Frame::encode(session, seq, &Command::OpenSession { nonce })?;
         self.session = 0;
         self.next_seq = OPEN_SEQ + 1;
         self.awaited = [None; AWAITED];
         let deadline = now_us.saturating_add(self.config.open_timeout_us);
         self.opening = Some((nonce, deadline));
+        self.opening_seq = seq;
         Ok(frame)
     }
 
@@ -353,15 +397,13 @@ impl Client {
             Reply::Session { nonce, session } => match self.opening {
                 Some((n, _)) if n == nonce && session != 0 => {
                     self.opening = None;
+                    self.renewing = None;
                     self.session = session;
                     Some(Answer::Session { session })
                 }
                 _ => None,
             },
-            Reply::Nack {
-                seq: OPEN_SEQ,
-                reason,
-            } if self.opening.is_some() => {
+            Reply::Nack { seq, reason } if self.opening.is_some() && seq == self.opening_seq => {
                 self.opening = None;
                 Some(Answer::SessionRefused(reason))
             }

@@ -142,7 +142,10 @@ impl Link {
 
     /// Open a new session with the vehicle (protocol version 6): `OpenSession` with a random
     /// nonce, answered by `Reply::Session`; sent up to 3 times, 2 s each. The sequence
-    /// numbers start again. Other replies that arrive meanwhile are kept for `recv`.
+    /// numbers start again. Other replies that arrive meanwhile are kept for `recv`. With a
+    /// session in force (its numbers used up, or the vehicle refusing it) the `OpenSession`
+    /// is framed in it ([`Client::renew`]): a vehicle that still holds that session keeps
+    /// what this surface's pilot commands; to any other it is a new surface.
     pub fn open_session(&mut self) -> Result<u32> {
         let nonce: u32 = rand::random();
         let mut kept = Vec::new();
@@ -150,7 +153,7 @@ impl Link {
         for _ in 0..OPEN_TRIES {
             let frame = self
                 .client
-                .open(nonce, self.now_us())
+                .renew(nonce, self.now_us())
                 .map_err(|e| anyhow!("encode: {e}"))?;
             self.write_frame(frame.bytes())?;
             // The client's time-out ends the wait; the deadline is a backstop.

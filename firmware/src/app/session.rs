@@ -22,9 +22,16 @@ where
     /// frame must carry the session in force and a sequence number above the last one
     /// taken in it (the surface opens a new session before its numbers wrap), or it is
     /// refused and counted, and changes nothing.
+    ///
+    /// An `OpenSession` framed in the session in force with a number above the last one
+    /// taken renews that session: only the surface in force can frame it, so what its pilot
+    /// commands keeps acting. Any other `OpenSession` is a new surface (or a restarted one):
+    /// nothing its predecessor's pilot commanded acts in the new session
+    /// ([`Autopilot::new_session`](crate::autopilot::Autopilot::new_session)).
     pub(super) fn on_frame(&mut self, seq: u16, session: u32, cmd: &Command) {
         if let Command::OpenSession { nonce } = *cmd {
-            return self.open_session(seq, nonce);
+            let renewal = session != 0 && session == self.session && seq > self.last_seq;
+            return self.open_session(seq, nonce, renewal);
         }
         if session == 0 || session != self.session {
             self.link.no_session = self.link.no_session.wrapping_add(1);
@@ -40,8 +47,9 @@ where
 
     /// Open a session: a number never 0 and not the previous one's, mixed from the surface's
     /// nonce and a count of the sessions (so a recording of an earlier session does not
-    /// match a later one); the `OpenSession`'s own number starts the sequence.
-    pub(super) fn open_session(&mut self, seq: u16, nonce: u32) {
+    /// match a later one); the `OpenSession`'s own number starts the sequence of a new
+    /// surface's session, a renewal's numbers start again from 1.
+    pub(super) fn open_session(&mut self, seq: u16, nonce: u32, renewal: bool) {
         self.sessions_opened = self.sessions_opened.wrapping_add(1);
         // 14 bits: a two-byte varint in every envelope (a full u32 is five, and each byte
         // costs every frame's decoding).
@@ -50,9 +58,13 @@ where
             id = (id.wrapping_add(0x2F1B) & SESSION_MASK) | 1;
         }
         self.session = id;
-        self.last_seq = seq;
+        self.last_seq = if renewal { 0 } else { seq };
         self.stamps = [Stamp::default(); 3];
-        self.autopilot.new_session();
+        if renewal {
+            self.autopilot.session_renewed();
+        } else {
+            self.autopilot.new_session();
+        }
         self.send(&Reply::Session { nonce, session: id });
     }
 

@@ -14,8 +14,11 @@
 //! App counts it; a refusal of it, under a number the bridge did not give, is not sent back:
 //! the surface's own time-out handles it). Answers to the vehicle's own inputs are not sent
 //! to the surface. The bridge opens a session of its own at boot (before a surface opens
-//! one) and a new one under the surface's before the numbers would wrap; the surface keeps
-//! the session number it was given.
+//! one) and renews the App's session before the numbers would wrap (framed in it, as the
+//! surface in force renews: the pilot's input keeps acting); the surface keeps the session
+//! number it was given. A surface's renewal (its `OpenSession` framed in its session in
+//! force) reaches the App framed in the App's session; any other surface `OpenSession` is a
+//! new surface's to the App too.
 //!
 //! Before a lock-step image (the firmware in QEMU, whose clock is the time stamps it is
 //! given) the bridge also stands in for a board's own clock: a surface `Heartbeat` reaches
@@ -25,6 +28,7 @@
 //! ([`TetherBridge::set_telemetry_period`]).
 
 use anyhow::{anyhow, Result};
+use controller_core::state::NavState;
 use firmware::protocol::{
     decode_frame, encode, Command, Decoded, NackReason, Reply, MAX_FRAME_LEN,
 };
@@ -103,6 +107,9 @@ pub struct TetherBridge {
     /// time stamp of the latest one passed.
     telemetry_period_us: Option<u64>,
     last_telemetry_us: Option<u64>,
+    /// The latest `Telemetry` passed to the surface: its time stamp (us) and the navigation
+    /// state it carried (what a ground station shows of it).
+    shown: Option<(u64, NavState)>,
 }
 
 impl TetherBridge {
@@ -143,6 +150,12 @@ impl TetherBridge {
         self.telemetry_period_us = Some(period_us);
     }
 
+    /// The latest `Telemetry` passed to the surface: its time stamp (us) and the navigation
+    /// state it carried.
+    pub fn shown(&self) -> Option<(u64, NavState)> {
+        self.shown
+    }
+
     /// Whether the bridge's own session is being opened (its answer not read yet).
     pub fn opening(&self) -> bool {
         self.opening.is_some()
@@ -178,15 +191,19 @@ impl TetherBridge {
             }
             _ => msg,
         };
+        let in_force = session != 0 && session == self.surface_session;
         if let Command::OpenSession { .. } = msg {
+            // The surface in force renewing its session frames it in that session with a
+            // rising number: a renewal of the App's session too (the pilot's input stays).
+            // Any other is a new surface's, passed in the session it names.
+            let renewal = in_force && self.surface_last.is_none_or(|l| seq > l);
             // The App numbers the new session from this frame's number on.
             self.surface_last = Some(seq);
             self.opening = None;
             let n = self.take_seq();
             self.surface_opening = Some((n, seq));
-            return frame(session, n, msg);
+            return frame(if renewal { self.app_session } else { session }, n, msg);
         }
-        let in_force = session != 0 && session == self.surface_session;
         if in_force && self.surface_last.is_some_and(|l| seq <= l) {
             self.replays.push_back(seq);
             if self.replays.len() > MAX_PENDING {
@@ -226,14 +243,16 @@ impl TetherBridge {
         if (renew || none) && self.opening.is_none() {
             let nonce: u32 = rand::random();
             self.opening = Some(nonce);
+            // A renewal is framed in the App's session with a rising number, so the App
+            // keeps the surface's pilot input; the new session's numbers start from 1.
+            let n = self.take_seq();
+            out.push(0);
+            out.extend(frame(self.app_session, n, &Command::OpenSession { nonce })?);
             if renew {
                 self.next_seq = 1;
                 self.to_surface.clear();
                 self.replays.clear();
             }
-            let n = self.take_seq();
-            out.push(0);
-            out.extend(frame(0, n, &Command::OpenSession { nonce })?);
         }
         self.held.extend_from_slice(cmds);
         if self.held.len() > MAX_HELD {
@@ -335,11 +354,11 @@ impl TetherBridge {
             },
             Reply::Telemetry(t) => match self.telemetry_period_us {
                 Some(p) if self.last_telemetry_us.is_some_and(|l| t.t_us < l + p) => Answer::Drop,
-                Some(_) => {
+                _ => {
                     self.last_telemetry_us = Some(t.t_us);
+                    self.shown = Some((t.t_us, t.nav));
                     Answer::Pass
                 }
-                None => Answer::Pass,
             },
             _ => Answer::Pass,
         }

@@ -14,6 +14,10 @@ pub struct Believed {
     pub armed: bool,
     /// Its mode's name (`Idle`, `Hold`, `Track`, ...).
     pub mode: String,
+    /// The latest `Telemetry` it sent the surface: its time stamp (us) and the navigation
+    /// state it carried, which a ground station shows (a fix fused later in the same tick
+    /// moves `nav` but not this).
+    pub shown: Option<(u64, NavState)>,
 }
 
 impl Believed {

@@ -298,6 +298,7 @@ impl ServedEndpoint for ServedImage {
             nav: self.latest.nav,
             armed: self.latest.armed,
             mode: Believed::mode_name(&self.latest.mode),
+            shown: self.bridge.shown(),
         }
     }
 

@@ -131,12 +131,14 @@ impl ServedEndpoint for ServedLayout {
 
     /// In process, the topside App's own state; emulated, its latest telemetry.
     fn believed(&self) -> Believed {
+        let shown = self.pc.borrow().bridge.shown();
         if let Some(app) = self.layout.app() {
             let ap = app.autopilot();
             return Believed {
                 nav: ap.nav_state(),
                 armed: ap.armed(),
                 mode: Believed::mode_name(&ap.mode()),
+                shown,
             };
         }
         self.layout
@@ -145,6 +147,7 @@ impl ServedEndpoint for ServedLayout {
                 nav: t.nav,
                 armed: t.armed,
                 mode: Believed::mode_name(&t.mode),
+                shown,
             })
             .unwrap_or_default()
     }

@@ -28,7 +28,7 @@ use std::time::{Duration, Instant};
 
 /// The columns of the truth log, one row per control period.
 pub const TRUTH_HEADER: &str = "t_s,wall_s,x_m,y_m,z_m,roll_rad,pitch_rad,yaw_rad,\
-nav_x_m,nav_y_m,nav_z_m,nav_yaw_rad,armed,mode,surface";
+nav_x_m,nav_y_m,nav_z_m,nav_yaw_rad,armed,mode,surface,shown_t_s,shown_x_m,shown_y_m,shown_z_m";
 
 /// The lag is noted on stderr at most this often while the machine cannot keep up.
 const LAG_NOTE_EVERY: Duration = Duration::from_secs(10);
@@ -293,7 +293,8 @@ fn write_surface(s: &mut Surface) -> bool {
     s.unsent.len() <= MAX_UNSENT
 }
 
-/// One row of the truth log: the true state after the tick, what the vehicle believes.
+/// One row of the truth log: the true state after the tick, what the vehicle believes, the
+/// position its latest telemetry frame to the surface carried.
 fn truth_row<E: ServedEndpoint>(
     w: &mut impl Write,
     run: &ClosedLoop<Box<dyn Navigation>, E>,
@@ -304,9 +305,19 @@ fn truth_row<E: ServedEndpoint>(
     let x = &s.state.eta;
     let b = run.endpoint().believed();
     let (n, mode) = (&b.nav, &b.mode);
+    // The latest telemetry frame sent to the surface (empty before the first).
+    let shown = b.shown.map_or(",,,".to_string(), |(t_us, s)| {
+        format!(
+            "{:.3},{:.4},{:.4},{:.4}",
+            t_us as f64 * 1e-6,
+            s.x_m,
+            s.y_m,
+            s.z_m
+        )
+    });
     writeln!(
         w,
-        "{:.3},{:.3},{:.4},{:.4},{:.4},{:.5},{:.5},{:.5},{:.4},{:.4},{:.4},{:.5},{},{mode},{}",
+        "{:.3},{:.3},{:.4},{:.4},{:.4},{:.5},{:.5},{:.5},{:.4},{:.4},{:.4},{:.5},{},{mode},{},{shown}",
         s.t_s,
         wall0.elapsed().as_secs_f64(),
         x[0],

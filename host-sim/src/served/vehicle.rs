@@ -361,6 +361,7 @@ impl ServedEndpoint for ServedVehicle {
             nav: ap.nav_state(),
             armed: ap.armed(),
             mode: Believed::mode_name(&ap.mode()),
+            shown: self.bridge.shown(),
         }
     }
 

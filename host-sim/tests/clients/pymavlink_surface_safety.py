@@ -359,7 +359,12 @@ def check_resume(port, kp):
     t_param = time.time() - t0
     expect(got is not None and abs(got - kp) < 1e-6, f"TRK_XY_KP {got} restored ({t_param:.2f} s)")
     seen, _ = pulses(m, 0.5)
-    expect(seen and not any(away(p) for p in seen), "no thrust before a command asks")
+    thrusting = [p for p in seen if away(p)]
+    expect(seen and not thrusting,
+           f"no thrust before a command asks ({len(seen)} SERVO_OUTPUT_RAW in 0.5 s, "
+           f"{len(thrusting)} away from neutral"
+           + (f": {[(p.servo1_raw, p.servo2_raw, p.servo3_raw) for p in thrusting[:3]]})"
+              if thrusting else ")"))
     expect(accepted(set_mode(m, MANUAL)), "MANUAL accepted")
     s = Sticks(m)
     try:

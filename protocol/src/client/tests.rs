@@ -289,3 +289,80 @@ fn a_broken_frame_is_reported_and_the_next_one_is_read() {
         }]
     );
 }
+
+#[test]
+fn a_renewal_is_framed_in_the_session_it_renews_and_its_retry_with_a_higher_number() {
+    let mut c = opened();
+    for _ in 0..3 {
+        c.send(&Command::Arm, 0).unwrap();
+    }
+    let next = c.next_seq();
+    let renew = c.renew(NONCE + 1, 0).unwrap();
+    assert_eq!(
+        read(&renew),
+        (SESSION, next, Command::OpenSession { nonce: NONCE + 1 })
+    );
+    assert!(c.is_opening());
+    assert_eq!(c.send(&Command::Arm, 0).unwrap_err(), SendError::NoSession);
+    // Not answered in time: the retry is in the same session, with a number above.
+    assert_eq!(
+        c.poll(c.config().open_timeout_us),
+        Some(Event::OpenTimedOut { nonce: NONCE + 1 })
+    );
+    let retry = c.renew(NONCE + 2, 0).unwrap();
+    assert_eq!(
+        read(&retry),
+        (SESSION, next + 1, Command::OpenSession { nonce: NONCE + 2 })
+    );
+    // A refusal names the renewal's number.
+    let ev = feed(
+        &mut c,
+        &reply(
+            4,
+            &Reply::Nack {
+                seq: next + 1,
+                reason: NackReason::UnsupportedVersion,
+            },
+        ),
+    );
+    assert_eq!(
+        answers(&ev),
+        [Answer::SessionRefused(NackReason::UnsupportedVersion)]
+    );
+    // Answered: the new session's numbers start from 1; a later renewal is framed in it.
+    c.renew(NONCE + 3, 0).unwrap();
+    feed(
+        &mut c,
+        &reply(
+            5,
+            &Reply::Session {
+                nonce: NONCE + 3,
+                session: SESSION + 1,
+            },
+        ),
+    );
+    assert_eq!(c.session(), SESSION + 1);
+    assert_eq!(c.send(&Command::Arm, 0).unwrap().seq, 1);
+    let again = c.renew(NONCE + 4, 0).unwrap();
+    assert_eq!(read(&again).0, SESSION + 1);
+    assert_eq!(read(&again).1, 2);
+}
+
+#[test]
+fn with_no_session_a_renewal_is_a_fresh_open_and_open_is_always_one() {
+    let mut c = Client::default();
+    let first = c.renew(NONCE, 0).unwrap();
+    assert_eq!(read(&first), (0, 0, Command::OpenSession { nonce: NONCE }));
+    let mut c = opened();
+    let fresh = c.open(NONCE + 1, 0).unwrap();
+    assert_eq!(
+        read(&fresh),
+        (0, 0, Command::OpenSession { nonce: NONCE + 1 })
+    );
+    // A fresh open not answered: a retry through `renew` is a fresh open too.
+    let retry = c.renew(NONCE + 2, 0).unwrap();
+    assert_eq!(
+        read(&retry),
+        (0, 0, Command::OpenSession { nonce: NONCE + 2 })
+    );
+}

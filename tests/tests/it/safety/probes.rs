@@ -196,6 +196,87 @@ fn a_session_is_needed_and_a_restarted_topside_is_welcome_at_once() {
     assert!(a.autopilot().armed());
 }
 
+/// A surface restarted mid-dive with the pilot's stick held (probe: the stick of the killed
+/// surface still at 1743 us on the first `SERVO_OUTPUT_RAW` after the restart): the new
+/// surface's `OpenSession` ends the old pilot input at once, and the new session's own held
+/// stick gives no thrust until it is seen at centre. The surface in force renewing its
+/// session (framed in it) is not a new surface: its stick keeps acting through the renewal.
+#[test]
+fn a_new_surface_ends_the_old_pilots_stick_and_a_renewal_keeps_it() {
+    let (mut a, c, mut t) = fixed();
+    t.send(&mut a, &Command::SetMode(Mode::Manual));
+    arm(&mut a, &c, &mut t);
+    let ahead = Command::ManualThrust(ManualThrust {
+        surge: 0.8,
+        ..ManualThrust::default()
+    });
+    let centred = Command::ManualThrust(ManualThrust::default());
+    let period = |a: &mut TestApp, t: &mut Topside, sticks: &Command| {
+        c.advance_us(20_000);
+        t.send(a, &Command::Heartbeat { t_us: 0 });
+        t.send(a, sticks);
+    };
+    period(&mut a, &mut t, &centred);
+    period(&mut a, &mut t, &ahead);
+    period(&mut a, &mut t, &ahead);
+    let flying = pulses_us(&mut a);
+    assert!(flying[0] > 1600.0 && flying[1] > 1600.0, "{flying:?}");
+
+    // The surface in force renews its session: the stick acts in every period through it.
+    let f = t.client.renew(0x5EED_AAAA, 0).unwrap();
+    a.on_bytes(f.bytes());
+    let r = t.replies(&mut a);
+    assert!(
+        r.iter().any(|r| matches!(
+            r,
+            Reply::Session {
+                nonce: 0x5EED_AAAA,
+                ..
+            }
+        )),
+        "{r:?}"
+    );
+    assert_ne!(t.session(), 0);
+    for _ in 0..5 {
+        period(&mut a, &mut t, &ahead);
+        assert_eq!(pulses_us(&mut a), flying, "the renewal changed the thrust");
+    }
+
+    // The surface is killed and another starts within the stale-stick time: neutral from
+    // the step after its `OpenSession`, before it sends any stick.
+    let mut new = Topside {
+        opened: 9,
+        ..Topside::default()
+    };
+    new.open(&mut a);
+    c.advance_us(20_000);
+    new.send(&mut a, &Command::Heartbeat { t_us: 0 });
+    assert_eq!(
+        pulses_us(&mut a),
+        [1500.0; 3],
+        "the old surface's stick acts"
+    );
+    assert!(a.autopilot().armed(), "the vehicle dives on, armed");
+    // The new surface's pilot holds the stick: still neutral, until it is seen centred.
+    for _ in 0..10 {
+        period(&mut a, &mut new, &ahead);
+        assert_eq!(
+            pulses_us(&mut a),
+            [1500.0; 3],
+            "a held stick of the new session"
+        );
+    }
+    // (Each period's step flies the stick of the period before.)
+    period(&mut a, &mut new, &centred);
+    period(&mut a, &mut new, &ahead);
+    period(&mut a, &mut new, &ahead);
+    assert_eq!(
+        pulses_us(&mut a),
+        flying,
+        "the new pilot's stick after centre"
+    );
+}
+
 /// The probe "one Nav stamped an hour ahead locks out 10 s": refused `ClockAhead`, and the
 /// next good one is taken (fixed-rate, the vehicle's own clock).
 #[test]
