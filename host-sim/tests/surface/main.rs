@@ -141,11 +141,18 @@ fn main() -> std::process::ExitCode {
             None => DEFAULT_TEST_THREADS,
         });
     }
+    // `ROV_TEST_TIMES` set: each test's wall time on stderr when it ends (libtest's
+    // `--report-time` is unstable and this harness has none).
+    let report_times = std::env::var_os("ROV_TEST_TIMES").is_some();
     let trials = TESTS
         .iter()
         .map(|&(name, test, ignored)| {
             Trial::test(name, move || {
+                let t0 = std::time::Instant::now();
                 test();
+                if report_times {
+                    eprintln!("TIME {name} {:.1} s", t0.elapsed().as_secs_f64());
+                }
                 Ok(())
             })
             .with_ignored_flag(ignored)
