@@ -20,6 +20,8 @@ mav = mavutil.mavlink
 POSHOLD = 16
 IDENT = 31011  # MAV_CMD_USER_2
 TEXTS = []
+# The vehicle's clock in the latest message that carries it (`time_boot_ms`, s).
+VEHICLE_S = [None]
 
 
 def pump(m, seconds, until=None, x=0):
@@ -31,6 +33,8 @@ def pump(m, seconds, until=None, x=0):
         stop = time.time() + 0.05
         while time.time() < stop:
             msg = m.recv_match(blocking=True, timeout=0.01)
+            if msg is not None and getattr(msg, "time_boot_ms", None) is not None:
+                VEHICLE_S[0] = msg.time_boot_ms / 1e3
             if msg is not None and msg.get_type() == "STATUSTEXT":
                 TEXTS.append(msg.text)
                 print(f"TEXT: {msg.text}", flush=True)
@@ -44,13 +48,15 @@ def command(m, cmd, *params):
     m.mav.command_long_send(m.target_system, m.target_component, cmd, 0, *p)
     end = time.time() + 10
     while time.time() < end:
-        a = m.recv_match(type=["COMMAND_ACK", "STATUSTEXT"], blocking=True, timeout=0.5)
+        a = m.recv_match(blocking=True, timeout=0.5)
         if a is None:
             continue
+        if getattr(a, "time_boot_ms", None) is not None:
+            VEHICLE_S[0] = a.time_boot_ms / 1e3
         if a.get_type() == "STATUSTEXT":
             TEXTS.append(a.text)
             print(f"TEXT: {a.text}", flush=True)
-        elif a.command == cmd:
+        elif a.get_type() == "COMMAND_ACK" and a.command == cmd:
             return a
     return None
 
@@ -62,6 +68,15 @@ def refused(m, params, pattern, what):
     said = " ".join(TEXTS[k:])
     expect(a is not None and a.result == mav.MAV_RESULT_DENIED and re.search(pattern, said),
            f"{what}: DENIED, said /{pattern}/")
+
+
+def on_the_vehicles_clock(progress, started_s):
+    """The progress line's seconds are the vehicle's (the served vehicle runs faster than
+    the wall clock): within 2 s of its clock since the start."""
+    said_s = float(re.search(r"(\d+) of 160 s", progress).group(1))
+    flown_s = VEHICLE_S[0] - started_s
+    expect(abs(flown_s - said_s) <= 2.0,
+           f"'{said_s:.0f} of 160 s' said at {flown_s:.1f} s of the vehicle's clock")
 
 
 def main():
@@ -84,13 +99,16 @@ def main():
     a = command(m, IDENT, 0, 0)
     expect(a is not None and a.result == mav.MAV_RESULT_ACCEPTED,
            "identification accepted (the default room: 30 m, 6 m up or down)")
+    started_s = VEHICLE_S[0]
     progress = pump(m, 120, r"^Identification: \d+ of 160 s")
     expect(progress is not None, f"its progress said ({progress})")
+    on_the_vehicles_clock(progress, started_s)
     if quick:
         # The quick run: the manoeuvre's first 40 s (its second progress line), then a stick
         # stops it.
         progress = pump(m, 120, r"^Identification: \d+ of 160 s")
         expect(progress is not None, f"its progress said again ({progress})")
+        on_the_vehicles_clock(progress, started_s)
         print("MARK: end", flush=True)
         stop = pump(m, 10, r"^Identification stopped", x=600)
         expect(stop is not None and "a stick off" in stop, f"a stick stops it ({stop})")

@@ -75,7 +75,6 @@ fn long_test(path: &str, wall_s: u32) -> bool {
 /// first (their wall times on 2 cores, quick and `ROV_LONG` runs: docs/testing.md), so that
 /// the last ones end together rather than one long flight after the rest.
 const TESTS: &[(&str, fn(), bool)] = &tests![
-    topside_gcs_ident::the_identification_manoeuvre_runs_from_a_ground_station_and_is_refused_in_words,
     topside_gcs::mavproxy_flies_local_and_global_missions_and_its_guided_and_position_commands,
     topside_layout::a_ground_station_flies_the_topside_layout_to_a_guided_target,
     served_navigation::the_lawnmower_survey_with_the_dvl_and_usbl_on_their_wires_matches_software,
@@ -89,6 +88,7 @@ const TESTS: &[(&str, fn(), bool)] = &tests![
     topside_gcs_mavsdk::mavsdk_connects_reads_parameters_flies_a_mission_goes_to_a_point_tests_a_motor_and_disarms,
     topside_clients::mavproxy_flies_a_mission_it_loads_from_a_file,
     topside_guided::a_restarted_surface_reads_guided_back_and_the_go_to_goes_on,
+    topside_gcs_ident::the_identification_manoeuvre_runs_from_a_ground_station_and_is_refused_in_words,
     topside_clients::pymavlink_flies_the_simulated_vehicle_and_reads_the_tlog,
     topside_gcs_params::the_ground_station_failsafe_warns_disarms_and_holds_depth_when_its_heartbeat_stops,
     topside_clients::pymavlink_uploads_a_mission_and_flies_it_in_auto,

@@ -37,6 +37,13 @@ const STOPPING_FAULTS: u16 = fault::HEARTBEAT_LOST
     | fault::SENSOR_LOST
     | fault::MANUAL_STALE;
 
+/// The vehicle's clock in its latest telemetry (s): the manoeuvre's schedule runs on it, so
+/// the surface follows it at the vehicle's pace (a simulated vehicle may run faster than
+/// the wall clock).
+fn vehicle_time_s(tel: &protocol::Telemetry) -> f64 {
+    tel.t_us as f64 * 1e-6
+}
+
 /// param1 / param2 as the room, or why they are refused.
 pub fn room_of(param1: f32, param2: f32) -> Result<(f32, f32), String> {
     let pick = |v: f32, default: f32| if v == 0.0 { default } else { v };
@@ -73,12 +80,13 @@ impl Topside {
             depth_band_m,
         })? {
             Ok(()) => {
+                let now_s = vehicle_time_s(&self.v.tel);
                 self.ident = Some(IdentRun {
-                    started_s: self.v.t_s,
+                    started_s: now_s,
                     start_m: [s.x_m, s.y_m, s.z_m],
                     radius_m,
                     depth_band_m,
-                    next_report_s: self.v.t_s + PROGRESS_EVERY_S,
+                    next_report_s: now_s + PROGRESS_EVERY_S,
                 });
                 let text = format!(
                     "Identification started: {IDENT_DURATION_S:.0} s of force steps within {radius_m} m and {depth_band_m} m up or down of the start; a stick, a mode change or leaving the room stops it"
@@ -104,7 +112,8 @@ impl Topside {
         };
         let tel = self.v.tel;
         let s = self.v.state;
-        let elapsed = self.v.t_s - run.started_s;
+        let now_s = vehicle_time_s(&tel);
+        let elapsed = now_s - run.started_s;
         let off_m = (s.x_m - run.start_m[0]).hypot(s.y_m - run.start_m[1]);
         let stick = self.manual_at.is_some() && !super::sticks::sticks_centred(&self.manual);
         let stopped = if !tel.armed || tel.mode != Mode::Hold {
@@ -151,7 +160,7 @@ impl Topside {
             );
             return self.gcs.text(info, &text);
         }
-        if self.v.t_s >= run.next_report_s {
+        if now_s >= run.next_report_s {
             run.next_report_s += PROGRESS_EVERY_S;
             self.ident = Some(run);
             let text = format!(

@@ -1,6 +1,7 @@
 //! The identification manoeuvre flying, as the surface follows it.
 
-/// A manoeuvre flying: when it started, where, its room, the next progress report.
+/// A manoeuvre flying: when it started, where, its room, the next progress report (times
+/// on the vehicle's clock, s).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct IdentRun {
     pub(super) started_s: f64,
