@@ -153,7 +153,8 @@ impl Topside {
         let Some([x, y, z]) = self.guided_target else {
             return Ok(());
         };
-        let time_boot_ms = (self.v.t_s * 1e3) as u32;
+        // The vehicle's own clock, as on every other message the surface streams.
+        let time_boot_ms = (self.v.tel.t_us / 1000) as u32;
         self.gcs.send(MavMessage::POSITION_TARGET_LOCAL_NED(
             POSITION_TARGET_LOCAL_NED_DATA {
                 time_boot_ms,
