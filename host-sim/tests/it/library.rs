@@ -395,6 +395,10 @@ mod bridge {
             panic!("no session: {r:?}");
         };
         s.session = session;
+        // The pilot's sticks seen at centre: the stick gate open.
+        let (_, f) = s.frame(&Command::ManualThrust(Default::default()));
+        exchange(&mut app, &mut b, &f, &[]);
+        assert!(app.app().autopilot().sticks_seen_centred());
         // Far more vehicle inputs than one session's numbers.
         for k in 0..70_000u64 {
             exchange(&mut app, &mut b, &[], &[nav(k * 10)]);
@@ -407,6 +411,23 @@ mod bridge {
             "{r:?}"
         );
         assert_eq!((b.own_refused, b.own_refused_why), (0, None));
+        // The bridge's renewals are the same surface to the App: the gate stays open.
+        assert!(app.app().autopilot().sticks_seen_centred());
+        // The surface renews its own session (framed in it): the same surface still.
+        let (_, f) = s.frame(&Command::OpenSession { nonce: 6 });
+        let r = exchange(&mut app, &mut b, &f, &[]);
+        assert!(r
+            .iter()
+            .any(|(_, m)| matches!(m, Reply::Session { nonce: 6, .. })));
+        assert!(app.app().autopilot().sticks_seen_centred());
+        // Another surface (its `OpenSession` in no session): the gate closes.
+        let mut other = Surface { session: 0, seq: 0 };
+        let (_, f) = other.frame(&Command::OpenSession { nonce: 7 });
+        let r = exchange(&mut app, &mut b, &f, &[]);
+        assert!(r
+            .iter()
+            .any(|(_, m)| matches!(m, Reply::Session { nonce: 7, .. })));
+        assert!(!app.app().autopilot().sticks_seen_centred());
     }
 
     /// A new surface (a new session) after the first: its numbers start again, the
