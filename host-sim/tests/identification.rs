@@ -85,6 +85,12 @@ fn fly_logged(truth: &VehicleParams, seed: u64, tag: &str, tether_log: Option<&P
             "{tag}: {:?}",
             summary.rule
         );
+        // The vehicle reports the manoeuvre flown to its end in its `Status`.
+        assert_eq!(
+            h.report.ident,
+            Some(firmware::protocol::IdentOutcome::Done),
+            "{tag}"
+        );
     }
     let csv = out_dir(tag).join("timeseries.csv");
     write_csv(&csv, &h.run.log).unwrap();

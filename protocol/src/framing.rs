@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 /// Protocol version. Bump it on any change of the bytes; a frame with another version is
 /// dropped (counted as [`DropReason::Version`](crate::DropReason::Version)) and answered with
 /// `Nack { reason: UnsupportedVersion }` when its sequence number can be read.
-pub const PROTOCOL_VERSION: u8 = 8;
+pub const PROTOCOL_VERSION: u8 = 9;
 
 /// Largest postcard payload (envelope) in bytes, CRC not included.
 pub const MAX_PAYLOAD_LEN: usize = 248;

@@ -34,6 +34,7 @@ pub mod client;
 pub mod decoder;
 pub mod framing;
 pub mod health;
+pub mod ident;
 pub mod limits;
 pub mod measured;
 pub mod messages;
@@ -47,6 +48,7 @@ pub use framing::{
     MAX_FRAME_LEN, MAX_PAYLOAD_LEN, PROTOCOL_VERSION,
 };
 pub use health::{BatteryStatus, FailsafeAction, HealthParams, HealthSample, SurfaceEnd};
+pub use ident::{IdentAbort, IdentOutcome};
 pub use measured::DvlReport;
 pub use messages::*;
 pub use motor_test::MotorTest;

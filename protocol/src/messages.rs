@@ -528,6 +528,9 @@ pub struct Status {
     pub compass_swing: SwingOutcome,
     /// The battery (version 7).
     pub battery: BatteryStatus,
+    /// The latest identification manoeuvre: flying, flown to its end or stopped and why
+    /// (version 9).
+    pub ident: crate::ident::IdentOutcome,
 }
 
 /// How the latest compass calibration turn ended (or that one is flying), reported in

@@ -15,18 +15,18 @@ fn frame(seq: u16, cmd: &Command) -> Vec<u8> {
 }
 
 #[test]
-fn the_bytes_are_postcard_then_crc32_then_cobs_as_in_version_8() {
+fn the_bytes_are_postcard_then_crc32_then_cobs_as_in_version_9() {
     // Computed independently (Python: zlib.crc32 and a textbook COBS) from the postcard
-    // payloads [8, 7, 0xAC, 0x02, 1] (version 8, seq 7, session 300 as a varint, `Arm` =
-    // variant 1) and [8, 42, 0xAC, 0x02, 0, 0xE8, 0x07] (seq 42, `Heartbeat` = variant 0,
+    // payloads [9, 7, 0xAC, 0x02, 1] (version 9, seq 7, session 300 as a varint, `Arm` =
+    // variant 1) and [9, 42, 0xAC, 0x02, 0, 0xE8, 0x07] (seq 42, `Heartbeat` = variant 0,
     // t_us = 1000 as a varint). Version 6 put the session after the sequence number.
     assert_eq!(
         frame(7, &Command::Arm),
-        [0, 10, 8, 7, 172, 2, 1, 117, 114, 214, 254, 0]
+        [0, 10, 9, 7, 172, 2, 1, 197, 91, 182, 195, 0]
     );
     assert_eq!(
         frame(42, &Command::Heartbeat { t_us: 1000 }),
-        [0, 5, 8, 42, 172, 2, 7, 232, 7, 18, 225, 169, 31, 0]
+        [0, 5, 9, 42, 172, 2, 7, 232, 7, 166, 234, 222, 185, 0]
     );
 }
 
@@ -166,6 +166,7 @@ fn every_command_and_reply_round_trips_and_fits() {
     st.link.replayed = u32::MAX;
     st.link.no_session = u32::MAX;
     st.faults = u16::MAX;
+    st.ident = crate::IdentOutcome::Aborted(crate::IdentAbort::DepthBand);
     st.battery = crate::BatteryStatus {
         voltage_v: f32::MAX,
         current_a: f32::MIN,
@@ -201,7 +202,16 @@ fn garbage_truncation_and_corruption_are_dropped_and_counted() {
     stream.extend(std::iter::repeat_n(7u8, 300)); // over-long
     stream.push(0);
     let mut other_version = [0u8; MAX_FRAME_LEN];
-    stream.extend(encode_with_version(9, SESSION, 77, &Command::Arm, &mut other_version).unwrap());
+    stream.extend(
+        encode_with_version(
+            PROTOCOL_VERSION + 1,
+            SESSION,
+            77,
+            &Command::Arm,
+            &mut other_version,
+        )
+        .unwrap(),
+    );
     let got: Vec<_> = stream.iter().filter_map(|&b| d.push(b)).collect();
     let frames = got
         .iter()

@@ -72,6 +72,7 @@ where
             compass_cal: self.autopilot.compass_calibration(),
             compass_swing: self.autopilot.swing_outcome(),
             battery: self.autopilot.health().battery.status(),
+            ident: self.autopilot.ident_outcome(),
         }
     }
 

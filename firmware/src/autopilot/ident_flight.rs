@@ -68,37 +68,7 @@ pub const IDENT_RADIUS_M: (f32, f32) = (3.0, 100.0);
 /// See [`IDENT_RADIUS_M`].
 pub const IDENT_DEPTH_BAND_M: (f32, f32) = (0.5, 20.0);
 
-/// Why a manoeuvre stopped before its end.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum IdentAbort {
-    /// A stick off centre.
-    Sticks,
-    /// A change of mode, a disarm or the estimator stopped.
-    ModeChange,
-    /// A failsafe fault in the step, or stale navigation.
-    Failsafe,
-    /// Farther from the start than the radius.
-    Radius,
-    /// Out of the depth band.
-    DepthBand,
-}
-
-/// How the latest identification manoeuvre ended, or that one is flying.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub enum IdentOutcome {
-    /// None flown since boot.
-    #[default]
-    None,
-    /// Flying, this far into the schedule (s).
-    Flying {
-        /// Time since the start (s).
-        elapsed_s: f32,
-    },
-    /// Flown to its end.
-    Done,
-    /// Stopped early.
-    Aborted(IdentAbort),
-}
+pub use crate::protocol::{IdentAbort, IdentOutcome};
 
 /// The step of the schedule at `t_s`: what it drives and its signed level; `None` past the
 /// end.

@@ -227,6 +227,7 @@ impl TetherEndpoint {
             self.report.nav_health = end_status.map(|st| st.nav_health);
         }
         self.report.compass_cal = end_status.map(|st| st.compass_cal);
+        self.report.ident = end_status.map(|st| st.ident);
         let fw: LinkStats = end_status.map(|st| st.link).unwrap_or_default();
         let rep = &mut self.report;
         rep.firmware_rx_frames = fw.rx_frames;

@@ -85,6 +85,9 @@ pub struct HilReport {
     pub calibration_end_s: Option<f64>,
     /// The compass calibration in force on the vehicle at the end of the run.
     pub compass_cal: Option<controller_core::nav::compass_cal::CompassCalibration>,
+    /// The identification manoeuvre as the firmware's `Status` reported it at the end of
+    /// the run (`None` flown since boot, flown to its end, stopped and why).
+    pub ident: Option<firmware::protocol::IdentOutcome>,
 }
 
 /// The result of a HIL run.

@@ -7,21 +7,22 @@
 //! estimator's restart. The vehicle takes it armed in `Hold` (POSHOLD) with its estimate
 //! ready: `COMMAND_ACK` accepted, or denied with the vehicle's reason in words.
 //!
-//! While it flies every station is told its progress every [`PROGRESS_EVERY_S`] and its end
-//! by `STATUSTEXT`: finished, or stopped, with the reason the surface sees (the vehicle
-//! disarmed or left POSHOLD, a failsafe, the commander's stick off centre, the vehicle out
-//! of its room). The vehicle stops it for the same reasons, judged on its own 50 Hz estimate;
-//! its outcome is not in the tether's `Status`, so an early stop the surface's 10 Hz
-//! telemetry does not show (a brief excursion out of the band) is not said, and the surface
-//! reports progress until the schedule's end.
+//! While it flies every station is told its progress every [`PROGRESS_EVERY_S`] of the
+//! vehicle's clock and its end by `STATUSTEXT`: finished, or stopped, with the reason the
+//! surface sees (the vehicle disarmed or left POSHOLD, a failsafe, the commander's stick off
+//! centre, the vehicle out of its room) or the one the vehicle reports. The vehicle stops it
+//! for the same reasons, judged on its own 50 Hz estimate, and reports its outcome in its
+//! `Status` (protocol version 9): once a `Status` has shown this manoeuvre flying, the
+//! vehicle's end (flown, or stopped and why: a brief excursion out of the band that the
+//! surface's 10 Hz telemetry does not show) is what the stations are told.
 
-use super::ident_run::IdentRun;
+use super::ident_run::{vehicle_time_s, IdentNews, IdentRun};
 use super::topside::Topside;
 use super::transport::StationId;
 use anyhow::Result;
 use firmware::autopilot::IDENT_DURATION_S;
 use mavlink::dialects::ardupilotmega::{MavCmd, MavResult, MavSeverity};
-use protocol::{fault, Command, Mode, NackReason};
+use protocol::{Command, NackReason};
 
 /// The room's radius when param1 is 0 (m).
 pub const RADIUS_M: f32 = 30.0;
@@ -29,20 +30,6 @@ pub const RADIUS_M: f32 = 30.0;
 pub const DEPTH_BAND_M: f32 = 6.0;
 /// Progress is said this often (s of the vehicle's time).
 pub const PROGRESS_EVERY_S: f64 = 20.0;
-
-/// The faults that stop the manoeuvre on the vehicle (a failsafe in the step).
-const STOPPING_FAULTS: u16 = fault::HEARTBEAT_LOST
-    | fault::LINK_DISARMED
-    | fault::NAV_STALE
-    | fault::SENSOR_LOST
-    | fault::MANUAL_STALE;
-
-/// The vehicle's clock in its latest telemetry (s): the manoeuvre's schedule runs on it, so
-/// the surface follows it at the vehicle's pace (a simulated vehicle may run faster than
-/// the wall clock).
-fn vehicle_time_s(tel: &protocol::Telemetry) -> f64 {
-    tel.t_us as f64 * 1e-6
-}
 
 /// param1 / param2 as the room, or why they are refused.
 pub fn room_of(param1: f32, param2: f32) -> Result<(f32, f32), String> {
@@ -87,6 +74,7 @@ impl Topside {
                     radius_m,
                     depth_band_m,
                     next_report_s: now_s + PROGRESS_EVERY_S,
+                    seen_flying: false,
                 });
                 let text = format!(
                     "Identification started: {IDENT_DURATION_S:.0} s of force steps within {radius_m} m and {depth_band_m} m up or down of the start; a stick, a mode change or leaving the room stops it"
@@ -111,64 +99,43 @@ impl Topside {
             return Ok(());
         };
         let tel = self.v.tel;
-        let s = self.v.state;
-        let now_s = vehicle_time_s(&tel);
-        let elapsed = now_s - run.started_s;
-        let off_m = (s.x_m - run.start_m[0]).hypot(s.y_m - run.start_m[1]);
         let stick = self.manual_at.is_some() && !super::sticks::sticks_centred(&self.manual);
-        let stopped = if !tel.armed || tel.mode != Mode::Hold {
-            Some("the vehicle disarmed or left POSHOLD".to_string())
-        } else if tel.faults & STOPPING_FAULTS != 0 {
-            let names: Vec<&str> = super::faults::FAULT_NAMES
-                .iter()
-                .filter(|(bit, _)| tel.faults & STOPPING_FAULTS & bit != 0)
-                .map(|(_, name)| *name)
-                .collect();
-            Some(format!("a failsafe ({})", names.join(", ")))
-        } else if stick {
-            Some("a stick off centre".to_string())
-        } else if off_m > run.radius_m {
-            Some(format!(
-                "the vehicle left its room ({off_m:.1} m from the start, radius {} m)",
-                run.radius_m
-            ))
-        } else if (s.z_m - run.start_m[2]).abs() > run.depth_band_m {
-            Some(format!(
-                "the vehicle left its depth band ({:.1} m from the start depth, band {} m)",
-                (s.z_m - run.start_m[2]).abs(),
-                run.depth_band_m
-            ))
-        } else {
-            None
-        };
-        let warn = MavSeverity::MAV_SEVERITY_WARNING;
-        let info = MavSeverity::MAV_SEVERITY_INFO;
-        if let Some(why) = stopped {
-            self.ident = None;
-            if stick {
-                // The sticks are not forwarded in POSHOLD: this one goes, and the vehicle
-                // stops the manoeuvre on it.
-                self.v.send(&Command::ManualThrust(self.manual))?;
+        let news = run.news(&tel, self.v.ident, stick);
+        self.ident = Some(run);
+        let elapsed = vehicle_time_s(&tel) - run.started_s;
+        let s = tel.nav;
+        let off_m = (s.x_m - run.start_m[0]).hypot(s.y_m - run.start_m[1]);
+        let (severity, text) = match news {
+            IdentNews::Flying => return Ok(()),
+            IdentNews::Stopped(why) => {
+                self.ident = None;
+                if stick {
+                    // The sticks are not forwarded in POSHOLD: this one goes, and the vehicle
+                    // stops the manoeuvre on it.
+                    self.v.send(&Command::ManualThrust(self.manual))?;
+                }
+                (
+                    MavSeverity::MAV_SEVERITY_WARNING,
+                    format!("Identification stopped after {elapsed:.0} s: {why}"),
+                )
             }
-            let text = format!("Identification stopped after {elapsed:.0} s: {why}");
-            return self.gcs.text(warn, &text);
-        }
-        if elapsed >= f64::from(IDENT_DURATION_S) {
-            self.ident = None;
-            let text = format!(
-                "Identification finished: {IDENT_DURATION_S:.0} s flown; holding at the start point"
-            );
-            return self.gcs.text(info, &text);
-        }
-        if now_s >= run.next_report_s {
-            run.next_report_s += PROGRESS_EVERY_S;
-            self.ident = Some(run);
-            let text = format!(
-                "Identification: {elapsed:.0} of {IDENT_DURATION_S:.0} s, {off_m:.1} m from the start"
-            );
-            return self.gcs.text(info, &text);
-        }
-        Ok(())
+            IdentNews::Finished => {
+                self.ident = None;
+                (
+                    MavSeverity::MAV_SEVERITY_INFO,
+                    format!(
+                        "Identification finished: {IDENT_DURATION_S:.0} s flown; holding at the start point"
+                    ),
+                )
+            }
+            IdentNews::Progress => (
+                MavSeverity::MAV_SEVERITY_INFO,
+                format!(
+                    "Identification: {elapsed:.0} of {IDENT_DURATION_S:.0} s, {off_m:.1} m from the start"
+                ),
+            ),
+        };
+        self.gcs.text(severity, &text)
     }
 }
 

@@ -155,6 +155,8 @@ pub struct Vehicle {
     heard_at: Instant,
     /// The battery's figures from the vehicle's latest `Status` (zero: not measured).
     pub(super) battery: protocol::BatteryStatus,
+    /// The identification manoeuvre as the vehicle's latest `Status` reports it.
+    pub(super) ident: protocol::IdentOutcome,
     /// Telemetry frames still to come before the pulse widths are shown again after a change
     /// of what the vehicle is told (an accepted command, a change of commander): the first
     /// frame after it may have left the vehicle before the change reached it.
@@ -235,6 +237,7 @@ impl Vehicle {
             heard_at: Instant::now(),
             frames_before_pulses: 0,
             battery: protocol::BatteryStatus::default(),
+            ident: protocol::IdentOutcome::None,
             frames_refused: 0,
             last_refusal: None,
         };
@@ -291,6 +294,7 @@ impl Vehicle {
             heard_at: Instant::now(),
             frames_before_pulses: 0,
             battery: protocol::BatteryStatus::default(),
+            ident: protocol::IdentOutcome::None,
             frames_refused: 0,
             last_refusal: None,
         };
@@ -416,6 +420,7 @@ impl Vehicle {
         }
         if let Some(st) = self.end.last_status() {
             self.battery = st.battery;
+            self.ident = st.ident;
         }
         self.t_s = t_s;
         self.periods += 1;

@@ -370,6 +370,10 @@ fn largest_messages_fit() {
     };
     let big_status = Status {
         compass_cal: big_cal,
+        // The largest outcome: flying, with its time.
+        ident: firmware::protocol::IdentOutcome::Flying {
+            elapsed_s: f32::MAX,
+        },
         // The largest outcome: a calibration and a residual.
         compass_swing: firmware::compass_swing::SwingOutcome::Accepted {
             cal: big_cal,

@@ -144,7 +144,14 @@ fn invalid_values_are_nacked_and_change_nothing() {
 fn other_protocol_version_is_nacked() {
     let (mut a, _c, mut t) = fixed();
     let mut buf = [0u8; MAX_FRAME_LEN];
-    let f = encode_with_version(9, 0, 1234, &Command::Arm, &mut buf).unwrap();
+    let f = encode_with_version(
+        firmware::protocol::PROTOCOL_VERSION + 1,
+        0,
+        1234,
+        &Command::Arm,
+        &mut buf,
+    )
+    .unwrap();
     a.parts_mut().1.rx.extend(f.iter().copied());
     a.tick();
     let r: Vec<Reply> = t
