@@ -16,6 +16,7 @@
 //! vehicle's end (flown, or stopped and why: a brief excursion out of the band that the
 //! surface's 10 Hz telemetry does not show) is what the stations are told.
 
+pub use super::ident_run::PROGRESS_EVERY_S;
 use super::ident_run::{vehicle_time_s, IdentNews, IdentRun};
 use super::topside::Topside;
 use super::transport::StationId;
@@ -28,8 +29,6 @@ use protocol::{Command, NackReason};
 pub const RADIUS_M: f32 = 30.0;
 /// The depth band when param2 is 0 (m).
 pub const DEPTH_BAND_M: f32 = 6.0;
-/// Progress is said this often (s of the vehicle's time).
-pub const PROGRESS_EVERY_S: f64 = 20.0;
 
 /// param1 / param2 as the room, or why they are refused.
 pub fn room_of(param1: f32, param2: f32) -> Result<(f32, f32), String> {

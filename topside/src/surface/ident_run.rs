@@ -4,6 +4,9 @@
 use firmware::autopilot::IDENT_DURATION_S;
 use protocol::{fault, IdentOutcome, Mode, Telemetry};
 
+/// Progress is said this often (s of the vehicle's time).
+pub const PROGRESS_EVERY_S: f64 = 20.0;
+
 /// The faults that stop the manoeuvre on the vehicle (a failsafe in the step).
 const STOPPING_FAULTS: u16 = fault::HEARTBEAT_LOST
     | fault::LINK_DISARMED
@@ -89,7 +92,7 @@ impl IdentRun {
             return IdentNews::Finished;
         }
         if now_s >= self.next_report_s {
-            self.next_report_s += super::ident::PROGRESS_EVERY_S;
+            self.next_report_s += PROGRESS_EVERY_S;
             return IdentNews::Progress;
         }
         IdentNews::Flying
