@@ -12,7 +12,8 @@
 //! surface sees (the vehicle disarmed or left POSHOLD, a failsafe, the commander's stick off
 //! centre, the vehicle out of its room) or the one the vehicle reports. The vehicle stops it
 //! for the same reasons, judged on its own 50 Hz estimate, and reports its outcome in its
-//! `Status` (protocol version 9): once a `Status` has shown this manoeuvre flying, the
+//! `Status` (protocol version 9): from a `Status` made after the start (stamped later than the
+//! latest one before its acknowledgement: the tether keeps the vehicle's order), the
 //! vehicle's end (flown, or stopped and why: a brief excursion out of the band that the
 //! surface's 10 Hz telemetry does not show) is what the stations are told.
 
@@ -73,7 +74,7 @@ impl Topside {
                     radius_m,
                     depth_band_m,
                     next_report_s: now_s + PROGRESS_EVERY_S,
-                    seen_flying: false,
+                    status_before_us: self.v.last_status().map_or(0, |st| st.t_us),
                 });
                 let text = format!(
                     "Identification started: {IDENT_DURATION_S:.0} s of force steps within {radius_m} m and {depth_band_m} m up or down of the start; a stick, a mode change or leaving the room stops it"
@@ -100,7 +101,6 @@ impl Topside {
         let tel = self.v.tel;
         let stick = self.manual_at.is_some() && !super::sticks::sticks_centred(&self.manual);
         let news = run.news(&tel, self.v.ident, stick);
-        self.ident = Some(run);
         let elapsed = vehicle_time_s(&tel) - run.started_s;
         let s = tel.nav;
         let off_m = (s.x_m - run.start_m[0]).hypot(s.y_m - run.start_m[1]);
@@ -127,12 +127,16 @@ impl Topside {
                     ),
                 )
             }
-            IdentNews::Progress => (
-                MavSeverity::MAV_SEVERITY_INFO,
-                format!(
-                    "Identification: {elapsed:.0} of {IDENT_DURATION_S:.0} s, {off_m:.1} m from the start"
-                ),
-            ),
+            IdentNews::Progress => {
+                run.reported();
+                self.ident = Some(run);
+                (
+                    MavSeverity::MAV_SEVERITY_INFO,
+                    format!(
+                        "Identification: {elapsed:.0} of {IDENT_DURATION_S:.0} s, {off_m:.1} m from the start"
+                    ),
+                )
+            }
         };
         self.gcs.text(severity, &text)
     }

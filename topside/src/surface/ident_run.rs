@@ -23,9 +23,10 @@ pub(super) struct IdentRun {
     pub(super) radius_m: f32,
     pub(super) depth_band_m: f32,
     pub(super) next_report_s: f64,
-    /// The vehicle's `Status` has reported this manoeuvre flying (so an end it reports is
-    /// this one's, not an earlier manoeuvre's).
-    pub(super) seen_flying: bool,
+    /// The time stamp of the vehicle's latest `Status` when it acknowledged the start (us of
+    /// its clock; 0: none yet). The tether keeps the vehicle's order, so a `Status` stamped
+    /// later was made after the start and reports this manoeuvre, not an earlier one.
+    pub(super) status_before_us: u64,
 }
 
 /// What a control period says of the manoeuvre.
@@ -43,21 +44,22 @@ pub(super) enum IdentNews {
 
 impl IdentRun {
     /// The manoeuvre after a control period: `tel` the latest telemetry (its position and
-    /// the vehicle's clock), `vehicle_says` the outcome in the vehicle's latest `Status`,
-    /// `stick` the commander's stick off centre. The vehicle's own end counts once its
-    /// `Status` has shown this manoeuvre flying; before it, and beside it, the surface's own
-    /// checks on the telemetry.
+    /// the vehicle's clock), `vehicle_says` the outcome in the vehicle's latest `Status` and
+    /// that `Status`'s time stamp (us), `stick` the commander's stick off centre. The
+    /// vehicle's own end counts from a `Status` made after the start; beside it, the
+    /// surface's own checks on the telemetry.
     pub(super) fn news(
-        &mut self,
+        &self,
         tel: &Telemetry,
-        vehicle_says: IdentOutcome,
+        vehicle_says: (IdentOutcome, u64),
         stick: bool,
     ) -> IdentNews {
-        self.seen_flying |= matches!(vehicle_says, IdentOutcome::Flying { .. });
+        let (outcome, said_at_us) = vehicle_says;
+        let this_one = said_at_us > self.status_before_us;
         let s = &tel.nav;
         let off_m = (s.x_m - self.start_m[0]).hypot(s.y_m - self.start_m[1]);
         let off_depth_m = (s.z_m - self.start_m[2]).abs();
-        let why = match (self.seen_flying, vehicle_says) {
+        let why = match (this_one, outcome) {
             (true, IdentOutcome::Aborted(why)) => {
                 Some(format!("{} (the vehicle's own check)", why.words()))
             }
@@ -87,15 +89,19 @@ impl IdentRun {
             return IdentNews::Stopped(why);
         }
         let now_s = vehicle_time_s(tel);
-        let vehicle_done = self.seen_flying && vehicle_says == IdentOutcome::Done;
+        let vehicle_done = this_one && outcome == IdentOutcome::Done;
         if vehicle_done || now_s - self.started_s >= f64::from(IDENT_DURATION_S) {
             return IdentNews::Finished;
         }
         if now_s >= self.next_report_s {
-            self.next_report_s += PROGRESS_EVERY_S;
             return IdentNews::Progress;
         }
         IdentNews::Flying
+    }
+
+    /// A progress report was said: the next is due [`PROGRESS_EVERY_S`] later.
+    pub(super) fn reported(&mut self) {
+        self.next_report_s += PROGRESS_EVERY_S;
     }
 }
 
@@ -118,7 +124,7 @@ mod tests {
             radius_m: 30.0,
             depth_band_m: 6.0,
             next_report_s: 30.0,
-            seen_flying: false,
+            status_before_us: 10_500_000,
         }
     }
 
@@ -135,48 +141,56 @@ mod tests {
     }
 
     #[test]
-    fn the_vehicles_own_stop_is_said_once_its_status_showed_this_manoeuvre_flying() {
-        let mut r = run();
+    fn the_vehicles_own_stop_is_said_from_a_status_made_after_the_start() {
+        let r = run();
         let aborted = IdentOutcome::Aborted(IdentAbort::DepthBand);
         // An earlier manoeuvre's outcome in a `Status` from before the start: not this one's.
-        assert_eq!(r.news(&tel(11.0), aborted, false), IdentNews::Flying);
-        let flying = IdentOutcome::Flying { elapsed_s: 2.0 };
-        assert_eq!(r.news(&tel(12.0), flying, false), IdentNews::Flying);
-        // A brief excursion the telemetry does not show: the vehicle's word.
         assert_eq!(
-            r.news(&tel(13.0), aborted, false),
-            IdentNews::Stopped(
-                "the vehicle left its depth band (the vehicle's own check)".to_string()
-            )
+            r.news(&tel(11.0), (aborted, 10_500_000), false),
+            IdentNews::Flying
         );
+        let flying = IdentOutcome::Flying { elapsed_s: 2.0 };
+        assert_eq!(
+            r.news(&tel(12.0), (flying, 11_000_000), false),
+            IdentNews::Flying
+        );
+        // A brief excursion the telemetry does not show, or a stop at once (never reported
+        // flying): the vehicle's word.
+        let stopped =
+            IdentNews::Stopped("the vehicle left its depth band (the vehicle's own check)".into());
+        assert_eq!(r.news(&tel(13.0), (aborted, 12_000_000), false), stopped);
+        assert_eq!(r.news(&tel(11.0), (aborted, 10_600_000), false), stopped);
     }
 
     #[test]
     fn the_end_is_the_vehicles_or_the_schedules_and_progress_runs_on_the_vehicles_clock() {
         let mut r = run();
-        let flying = IdentOutcome::Flying { elapsed_s: 1.0 };
+        let flying = (IdentOutcome::Flying { elapsed_s: 1.0 }, 11_000_000);
         assert_eq!(r.news(&tel(29.9), flying, false), IdentNews::Flying);
         assert_eq!(r.news(&tel(30.0), flying, false), IdentNews::Progress);
+        r.reported();
         assert_eq!(r.next_report_s, 50.0);
+        assert_eq!(r.news(&tel(30.1), flying, false), IdentNews::Flying);
+        // The vehicle's `Done` from before the start does not end this one; its own does.
         assert_eq!(
-            r.news(&tel(31.0), IdentOutcome::Done, false),
+            r.news(&tel(31.0), (IdentOutcome::Done, 10_000_000), false),
+            IdentNews::Flying
+        );
+        assert_eq!(
+            r.news(&tel(31.0), (IdentOutcome::Done, 31_000_000), false),
             IdentNews::Finished
         );
         // Without the vehicle's word, the schedule's end on the vehicle's clock.
-        let mut r = run();
+        let end_s = 10.0 + f64::from(IDENT_DURATION_S);
         assert_eq!(
-            r.news(
-                &tel(10.0 + f64::from(IDENT_DURATION_S)),
-                IdentOutcome::None,
-                false
-            ),
+            run().news(&tel(end_s), (IdentOutcome::None, 0), false),
             IdentNews::Finished
         );
     }
 
     #[test]
     fn the_surfaces_own_checks_stop_it_in_words() {
-        let none = IdentOutcome::None;
+        let none = (IdentOutcome::None, 0);
         let mut t = tel(12.0);
         t.nav.x_m = 31.0;
         assert!(

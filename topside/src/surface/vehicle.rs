@@ -155,8 +155,9 @@ pub struct Vehicle {
     heard_at: Instant,
     /// The battery's figures from the vehicle's latest `Status` (zero: not measured).
     pub(super) battery: protocol::BatteryStatus,
-    /// The identification manoeuvre as the vehicle's latest `Status` reports it.
-    pub(super) ident: protocol::IdentOutcome,
+    /// The identification manoeuvre as the vehicle's latest `Status` reports it, and that
+    /// `Status`'s time stamp (the vehicle's clock, us).
+    pub(super) ident: (protocol::IdentOutcome, u64),
     /// Telemetry frames still to come before the pulse widths are shown again after a change
     /// of what the vehicle is told (an accepted command, a change of commander): the first
     /// frame after it may have left the vehicle before the change reached it.
@@ -237,7 +238,7 @@ impl Vehicle {
             heard_at: Instant::now(),
             frames_before_pulses: 0,
             battery: protocol::BatteryStatus::default(),
-            ident: protocol::IdentOutcome::None,
+            ident: (protocol::IdentOutcome::None, 0),
             frames_refused: 0,
             last_refusal: None,
         };
@@ -294,7 +295,7 @@ impl Vehicle {
             heard_at: Instant::now(),
             frames_before_pulses: 0,
             battery: protocol::BatteryStatus::default(),
-            ident: protocol::IdentOutcome::None,
+            ident: (protocol::IdentOutcome::None, 0),
             frames_refused: 0,
             last_refusal: None,
         };
@@ -420,7 +421,7 @@ impl Vehicle {
         }
         if let Some(st) = self.end.last_status() {
             self.battery = st.battery;
-            self.ident = st.ident;
+            self.ident = (st.ident, st.t_us);
         }
         self.t_s = t_s;
         self.periods += 1;
