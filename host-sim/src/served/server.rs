@@ -305,19 +305,9 @@ fn truth_row<E: ServedEndpoint>(
     let x = &s.state.eta;
     let b = run.endpoint().believed();
     let (n, mode) = (&b.nav, &b.mode);
-    // The latest telemetry frame sent to the surface (empty before the first).
-    let shown = b.shown.map_or(",,,".to_string(), |(t_us, s)| {
-        format!(
-            "{:.3},{:.4},{:.4},{:.4}",
-            t_us as f64 * 1e-6,
-            s.x_m,
-            s.y_m,
-            s.z_m
-        )
-    });
-    writeln!(
+    write!(
         w,
-        "{:.3},{:.3},{:.4},{:.4},{:.4},{:.5},{:.5},{:.5},{:.4},{:.4},{:.4},{:.5},{},{mode},{},{shown}",
+        "{:.3},{:.3},{:.4},{:.4},{:.4},{:.5},{:.5},{:.5},{:.4},{:.4},{:.4},{:.5},{},{mode},{}",
         s.t_s,
         wall0.elapsed().as_secs_f64(),
         x[0],
@@ -333,6 +323,18 @@ fn truth_row<E: ServedEndpoint>(
         u8::from(b.armed),
         u8::from(connected)
     )?;
+    // The latest telemetry frame sent to the surface (empty before the first).
+    match b.shown {
+        Some((t_us, p)) => writeln!(
+            w,
+            ",{:.3},{:.4},{:.4},{:.4}",
+            t_us as f64 * 1e-6,
+            p.x_m,
+            p.y_m,
+            p.z_m
+        )?,
+        None => writeln!(w, ",,,,")?,
+    }
     Ok(())
 }
 

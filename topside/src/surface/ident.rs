@@ -17,8 +17,7 @@
 //! vehicle's end (flown, or stopped and why: a brief excursion out of the band that the
 //! surface's 10 Hz telemetry does not show) is what the stations are told.
 
-pub use super::ident_run::PROGRESS_EVERY_S;
-use super::ident_run::{vehicle_time_s, IdentNews, IdentRun};
+use super::ident_run::{vehicle_time_s, IdentNews, IdentRun, PROGRESS_EVERY_S};
 use super::topside::Topside;
 use super::transport::StationId;
 use anyhow::Result;

@@ -3,9 +3,10 @@
 
 use super::*;
 
-/// One row of the truth log: time (s), true position, the vehicle's estimate, and the
-/// latest telemetry frame sent to the surface (its time stamp, s, and the position it
-/// carried; NaN before the first).
+/// One row of the truth log with a telemetry frame sent (the shared reader drops the rows
+/// before the first, whose `shown_*` are empty): time (s), true position, the vehicle's
+/// estimate, and the latest frame sent to the surface (its time stamp, s, and the position
+/// it carried).
 struct Row {
     t_s: f64,
     truth_m: [f64; 3],
@@ -15,33 +16,27 @@ struct Row {
 }
 
 fn read_truth(path: &std::path::Path) -> Vec<Row> {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let cols: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let col = |name: &str| cols.iter().position(|c| *c == name).unwrap();
-    let (t, x, y, z) = (col("t_s"), col("x_m"), col("y_m"), col("z_m"));
-    let (nx, ny, nz) = (col("nav_x_m"), col("nav_y_m"), col("nav_z_m"));
-    let (st, sx, sy, sz) = (
-        col("shown_t_s"),
-        col("shown_x_m"),
-        col("shown_y_m"),
-        col("shown_z_m"),
-    );
-    lines
-        .filter(|l| !l.is_empty())
-        .filter_map(|l| {
-            let v: Vec<f64> = l
-                .split(',')
-                .map(|x| x.parse().unwrap_or(f64::NAN))
-                .collect();
-            // A killed process may leave its last line unfinished.
-            (v.len() == cols.len()).then(|| Row {
-                t_s: v[t],
-                truth_m: [v[x], v[y], v[z]],
-                nav_m: [v[nx], v[ny], v[nz]],
-                shown_t_s: v[st],
-                shown_m: [v[sx], v[sy], v[sz]],
-            })
+    let columns = [
+        "t_s",
+        "x_m",
+        "y_m",
+        "z_m",
+        "nav_x_m",
+        "nav_y_m",
+        "nav_z_m",
+        "shown_t_s",
+        "shown_x_m",
+        "shown_y_m",
+        "shown_z_m",
+    ];
+    gcs::truth_columns(path, columns)
+        .into_iter()
+        .map(|v| Row {
+            t_s: v[0],
+            truth_m: [v[1], v[2], v[3]],
+            nav_m: [v[4], v[5], v[6]],
+            shown_t_s: v[7],
+            shown_m: [v[8], v[9], v[10]],
         })
         .collect()
 }
@@ -153,7 +148,7 @@ fn fly_on_the_estimator(name: &str, restart_s: Option<f64>) {
     // `time_boot_ms` of what the surface shows of it), with the truth log's row of the tick
     // that sent it.
     let mut sent: std::collections::BTreeMap<i64, &Row> = std::collections::BTreeMap::new();
-    for r in rows.iter().filter(|r| r.shown_t_s.is_finite()) {
+    for r in &rows {
         sent.entry((r.shown_t_s * 1e3).round() as i64).or_insert(r);
     }
     // Each position the ground station saw must be the one its telemetry frame carried: the
