@@ -151,7 +151,9 @@ pub fn serve<E: ServedEndpoint>(
         {
             break;
         }
-        accept(listener, &mut surface, &mut rep.surfaces);
+        // The surface's bytes (and its end, if it closed) first, then a waiting connection:
+        // a surface restarted after a kill finds the old one's end read, not "one surface at
+        // a time", however late this tick runs.
         if let Some(s) = surface.as_mut() {
             let mut bytes = Vec::new();
             let open = read_surface(s, &mut bytes);
@@ -161,6 +163,7 @@ pub fn serve<E: ServedEndpoint>(
                 surface = None;
             }
         }
+        accept(listener, &mut surface, &mut rep.surfaces);
         if !run.step()? {
             rep.stopped = Some(run.stop_reason().to_string());
             break;
